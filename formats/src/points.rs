@@ -1,0 +1,89 @@
+//! Measured (or true) sphere centres per instant: `points.csv`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::campaign::{Axis, Direction};
+use crate::table::{Invalid, Record, finite};
+
+/// One row of `points.csv`: one sphere at one instant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointRow {
+    /// Axis moved.
+    pub axis: Axis,
+    /// Approach direction.
+    pub direction: Direction,
+    /// Run number (≥ 1).
+    pub run: u32,
+    /// Target index (≥ 0).
+    pub target: u32,
+    /// Capture number (≥ 1).
+    pub capture: u32,
+    /// Commanded x (mm).
+    pub nominal_x: f64,
+    /// Commanded y (mm).
+    pub nominal_y: f64,
+    /// Commanded z (mm).
+    pub nominal_z: f64,
+    /// Sphere name.
+    pub sphere: String,
+    /// Sphere centre x, world frame (mm).
+    pub x: f64,
+    /// Sphere centre y, world frame (mm).
+    pub y: f64,
+    /// Sphere centre z, world frame (mm).
+    pub z: f64,
+    /// Cameras used, like `2+3`.
+    pub cameras: String,
+    /// RMS reprojection residual (px).
+    pub residual_px: f64,
+}
+
+impl PointRow {
+    /// Commanded position (mm).
+    pub fn nominal(&self) -> [f64; 3] {
+        [self.nominal_x, self.nominal_y, self.nominal_z]
+    }
+
+    /// Measured position (mm).
+    pub fn position(&self) -> [f64; 3] {
+        [self.x, self.y, self.z]
+    }
+}
+
+impl Record for PointRow {
+    const COLUMNS: &'static [&'static str] = &[
+        "axis",
+        "direction",
+        "run",
+        "target",
+        "capture",
+        "nominal_x",
+        "nominal_y",
+        "nominal_z",
+        "sphere",
+        "x",
+        "y",
+        "z",
+        "cameras",
+        "residual_px",
+    ];
+
+    fn validate(&self) -> Result<(), Invalid> {
+        if self.run < 1 {
+            return Err(Invalid::new("run", "runs are numbered from 1"));
+        }
+        if self.capture < 1 {
+            return Err(Invalid::new("capture", "captures are numbered from 1"));
+        }
+        if self.sphere.trim().is_empty() {
+            return Err(Invalid::new("sphere", "empty sphere name"));
+        }
+        finite("nominal_x", self.nominal_x)?;
+        finite("nominal_y", self.nominal_y)?;
+        finite("nominal_z", self.nominal_z)?;
+        finite("x", self.x)?;
+        finite("y", self.y)?;
+        finite("z", self.z)?;
+        finite("residual_px", self.residual_px)
+    }
+}

@@ -1,0 +1,267 @@
+//! Camera descriptions: the nominal rig (`nominal.json`) that starts
+//! calibration, and the calibrated rig (`rig.json`).
+
+use geom::nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
+use geom::{Camera, Distortion, Intrinsics, Matrix3x4, Point3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Tolerance on ‖RᵀR − I‖ for a rotation read from a file.
+const ROTATION_TOLERANCE: f64 = 1e-6;
+
+/// An approximate camera: where it is, where it looks, its optics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NominalCamera {
+    /// Camera number 1, 2 or 3.
+    pub id: u8,
+    /// Projection centre, world frame (mm).
+    pub position: [f64; 3],
+    /// A world point on the optical axis (mm).
+    pub look_at: [f64; 3],
+    /// World direction that appears upward in the image.
+    pub up: [f64; 3],
+    /// Lens focal length (mm).
+    pub focal_mm: f64,
+    /// Pixel pitch (mm).
+    pub pixel_mm: f64,
+    /// Sensor width (px).
+    pub width: u32,
+    /// Sensor height (px).
+    pub height: u32,
+}
+
+impl NominalCamera {
+    /// The pinhole camera this describes: square pixels, centred principal point, no distortion.
+    pub fn to_camera(&self) -> Result<Camera, String> {
+        if !(self.focal_mm > 0.0 && self.pixel_mm > 0.0) {
+            return Err(format!(
+                "camera {}: focal_mm and pixel_mm must be positive (got {} and {})",
+                self.id, self.focal_mm, self.pixel_mm
+            ));
+        }
+        if self.width == 0 || self.height == 0 {
+            return Err(format!("camera {}: zero image size", self.id));
+        }
+        let k = Intrinsics::centred(self.focal_mm / self.pixel_mm, self.width, self.height);
+        Camera::look_at(
+            Point3::from(self.position),
+            Point3::from(self.look_at),
+            Vector3::from(self.up),
+            k,
+            self.width,
+            self.height,
+        )
+        .map_err(|e| format!("camera {}: {e}", self.id))
+    }
+}
+
+/// `nominal.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NominalRig {
+    /// The cameras, any order.
+    pub cameras: Vec<NominalCamera>,
+}
+
+/// Brown distortion coefficients as written in files (`k3` optional).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+pub struct DistortionJson {
+    /// k1.
+    pub k1: f64,
+    /// k2.
+    pub k2: f64,
+    /// p1.
+    pub p1: f64,
+    /// p2.
+    pub p2: f64,
+    /// k3 (0 when absent).
+    #[serde(default)]
+    pub k3: f64,
+}
+
+impl From<Distortion> for DistortionJson {
+    fn from(d: Distortion) -> Self {
+        Self {
+            k1: d.k1,
+            k2: d.k2,
+            p1: d.p1,
+            p2: d.p2,
+            k3: d.k3,
+        }
+    }
+}
+
+impl From<DistortionJson> for Distortion {
+    fn from(d: DistortionJson) -> Self {
+        Distortion {
+            k1: d.k1,
+            k2: d.k2,
+            k3: d.k3,
+            p1: d.p1,
+            p2: d.p2,
+        }
+    }
+}
+
+/// A camera model as written in `rig.json` and `truth.json`: K, R, t
+/// (world → camera, `x_cam = R·x_world + t`), distortion and sensor size.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraJson {
+    /// Camera number 1, 2 or 3.
+    pub id: u8,
+    /// Intrinsic matrix.
+    #[serde(rename = "K")]
+    pub k: [[f64; 3]; 3],
+    /// World → camera rotation.
+    #[serde(rename = "R")]
+    pub r: [[f64; 3]; 3],
+    /// World → camera translation (mm).
+    pub t: [f64; 3],
+    /// Lens distortion.
+    pub distortion: DistortionJson,
+    /// Sensor width (px).
+    pub width: u32,
+    /// Sensor height (px).
+    pub height: u32,
+}
+
+fn rows3(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
+    [0, 1, 2].map(|i| [m[(i, 0)], m[(i, 1)], m[(i, 2)]])
+}
+
+impl CameraJson {
+    /// Describe a camera.
+    pub fn from_camera(id: u8, camera: &Camera) -> Self {
+        Self {
+            id,
+            k: rows3(&camera.intrinsics.matrix()),
+            r: rows3(camera.rotation().matrix()),
+            t: camera.translation().into(),
+            distortion: camera.distortion.into(),
+            width: camera.width,
+            height: camera.height,
+        }
+    }
+
+    /// The camera described; fails on a non-rotation R, a malformed K or non-finite values.
+    pub fn to_camera(&self) -> Result<Camera, String> {
+        let k = Matrix3::from_fn(|i, j| self.k[i][j]);
+        let r = Matrix3::from_fn(|i, j| self.r[i][j]);
+        let t = Vector3::from(self.t);
+        if !(r.iter().chain(t.iter()).all(|v| v.is_finite())) {
+            return Err(format!("camera {}: non-finite R or t", self.id));
+        }
+        let intrinsics =
+            Intrinsics::from_matrix(&k).map_err(|e| format!("camera {}: K: {e}", self.id))?;
+        if (r.transpose() * r - Matrix3::identity()).norm() > ROTATION_TOLERANCE
+            || r.determinant() <= 0.0
+        {
+            return Err(format!("camera {}: R is not a rotation matrix", self.id));
+        }
+        let d = self.distortion;
+        if ![d.k1, d.k2, d.k3, d.p1, d.p2].iter().all(|v| v.is_finite()) {
+            return Err(format!("camera {}: non-finite distortion", self.id));
+        }
+        if self.width == 0 || self.height == 0 {
+            return Err(format!("camera {}: zero image size", self.id));
+        }
+        let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r));
+        Ok(Camera {
+            intrinsics,
+            distortion: d.into(),
+            pose: Isometry3::from_parts(Translation3::from(t), rotation),
+            width: self.width,
+            height: self.height,
+        })
+    }
+}
+
+/// One calibrated camera of `rig.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RigCamera {
+    /// K, R, t, distortion, size.
+    #[serde(flatten)]
+    pub model: CameraJson,
+    /// 3×4 projection of the undistorted pinhole model, third row's first
+    /// three entries of unit norm.
+    #[serde(rename = "P")]
+    pub p: [[f64; 4]; 3],
+    /// RMS reprojection error of the calibration (px).
+    pub rms_px: f64,
+    /// Number of points the calibration used.
+    pub points: usize,
+    /// Anything else the calibration reports (standard deviations, model, outliers).
+    #[serde(flatten)]
+    pub extra: serde_json::Map<String, serde_json::Value>,
+}
+
+impl RigCamera {
+    /// Describe a calibrated camera.
+    pub fn new(id: u8, camera: &Camera, rms_px: f64, points: usize) -> Self {
+        let p: Matrix3x4<f64> = camera.projection_matrix();
+        Self {
+            model: CameraJson::from_camera(id, camera),
+            p: [0, 1, 2].map(|i| [p[(i, 0)], p[(i, 1)], p[(i, 2)], p[(i, 3)]]),
+            rms_px,
+            points,
+            extra: serde_json::Map::new(),
+        }
+    }
+}
+
+/// `rig.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Rig {
+    /// The cameras, any order.
+    pub cameras: Vec<RigCamera>,
+}
+
+impl Rig {
+    /// The camera with this id.
+    pub fn camera(&self, id: u8) -> Option<&RigCamera> {
+        self.cameras.iter().find(|c| c.model.id == id)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn camera_json_round_trip() {
+        let nominal = NominalCamera {
+            id: 3,
+            position: [0.0, 0.0, 560.0],
+            look_at: [0.0, 0.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            focal_mm: 40.0,
+            pixel_mm: 0.0055,
+            width: 4096,
+            height: 3072,
+        };
+        let mut cam = nominal.to_camera().unwrap();
+        cam.distortion.k1 = -0.05;
+        let json = serde_json::to_string(&RigCamera::new(3, &cam, 0.01, 40)).unwrap();
+        let back: RigCamera = serde_json::from_str(&json).unwrap();
+        let cam2 = back.model.to_camera().unwrap();
+        let x = Point3::new(10.0, -20.0, 5.0);
+        assert!((cam.project(&x).unwrap() - cam2.project(&x).unwrap()).norm() < 1e-9);
+        assert!(json.contains("\"P\"") && json.contains("\"K\"") && json.contains("\"rms_px\""));
+    }
+
+    #[test]
+    fn bad_rotation_is_rejected() {
+        let mut j = CameraJson::from_camera(
+            1,
+            &Camera::look_at(
+                Point3::new(-460.0, 0.0, 0.0),
+                Point3::origin(),
+                Vector3::z(),
+                Intrinsics::centred(7000.0, 100, 100),
+                100,
+                100,
+            )
+            .unwrap(),
+        );
+        j.r[0][0] = 2.0;
+        assert!(j.to_camera().unwrap_err().contains("not a rotation"));
+    }
+}

@@ -1,0 +1,173 @@
+//! `trinocular fit KIND FILE`: least-squares fit of a geometric element to a
+//! point file (CSV `x,y[,z]` or a NIST `.ds` file), and minimum-zone
+//! straightness/flatness. Prints one JSON object.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use formats::{Invalid, Record, read_csv};
+use geom::{Point2, Point3, fit, min_zone, stats};
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+
+/// Element to fit.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum Kind {
+    /// 2-D line through (x, y), orthogonal least squares.
+    Line2d,
+    /// 3-D line.
+    Line3d,
+    /// Plane.
+    Plane,
+    /// Circle in space (least-squares plane, then 2-D circle: NIST two-step).
+    Circle,
+    /// Sphere.
+    Sphere,
+    /// Cylinder.
+    Cylinder,
+    /// Straightness of (x, y) profile: least-squares and minimum-zone widths.
+    Straightness,
+    /// Flatness of (x, y, z): least-squares plane z = ax + by + c and minimum zone.
+    Flatness,
+}
+
+/// Arguments of `trinocular fit`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Element to fit.
+    #[arg(value_enum)]
+    kind: Kind,
+    /// Points: CSV with columns x,y[,z] (mm), or a NIST `.ds` file.
+    file: PathBuf,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct XyzRow {
+    x: f64,
+    y: f64,
+    #[serde(default)]
+    z: Option<f64>,
+}
+
+impl Record for XyzRow {
+    const COLUMNS: &'static [&'static str] = &["x", "y"];
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        formats::table::finite("x", self.x)?;
+        formats::table::finite("y", self.y)?;
+        if let Some(z) = self.z {
+            formats::table::finite("z", z)?;
+        }
+        Ok(())
+    }
+}
+
+/// Read a NIST `.ds` file: a count, then one tab-separated point per line.
+fn read_ds(path: &Path) -> Result<Vec<Point3<f64>>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (_, first) = lines
+        .next()
+        .with_context(|| format!("{}: the file is empty", path.display()))?;
+    let n: usize = first
+        .trim()
+        .parse()
+        .with_context(|| format!("{}: line 1: expected the number of points", path.display()))?;
+    let mut points = Vec::with_capacity(n);
+    for (i, line) in lines {
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .map(str::parse)
+            .collect::<std::result::Result<_, _>>()
+            .with_context(|| format!("{}: line {}: not a number", path.display(), i + 1))?;
+        if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+            bail!(
+                "{}: line {}: expected three finite coordinates",
+                path.display(),
+                i + 1
+            );
+        }
+        points.push(Point3::new(v[0], v[1], v[2]));
+    }
+    if points.len() != n {
+        bail!(
+            "{}: header announces {n} points but the file holds {}",
+            path.display(),
+            points.len()
+        );
+    }
+    Ok(points)
+}
+
+/// Points as 3-D (z = 0 where a CSV has no z column).
+fn read_points(path: &Path, need_z: bool) -> Result<Vec<Point3<f64>>> {
+    if path.extension().is_some_and(|e| e == "ds") {
+        return read_ds(path);
+    }
+    let rows = read_csv::<XyzRow>(path)?;
+    rows.iter()
+        .map(|r| match (r.record.z, need_z) {
+            (Some(z), _) => Ok(Point3::new(r.record.x, r.record.y, z)),
+            (None, false) => Ok(Point3::new(r.record.x, r.record.y, 0.0)),
+            (None, true) => bail!(
+                "{}: line {}, column 'z': this fit needs 3-D points",
+                path.display(),
+                r.line
+            ),
+        })
+        .collect()
+}
+
+fn summary(residuals: &[f64]) -> Result<Value> {
+    let (lo, hi) = stats::min_max(residuals)?;
+    Ok(json!({ "rms": stats::rms(residuals)?, "min": lo, "max": hi, "points": residuals.len() }))
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> Result<()> {
+    let need_z = !matches!(args.kind, Kind::Line2d | Kind::Straightness);
+    let pts = read_points(&args.file, need_z)?;
+    let xy: Vec<Point2<f64>> = pts.iter().map(|p| Point2::new(p.x, p.y)).collect();
+    let ctx = || format!("{}", args.file.display());
+    let out = match args.kind {
+        Kind::Line2d => {
+            let f = fit::line_2d(&xy).with_context(ctx)?;
+            json!({ "element": "line2d", "point": [f.point.x, f.point.y], "direction": [f.direction.x, f.direction.y], "residuals": summary(&f.residuals)? })
+        }
+        Kind::Line3d => {
+            let f = fit::line_3d(&pts).with_context(ctx)?;
+            json!({ "element": "line3d", "point": f.point.coords.as_slice(), "direction": f.direction.as_slice(), "residuals": summary(&f.residuals)? })
+        }
+        Kind::Plane => {
+            let f = fit::plane(&pts).with_context(ctx)?;
+            json!({ "element": "plane", "point": f.point.coords.as_slice(), "normal": f.normal.as_slice(), "residuals": summary(&f.residuals)? })
+        }
+        Kind::Circle => {
+            let f = fit::circle_3d(&pts).with_context(ctx)?;
+            json!({ "element": "circle", "centre": f.centre.coords.as_slice(), "normal": f.normal.as_slice(), "diameter": f.diameter, "residuals": summary(&f.residuals)? })
+        }
+        Kind::Sphere => {
+            let f = fit::sphere(&pts).with_context(ctx)?;
+            json!({ "element": "sphere", "centre": f.centre.coords.as_slice(), "diameter": f.diameter, "residuals": summary(&f.residuals)? })
+        }
+        Kind::Cylinder => {
+            let f = fit::cylinder(&pts).with_context(ctx)?;
+            json!({ "element": "cylinder", "point": f.point.coords.as_slice(), "direction": f.direction.as_slice(), "diameter": f.diameter, "residuals": summary(&f.residuals)? })
+        }
+        Kind::Straightness => {
+            let lsq = fit::line_2d(&xy).with_context(ctx)?;
+            let zone = min_zone::straightness(&xy).with_context(ctx)?;
+            json!({ "element": "straightness", "lsq": stats::range(&lsq.residuals)?, "min_zone": zone.width, "direction": [zone.direction.x, zone.direction.y] })
+        }
+        Kind::Flatness => {
+            let lsq = fit::plane_z_on_xy(&pts).with_context(ctx)?;
+            let zone = min_zone::flatness(&pts).with_context(ctx)?;
+            json!({ "element": "flatness", "lsq": stats::range(&lsq.residuals)?, "lsq_plane": [lsq.a, lsq.b, lsq.c], "min_zone": zone.width, "min_zone_plane": [zone.a, zone.b, zone.c] })
+        }
+    };
+    println!("{}", serde_json::to_string_pretty(&out)?);
+    Ok(())
+}

@@ -1,0 +1,77 @@
+//! `trinocular`: the command-line front end. Thin by design: it parses flags,
+//! reads and writes files, shows progress and maps errors to exit codes; the
+//! work is done by the library crates.
+
+mod cmd;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Trinocular vision measurement of machine-tool and CMM geometric errors.
+#[derive(Debug, Parser)]
+#[command(name = "trinocular", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Fit a geometric element (least squares and minimum zone) to a point file.
+    Fit(cmd::fit::Args),
+}
+
+/// Exit status for command-line usage errors (as clap uses).
+const USAGE_ERROR: u8 = 2;
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(err) if !err.use_stderr() => {
+            // --help and --version: print as clap formats them.
+            let _ = err.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(err) => {
+            // One line: clap's first paragraph, without its "error: " prefix.
+            let text = err.to_string();
+            let reason: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            eprintln!(
+                "trinocular: error: {} (see 'trinocular --help')",
+                reason.join(" ").trim_start_matches("error: ")
+            );
+            return ExitCode::from(USAGE_ERROR);
+        }
+    };
+    let result = match cli.command {
+        Command::Fit(args) => cmd::fit::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("trinocular: error: {}", one_line(&err));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The error and its causes on one line, outermost first, skipping a cause
+/// whose text the line already holds (many errors repeat their source).
+fn one_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string().replace('\n', " ");
+        if !line.contains(&text) {
+            if !line.is_empty() {
+                line.push_str(": ");
+            }
+            line.push_str(&text);
+        }
+    }
+    line
+}

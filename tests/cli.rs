@@ -1,0 +1,95 @@
+//! The command-line contract: help lists the subcommands, bad input exits
+//! non-zero with a one-line reason, and `fit` reproduces a NIST reference.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn trinocular(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_trinocular"))
+        .args(args)
+        .output()
+        .expect("run trinocular")
+}
+
+fn testdata(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("testdata")
+        .join(rel)
+}
+
+/// Stderr of a failed run: exactly one line starting with the program name.
+fn one_line_error(out: &Output) -> String {
+    assert!(
+        !out.status.success(),
+        "expected failure, got {:?}",
+        out.status
+    );
+    let err = String::from_utf8(out.stderr.clone()).unwrap();
+    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err:?}");
+    assert!(err.starts_with("trinocular: error: "), "{err:?}");
+    err
+}
+
+#[test]
+fn help_lists_the_subcommands() {
+    let out = trinocular(&["--help"]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    for cmd in ["fit"] {
+        assert!(
+            text.lines().any(|l| l.trim_start().starts_with(cmd)),
+            "{cmd} missing from:\n{text}"
+        );
+    }
+}
+
+#[test]
+fn unknown_input_fails_with_one_line() {
+    let e = one_line_error(&trinocular(&["no-such-command"]));
+    assert!(e.contains("no-such-command"), "{e}");
+    let e = one_line_error(&trinocular(&["fit", "sphere"]));
+    assert!(e.contains("<FILE>"), "{e}");
+    let e = one_line_error(&trinocular(&["fit", "sphere", "/no/such/file.csv"]));
+    assert!(e.contains("/no/such/file.csv"), "{e}");
+}
+
+#[test]
+fn bad_csv_names_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("p.csv");
+    std::fs::write(&f, "x,y,z\n1,2,3\n4,NaN,6\n").unwrap();
+    let e = one_line_error(&trinocular(&["fit", "plane", f.to_str().unwrap()]));
+    assert!(e.contains("line 3") && e.contains("'y'"), "{e}");
+}
+
+#[test]
+fn fit_sphere_reproduces_nist_sph22() {
+    let out = trinocular(&[
+        "fit",
+        "sphere",
+        testdata("nist-fits/Sphere/sph22.ds").to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let reference: Vec<f64> = std::fs::read_to_string(testdata("nist-fits/Sphere/sph22.fit"))
+        .unwrap()
+        .lines()
+        .map(|l| l.trim().parse().unwrap())
+        .collect();
+    let centre: Vec<f64> = v["centre"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    for i in 0..3 {
+        assert!((centre[i] - reference[i]).abs() < 1e-9, "centre[{i}]");
+    }
+    assert!((v["diameter"].as_f64().unwrap() - reference[3]).abs() < 1e-9);
+}
