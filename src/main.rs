@@ -18,6 +18,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// ISO 230-2 positioning, straightness, flatness and angular errors from points.csv.
+    Evaluate(cmd::evaluate::Args),
     /// Fit a geometric element (least squares and minimum zone) to a point file.
     Fit(cmd::fit::Args),
 }
@@ -49,6 +51,7 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
+        Command::Evaluate(args) => cmd::evaluate::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),
     };
     match result {

@@ -2,16 +2,59 @@
 //! positioning, VDI/DGQ 3441, straightness, flatness and angular errors, and
 //! the report people read (`report.json`, CSV tables, `report.html`).
 //!
+//! The input is `points.csv` (INTERFACES.md): one row per sphere per instant.
+//! [`evaluate`] takes the rows in memory; [`evaluate_file`] reads the file
+//! first, so that every error names its line and column; [`write_outputs`]
+//! writes the report files, each atomically.
+//!
 //! # Conventions
-//! - Input `points.csv` rows (INTERFACES.md) in millimetres; figures in
-//!   micrometres (`_um`) and microradians (`_urad`).
+//! - Input in millimetres; figures in micrometres (`_um`), angles in
+//!   microradians (`_urad`); commanded (`nominal`) positions in millimetres.
+//! - Lines: the runs of an axis with the same off-axis commanded coordinates
+//!   (within [`lines::LINE_TOLERANCE_MM`]). Each line is evaluated on its
+//!   own; `axes.X` is the line with the most runs (tie: nearest the origin).
+//! - Axis frame: the direction of the orthogonal least-squares line through
+//!   the sphere's per-target mean positions (free of cosine error); datum the
+//!   mean position at the first target (lowest target index).
+//! - Positioning (ISO 230-2): the captures of one approach are averaged into
+//!   that run's value; `xᵢⱼ` = measured displacement along the axis −
+//!   commanded displacement, both from the first target.
+//! - Straightness: the per-target mean points in the plane of the axis and
+//!   each perpendicular world direction (X → Y, Z; Y → X, Z; Z → X, Y);
+//!   orthogonal least squares and minimum zone.
+//! - Flatness: the per-target mean points of every X and Y line together;
+//!   vertical deviations from `z = aX + bY + c`, and the minimum zone.
+//! - Angular: see [`report::ANGULAR_CONVENTION`].
+//! - A figure whose axis or direction is absent is `None` and left out of the
+//!   JSON, never zero.
 
 mod error;
 
+pub mod angular;
+pub mod axis_frame;
+pub mod flatness;
+pub mod html;
+pub mod iso230_2;
+pub mod lines;
+pub mod output;
+pub mod plot;
+pub mod points;
 pub mod report;
+pub mod straightness;
+pub mod vdi3441;
+
+use std::path::Path;
+
+use formats::{Axis, PointRow, Row};
+use geom::Point3;
 
 pub use error::{EvaluateError, Result};
+pub use output::write_outputs;
+pub use points::read_points;
 pub use report::Report;
+
+use crate::points::Located;
+use crate::report::{AxisReport, FlatnessPoint, FlatnessReport};
 
 /// What to evaluate and how.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -24,11 +67,184 @@ pub struct Options {
 }
 
 /// Evaluate every axis, line and the flatness from `points.csv` rows given in
-/// memory; errors name row `i` as line `i + 2` (as written to a points.csv).
-pub fn evaluate(points: &[formats::PointRow], options: &Options) -> Result<Report> {
-    let _ = (points, options);
-    Err(EvaluateError::Data {
-        what: "evaluate",
-        message: "not implemented yet".into(),
-    })
+/// memory; errors name row `i` (0-based) as line `i + 2` of `points`, its
+/// line in a points.csv written in this order.
+pub fn evaluate(points: &[PointRow], options: &Options) -> Result<Report> {
+    let located: Vec<Located<'_>> = points
+        .iter()
+        .enumerate()
+        .map(|(i, row)| Located {
+            line: i as u64 + 2,
+            row,
+        })
+        .collect();
+    evaluate_located(&located, "points", options)
+}
+
+/// As [`evaluate`], for rows read from `source` with their line numbers.
+pub fn evaluate_rows(rows: &[Row<PointRow>], source: &Path, options: &Options) -> Result<Report> {
+    let located: Vec<Located<'_>> = rows
+        .iter()
+        .map(|r| Located {
+            line: r.line,
+            row: &r.record,
+        })
+        .collect();
+    evaluate_located(&located, &source.display().to_string(), options)
+}
+
+/// Read `points.csv` and evaluate it; errors name the file, line and column.
+pub fn evaluate_file(path: &Path, options: &Options) -> Result<Report> {
+    let rows = read_points(path)?;
+    evaluate_rows(&rows, path, options)
+}
+
+/// The sphere that carries positioning: the option, else `A`, else the first name.
+fn choose_sphere(spheres: &[String], options: &Options) -> Result<String> {
+    match &options.sphere {
+        Some(name) if spheres.contains(name) => Ok(name.clone()),
+        Some(name) => Err(EvaluateError::Option {
+            option: "sphere",
+            message: format!(
+                "sphere '{name}' is not in the points (spheres: {})",
+                spheres.join(", ")
+            ),
+        }),
+        None if spheres.iter().any(|s| s == "A") => Ok("A".into()),
+        None => spheres.first().cloned().ok_or_else(|| EvaluateError::Data {
+            what: "evaluate",
+            message: "no spheres in the points".into(),
+        }),
+    }
+}
+
+fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Result<Report> {
+    points::check(rows, source)?;
+    let mut spheres: Vec<String> = Vec::new();
+    for r in rows {
+        if !spheres.contains(&r.row.sphere) {
+            spheres.push(r.row.sphere.clone());
+        }
+    }
+    let sphere = choose_sphere(&spheres, options)?;
+
+    let mut report = Report {
+        axes: report::Axes::default(),
+        flatness: None,
+        sphere: sphere.clone(),
+        spheres: spheres.clone(),
+        source: source.to_string(),
+        rows: rows.len(),
+        conventions: conventions(&sphere),
+        warnings: Vec::new(),
+    };
+    let lines = lines::group(rows);
+    let mut flat_points: Vec<(Axis, usize, u32, Point3<f64>)> = Vec::new();
+    for axis in [Axis::X, Axis::Y, Axis::Z] {
+        let of_axis: Vec<&lines::Line<'_>> = lines.iter().filter(|l| l.axis == axis).collect();
+        if of_axis.is_empty() {
+            continue;
+        }
+        let mut results = Vec::with_capacity(of_axis.len());
+        for (index, line) in of_axis.iter().enumerate() {
+            let result =
+                lines::evaluate_line(line, index, &sphere, &spheres, options.vdi3441, source)?;
+            if axis != Axis::Z {
+                flat_points.extend(result.means.iter().map(|(t, p)| (axis, index, *t, *p)));
+            }
+            results.push((line.offset(), result));
+        }
+        // The main line: most runs, then nearest the origin, then first.
+        let main = (0..results.len())
+            .min_by(|&i, &j| {
+                results[j]
+                    .1
+                    .runs
+                    .cmp(&results[i].1.runs)
+                    .then(results[i].0.total_cmp(&results[j].0))
+                    .then(i.cmp(&j))
+            })
+            .unwrap_or(0);
+        let mut line_reports = Vec::with_capacity(results.len());
+        for (_, r) in results {
+            report.warnings.extend(r.warnings);
+            line_reports.push(r.report);
+        }
+        *report.axes.slot(axis) = Some(AxisReport {
+            main: line_reports[main].clone(),
+            lines: line_reports,
+        });
+    }
+    report.flatness = flatness_report(&flat_points, &mut report.warnings)?;
+    Ok(report)
+}
+
+/// Flatness of the X and Y lines' per-target mean points; `None` (with a
+/// warning) when they do not span a plane.
+fn flatness_report(
+    points: &[(Axis, usize, u32, Point3<f64>)],
+    warnings: &mut Vec<String>,
+) -> Result<Option<FlatnessReport>> {
+    let cloud: Vec<Point3<f64>> = points.iter().map(|p| p.3).collect();
+    let f = match flatness::flatness(&cloud) {
+        Ok(f) => f,
+        Err(geom::GeomError::Degenerate(_) | geom::GeomError::TooFewPoints { .. }) => {
+            warnings.push(
+                "flatness left out: the X- and Y-run points do not span a plane (a single line?)"
+                    .into(),
+            );
+            return Ok(None);
+        }
+        Err(e) => {
+            return Err(EvaluateError::Geom {
+                what: "flatness".into(),
+                source: e,
+            });
+        }
+    };
+    Ok(Some(FlatnessReport {
+        lsq_um: f.lsq * 1e3,
+        min_zone_um: f.min_zone * 1e3,
+        a: f.a,
+        b: f.b,
+        c: f.c,
+        points: points
+            .iter()
+            .zip(f.lsq_deviations.iter().zip(&f.zone_deviations))
+            .map(|(&(axis, line, target, p), (l, z))| FlatnessPoint {
+                axis: axis.name().to_string(),
+                line,
+                target,
+                x: p.x,
+                y: p.y,
+                z: p.z,
+                lsq_um: l * 1e3,
+                min_zone_um: z * 1e3,
+            })
+            .collect(),
+    }))
+}
+
+/// The conventions written into every report.
+fn conventions(sphere: &str) -> Vec<String> {
+    vec![
+        "units: figures in µm, angles in µrad, commanded (nominal) positions in mm".into(),
+        format!("sphere {sphere} carries positioning, straightness and flatness"),
+        "axis direction: orthogonal least-squares line through the per-target mean positions; \
+         datum: the mean position at the first target"
+            .into(),
+        "positioning (ISO 230-2): captures of one approach averaged into the run's value; \
+         x_ij = measured displacement along the axis − commanded displacement"
+            .into(),
+        "seed_3sigma_um: per target, mean and sample standard deviation of every capture of every run \
+         and direction; max(x̄ + 3s) − min(x̄ − 3s)"
+            .into(),
+        "straightness: orthogonal residuals of the per-target mean points in the plane of the axis and \
+         the named world direction; least squares (range) and minimum zone (ISO 12780)"
+            .into(),
+        "flatness: vertical deviations of the per-target mean points of all X and Y lines from the \
+         least-squares plane z = aX + bY + c (range), and the minimum zone"
+            .into(),
+        report::ANGULAR_CONVENTION.into(),
+    ]
 }

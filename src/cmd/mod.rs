@@ -1,3 +1,4 @@
 //! One module per subcommand: argument struct and `run`.
 
+pub mod evaluate;
 pub mod fit;

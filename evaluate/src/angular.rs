@@ -1,0 +1,63 @@
+//! Angular errors of a line (METHODS.md §1, "beyond the source"): the rigid
+//! motion of the sphere set from the first target to each target (Kabsch fit,
+//! `geom::transform::rigid_fit`) gives the table's rotation vector
+//! `ω = (εx, εy, εz)`; roll is the rotation about the moving axis, pitch and
+//! yaw the other two (X: roll εx, pitch εy, yaw εz; Y: roll εy, pitch εx,
+//! yaw εz; Z: roll εz, pitch εx, yaw εy).
+
+use formats::Axis;
+use geom::{Point3, Vector3};
+
+/// Rotation of the sphere set relative to its pose at the first target.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    /// Rotation vector `ω` (rad), world axes.
+    pub rotation: Vector3<f64>,
+    /// RMS distance between the moved first-target spheres and the spheres
+    /// at this target (mm): zero for a rigid set.
+    pub rms: f64,
+}
+
+/// Rotation from the sphere centres `first` (at the first target) to `at`
+/// (the same spheres, same order, at another target); ≥ 3 non-collinear spheres.
+pub fn pose(first: &[Point3<f64>], at: &[Point3<f64>]) -> geom::Result<Pose> {
+    let iso = geom::transform::rigid_fit(first, at)?;
+    let ss: f64 = first
+        .iter()
+        .zip(at)
+        .map(|(a, b)| (iso * a - b).norm_squared())
+        .sum();
+    Ok(Pose {
+        rotation: geom::transform::rotation_vector(&iso.rotation.to_rotation_matrix()),
+        rms: (ss / first.len() as f64).sqrt(),
+    })
+}
+
+/// `[roll, pitch, yaw]` of a rotation vector for a moving `axis` (rad).
+pub fn roll_pitch_yaw(axis: Axis, w: &Vector3<f64>) -> [f64; 3] {
+    match axis {
+        Axis::X => [w.x, w.y, w.z],
+        Axis::Y => [w.y, w.x, w.z],
+        Axis::Z => [w.z, w.x, w.y],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn known_rotation_comes_back() {
+        let first = [
+            Point3::new(0.0, 0.0, 10.0),
+            Point3::new(20.0, 20.0, 8.0),
+            Point3::new(-15.0, -15.0, 5.0),
+        ];
+        let w = Vector3::new(3e-5, -2e-5, 5e-5);
+        let iso = geom::transform::rigid(w, Vector3::new(50.0, 0.01, -0.02));
+        let at: Vec<_> = first.iter().map(|p| iso * p).collect();
+        let p = pose(&first, &at).unwrap();
+        assert!((p.rotation - w).norm() < 1e-10 && p.rms < 1e-10, "{:?} {}", p.rotation - w, p.rms);
+        assert_eq!(roll_pitch_yaw(Axis::Y, &w), [-2e-5, 3e-5, 5e-5]);
+    }
+}

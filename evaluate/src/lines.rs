@@ -1,0 +1,497 @@
+//! Lines of a campaign: the sweeps of an axis at fixed off-axis nominal
+//! coordinates, their targets and runs, and the per-line evaluation
+//! (positioning, straightness, angular errors).
+
+use std::collections::BTreeMap;
+
+use formats::{Axis, Direction};
+use geom::{Point2, Point3, Vector3};
+
+use crate::axis_frame::AxisFrame;
+use crate::points::{Located, measured_column, nominal_column, row_error};
+use crate::report::{
+    ANGULAR_CONVENTION, AngularReport, AngularTarget, LineReport, PositioningReport,
+    PositioningTarget, StraightnessReport, StraightnessTarget, Vdi3441Report,
+};
+use crate::{EvaluateError, Result, angular, iso230_2, straightness, vdi3441};
+
+/// Rows whose off-axis commanded coordinates differ by less than this (mm)
+/// belong to the same line.
+pub const LINE_TOLERANCE_MM: f64 = 0.01;
+/// Rows of one target must agree on its commanded axis coordinate to this (mm).
+pub const TARGET_TOLERANCE_MM: f64 = 1e-4;
+/// Millimetres → micrometres.
+fn um(mm: f64) -> f64 {
+    mm * 1e3
+}
+
+/// Radians → microradians.
+fn urad(rad: f64) -> f64 {
+    rad * 1e6
+}
+
+/// One sweep of an axis.
+#[derive(Debug, Clone)]
+pub(crate) struct Line<'a> {
+    /// Axis moved.
+    pub axis: Axis,
+    /// Off-axis commanded coordinates (mm), in the order of `Axis::others` sorted.
+    pub off_axis: [(Axis, f64); 2],
+    /// Every row of the line, all spheres, in file order.
+    pub rows: Vec<Located<'a>>,
+}
+
+impl Line<'_> {
+    /// Description for messages: `X at y = 0, z = 0`.
+    pub fn describe(&self) -> String {
+        format!(
+            "axis {} at {} = {}, {} = {} mm",
+            self.axis,
+            measured_column(self.off_axis[0].0),
+            self.off_axis[0].1,
+            measured_column(self.off_axis[1].0),
+            self.off_axis[1].1
+        )
+    }
+
+    /// Distance of the line from the origin in the off-axis coordinates.
+    pub fn offset(&self) -> f64 {
+        self.off_axis[0].1.hypot(self.off_axis[1].1)
+    }
+}
+
+/// The off-axis world axes of `axis`, sorted.
+fn off_axes(axis: Axis) -> [Axis; 2] {
+    let mut o = axis.others();
+    o.sort();
+    o
+}
+
+/// Group rows into lines: per axis, by off-axis commanded coordinates (within
+/// [`LINE_TOLERANCE_MM`]); lines ordered by axis, then off-axis coordinates.
+pub(crate) fn group<'a>(rows: &[Located<'a>]) -> Vec<Line<'a>> {
+    let mut lines: Vec<Line<'a>> = Vec::new();
+    for r in rows {
+        let axis = r.row.axis;
+        let o = off_axes(axis);
+        let n = r.row.nominal();
+        let coords = [n[o[0].index()], n[o[1].index()]];
+        let found = lines.iter_mut().find(|l| {
+            l.axis == axis
+                && (l.off_axis[0].1 - coords[0]).abs() <= LINE_TOLERANCE_MM
+                && (l.off_axis[1].1 - coords[1]).abs() <= LINE_TOLERANCE_MM
+        });
+        match found {
+            Some(l) => l.rows.push(*r),
+            None => lines.push(Line {
+                axis,
+                off_axis: [(o[0], coords[0]), (o[1], coords[1])],
+                rows: vec![*r],
+            }),
+        }
+    }
+    lines.sort_by(|a, b| {
+        a.axis
+            .cmp(&b.axis)
+            .then(a.off_axis[0].1.total_cmp(&b.off_axis[0].1))
+            .then(a.off_axis[1].1.total_cmp(&b.off_axis[1].1))
+    });
+    lines
+}
+
+/// The captures of one approach: (line, position) per capture.
+type Approach = Vec<(u64, Point3<f64>)>;
+
+/// A sphere's data on one line: target → (direction, run) → captures.
+type SphereData = BTreeMap<u32, BTreeMap<(Direction, u32), Approach>>;
+
+/// Mean of points (non-empty).
+fn mean_point<'p>(points: impl Iterator<Item = &'p Point3<f64>>) -> Point3<f64> {
+    let (sum, n) = points.fold((Vector3::zeros(), 0usize), |(s, n), p| {
+        (s + p.coords, n + 1)
+    });
+    Point3::from(sum / n.max(1) as f64)
+}
+
+/// Per-target mean of a sphere: the mean of its run values (captures of an
+/// approach averaged first), over all runs and both directions.
+fn target_mean(runs: &BTreeMap<(Direction, u32), Approach>) -> Point3<f64> {
+    let values: Vec<Point3<f64>> = runs
+        .values()
+        .map(|c| mean_point(c.iter().map(|(_, p)| p)))
+        .collect();
+    mean_point(values.iter())
+}
+
+/// The evaluation of one line, and the sphere's per-target mean points (for flatness).
+pub(crate) struct LineResult {
+    /// The figures.
+    pub report: LineReport,
+    /// Number of runs (distinct direction and run) of the evaluated sphere.
+    pub runs: usize,
+    /// Per-target mean positions of the evaluated sphere: (target, point).
+    pub means: Vec<(u32, Point3<f64>)>,
+    /// Remarks for the report.
+    pub warnings: Vec<String>,
+}
+
+/// Evaluate one line with `sphere` carrying positioning and straightness.
+pub(crate) fn evaluate_line(
+    line: &Line<'_>,
+    index: usize,
+    sphere: &str,
+    all_spheres: &[String],
+    vdi: bool,
+    source: &str,
+) -> Result<LineResult> {
+    let axis = line.axis;
+    let ai = axis.index();
+    let first_line = line.rows.first().map_or(2, |r| r.line);
+    let what = line.describe();
+
+    // Commanded axis coordinate per target, consistent over every row.
+    let mut nominal: BTreeMap<u32, (f64, u64)> = BTreeMap::new();
+    for r in &line.rows {
+        let n = r.row.nominal()[ai];
+        match nominal.get(&r.row.target) {
+            Some(&(n0, l0)) if (n - n0).abs() > TARGET_TOLERANCE_MM => {
+                return Err(row_error(
+                    source,
+                    r.line,
+                    nominal_column(axis),
+                    format!(
+                        "target {} of {what} is commanded at {n} mm here but at {n0} mm on line {l0}",
+                        r.row.target
+                    ),
+                ));
+            }
+            Some(_) => {}
+            None => {
+                nominal.insert(r.row.target, (n, r.line));
+            }
+        }
+    }
+
+    // Captures per sphere, target, approach.
+    let mut data: BTreeMap<&str, SphereData> = BTreeMap::new();
+    for r in &line.rows {
+        data.entry(r.row.sphere.as_str())
+            .or_default()
+            .entry(r.row.target)
+            .or_default()
+            .entry((r.row.direction, r.row.run))
+            .or_default()
+            .push((r.line, Point3::from(r.row.position())));
+    }
+    let Some(main) = data.get(sphere) else {
+        return Err(row_error(
+            source,
+            first_line,
+            "sphere",
+            format!(
+                "{what} has no rows of sphere {sphere}, which carries positioning and straightness"
+            ),
+        ));
+    };
+    check_runs(main, &nominal, &what, sphere, source)?;
+    if main.len() < 2 {
+        return Err(row_error(
+            source,
+            first_line,
+            "target",
+            format!("{what} has a single target: an axis needs at least two"),
+        ));
+    }
+
+    let targets: Vec<u32> = main.keys().copied().collect();
+    let nominal_of = |t: u32| nominal.get(&t).map_or(0.0, |n| n.0);
+    let means: Vec<Point3<f64>> = main.values().map(target_mean).collect();
+    let commanded: Vec<f64> = targets.iter().map(|&t| nominal_of(t)).collect();
+    let frame = AxisFrame::fit(axis, &means, &commanded).map_err(|e| EvaluateError::Geom {
+        what: format!("axis direction of {what}"),
+        source: e,
+    })?;
+    // Positional deviation of a measured point at target index k (µm).
+    let deviation = |k: usize, p: &Point3<f64>| um(frame.along(p) - (commanded[k] - commanded[0]));
+
+    // ISO 230-2 and the seed's 3σ.
+    let mut deviations = Vec::with_capacity(targets.len());
+    let mut seed = Vec::with_capacity(targets.len());
+    for (k, runs) in main.values().enumerate() {
+        let mut dev = iso230_2::TargetDeviations::default();
+        let mut all = Vec::new();
+        for ((direction, _), captures) in runs {
+            let value = deviation(k, &mean_point(captures.iter().map(|(_, p)| p)));
+            match direction {
+                Direction::Up => dev.up.push(value),
+                Direction::Down => dev.down.push(value),
+            }
+            all.extend(captures.iter().map(|(_, p)| deviation(k, p)));
+        }
+        let m = geom::stats::mean(&all).map_err(|e| geom_error(&what, e))?;
+        let s = geom::stats::sample_std(&all).map_err(|e| geom_error(&what, e))?;
+        seed.push((m, s));
+        deviations.push(dev);
+    }
+    let iso = iso230_2::iso230_2(&deviations)?;
+    let seed_3sigma = seed
+        .iter()
+        .map(|(m, s)| m + 3.0 * s)
+        .fold(f64::NEG_INFINITY, f64::max)
+        - seed
+            .iter()
+            .map(|(m, s)| m - 3.0 * s)
+            .fold(f64::INFINITY, f64::min);
+    let runs_in = |d: Direction| {
+        main.values()
+            .flat_map(|runs| runs.keys())
+            .filter(|(dir, _)| *dir == d)
+            .map(|(_, run)| *run)
+            .collect::<std::collections::BTreeSet<u32>>()
+            .len()
+    };
+    let (runs_up, runs_down) = (runs_in(Direction::Up), runs_in(Direction::Down));
+    let positioning = PositioningReport {
+        a_um: iso.bidirectional.map(|b| b.a),
+        a_up_um: iso.up.map(|u| u.a),
+        a_down_um: iso.down.map(|u| u.a),
+        e_um: iso.bidirectional.map(|b| b.e),
+        e_up_um: iso.up.map(|u| u.e),
+        e_down_um: iso.down.map(|u| u.e),
+        m_um: iso.bidirectional.map(|b| b.m),
+        r_um: iso.bidirectional.map(|b| b.r),
+        r_up_um: iso.up.map(|u| u.r),
+        r_down_um: iso.down.map(|u| u.r),
+        b_um: iso.bidirectional.map(|b| b.b),
+        b_mean_um: iso.bidirectional.map(|b| b.b_mean),
+        seed_3sigma_um: seed_3sigma,
+        runs_up,
+        runs_down,
+        targets: targets
+            .iter()
+            .zip(&iso.targets)
+            .zip(&deviations)
+            .zip(&seed)
+            .map(|(((&t, f), dev), &(seed_mean, seed_s))| PositioningTarget {
+                target: t,
+                nominal: nominal_of(t),
+                mean_up_um: f.up.map(|u| u.mean),
+                mean_down_um: f.down.map(|d| d.mean),
+                s_up_um: f.up.map(|u| u.s),
+                s_down_um: f.down.map(|d| d.s),
+                b_um: f.bidirectional.map(|b| b.reversal),
+                mean_um: f.bidirectional.map(|b| b.mean),
+                r_up_um: f.up.map(|u| u.repeatability()),
+                r_down_um: f.down.map(|d| d.repeatability()),
+                r_um: f.bidirectional.map(|b| b.repeatability),
+                runs_up_um: dev.up.clone(),
+                runs_down_um: dev.down.clone(),
+                seed_mean_um: seed_mean,
+                seed_s_um: seed_s,
+            })
+            .collect(),
+        vdi3441: if vdi {
+            vdi3441::vdi3441(&iso).map(|v| Vdi3441Report {
+                p_um: v.p,
+                ps_um: v.ps,
+                u_um: v.u,
+                u_mean_um: v.u_mean,
+                pa_um: v.pa,
+            })
+        } else {
+            None
+        },
+    };
+
+    // Straightness in the two perpendicular directions.
+    let mut straight = BTreeMap::new();
+    for (k, (world, _)) in frame.perpendicular.iter().enumerate() {
+        let profile: Vec<Point2<f64>> = means
+            .iter()
+            .map(|p| Point2::new(frame.along(p), frame.across(p, k)))
+            .collect();
+        let s = straightness::straightness(&profile).map_err(|e| EvaluateError::Geom {
+            what: format!("straightness in {world} of {what}"),
+            source: e,
+        })?;
+        straight.insert(
+            world.name().to_string(),
+            StraightnessReport {
+                lsq_um: um(s.lsq),
+                min_zone_um: um(s.min_zone),
+                targets: (0..targets.len())
+                    .map(|i| StraightnessTarget {
+                        target: targets[i],
+                        nominal: commanded[i],
+                        deviation_um: um(s.deviations[i]),
+                        zone_low_um: um(s.zone_low[i]),
+                        zone_high_um: um(s.zone_high[i]),
+                    })
+                    .collect(),
+            },
+        );
+    }
+
+    // Angular errors from every sphere present at every target.
+    let mut warnings = Vec::new();
+    let complete: Vec<&String> = all_spheres
+        .iter()
+        .filter(|name| {
+            data.get(name.as_str())
+                .is_some_and(|d| targets.iter().all(|t| d.contains_key(t)))
+        })
+        .collect();
+    let angular = if complete.len() >= 3 {
+        match angular_report(axis, &complete, &data, &targets, &commanded) {
+            Ok(a) => Some(a),
+            Err(e) => {
+                warnings.push(format!("{what}: angular errors left out: {e}"));
+                None
+            }
+        }
+    } else {
+        if all_spheres.len() >= 3 {
+            let missing: Vec<&str> = all_spheres
+                .iter()
+                .filter(|n| !complete.contains(n))
+                .map(String::as_str)
+                .collect();
+            warnings.push(format!(
+                "{what}: angular errors left out: sphere(s) {} missing at some targets",
+                missing.join(", ")
+            ));
+        }
+        None
+    };
+
+    let off_axis = line
+        .off_axis
+        .iter()
+        .map(|(a, v)| (measured_column(*a).to_string(), *v))
+        .collect();
+    Ok(LineResult {
+        report: LineReport {
+            line: index,
+            off_axis,
+            targets: targets.len(),
+            direction: [frame.direction.x, frame.direction.y, frame.direction.z],
+            positioning,
+            straightness: straight,
+            angular,
+        },
+        runs: runs_up + runs_down,
+        means: targets.iter().copied().zip(means).collect(),
+        warnings,
+    })
+}
+
+/// A geometric failure on a line.
+fn geom_error(what: &str, e: geom::GeomError) -> EvaluateError {
+    EvaluateError::Geom {
+        what: what.to_string(),
+        source: e,
+    }
+}
+
+/// Every target of the line has every direction the line has, each with at
+/// least [`iso230_2::MIN_RUNS`] runs; errors name the row and column.
+fn check_runs(
+    main: &SphereData,
+    nominal: &BTreeMap<u32, (f64, u64)>,
+    what: &str,
+    sphere: &str,
+    source: &str,
+) -> Result<()> {
+    let directions: std::collections::BTreeSet<Direction> = main
+        .values()
+        .flat_map(|runs| runs.keys().map(|k| k.0))
+        .collect();
+    for (&target, runs) in main {
+        for &d in &directions {
+            let here: Vec<(&(Direction, u32), &Approach)> =
+                runs.iter().filter(|(k, _)| k.0 == d).collect();
+            match here.as_slice() {
+                [] => {
+                    let line = runs
+                        .values()
+                        .flat_map(|c| c.iter().map(|(l, _)| *l))
+                        .min()
+                        .or_else(|| nominal.get(&target).map(|n| n.1))
+                        .unwrap_or(2);
+                    return Err(row_error(
+                        source,
+                        line,
+                        "direction",
+                        format!(
+                            "target {target} of {what} has no '{d}' approaches of sphere {sphere}, \
+                             while other targets of the line have"
+                        ),
+                    ));
+                }
+                [((_, run), captures)] => {
+                    let line = captures.iter().map(|(l, _)| *l).min().unwrap_or(2);
+                    return Err(row_error(
+                        source,
+                        line,
+                        "run",
+                        format!(
+                            "target {target} of {what} has a single '{d}' run (run {run}) of sphere \
+                             {sphere}: ISO 230-2 needs at least {} runs per direction",
+                            iso230_2::MIN_RUNS
+                        ),
+                    ));
+                }
+                _ => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Roll, pitch and yaw per target from the rigid motion of `spheres`.
+fn angular_report(
+    axis: Axis,
+    spheres: &[&String],
+    data: &BTreeMap<&str, SphereData>,
+    targets: &[u32],
+    commanded: &[f64],
+) -> geom::Result<AngularReport> {
+    let at = |t: u32| -> Vec<Point3<f64>> {
+        spheres
+            .iter()
+            .filter_map(|s| {
+                data.get(s.as_str())
+                    .and_then(|d| d.get(&t))
+                    .map(target_mean)
+            })
+            .collect()
+    };
+    let first = at(targets[0]);
+    let mut rows = Vec::with_capacity(targets.len());
+    let mut ss = 0.0;
+    for (i, &t) in targets.iter().enumerate() {
+        let pose = angular::pose(&first, &at(t))?;
+        ss += pose.rms * pose.rms;
+        let [roll, pitch, yaw] = angular::roll_pitch_yaw(axis, &pose.rotation);
+        rows.push(AngularTarget {
+            target: t,
+            nominal: commanded[i],
+            roll_urad: urad(roll),
+            pitch_urad: urad(pitch),
+            yaw_urad: urad(yaw),
+        });
+    }
+    let range = |f: fn(&AngularTarget) -> f64| {
+        let v: Vec<f64> = rows.iter().map(f).collect();
+        geom::stats::range(&v)
+    };
+    Ok(AngularReport {
+        roll_urad: range(|r| r.roll_urad)?,
+        pitch_urad: range(|r| r.pitch_urad)?,
+        yaw_urad: range(|r| r.yaw_urad)?,
+        spheres: spheres.iter().map(|s| s.to_string()).collect(),
+        fit_rms_um: um((ss / rows.len() as f64).sqrt()),
+        convention: ANGULAR_CONVENTION.to_string(),
+        targets: rows,
+    })
+}

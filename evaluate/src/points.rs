@@ -1,0 +1,242 @@
+//! Reading `points.csv` and the checks that need more than one row: duplicate
+//! instants and mixed units. Every error names the source, the row's line
+//! (the header is line 1) and the column.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use formats::{Axis, PointRow, Record, Row};
+
+use crate::{EvaluateError, Result};
+
+/// A row and where it came from.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Located<'a> {
+    /// 1-based line in the source (the header is line 1).
+    pub line: u64,
+    /// The row.
+    pub row: &'a PointRow,
+}
+
+/// A row is in mixed units when its measured position lies farther than this
+/// from the one expected from its commanded position (mm) …
+pub const UNITS_TOLERANCE_MM: f64 = 1.0;
+/// … plus this fraction of the commanded travel of its axis: room for a
+/// world frame turned by a few mrad against the machine's.
+pub const UNITS_TOLERANCE_OF_TRAVEL: f64 = 0.02;
+/// The factor between the units a stray row may have used and millimetres (µm, m).
+const UNIT_FACTOR: f64 = 1000.0;
+
+/// Read `points.csv`: the file contract's checks (header, parse, NaN, with
+/// line and column) plus an empty file reported at line 1.
+pub fn read_points(path: &Path) -> Result<Vec<Row<PointRow>>> {
+    let bytes = std::fs::read(path).map_err(|e| EvaluateError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    })?;
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(EvaluateError::Row {
+            source_name: path.display().to_string(),
+            line: 1,
+            column: PointRow::COLUMNS[0].into(),
+            message: format!(
+                "the file is empty: expected the header {}",
+                PointRow::COLUMNS.join(",")
+            ),
+        });
+    }
+    Ok(formats::read_csv_from(bytes.as_slice(), path)?)
+}
+
+/// A row error.
+pub(crate) fn row_error(
+    source: &str,
+    line: u64,
+    column: impl Into<String>,
+    message: impl Into<String>,
+) -> EvaluateError {
+    EvaluateError::Row {
+        source_name: source.into(),
+        line,
+        column: column.into(),
+        message: message.into(),
+    }
+}
+
+/// Name of the nominal column of world axis `a` (`nominal_x`, …).
+pub(crate) fn nominal_column(a: Axis) -> &'static str {
+    ["nominal_x", "nominal_y", "nominal_z"][a.index()]
+}
+
+/// Name of the measured column of world axis `a` (`x`, …).
+pub(crate) fn measured_column(a: Axis) -> &'static str {
+    ["x", "y", "z"][a.index()]
+}
+
+/// Every row on its own (the file contract: finite numbers, run and capture
+/// ≥ 1, a sphere name), then no data rows, duplicates and mixed units.
+pub(crate) fn check(rows: &[Located<'_>], source: &str) -> Result<()> {
+    if rows.is_empty() {
+        return Err(row_error(
+            source,
+            2,
+            PointRow::COLUMNS[0],
+            "no data rows: the file has a header only",
+        ));
+    }
+    for r in rows {
+        r.row
+            .validate()
+            .map_err(|inv| row_error(source, r.line, inv.column, inv.message))?;
+    }
+    check_duplicates(rows, source)?;
+    check_units(rows, source)
+}
+
+/// Each (axis, direction, run, target, capture, sphere, nominal) once.
+fn check_duplicates(rows: &[Located<'_>], source: &str) -> Result<()> {
+    let mut seen: HashMap<_, u64> = HashMap::with_capacity(rows.len());
+    for r in rows {
+        let p = r.row;
+        let key = (
+            p.axis,
+            p.direction,
+            p.run,
+            p.target,
+            p.capture,
+            p.sphere.as_str(),
+            p.nominal().map(f64::to_bits),
+        );
+        if let Some(first) = seen.insert(key, r.line) {
+            return Err(row_error(
+                source,
+                r.line,
+                "capture",
+                format!(
+                    "sphere {} at axis {} {} run {} target {} capture {} appears twice (first on line {first})",
+                    p.sphere, p.axis, p.direction, p.run, p.target, p.capture
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Median of the values (upper median for an even count); `values` non-empty.
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+/// Mixed units: per axis moved and sphere, the offset `measured − commanded`
+/// is the sphere's place on the table plus micrometre-level errors (and
+/// whatever a slightly turned world frame adds over the travel). A row whose
+/// offset differs from the median offset of its group by more than
+/// [`UNITS_TOLERANCE_MM`] + [`UNITS_TOLERANCE_OF_TRAVEL`] × travel in any
+/// coordinate is an error; the column named is the value that, divided or
+/// multiplied by 1000, would fit (else the measured coordinate farthest off).
+fn check_units(rows: &[Located<'_>], source: &str) -> Result<()> {
+    let mut groups: HashMap<(Axis, &str), Vec<Located<'_>>> = HashMap::new();
+    for r in rows {
+        groups
+            .entry((r.row.axis, r.row.sphere.as_str()))
+            .or_default()
+            .push(*r);
+    }
+    let mut groups: Vec<_> = groups.into_iter().collect();
+    groups.sort_by_key(|(_, g)| g.first().map_or(0, |r| r.line));
+    let mut worst: Option<(u64, String, String)> = None;
+    for ((axis, _), group) in &groups {
+        let nominal_axis: Vec<f64> = group
+            .iter()
+            .map(|r| r.row.nominal()[axis.index()])
+            .collect();
+        let travel = nominal_axis
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max)
+            - nominal_axis.iter().copied().fold(f64::INFINITY, f64::min);
+        let tolerance = UNITS_TOLERANCE_MM + UNITS_TOLERANCE_OF_TRAVEL * travel;
+        let mut offset = [0.0; 3];
+        for (c, o) in offset.iter_mut().enumerate() {
+            let mut v: Vec<f64> = group
+                .iter()
+                .map(|r| r.row.position()[c] - r.row.nominal()[c])
+                .collect();
+            *o = median(&mut v);
+        }
+        for r in group {
+            let (measured, nominal) = (r.row.position(), r.row.nominal());
+            let Some((c, off)) = (0..3)
+                .map(|c| (c, (measured[c] - nominal[c] - offset[c]).abs()))
+                .filter(|(_, off)| *off > tolerance)
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+            else {
+                continue;
+            };
+            let world = Axis::from_index(c).unwrap_or(Axis::X);
+            let expected = nominal[c] + offset[c];
+            let fits = |v: f64, e: f64| {
+                [v / UNIT_FACTOR, v * UNIT_FACTOR]
+                    .iter()
+                    .any(|s| (s - e).abs() <= tolerance)
+            };
+            let (column, message) = if fits(measured[c], expected) {
+                (
+                    measured_column(world),
+                    format!(
+                        "{} = {} is about {} times the {:.3} mm its commanded position leads to expect: \
+                         mixed units? (points.csv is in millimetres; rows of this sphere and axis \
+                         agree to within {tolerance:.3} mm)",
+                        measured_column(world),
+                        measured[c],
+                        ratio_word(measured[c], expected),
+                        expected
+                    ),
+                )
+            } else if fits(nominal[c], measured[c] - offset[c]) {
+                (
+                    nominal_column(world),
+                    format!(
+                        "{} = {} is about {} times the {:.3} mm the measured position leads to expect: \
+                         mixed units? (points.csv is in millimetres)",
+                        nominal_column(world),
+                        nominal[c],
+                        ratio_word(nominal[c], measured[c] - offset[c]),
+                        measured[c] - offset[c]
+                    ),
+                )
+            } else {
+                (
+                    measured_column(world),
+                    format!(
+                        "{} = {} lies {off:.3} mm from the {expected:.3} mm expected from its commanded \
+                         position and the other rows of sphere {} on axis {} (tolerance {tolerance:.3} mm): \
+                         mixed units or a wrong row?",
+                        measured_column(world),
+                        measured[c],
+                        r.row.sphere,
+                        axis
+                    ),
+                )
+            };
+            if worst.as_ref().is_none_or(|w| r.line < w.0) {
+                worst = Some((r.line, column.to_string(), message));
+            }
+            break;
+        }
+    }
+    match worst {
+        Some((line, column, message)) => Err(row_error(source, line, column, message)),
+        None => Ok(()),
+    }
+}
+
+/// "1000" or "1/1000", whichever `value / expected` is nearer.
+fn ratio_word(value: f64, expected: f64) -> &'static str {
+    if value.abs() >= expected.abs() {
+        "1000"
+    } else {
+        "1/1000"
+    }
+}
