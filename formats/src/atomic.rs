@@ -3,7 +3,7 @@
 //! existing one.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use crate::{FormatError, Result};
@@ -70,6 +70,17 @@ impl Write for AtomicFile {
         match self.writer.as_mut() {
             Some(w) => w.flush(),
             None => Ok(()),
+        }
+    }
+}
+
+/// Seeking flushes the buffer; encoders that patch offsets (TIFF) can write
+/// straight into the temporary file.
+impl Seek for AtomicFile {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        match self.writer.as_mut() {
+            Some(w) => w.seek(pos),
+            None => Err(std::io::Error::other("atomic file already committed")),
         }
     }
 }

@@ -1,0 +1,183 @@
+//! The rig: nominal cameras (what `nominal.json` tells calibration) and true
+//! cameras (what renders the images and goes to `truth.json`), each with its
+//! optics and sensor.
+
+use formats::{NominalCamera, NominalRig};
+use geom::nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use geom::{Camera, Intrinsics};
+
+use crate::config::{CameraConfig, Config};
+use crate::psf::Optics;
+use crate::scene::Sphere;
+use crate::sensor::{Image16, NoiseKey, Sensor, StrayLight};
+use crate::{Result, SynthError};
+
+/// One camera of the synthetic rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthCamera {
+    /// Camera number 1, 2 or 3.
+    pub id: u8,
+    /// The true camera model (renders the images).
+    pub camera: Camera,
+    /// The nominal description (written to `nominal.json`).
+    pub nominal: NominalCamera,
+    /// Serial number (EXIF BodySerialNumber).
+    pub serial: String,
+    /// Lens in this camera's pixel units.
+    pub optics: Optics,
+    /// Sensor, with this camera's stray light.
+    pub sensor: Sensor,
+}
+
+impl SynthCamera {
+    /// Render the spheres as this camera sees them.
+    pub fn render(&self, spheres: &[Sphere], key: NoiseKey, max_depth: u8) -> Result<Image16> {
+        crate::render::render(&self.camera, &self.optics, &self.sensor, spheres, key, max_depth)
+    }
+}
+
+/// The three (or fewer) cameras.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthRig {
+    /// Cameras in configuration order.
+    pub cameras: Vec<SynthCamera>,
+}
+
+/// Principal distance (mm) of a thin lens of focal length `f` focused at `s`: `f·s/(s − f)`.
+pub fn principal_distance_mm(focal_mm: f64, focus_distance_mm: f64) -> f64 {
+    focal_mm * focus_distance_mm / (focus_distance_mm - focal_mm)
+}
+
+impl SynthRig {
+    /// Build the nominal and true cameras of a configuration.
+    pub fn from_config(config: &Config) -> Result<Self> {
+        config.validate()?;
+        let cameras = config
+            .rig
+            .cameras
+            .iter()
+            .map(|c| build_camera(config, c))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self { cameras })
+    }
+
+    /// The camera with this id.
+    pub fn camera(&self, id: u8) -> Option<&SynthCamera> {
+        self.cameras.iter().find(|c| c.id == id)
+    }
+
+    /// `nominal.json`.
+    pub fn nominal(&self) -> NominalRig {
+        NominalRig {
+            cameras: self.cameras.iter().map(|c| c.nominal.clone()).collect(),
+        }
+    }
+}
+
+fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
+    let s = &config.sensor;
+    let o = &config.optics;
+    let rig = &config.rig;
+    let key = format!("rig.cameras[id = {}]", c.id);
+    let view = Vector3::from(c.view);
+    if !(view.norm() > 0.0) {
+        return Err(SynthError::config(format!("{key}.view: zero vector")));
+    }
+    let wp = Point3::from(rig.working_point);
+    let position = wp - view.normalize() * rig.working_distance_mm;
+    let pd = principal_distance_mm(o.focal_mm, o.focus_distance_mm);
+    let nominal = NominalCamera {
+        id: c.id,
+        position: position.coords.into(),
+        look_at: wp.coords.into(),
+        up: c.up,
+        focal_mm: pd,
+        pixel_mm: s.pixel_mm,
+        width: s.width,
+        height: s.height,
+    };
+    let nominal_camera = nominal
+        .to_camera()
+        .map_err(|m| SynthError::config(format!("{key}: {m}")))?;
+    // True camera: rotation error in the camera frame, centre offset in the world.
+    let r_err = Rotation3::new(Vector3::from(c.rotation_error_deg.map(f64::to_radians)));
+    let r_true = r_err * nominal_camera.rotation();
+    let centre = nominal_camera.centre() + Vector3::from(c.position_error_mm);
+    let t = -(r_true * centre.coords);
+    let focal_px = pd * (1.0 + c.focal_error_percent / 100.0) / s.pixel_mm;
+    let mut k = Intrinsics::centred(focal_px, s.width, s.height);
+    k.cx += c.principal_point_offset_um[0] / 1000.0 / s.pixel_mm;
+    k.cy += c.principal_point_offset_um[1] / 1000.0 / s.pixel_mm;
+    let camera = Camera {
+        intrinsics: k,
+        distortion: c.distortion.into(),
+        pose: Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_rotation_matrix(&r_true)),
+        width: s.width,
+        height: s.height,
+    };
+    let (w, h) = (f64::from(s.width), f64::from(s.height));
+    let sensor = Sensor {
+        width: s.width,
+        height: s.height,
+        bits: s.bits,
+        gain_dn_per_e: s.gain_dn_per_e,
+        offset_dn: s.offset_dn,
+        read_noise_e: s.read_noise_e,
+        shot_noise: s.shot_noise,
+        background_e: s.background_e,
+        gradient_e_per_px: [s.background_gradient_e[0] / w, s.background_gradient_e[1] / h],
+        stray_light: c
+            .stray_light
+            .iter()
+            .map(|b| StrayLight {
+                u: b.u * w - 0.5,
+                v: b.v * h - 0.5,
+                sigma_px: b.sigma * w,
+                peak_e: b.peak_e,
+            })
+            .collect(),
+    };
+    let optics = Optics {
+        psf_sigma_px: o.psf_sigma_um / 1000.0 / s.pixel_mm,
+        focal_mm: o.focal_mm,
+        f_number: o.f_number,
+        focus_distance_mm: o.focus_distance_mm,
+        pixel_mm: s.pixel_mm,
+    };
+    Ok(SynthCamera {
+        id: c.id,
+        camera,
+        nominal,
+        serial: c.serial.clone(),
+        optics,
+        sensor,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seed_rig_has_the_seed_scale() {
+        let rig = SynthRig::from_config(&Config::default()).unwrap();
+        assert_eq!(rig.cameras.len(), 3);
+        for c in &rig.cameras {
+            // ≈ 58 µm per pixel at 460 mm (METHODS §1).
+            let mm_per_px = 460.0 / c.camera.intrinsics.fx;
+            assert!((mm_per_px - 0.0578).abs() < 0.0005, "camera {}: {mm_per_px}", c.id);
+            // The true camera still looks at the working point, within its mounting errors.
+            let wp = c.camera.project(&Point3::new(0.0, 0.0, 30.0)).unwrap();
+            assert!((wp.x - 2047.5).abs() < 120.0 && (wp.y - 1535.5).abs() < 120.0, "{wp:?}");
+            // Nominal and true differ (mounting errors), but not wildly.
+            let nom = c.nominal.to_camera().unwrap();
+            let p = nom.project(&Point3::new(0.0, 0.0, 30.0)).unwrap();
+            assert!((p - wp).norm() > 5.0);
+        }
+        // Camera 1 looks along +X: world +Z is up in its image.
+        let c1 = &rig.camera(1).unwrap().camera;
+        let a = c1.project(&Point3::new(0.0, 0.0, 30.0)).unwrap();
+        let b = c1.project(&Point3::new(0.0, 0.0, 40.0)).unwrap();
+        assert!(b.y < a.y);
+    }
+}
