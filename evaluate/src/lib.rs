@@ -180,11 +180,20 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
 }
 
 /// Flatness of the X and Y lines' per-target mean points; `None` (with a
-/// warning) when they do not span a plane.
+/// warning) with fewer than two lines or when they do not span a plane.
 fn flatness_report(
     points: &[(Axis, usize, u32, Point3<f64>)],
     warnings: &mut Vec<String>,
 ) -> Result<Option<FlatnessReport>> {
+    let mut lines: Vec<(Axis, usize)> = points.iter().map(|p| (p.0, p.1)).collect();
+    lines.dedup();
+    if lines.len() < 2 {
+        // One line is a curve, not a surface: its plane fit would be a guess.
+        if !points.is_empty() {
+            warnings.push("flatness left out: it needs at least two lines (an X and a Y line, or two X lines)".into());
+        }
+        return Ok(None);
+    }
     let cloud: Vec<Point3<f64>> = points.iter().map(|p| p.3).collect();
     let f = match flatness::flatness(&cloud) {
         Ok(f) => f,

@@ -60,7 +60,10 @@ pub fn run(args: &Args) -> Result<()> {
         }
     }
     if let Some(f) = &report.flatness {
-        println!("flatness: LSQ {:.3} µm, min zone {:.3} µm", f.lsq_um, f.min_zone_um);
+        println!(
+            "flatness: LSQ {:.3} µm, min zone {:.3} µm",
+            f.lsq_um, f.min_zone_um
+        );
     }
     for w in &report.warnings {
         eprintln!("trinocular: warning: {w}");

@@ -1,0 +1,194 @@
+//! Bad input is an error naming the row (file line, the header is line 1)
+//! and the column: empty file, header only, missing columns, NaN, text in a
+//! number, a target with one run, a direction missing at a target, mixed
+//! units, duplicates, a target commanded at two positions.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::LineModel;
+use evaluate::{Options, evaluate_file};
+use formats::Axis;
+
+/// A small valid campaign as CSV text: X, 5 targets, 2 runs, 3 spheres.
+fn good_text() -> String {
+    let mut l = LineModel::new(Axis::X, [0.0, 0.0], 5, 30.0, 2, 0.3);
+    l.captures = 2;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("points.csv");
+    common::write_points(&path, &l.rows());
+    std::fs::read_to_string(path).unwrap()
+}
+
+/// Write `text` to a fresh points.csv and evaluate it; the error message.
+fn error_of(text: &str) -> (String, PathBuf, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("points.csv");
+    std::fs::write(&path, text).unwrap();
+    let e = evaluate_file(&path, &Options::default())
+        .unwrap_err()
+        .to_string();
+    (e, path, dir)
+}
+
+/// Assert the message names `path`, `line` and `column`.
+fn names(e: &str, path: &Path, line: u64, column: &str) {
+    let want = format!("{}: line {line}, column '{column}'", path.display());
+    assert!(e.contains(&want), "expected «{want}» in «{e}»");
+}
+
+/// Lines of the text, and the index (0-based, header 0) of the first row matching `pred`.
+fn find(lines: &[String], pred: impl Fn(&[&str]) -> bool) -> usize {
+    lines
+        .iter()
+        .position(|l| pred(&l.split(',').collect::<Vec<_>>()))
+        .unwrap()
+}
+
+fn lines(text: &str) -> Vec<String> {
+    text.lines().map(str::to_string).collect()
+}
+
+fn join(lines: &[String]) -> String {
+    lines.join("\n") + "\n"
+}
+
+#[test]
+fn good_file_evaluates() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("points.csv");
+    std::fs::write(&path, good_text()).unwrap();
+    let report = evaluate_file(&path, &Options::default()).unwrap();
+    assert!(report.axes.x.is_some());
+}
+
+#[test]
+fn empty_file_and_header_only() {
+    let (e, path, _d) = error_of("");
+    names(&e, &path, 1, "axis");
+    assert!(e.contains("empty"), "{e}");
+    let header = lines(&good_text())[0].clone();
+    let (e, path, _d) = error_of(&(header + "\n"));
+    names(&e, &path, 2, "axis");
+    assert!(e.contains("no data rows"), "{e}");
+}
+
+#[test]
+fn missing_column() {
+    let text: String = good_text()
+        .lines()
+        .map(|l| l.rsplit_once(',').map_or(l, |x| x.0).to_string() + "\n")
+        .collect();
+    // The last column (residual_px) is gone.
+    let (e, path, _d) = error_of(&text);
+    names(&e, &path, 1, "residual_px");
+    assert!(e.contains("missing"), "{e}");
+}
+
+#[test]
+fn nan_and_text_in_numbers() {
+    let mut l = lines(&good_text());
+    let fields: Vec<String> = l[7].split(',').map(str::to_string).collect();
+    let mut bad = fields.clone();
+    bad[10] = "NaN".into(); // y
+    l[7] = bad.join(",");
+    let (e, path, _d) = error_of(&join(&l));
+    names(&e, &path, 8, "y");
+    let mut bad = fields;
+    bad[9] = "12,5".replace(',', ";"); // x
+    l[7] = bad.join(",");
+    let (e, path, _d) = error_of(&join(&l));
+    names(&e, &path, 8, "x");
+}
+
+#[test]
+fn a_target_with_one_run() {
+    // Drop run 2 of target 3 in the − direction: run 1 is left alone there.
+    let all = lines(&good_text());
+    let kept: Vec<String> = all
+        .iter()
+        .filter(|l| !l.starts_with("X,-,2,3,"))
+        .cloned()
+        .collect();
+    assert!(kept.len() < all.len());
+    let line = find(&kept, |f| f[1] == "-" && f[2] == "1" && f[3] == "3") as u64 + 1;
+    let (e, path, _d) = error_of(&join(&kept));
+    names(&e, &path, line, "run");
+    assert!(e.contains("target 3") && e.contains("at least 2"), "{e}");
+}
+
+#[test]
+fn a_direction_missing_at_a_target() {
+    let all = lines(&good_text());
+    // Target 2 loses its ↑ approaches (rows "X,+,1,2,…" and "X,+,2,2,…").
+    let kept: Vec<String> = all
+        .iter()
+        .filter(|l| !(l.starts_with("X,+,1,2,") || l.starts_with("X,+,2,2,")))
+        .cloned()
+        .collect();
+    let line = find(&kept, |f| f[3] == "2") as u64 + 1;
+    let (e, path, _d) = error_of(&join(&kept));
+    names(&e, &path, line, "direction");
+    assert!(e.contains("target 2"), "{e}");
+}
+
+#[test]
+fn mixed_units() {
+    let mut l = lines(&good_text());
+    // A row of target 4 (x = +60 mm) written in micrometres.
+    let i = find(&l, |f| f[0] == "X" && f[3] == "4" && f[8] == "B");
+    let mut f: Vec<String> = l[i].split(',').map(str::to_string).collect();
+    for v in &mut f[9..12] {
+        *v = (v.parse::<f64>().unwrap() * 1000.0).to_string();
+    }
+    l[i] = f.join(",");
+    let (e, path, _d) = error_of(&join(&l));
+    names(&e, &path, i as u64 + 1, "x");
+    assert!(e.contains("1000") && e.contains("units"), "{e}");
+
+    // A commanded position in micrometres.
+    let mut l = lines(&good_text());
+    let i = find(&l, |f| f[3] == "0" && f[8] == "C");
+    let mut f: Vec<String> = l[i].split(',').map(str::to_string).collect();
+    f[5] = (f[5].parse::<f64>().unwrap() * 1000.0).to_string();
+    l[i] = f.join(",");
+    let (e, path, _d) = error_of(&join(&l));
+    names(&e, &path, i as u64 + 1, "nominal_x");
+    assert!(e.contains("units"), "{e}");
+}
+
+#[test]
+fn duplicates_and_inconsistent_targets() {
+    let mut l = lines(&good_text());
+    let row = l[5].clone();
+    l.push(row);
+    let n = l.len() as u64;
+    let (e, path, _d) = error_of(&join(&l));
+    names(&e, &path, n, "capture");
+    assert!(e.contains("twice") && e.contains("line 6"), "{e}");
+
+    // Half a millimetre off: not a unit slip, but a target commanded at two positions.
+    let mut l = lines(&good_text());
+    let i = find(&l, |f| f[1] == "-" && f[3] == "1");
+    let mut f: Vec<String> = l[i].split(',').map(str::to_string).collect();
+    f[5] = (f[5].parse::<f64>().unwrap() + 0.5).to_string();
+    l[i] = f.join(",");
+    let (e, path, _d) = error_of(&join(&l));
+    names(&e, &path, i as u64 + 1, "nominal_x");
+    assert!(e.contains("target 1"), "{e}");
+}
+
+#[test]
+fn in_memory_rows_are_numbered_as_in_a_file() {
+    let mut l = LineModel::new(Axis::X, [0.0, 0.0], 4, 30.0, 2, 0.3);
+    l.captures = 1;
+    let mut rows = l.rows();
+    rows[4].z = f64::NAN;
+    let e = evaluate::evaluate(&rows, &Options::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("points: line 6, column 'z'"), "{e}");
+}

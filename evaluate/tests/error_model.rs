@@ -1,0 +1,543 @@
+//! Points generated from a known error model (no noise) give back the model's
+//! positioning, straightness, flatness and angular figures: positioning,
+//! straightness and flatness to 1e-6 µm, computed analytically from the
+//! model's values at the targets; minimum zones are ≤ least squares and equal
+//! to an independent linear-programming optimum.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{LineModel, campaign, rows};
+use evaluate::report::{LineReport, Report};
+use evaluate::{Options, evaluate};
+use formats::{Axis, Direction};
+use microlp::{ComparisonOp, OptimizationDirection, Problem};
+
+/// Agreement required for µm figures.
+const UM: f64 = 1e-6;
+/// Agreement required for µrad figures.
+const URAD: f64 = 1e-6;
+
+fn close(what: &str, got: f64, want: f64, tol: f64) {
+    assert!(
+        (got - want).abs() <= tol,
+        "{what}: got {got}, model {want} (difference {:e})",
+        got - want
+    );
+}
+
+fn max(v: impl Iterator<Item = f64>) -> f64 {
+    v.fold(f64::NEG_INFINITY, f64::max)
+}
+
+fn min(v: impl Iterator<Item = f64>) -> f64 {
+    v.fold(f64::INFINITY, f64::min)
+}
+
+/// ISO 230-2 figures of a line model, analytically (µm): the run values are
+/// `p ± b/2 + s·z` with `z` of mean 0 and sample std 1, the datum `p_0`.
+struct Truth {
+    mean_up: Vec<f64>,
+    mean_down: Vec<f64>,
+    a: f64,
+    a_up: f64,
+    a_down: f64,
+    e: f64,
+    e_up: f64,
+    e_down: f64,
+    m: f64,
+    r: f64,
+    r_up: f64,
+    r_down: f64,
+    b: f64,
+    b_mean: f64,
+    seed: f64,
+}
+
+fn truth(l: &LineModel) -> Truth {
+    let um = |v: f64| v * 1e3;
+    let n = l.c.len();
+    let k = 0..n;
+    let up: Vec<f64> = k
+        .clone()
+        .map(|i| um(l.p[i] - l.p[0] + l.b[i] / 2.0))
+        .collect();
+    let down: Vec<f64> = k
+        .clone()
+        .map(|i| um(l.p[i] - l.p[0] - l.b[i] / 2.0))
+        .collect();
+    let su: Vec<f64> = l.s_up.iter().map(|s| um(*s)).collect();
+    let sd: Vec<f64> = l.s_down.iter().map(|s| um(*s)).collect();
+    let b: Vec<f64> = l.b.iter().map(|b| um(*b)).collect();
+    let mean: Vec<f64> = l.p.iter().map(|p| um(p - l.p[0])).collect();
+    // Seed: every capture at a target, both directions: mean p − p_0, sum of
+    // squares m·(n·b²/2 + (n − 1)(s↑² + s↓²)) + 2n·Σq², over N − 1 = 2nm − 1.
+    let (runs, caps) = (l.runs as f64, l.captures as f64);
+    let q2: f64 = common::capture_pattern(l.captures, um(l.q))
+        .iter()
+        .map(|q| q * q)
+        .sum();
+    let seed_s: Vec<f64> = (0..n)
+        .map(|i| {
+            let ss = caps
+                * (runs * b[i] * b[i] / 2.0 + (runs - 1.0) * (su[i] * su[i] + sd[i] * sd[i]))
+                + 2.0 * runs * q2;
+            (ss / (2.0 * runs * caps - 1.0)).sqrt()
+        })
+        .collect();
+    Truth {
+        a: max(k
+            .clone()
+            .map(|i| (up[i] + 2.0 * su[i]).max(down[i] + 2.0 * sd[i])))
+            - min(k
+                .clone()
+                .map(|i| (up[i] - 2.0 * su[i]).min(down[i] - 2.0 * sd[i]))),
+        a_up: max(k.clone().map(|i| up[i] + 2.0 * su[i]))
+            - min(k.clone().map(|i| up[i] - 2.0 * su[i])),
+        a_down: max(k.clone().map(|i| down[i] + 2.0 * sd[i]))
+            - min(k.clone().map(|i| down[i] - 2.0 * sd[i])),
+        e: max(up.iter().chain(&down).copied()) - min(up.iter().chain(&down).copied()),
+        e_up: max(up.iter().copied()) - min(up.iter().copied()),
+        e_down: max(down.iter().copied()) - min(down.iter().copied()),
+        m: max(mean.iter().copied()) - min(mean.iter().copied()),
+        r: max(k.clone().map(|i| {
+            (2.0 * su[i] + 2.0 * sd[i] + b[i].abs())
+                .max(4.0 * su[i])
+                .max(4.0 * sd[i])
+        })),
+        r_up: max(su.iter().map(|s| 4.0 * s)),
+        r_down: max(sd.iter().map(|s| 4.0 * s)),
+        b: max(b.iter().map(|b| b.abs())),
+        b_mean: b.iter().sum::<f64>() / n as f64,
+        seed: max(k.clone().map(|i| mean[i] + 3.0 * seed_s[i]))
+            - min(k.map(|i| mean[i] - 3.0 * seed_s[i])),
+        mean_up: up,
+        mean_down: down,
+    }
+}
+
+/// Minimum of `max − min` of `z − a·x − b·y` over (a, b) (or over a with
+/// `y = None`), by a linear programme on scaled coordinates: minimise h with
+/// `−h ≤ z_i − a·x_i − b·y_i − c ≤ h`. Independent of `geom::min_zone`.
+fn chebyshev_lp(x: &[f64], y: Option<&[f64]>, z: &[f64]) -> f64 {
+    let scale = |v: &[f64]| {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        let s = v.iter().map(|t| (t - m).abs()).fold(0.0, f64::max);
+        v.iter().map(|t| (t - m) / s).collect::<Vec<f64>>()
+    };
+    let xs = scale(x);
+    let ys = y.map(scale);
+    let mut lp = Problem::new(OptimizationDirection::Minimize);
+    let free = (f64::NEG_INFINITY, f64::INFINITY);
+    let (a, b, c) = (
+        lp.add_var(0.0, free),
+        lp.add_var(0.0, free),
+        lp.add_var(0.0, free),
+    );
+    let h = lp.add_var(1.0, (0.0, f64::INFINITY));
+    for i in 0..z.len() {
+        let by = ys.as_ref().map_or(0.0, |ys| ys[i]);
+        lp.add_constraint(
+            [(a, xs[i]), (b, by), (c, 1.0), (h, 1.0)],
+            ComparisonOp::Ge,
+            z[i],
+        );
+        lp.add_constraint(
+            [(a, xs[i]), (b, by), (c, 1.0), (h, -1.0)],
+            ComparisonOp::Le,
+            z[i],
+        );
+    }
+    let sol = lp.solve().unwrap().into_solution().unwrap();
+    // The width at the LP's slopes, evaluated exactly (2h up to rounding).
+    let (va, vb) = (sol.var_value(a), sol.var_value(b));
+    let r: Vec<f64> = (0..z.len())
+        .map(|i| z[i] - va * xs[i] - vb * ys.as_ref().map_or(0.0, |ys| ys[i]))
+        .collect();
+    max(r.iter().copied()) - min(r.iter().copied())
+}
+
+fn check_line(what: &str, l: &LineModel, r: &LineReport) {
+    let t = truth(l);
+    let p = &r.positioning;
+    for (name, got, want) in [
+        ("A", p.a_um, t.a),
+        ("A↑", p.a_up_um, t.a_up),
+        ("A↓", p.a_down_um, t.a_down),
+        ("E", p.e_um, t.e),
+        ("E↑", p.e_up_um, t.e_up),
+        ("E↓", p.e_down_um, t.e_down),
+        ("M", p.m_um, t.m),
+        ("R", p.r_um, t.r),
+        ("R↑", p.r_up_um, t.r_up),
+        ("R↓", p.r_down_um, t.r_down),
+        ("B", p.b_um, t.b),
+        ("B̄", p.b_mean_um, t.b_mean),
+    ] {
+        let got = got.unwrap_or_else(|| panic!("{what}: {name} missing"));
+        close(&format!("{what} {name}"), got, want, UM);
+    }
+    close(&format!("{what} seed 3σ"), p.seed_3sigma_um, t.seed, UM);
+    assert_eq!((p.runs_up, p.runs_down), (l.runs, l.runs));
+    for (i, row) in p.targets.iter().enumerate() {
+        close(
+            &format!("{what} x̄↑ at {i}"),
+            row.mean_up_um.unwrap(),
+            t.mean_up[i],
+            UM,
+        );
+        close(
+            &format!("{what} x̄↓ at {i}"),
+            row.mean_down_um.unwrap(),
+            t.mean_down[i],
+            UM,
+        );
+        close(
+            &format!("{what} s↑ at {i}"),
+            row.s_up_um.unwrap(),
+            l.s_up[i] * 1e3,
+            UM,
+        );
+        close(
+            &format!("{what} s↓ at {i}"),
+            row.s_down_um.unwrap(),
+            l.s_down[i] * 1e3,
+            UM,
+        );
+        assert_eq!(row.nominal, l.c[i]);
+    }
+
+    // Straightness: the model's deviations have a zero least-squares line, so
+    // the least-squares figure is their range.
+    let perp = l.perpendicular();
+    for (k, (world, _)) in perp.iter().enumerate() {
+        let s = &r.straightness[world.name()];
+        let d: Vec<f64> = l.d[k].iter().map(|v| v * 1e3).collect();
+        let lsq = max(d.iter().copied()) - min(d.iter().copied());
+        close(
+            &format!("{what} straightness {world} LSQ"),
+            s.lsq_um,
+            lsq,
+            UM,
+        );
+        for (row, want) in s.targets.iter().zip(&d) {
+            close(
+                &format!("{what} straightness {world} deviation"),
+                row.deviation_um,
+                *want,
+                UM,
+            );
+        }
+        assert!(
+            s.min_zone_um <= s.lsq_um + 1e-9,
+            "{what}: min zone above LSQ"
+        );
+        let along: Vec<f64> = (0..l.c.len()).map(|i| l.c[i] + l.p[i]).collect();
+        let lp = chebyshev_lp(&along, None, &d);
+        close(
+            &format!("{what} straightness {world} min zone vs LP"),
+            s.min_zone_um,
+            lp,
+            UM,
+        );
+    }
+
+    // Angular errors: the model's rotation vectors.
+    let ang = r
+        .angular
+        .as_ref()
+        .unwrap_or_else(|| panic!("{what}: no angular errors"));
+    let rpy = |w: &geom::Vector3<f64>| match l.axis {
+        Axis::X => [w.x, w.y, w.z],
+        Axis::Y => [w.y, w.x, w.z],
+        Axis::Z => [w.z, w.x, w.y],
+    };
+    for (row, w) in ang.targets.iter().zip(&l.omega) {
+        let [roll, pitch, yaw] = rpy(w).map(|v| v * 1e6);
+        close(&format!("{what} roll"), row.roll_urad, roll, URAD);
+        close(&format!("{what} pitch"), row.pitch_urad, pitch, URAD);
+        close(&format!("{what} yaw"), row.yaw_urad, yaw, URAD);
+    }
+    let ranges: Vec<[f64; 3]> = l.omega.iter().map(|w| rpy(w).map(|v| v * 1e6)).collect();
+    for (j, got) in [ang.roll_urad, ang.pitch_urad, ang.yaw_urad]
+        .into_iter()
+        .enumerate()
+    {
+        let want = max(ranges.iter().map(|r| r[j])) - min(ranges.iter().map(|r| r[j]));
+        close(&format!("{what} angular range {j}"), got, want, URAD);
+    }
+    assert!(ang.fit_rms_um < 1e-6);
+}
+
+/// Least-squares plane z = a·x + b·y + c by the normal equations on centred
+/// coordinates (Cramer's rule), and the range of the vertical residuals.
+fn lsq_flatness(pts: &[geom::Point3<f64>]) -> f64 {
+    let n = pts.len() as f64;
+    let (mx, my, mz) = (
+        pts.iter().map(|p| p.x).sum::<f64>() / n,
+        pts.iter().map(|p| p.y).sum::<f64>() / n,
+        pts.iter().map(|p| p.z).sum::<f64>() / n,
+    );
+    let (mut sxx, mut sxy, mut syy, mut sxz, mut syz) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for p in pts {
+        let (x, y, z) = (p.x - mx, p.y - my, p.z - mz);
+        sxx += x * x;
+        sxy += x * y;
+        syy += y * y;
+        sxz += x * z;
+        syz += y * z;
+    }
+    let det = sxx * syy - sxy * sxy;
+    let a = (sxz * syy - syz * sxy) / det;
+    let b = (sxx * syz - sxy * sxz) / det;
+    let r: Vec<f64> = pts
+        .iter()
+        .map(|p| (p.z - mz) - a * (p.x - mx) - b * (p.y - my))
+        .collect();
+    max(r.iter().copied()) - min(r.iter().copied())
+}
+
+fn evaluated(lines: &[LineModel], options: &Options) -> Report {
+    evaluate(&rows(lines), options).unwrap()
+}
+
+#[test]
+fn campaign_gives_back_the_model() {
+    let lines = campaign();
+    let report = evaluated(&lines, &Options::default());
+    assert_eq!(report.sphere, "A");
+    let x = report.axes.x.as_ref().unwrap();
+    assert_eq!(x.lines.len(), 3);
+    // The middle line has the most runs: it is axes.X.
+    assert_eq!(x.main.off_axis["y"], 0.0);
+    assert_eq!(x.main, x.lines[1]);
+    for (i, l) in lines[..3].iter().enumerate() {
+        check_line(&format!("X line {i}"), l, &x.lines[i]);
+        // The fitted direction is the model's (free of its 0.8 mrad yaw).
+        let d = x.lines[i].direction;
+        assert!((geom::Vector3::from(d) - l.e()).norm() < 1e-12, "{d:?}");
+    }
+    let y = report.axes.y.as_ref().unwrap();
+    check_line("Y line", &lines[3], &y.main);
+    assert!(report.axes.z.is_none());
+
+    // Flatness: every per-target mean of sphere A on the X and Y lines.
+    let pts: Vec<geom::Point3<f64>> = lines
+        .iter()
+        .flat_map(|l| (0..l.c.len()).map(|k| l.mean_a(k)))
+        .collect();
+    let f = report.flatness.as_ref().unwrap();
+    assert_eq!(f.points.len(), pts.len());
+    close("flatness LSQ", f.lsq_um, lsq_flatness(&pts) * 1e3, UM);
+    assert!(f.min_zone_um <= f.lsq_um + 1e-9);
+    let (xs, ys, zs): (Vec<f64>, Vec<f64>, Vec<f64>) = (
+        pts.iter().map(|p| p.x).collect(),
+        pts.iter().map(|p| p.y).collect(),
+        pts.iter().map(|p| p.z * 1e3).collect(),
+    );
+    close(
+        "flatness min zone vs LP",
+        f.min_zone_um,
+        chebyshev_lp(&xs, Some(&ys), &zs),
+        UM,
+    );
+    assert!(
+        f.min_zone_um < f.lsq_um - 0.01,
+        "the model's min zone should be visibly below LSQ"
+    );
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+}
+
+#[test]
+fn vdi3441_from_the_model() {
+    let lines = campaign();
+    let options = Options {
+        vdi3441: true,
+        ..Options::default()
+    };
+    let report = evaluated(&lines[1..2], &options);
+    let v = report
+        .axes
+        .x
+        .as_ref()
+        .unwrap()
+        .main
+        .positioning
+        .vdi3441
+        .clone()
+        .unwrap();
+    let l = &lines[1];
+    let um = |v: f64| v * 1e3;
+    let n = l.c.len();
+    let mean: Vec<f64> = (0..n).map(|i| um(l.p[i] - l.p[0])).collect();
+    let u: Vec<f64> = l.b.iter().map(|b| um(b.abs())).collect();
+    let ps: Vec<f64> = (0..n)
+        .map(|i| 6.0 * um(l.s_up[i] + l.s_down[i]) / 2.0)
+        .collect();
+    close(
+        "P",
+        v.p_um,
+        max((0..n).map(|i| mean[i] + (u[i] + ps[i]) / 2.0))
+            - min((0..n).map(|i| mean[i] - (u[i] + ps[i]) / 2.0)),
+        UM,
+    );
+    close("Ps", v.ps_um, max(ps.iter().copied()), UM);
+    close("U", v.u_um, max(u.iter().copied()), UM);
+    close(
+        "Pa",
+        v.pa_um,
+        max(mean.iter().copied()) - min(mean.iter().copied()),
+        UM,
+    );
+    // Not asked for: absent.
+    let plain = evaluated(&lines[1..2], &Options::default());
+    assert!(
+        plain
+            .axes
+            .x
+            .as_ref()
+            .unwrap()
+            .main
+            .positioning
+            .vdi3441
+            .is_none()
+    );
+}
+
+#[test]
+fn one_direction_gives_unidirectional_figures_and_omits_the_rest() {
+    let mut l = campaign().swap_remove(1);
+    l.directions = vec![Direction::Down];
+    let report = evaluated(std::slice::from_ref(&l), &Options::default());
+    let p = &report.axes.x.as_ref().unwrap().main.positioning;
+    let t = truth(&l);
+    close("E↓", p.e_down_um.unwrap(), t.e_down, UM);
+    close("A↓", p.a_down_um.unwrap(), t.a_down, UM);
+    close("R↓", p.r_down_um.unwrap(), t.r_down, UM);
+    assert!(p.a_um.is_none() && p.b_um.is_none() && p.e_up_um.is_none() && p.m_um.is_none());
+    let json = serde_json::to_value(&report).unwrap();
+    let pos = &json["axes"]["X"]["positioning"];
+    for key in [
+        "A_um",
+        "A_up_um",
+        "E_um",
+        "E_up_um",
+        "M_um",
+        "R_um",
+        "R_up_um",
+        "B_um",
+        "B_mean_um",
+    ] {
+        assert!(pos.get(key).is_none(), "{key} should be omitted: {pos}");
+    }
+    for key in [
+        "A_down_um",
+        "E_down_um",
+        "R_down_um",
+        "seed_3sigma_um",
+        "targets",
+    ] {
+        assert!(pos.get(key).is_some(), "{key} missing");
+    }
+    assert!(pos["targets"][0].get("mean_up_um").is_none());
+    assert!(json["axes"].get("Y").is_none(), "{}", json["axes"]);
+    assert!(json.get("flatness").is_none(), "{}", json["flatness"]);
+    // A single line does not span a plane: flatness is left out, with a warning.
+    assert!(report.warnings.iter().any(|w| w.contains("flatness")));
+}
+
+#[test]
+fn report_json_has_the_contract_shape() {
+    let lines = campaign();
+    let json = serde_json::to_value(evaluated(&lines, &Options::default())).unwrap();
+    for axis in ["X", "Y"] {
+        let a = &json["axes"][axis];
+        for key in [
+            "A_um",
+            "A_up_um",
+            "A_down_um",
+            "E_um",
+            "E_up_um",
+            "E_down_um",
+            "M_um",
+            "R_um",
+            "R_up_um",
+            "R_down_um",
+            "B_um",
+            "B_mean_um",
+            "seed_3sigma_um",
+        ] {
+            assert!(
+                a["positioning"][key].is_f64(),
+                "axes.{axis}.positioning.{key}"
+            );
+        }
+        for key in [
+            "target",
+            "nominal",
+            "mean_up_um",
+            "mean_down_um",
+            "s_up_um",
+            "s_down_um",
+            "B_um",
+        ] {
+            assert!(
+                !a["positioning"]["targets"][0][key].is_null(),
+                "targets[].{key}"
+            );
+        }
+        let perp = if axis == "X" { ["Y", "Z"] } else { ["X", "Z"] };
+        for d in perp {
+            assert!(
+                a["straightness"][d]["lsq_um"].is_f64()
+                    && a["straightness"][d]["min_zone_um"].is_f64()
+            );
+        }
+        for key in ["roll_urad", "pitch_urad", "yaw_urad"] {
+            assert!(a["angular"][key].is_f64(), "axes.{axis}.angular.{key}");
+        }
+        assert!(a["lines"].is_array());
+    }
+    assert_eq!(json["axes"]["X"]["lines"].as_array().unwrap().len(), 3);
+    assert!(json["axes"]["X"]["lines"][0]["off_axis"]["y"].is_f64());
+    assert!(json["flatness"]["lsq_um"].is_f64() && json["flatness"]["min_zone_um"].is_f64());
+}
+
+#[test]
+fn equal_runs_pick_the_line_nearest_the_origin() {
+    let mut lines = campaign();
+    lines.truncate(3);
+    for l in &mut lines {
+        l.runs = 3;
+    }
+    let report = evaluated(&lines, &Options::default());
+    assert_eq!(report.axes.x.as_ref().unwrap().main.off_axis["y"], 0.0);
+    // With the middle line gone, the tie between y = ±20 goes to the first.
+    let report = evaluated(&[lines[2].clone(), lines[0].clone()], &Options::default());
+    assert_eq!(report.axes.x.as_ref().unwrap().main.off_axis["y"], -20.0);
+}
+
+#[test]
+fn two_spheres_give_no_angular_errors() {
+    let lines = campaign();
+    let rows: Vec<_> = rows(&lines[1..2])
+        .into_iter()
+        .filter(|r| r.sphere != "C")
+        .collect();
+    let report = evaluate(&rows, &Options::default()).unwrap();
+    assert!(report.axes.x.as_ref().unwrap().main.angular.is_none());
+    // Another sphere can carry the figures; B rides on the rotations, so only
+    // its presence is checked here.
+    let options = Options {
+        sphere: Some("B".into()),
+        ..Options::default()
+    };
+    assert_eq!(evaluate(&rows, &options).unwrap().sphere, "B");
+    let options = Options {
+        sphere: Some("Q".into()),
+        ..Options::default()
+    };
+    let e = evaluate(&rows, &options).unwrap_err().to_string();
+    assert!(e.contains("'Q'") && e.contains("A, B"), "{e}");
+}
