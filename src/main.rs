@@ -20,6 +20,8 @@ struct Cli {
 enum Command {
     /// ISO 230-2 positioning, straightness, flatness and angular errors from points.csv.
     Evaluate(cmd::evaluate::Args),
+    /// Sub-pixel blob centres of images into blobs.csv (thresholded gray centroid).
+    Extract(cmd::extract::Args),
     /// Fit a geometric element (least squares and minimum zone) to a point file.
     Fit(cmd::fit::Args),
 }
@@ -52,6 +54,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Evaluate(args) => cmd::evaluate::run(&args),
+        Command::Extract(args) => cmd::extract::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),
     };
     match result {

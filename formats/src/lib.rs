@@ -10,6 +10,7 @@
 mod error;
 
 pub mod atomic;
+pub mod blobs;
 pub mod campaign;
 pub mod json;
 pub mod points;
@@ -19,6 +20,7 @@ pub mod target;
 pub mod truth;
 
 pub use atomic::{AtomicFile, write_atomic};
+pub use blobs::{BlobRow, ProblemRow};
 pub use campaign::{Axis, Direction, InstantKey, ManifestRow, SphereRow};
 pub use error::{FormatError, Result};
 pub use json::{read_json, write_json};

@@ -1,0 +1,126 @@
+//! The backend seam: a [`Backend`] turns a frame into blobs. The CPU backend
+//! is the reference; a GPU backend plugs in behind the same trait and must
+//! find the same blobs with the same centroids (within its stated tolerance).
+
+use serde::{Deserialize, Serialize};
+
+use crate::background::BackgroundStats;
+use crate::blob::{self, Blob};
+use crate::denoise::{self, Denoise};
+use crate::frame::FrameView;
+use crate::label::{self, Weighting};
+use crate::threshold::{Level, Threshold};
+use crate::{ExtractError, Result};
+
+/// Default smallest blob kept (px): smaller ones are noise spikes.
+pub const DEFAULT_MIN_AREA: u64 = 5;
+/// Default limit on above-threshold runs per frame (guards against a threshold in the noise).
+pub const DEFAULT_MAX_RUNS: usize = 2_000_000;
+
+/// Everything that decides what is extracted from a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ExtractParams {
+    /// Threshold T: fixed or automatic.
+    pub threshold: Threshold,
+    /// Centroid weights: `F = f − T` or `F = f`.
+    pub weighting: Weighting,
+    /// Optional denoising before thresholding.
+    pub denoise: Denoise,
+    /// Smallest blob kept (px).
+    pub min_area: u64,
+    /// Largest blob kept (px).
+    pub max_area: u64,
+    /// Give up on a frame with more above-threshold runs than this.
+    pub max_runs: usize,
+}
+
+impl Default for ExtractParams {
+    fn default() -> Self {
+        Self {
+            threshold: Threshold::default(),
+            weighting: Weighting::Subtracted,
+            denoise: Denoise::None,
+            min_area: DEFAULT_MIN_AREA,
+            max_area: u64::MAX,
+            max_runs: DEFAULT_MAX_RUNS,
+        }
+    }
+}
+
+impl ExtractParams {
+    /// Check the parameters on their own.
+    pub fn validate(&self) -> Result<()> {
+        if self.min_area > self.max_area {
+            return Err(ExtractError::Parameters(format!(
+                "min_area {} exceeds max_area {}",
+                self.min_area, self.max_area
+            )));
+        }
+        if let Denoise::Gaussian { sigma } = self.denoise
+            && !(sigma.is_finite() && sigma > 0.0)
+        {
+            return Err(ExtractError::Parameters(format!("Gaussian sigma {sigma} must be positive")));
+        }
+        Ok(())
+    }
+}
+
+/// What one frame gave.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Extraction {
+    /// Blobs in raster order of their first pixel, within the area limits.
+    pub blobs: Vec<Blob>,
+    /// The threshold used.
+    pub level: Level,
+    /// The background estimate, when the threshold was automatic and global.
+    pub background: Option<BackgroundStats>,
+    /// Blobs dropped for being smaller than `min_area`.
+    pub too_small: usize,
+    /// Blobs dropped for being larger than `max_area`.
+    pub too_large: usize,
+}
+
+/// A compute backend for extraction.
+pub trait Backend: Send + Sync {
+    /// Name for logs and benchmark output (for a GPU: the adapter).
+    fn name(&self) -> String;
+    /// Extract the blobs of one frame.
+    fn extract(&self, frame: FrameView<'_>, params: &ExtractParams) -> Result<Extraction>;
+}
+
+/// The reference backend: rayon across row bands (and across frames in batches).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CpuBackend;
+
+impl Backend for CpuBackend {
+    fn name(&self) -> String {
+        format!("cpu ({} threads)", rayon::current_num_threads())
+    }
+
+    fn extract(&self, frame: FrameView<'_>, params: &ExtractParams) -> Result<Extraction> {
+        params.validate()?;
+        let denoised = denoise::apply(&frame, params.denoise);
+        let frame = denoised.as_ref().map_or(frame, |f| f.view());
+        let (level, background) = params.threshold.resolve(&frame)?;
+        let labelling = label::label(&frame, &level, params.weighting, params.max_runs)?;
+        let all = blob::collect(&frame, labelling);
+        Ok(filter_area(all, level, background, params))
+    }
+}
+
+/// Apply the area limits and assemble the result (shared by every backend).
+pub fn filter_area(all: Vec<Blob>, level: Level, background: Option<BackgroundStats>, params: &ExtractParams) -> Extraction {
+    let total = all.len();
+    let too_small = all.iter().filter(|b| b.area_px < params.min_area).count();
+    let blobs: Vec<Blob> = all
+        .into_iter()
+        .filter(|b| (params.min_area..=params.max_area).contains(&b.area_px))
+        .collect();
+    Extraction {
+        too_large: total - too_small - blobs.len(),
+        too_small,
+        blobs,
+        level,
+        background,
+    }
+}

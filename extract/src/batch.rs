@@ -1,0 +1,77 @@
+//! Many frames: decode and extract in parallel, deliver results in input
+//! order, carry on past a bad file. Memory stays bounded: files are taken in
+//! chunks, each thread reuses one [`FrameReader`], and blob runs are dropped.
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+
+use crate::backend::{Backend, ExtractParams};
+use crate::blob::Blob;
+use crate::decode::FrameReader;
+use crate::metadata::FrameMetadata;
+use crate::Result;
+
+/// Files processed together; results of a chunk are delivered in order.
+const CHUNK_FILES: usize = 32;
+
+/// What one file gave.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameBlobs {
+    /// Acquisition metadata from the image tags.
+    pub metadata: FrameMetadata,
+    /// Width (px).
+    pub width: u32,
+    /// Height (px).
+    pub height: u32,
+    /// Bit depth (8 or 16).
+    pub bit_depth: u8,
+    /// Threshold used, described.
+    pub threshold: String,
+    /// Blobs within the area limits, without their runs.
+    pub blobs: Vec<Blob>,
+}
+
+/// Decode and extract one file with a reader whose buffers are reused.
+pub fn extract_file(reader: &mut FrameReader, path: &Path, backend: &dyn Backend, params: &ExtractParams) -> Result<FrameBlobs> {
+    let (frame, metadata) = reader.read(path)?;
+    let (width, height, bit_depth) = (frame.width, frame.height, frame.bit_depth);
+    let extraction = backend.extract(frame, params).map_err(|e| e.in_file(path))?;
+    let blobs = extraction
+        .blobs
+        .into_iter()
+        .map(|mut b| {
+            b.runs = Vec::new();
+            b
+        })
+        .collect();
+    Ok(FrameBlobs {
+        metadata,
+        width,
+        height,
+        bit_depth,
+        threshold: extraction.level.describe(),
+        blobs,
+    })
+}
+
+/// Extract every file; `sink(index, path, result)` is called once per file,
+/// in input order. A failed file is reported to the sink and the batch goes on.
+/// `expected_depth` rejects frames of another bit depth.
+pub fn extract_files<F>(paths: &[PathBuf], backend: &dyn Backend, params: &ExtractParams, expected_depth: Option<u8>, mut sink: F)
+where
+    F: FnMut(usize, &Path, Result<FrameBlobs>),
+{
+    for (c, chunk) in paths.chunks(CHUNK_FILES).enumerate() {
+        let results: Vec<Result<FrameBlobs>> = chunk
+            .par_iter()
+            .map_init(
+                || FrameReader::new().expect_bit_depth(expected_depth),
+                |reader, path| extract_file(reader, path, backend, params),
+            )
+            .collect();
+        for (i, (path, result)) in chunk.iter().zip(results).enumerate() {
+            sink(c * CHUNK_FILES + i, path, result);
+        }
+    }
+}

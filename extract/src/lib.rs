@@ -1,0 +1,37 @@
+//! Extraction of luminous blobs from grayscale frames: decode (8/16-bit TIFF
+//! and PNG, with EXIF metadata), optional denoising, background and threshold
+//! (fixed or automatic, global or local), run-length connected components,
+//! and the thresholded gray centroid with exact integer moments.
+//!
+//! # Conventions
+//! - Pixel coordinates: the centre of the top-left pixel is (0, 0), u to the
+//!   right, v down. A blob covering pixels 0..=9 in u has its centre at 4.5.
+//! - Values in native DN: 8-bit frames keep 0..=255 (stored as `u16`);
+//!   thresholds are in the frame's own DN. A pixel is above the threshold when f ≥ T.
+//! - Centroid (METHODS.md §1): `u0 = Σu·F/ΣF`, `v0 = Σv·F/ΣF` with `F = f − T`
+//!   (default) or `F = f` over each 8-connected blob of pixels with f ≥ T.
+//! - Results are exact integer sums: the same on any number of threads.
+
+mod error;
+
+pub mod background;
+pub mod batch;
+pub mod backend;
+pub mod blob;
+pub mod decode;
+pub mod denoise;
+pub mod frame;
+pub mod label;
+pub mod metadata;
+pub mod threshold;
+
+pub use backend::{Backend, CpuBackend, ExtractParams, Extraction};
+pub use batch::{FrameBlobs, extract_file, extract_files};
+pub use blob::{Blob, BoundingBox, Moments, PixelMap, mapped_centroid};
+pub use decode::FrameReader;
+pub use denoise::Denoise;
+pub use error::{ExtractError, Result};
+pub use frame::{Frame, FrameView};
+pub use label::Weighting;
+pub use metadata::FrameMetadata;
+pub use threshold::{Level, Threshold};

@@ -1,0 +1,157 @@
+//! Bad input yields an error that names the file and the problem, and a batch
+//! carries on past it: corrupt, truncated, empty, colour, wrong bit depth,
+//! missing files.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+
+use extract::{CpuBackend, ExtractParams, FrameReader, Threshold, extract_files};
+use image::{ExtendedColorType, ImageFormat};
+
+const W: u32 = 64;
+const H: u32 = 48;
+
+/// A 16-bit frame: background 1000, one 12×12 square of 20000 at (20..32, 10..22).
+fn frame16() -> Vec<u16> {
+    (0..H)
+        .flat_map(|y| (0..W).map(move |x| if (20..32).contains(&x) && (10..22).contains(&y) { 20_000 } else { 1000 }))
+        .collect()
+}
+
+fn save16(path: &Path, format: ImageFormat) {
+    let bytes: Vec<u8> = frame16().iter().flat_map(|p| p.to_ne_bytes()).collect();
+    image::save_buffer_with_format(path, &bytes, W, H, ExtendedColorType::L16, format).unwrap();
+}
+
+fn save8(path: &Path) {
+    let bytes: Vec<u8> = frame16().iter().map(|&p| (p / 256) as u8).collect();
+    image::save_buffer_with_format(path, &bytes, W, H, ExtendedColorType::L8, ImageFormat::Png).unwrap();
+}
+
+fn read_err(path: &Path, depth: Option<u8>) -> String {
+    let mut r = FrameReader::new().expect_bit_depth(depth);
+    let e = r.read(path).err().expect("expected an error").to_string();
+    assert!(e.contains(&path.display().to_string()), "error does not name the file: {e}");
+    e
+}
+
+#[test]
+fn good_frames_decode_in_native_dn() {
+    let dir = tempfile::tempdir().unwrap();
+    let (tif, png16, png8) = (dir.path().join("a.tif"), dir.path().join("b.png"), dir.path().join("c.png"));
+    save16(&tif, ImageFormat::Tiff);
+    save16(&png16, ImageFormat::Png);
+    save8(&png8);
+    let mut r = FrameReader::new();
+    for p in [&tif, &png16] {
+        let (f, _) = r.read(p).unwrap();
+        assert_eq!((f.width, f.height, f.bit_depth), (W, H, 16));
+        assert_eq!(f.pixels, &frame16()[..]);
+    }
+    let (f, _) = r.read(&png8).unwrap();
+    assert_eq!(f.bit_depth, 8);
+    assert_eq!(f.pixels[0], 1000 / 256);
+    assert_eq!(f.max_value(), 255);
+}
+
+#[test]
+fn bad_files_are_named_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+
+    let tif = d.join("good.tif");
+    save16(&tif, ImageFormat::Tiff);
+    let bytes = std::fs::read(&tif).unwrap();
+
+    let truncated = d.join("truncated.tif");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    let e = read_err(&truncated, None);
+    assert!(e.contains("cannot decode"), "{e}");
+
+    let corrupt = d.join("corrupt.tif");
+    let mut c = bytes.clone();
+    c[4..8].copy_from_slice(&[0xff, 0xff, 0xff, 0x7f]); // IFD offset far beyond the file
+    std::fs::write(&corrupt, &c).unwrap();
+    assert!(read_err(&corrupt, None).contains("cannot decode"));
+
+    let garbage = d.join("garbage.tif");
+    std::fs::write(&garbage, b"this is not an image at all").unwrap();
+    assert!(read_err(&garbage, None).contains("cannot decode"));
+
+    let empty = d.join("empty.png");
+    std::fs::write(&empty, b"").unwrap();
+    assert!(read_err(&empty, None).contains("empty"));
+
+    let missing = d.join("missing.tif");
+    assert!(read_err(&missing, None).contains("No such file"));
+
+    let colour = d.join("colour.png");
+    image::save_buffer_with_format(&colour, &vec![0u8; (W * H * 3) as usize], W, H, ExtendedColorType::Rgb8, ImageFormat::Png)
+        .unwrap();
+    let e = read_err(&colour, None);
+    assert!(e.contains("Rgb8") && e.contains("grayscale"), "{e}");
+
+    let png8 = d.join("eight.png");
+    save8(&png8);
+    let e = read_err(&png8, Some(16));
+    assert!(e.contains("8-bit image where 16-bit"), "{e}");
+
+    let jpeg = d.join("photo.jpg");
+    std::fs::write(&jpeg, [0xFF, 0xD8, 0xFF, 0xE0, 0, 16, b'J', b'F', b'I', b'F', 0]).unwrap();
+    assert!(read_err(&jpeg, None).contains("not supported"));
+}
+
+#[test]
+fn batch_carries_on_past_bad_files_in_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut files: Vec<PathBuf> = Vec::new();
+    for i in 0..40 {
+        let p = d.join(format!("f{i:02}.tif"));
+        match i {
+            7 => std::fs::write(&p, b"corrupt").unwrap(),
+            23 => {} // missing
+            _ => save16(&p, ImageFormat::Tiff),
+        }
+        files.push(p);
+    }
+    let params = ExtractParams {
+        threshold: Threshold::Fixed(6000),
+        ..ExtractParams::default()
+    };
+    let mut seen = Vec::new();
+    extract_files(&files, &CpuBackend, &params, Some(16), |i, path, result| {
+        assert_eq!(path, files[i]);
+        match result {
+            Ok(f) => {
+                assert_eq!(f.blobs.len(), 1);
+                // Square over columns 20..=31 and rows 10..=21: centre (25.5, 15.5).
+                assert_eq!((f.blobs[0].u, f.blobs[0].v), (25.5, 15.5));
+                seen.push((i, true));
+            }
+            Err(e) => {
+                assert!(e.to_string().contains(&path.display().to_string()));
+                seen.push((i, false));
+            }
+        }
+    });
+    assert_eq!(seen.len(), 40);
+    assert!(seen.iter().enumerate().all(|(k, (i, _))| k == *i), "out of order");
+    let bad: Vec<usize> = seen.iter().filter(|(_, ok)| !ok).map(|(i, _)| *i).collect();
+    assert_eq!(bad, vec![7, 23]);
+}
+
+#[test]
+fn threshold_outside_the_bit_depth_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let png8 = dir.path().join("eight.png");
+    save8(&png8);
+    let mut r = FrameReader::new();
+    let params = ExtractParams {
+        threshold: Threshold::Fixed(6000),
+        ..ExtractParams::default()
+    };
+    let e = extract::extract_file(&mut r, &png8, &CpuBackend, &params).err().unwrap().to_string();
+    assert!(e.contains("eight.png") && e.contains("outside 1..=255"), "{e}");
+}

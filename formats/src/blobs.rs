@@ -1,0 +1,92 @@
+//! Extracted blobs (`blobs.csv`), one row per blob.
+
+use serde::{Deserialize, Serialize};
+
+use crate::table::{Invalid, Record, finite};
+
+/// One row of `blobs.csv`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlobRow {
+    /// Image path as given.
+    pub image: String,
+    /// Blob index within the image (raster order of its first pixel).
+    pub blob: u32,
+    /// Centroid u (px; centre of the top-left pixel = 0).
+    pub u: f64,
+    /// Centroid v (px).
+    pub v: f64,
+    /// Pixels in the blob.
+    pub area_px: u64,
+    /// Equivalent diameter √(4·area/π) (px).
+    pub diameter_px: f64,
+    /// Largest pixel value (DN).
+    pub peak: u16,
+    /// Some pixel is at the saturation level.
+    pub saturated: bool,
+    /// The blob touches the image border.
+    pub touches_border: bool,
+    /// Sphere the blob was matched to, where matched.
+    #[serde(default)]
+    pub sphere: Option<String>,
+    /// Σ F (DN·px).
+    pub signal: f64,
+    /// Major axis of the moment ellipse (px).
+    pub major_px: f64,
+    /// Minor axis of the moment ellipse (px).
+    pub minor_px: f64,
+    /// Orientation of the major axis from +u towards +v (rad).
+    pub orientation_rad: f64,
+    /// Minor/major axis ratio.
+    pub circularity: f64,
+    /// Threshold used (DN; for a local threshold, its range).
+    pub threshold: String,
+    /// Camera model from the image tags.
+    #[serde(default)]
+    pub camera_model: Option<String>,
+    /// Camera serial number from the image tags.
+    #[serde(default)]
+    pub camera_serial: Option<String>,
+    /// Acquisition time from the image tags (ISO 8601).
+    #[serde(default)]
+    pub datetime: Option<String>,
+    /// Exposure time from the image tags (s).
+    #[serde(default)]
+    pub exposure_s: Option<f64>,
+}
+
+impl Record for BlobRow {
+    const COLUMNS: &'static [&'static str] = &[
+        "image",
+        "blob",
+        "u",
+        "v",
+        "area_px",
+        "diameter_px",
+        "peak",
+        "saturated",
+        "touches_border",
+    ];
+
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("u", self.u)?;
+        finite("v", self.v)?;
+        finite("diameter_px", self.diameter_px)
+    }
+}
+
+/// One row of `problems.csv`: an input that could not be used, and why.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProblemRow {
+    /// The file (or instant) at fault.
+    pub item: String,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl Record for ProblemRow {
+    const COLUMNS: &'static [&'static str] = &["item", "reason"];
+
+    fn validate(&self) -> Result<(), Invalid> {
+        Ok(())
+    }
+}

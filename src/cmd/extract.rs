@@ -1,0 +1,227 @@
+//! `trinocular extract`: blobs of every image into `blobs.csv`; unusable
+//! images go to `problems.csv` beside it and the run carries on.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use extract::{Backend, Denoise, ExtractParams, Threshold, Weighting};
+use formats::{AtomicFile, BlobRow, ProblemRow};
+
+use crate::cmd::backend::{BackendChoice, select_backend};
+use crate::cmd::progress;
+
+/// Centroid weighting.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum WeightingArg {
+    /// F = f − T (the seed's formula).
+    Subtracted,
+    /// F = f.
+    Raw,
+}
+
+/// Denoising filter.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum DenoiseArg {
+    /// None.
+    None,
+    /// 3×3 median.
+    Median,
+    /// Gaussian (see --sigma).
+    Gaussian,
+}
+
+/// Options shared by every command that extracts blobs.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ExtractOptions {
+    /// Threshold T in DN (e.g. 6000 on 16-bit frames), `auto` (global
+    /// background + k·σ) or `local` (background mesh + k·σ).
+    #[arg(long, default_value = "auto")]
+    threshold: String,
+    /// k of the automatic thresholds.
+    #[arg(long, default_value_t = extract::threshold::DEFAULT_K)]
+    k: f64,
+    /// Box size of the local background mesh (px).
+    #[arg(long, default_value_t = 64)]
+    mesh: u32,
+    /// Centroid weights.
+    #[arg(long, value_enum, default_value_t = WeightingArg::Subtracted)]
+    weighting: WeightingArg,
+    /// Denoising before thresholding.
+    #[arg(long, value_enum, default_value_t = DenoiseArg::None)]
+    denoise: DenoiseArg,
+    /// σ of the Gaussian denoising (px).
+    #[arg(long, default_value_t = 1.0)]
+    sigma: f32,
+    /// Smallest blob kept (px).
+    #[arg(long, default_value_t = extract::backend::DEFAULT_MIN_AREA)]
+    min_area: u64,
+    /// Largest blob kept (px).
+    #[arg(long)]
+    max_area: Option<u64>,
+    /// Compute backend.
+    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
+    backend: BackendChoice,
+}
+
+impl ExtractOptions {
+    /// The extraction parameters these flags describe.
+    pub fn params(&self) -> Result<ExtractParams> {
+        let threshold = match self.threshold.as_str() {
+            "auto" => Threshold::Auto { k: self.k },
+            "local" => Threshold::Local { k: self.k, mesh: self.mesh },
+            t => Threshold::Fixed(
+                t.parse()
+                    .with_context(|| format!("--threshold {t}: expected a level in DN, 'auto' or 'local'"))?,
+            ),
+        };
+        let params = ExtractParams {
+            threshold,
+            weighting: match self.weighting {
+                WeightingArg::Subtracted => Weighting::Subtracted,
+                WeightingArg::Raw => Weighting::Raw,
+            },
+            denoise: match self.denoise {
+                DenoiseArg::None => Denoise::None,
+                DenoiseArg::Median => Denoise::Median3,
+                DenoiseArg::Gaussian => Denoise::Gaussian { sigma: self.sigma },
+            },
+            min_area: self.min_area,
+            max_area: self.max_area.unwrap_or(u64::MAX),
+            ..ExtractParams::default()
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// The backend these flags choose.
+    pub fn backend(&self) -> Result<Box<dyn Backend>> {
+        select_backend(self.backend)
+    }
+}
+
+/// Arguments of `trinocular extract`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    options: ExtractOptions,
+    /// Require this bit depth (8 or 16); other frames are reported as problems.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["8", "16"]))]
+    bit_depth: Option<String>,
+    /// Output CSV (one row per blob); problems go to problems.csv beside it.
+    #[arg(long)]
+    out: PathBuf,
+    /// Images (8/16-bit grayscale TIFF or PNG) or folders of them.
+    #[arg(required = true)]
+    images: Vec<PathBuf>,
+}
+
+/// Image files of a folder (TIFF and PNG, sorted by name), or the path itself.
+pub fn expand_images(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for input in inputs {
+        if input.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(input)
+                .with_context(|| format!("{}", input.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| {
+                    p.is_file()
+                        && p.extension()
+                            .and_then(|e| e.to_str())
+                            .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "tif" | "tiff" | "png"))
+                })
+                .collect();
+            if found.is_empty() {
+                bail!("{}: no TIFF or PNG images in this folder", input.display());
+            }
+            found.sort();
+            files.extend(found);
+        } else {
+            files.push(input.clone());
+        }
+    }
+    Ok(files)
+}
+
+/// `problems.csv` beside `out`.
+pub fn problems_path(out: &Path) -> PathBuf {
+    out.with_file_name("problems.csv")
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> Result<()> {
+    let params = args.options.params()?;
+    let backend = args.options.backend()?;
+    let depth = args.bit_depth.as_deref().map(|d| if d == "8" { 8 } else { 16 });
+    let files = expand_images(&args.images)?;
+    let mut out = AtomicFile::create(&args.out)?;
+    let mut csv = csv::Writer::from_writer(&mut out);
+    let mut problems: Vec<ProblemRow> = Vec::new();
+    let mut write_error: Option<anyhow::Error> = None;
+    let bar = progress::bar(files.len() as u64, "extract");
+    extract::extract_files(&files, backend.as_ref(), &params, depth, |_, path, result| {
+        bar.inc(1);
+        let name = path.display().to_string();
+        match result {
+            Ok(frame) => {
+                for (i, b) in frame.blobs.iter().enumerate() {
+                    let e = b.ellipse();
+                    let row = BlobRow {
+                        image: name.clone(),
+                        blob: i as u32,
+                        u: b.u,
+                        v: b.v,
+                        area_px: b.area_px,
+                        diameter_px: b.diameter_px(),
+                        peak: b.peak,
+                        saturated: b.saturated(),
+                        touches_border: b.touches_border,
+                        sphere: None,
+                        signal: b.signal() as f64,
+                        major_px: e.major_px,
+                        minor_px: e.minor_px,
+                        orientation_rad: e.orientation_rad,
+                        circularity: b.circularity(),
+                        threshold: frame.threshold.clone(),
+                        camera_model: frame.metadata.model.clone(),
+                        camera_serial: frame.metadata.serial.clone(),
+                        datetime: frame.metadata.datetime.clone(),
+                        exposure_s: frame.metadata.exposure_s,
+                    };
+                    if let Err(e) = csv.serialize(row) {
+                        write_error.get_or_insert(e.into());
+                    }
+                }
+            }
+            Err(e) => {
+                bar.suspend(|| eprintln!("trinocular: warning: {e}"));
+                problems.push(ProblemRow {
+                    item: name,
+                    reason: e.to_string(),
+                });
+            }
+        }
+    });
+    bar.finish_and_clear();
+    if let Some(e) = write_error {
+        return Err(e.context(format!("{}", args.out.display())));
+    }
+    csv.flush().with_context(|| format!("{}", args.out.display()))?;
+    drop(csv);
+    out.commit()?;
+    let problems_file = problems_path(&args.out);
+    if problems.is_empty() {
+        // A stale problems.csv from an earlier run would mislead.
+        if problems_file.exists() {
+            std::fs::remove_file(&problems_file).with_context(|| format!("{}", problems_file.display()))?;
+        }
+        return Ok(());
+    }
+    formats::write_csv(&problems_file, &problems)?;
+    bail!(
+        "{} of {} images could not be used (listed in {})",
+        problems.len(),
+        files.len(),
+        problems_file.display()
+    )
+}
