@@ -92,10 +92,12 @@ fn summary(h: &mut String, report: &Report) {
     type Get = fn(&LineReport) -> Option<f64>;
     let rows: [(&str, Get); 13] = [
         ("A — bidirectional accuracy", |l| l.positioning.a_um),
-        ("A↑ / A↓ — unidirectional accuracy", |l| {
+        ("A↑ — unidirectional accuracy", |l| {
             l.positioning.a_up_um
         }),
-        ("A↓", |l| l.positioning.a_down_um),
+        ("A↓ — unidirectional accuracy", |l| {
+            l.positioning.a_down_um
+        }),
         ("E — systematic positional deviation", |l| {
             l.positioning.e_um
         }),
@@ -112,11 +114,6 @@ fn summary(h: &mut String, report: &Report) {
         ("yaw range", |l| l.angular.as_ref().map(|a| a.yaw_urad)),
     ];
     for (label, get) in rows {
-        let label = if label.starts_with("A↑") {
-            "A↑ — unidirectional accuracy"
-        } else {
-            label
-        };
         let _ = write!(h, "<tr><td class=\"l\">{}</td>", escape(label));
         for (_, a) in &axes {
             let _ = write!(h, "<td>{}</td>", num(get(&a.main)));

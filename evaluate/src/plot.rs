@@ -6,6 +6,9 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+/// The colour type of the plot constants.
+pub use plotters::style::RGBColor;
+
 use crate::report::{AngularReport, FlatnessReport, PositioningReport, StraightnessReport};
 use crate::{EvaluateError, Result};
 
@@ -59,6 +62,12 @@ fn padded(values: impl Iterator<Item = f64>, min_half: f64) -> (f64, f64) {
     (centre - half, centre + half)
 }
 
+/// Raise the top of a range by 35 % so that the legend (upper left) sits
+/// above the data.
+fn with_legend_room((lo, hi): (f64, f64)) -> (f64, f64) {
+    (lo, hi + 0.35 * (hi - lo))
+}
+
 /// Draw into a fresh SVG string of `size` with `draw`; errors carry `title`.
 fn svg(
     title: &str,
@@ -94,7 +103,7 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
             .chain(band(t.mean_down_um, t.s_down_um))
             .collect::<Vec<f64>>()
     });
-    let (y0, y1) = padded(ys, 0.5);
+    let (y0, y1) = with_legend_room(padded(ys, 0.5));
     svg(title, (WIDTH, HEIGHT), |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, (FONT, 20))
@@ -107,7 +116,8 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
             .configure_mesh()
             .x_desc("commanded position (mm)")
             .y_desc("positional deviation (µm)")
-            .light_line_style(RGBColor(235, 235, 235))
+            .light_line_style(RGBColor(240, 240, 240))
+            .max_light_lines(2)
             .draw()
             .map_err(|e| e.to_string())?;
         type Get = fn(&crate::report::PositioningTarget) -> (Option<f64>, Option<f64>, &[f64]);
@@ -161,10 +171,9 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
                     series
                         .label(format!("{name} x̄ ± 2s"))
                         .legend(move |(x, y)| {
-                            PathElement::new(
-                                vec![(x, y), (x + 8, y), (x + 12, y), (x + 20, y)],
-                                colour,
-                            )
+                            EmptyElement::at((x, y))
+                                + PathElement::new(vec![(0, 0), (7, 0)], colour)
+                                + PathElement::new(vec![(12, 0), (19, 0)], colour)
                         });
                 }
             }
@@ -196,12 +205,12 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
 /// target, the reference line itself (0) and the minimum zone as a band.
 pub fn straightness(title: &str, s: &StraightnessReport) -> Result<String> {
     let (x0, x1) = padded(s.targets.iter().map(|t| t.nominal), 1.0);
-    let (y0, y1) = padded(
+    let (y0, y1) = with_legend_room(padded(
         s.targets
             .iter()
             .flat_map(|t| [t.deviation_um, t.zone_low_um, t.zone_high_um]),
         0.5,
-    );
+    ));
     svg(title, (WIDTH, HEIGHT), |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, (FONT, 20))
@@ -214,7 +223,8 @@ pub fn straightness(title: &str, s: &StraightnessReport) -> Result<String> {
             .configure_mesh()
             .x_desc("commanded position (mm)")
             .y_desc("straightness deviation (µm)")
-            .light_line_style(RGBColor(235, 235, 235))
+            .light_line_style(RGBColor(240, 240, 240))
+            .max_light_lines(2)
             .draw()
             .map_err(|e| e.to_string())?;
         let mut band: Vec<(f64, f64)> = s
@@ -286,12 +296,12 @@ pub fn straightness(title: &str, s: &StraightnessReport) -> Result<String> {
 /// Roll, pitch and yaw per target (µrad).
 pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
     let (x0, x1) = padded(a.targets.iter().map(|t| t.nominal), 1.0);
-    let (y0, y1) = padded(
+    let (y0, y1) = with_legend_room(padded(
         a.targets
             .iter()
             .flat_map(|t| [t.roll_urad, t.pitch_urad, t.yaw_urad]),
         1.0,
-    );
+    ));
     svg(title, (WIDTH, HEIGHT), |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, (FONT, 20))
@@ -304,7 +314,8 @@ pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
             .configure_mesh()
             .x_desc("commanded position (mm)")
             .y_desc("angle (µrad)")
-            .light_line_style(RGBColor(235, 235, 235))
+            .light_line_style(RGBColor(240, 240, 240))
+            .max_light_lines(2)
             .draw()
             .map_err(|e| e.to_string())?;
         type Get = fn(&crate::report::AngularTarget) -> f64;
@@ -382,7 +393,8 @@ pub fn flatness(title: &str, f: &FlatnessReport) -> Result<String> {
             .configure_mesh()
             .x_desc("x (mm)")
             .y_desc("y (mm)")
-            .light_line_style(RGBColor(235, 235, 235))
+            .light_line_style(RGBColor(240, 240, 240))
+            .max_light_lines(2)
             .draw()
             .map_err(|e| e.to_string())?;
         let mut keys: Vec<(&str, usize)> =
