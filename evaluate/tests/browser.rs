@@ -237,6 +237,9 @@ impl Browser {
             self.call(domain, json!({}));
         }
         self.resize(height);
+        // Only the load of `url` counts, not a late one of about:blank.
+        self.events
+            .retain(|e| e["method"] != json!("Page.loadEventFired"));
         self.call("Page.navigate", json!({"url": url}));
         self.wait_event("Page.loadEventFired");
     }
@@ -292,7 +295,7 @@ impl Browser {
             .collect()
     }
 
-    fn close(mut self) {
+    fn close(&mut self) {
         self.session = None;
         self.next_id += 1;
         let msg = json!({"id": self.next_id, "method": "Browser.close", "params": {}});
@@ -308,6 +311,16 @@ impl Browser {
         }
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+}
+
+impl Drop for Browser {
+    /// A browser left running by a failed test is stopped (only the process this test started).
+    fn drop(&mut self) {
+        if matches!(self.child.try_wait(), Ok(None)) {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
     }
 }
 
