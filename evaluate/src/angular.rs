@@ -28,22 +28,9 @@ pub fn pose(first: &[Point3<f64>], at: &[Point3<f64>]) -> geom::Result<Pose> {
         .map(|(a, b)| (iso * a - b).norm_squared())
         .sum();
     Ok(Pose {
-        rotation: rotation_vector(&iso.rotation),
+        rotation: geom::transform::quaternion_vector(&iso.rotation),
         rms: (ss / first.len() as f64).sqrt(),
     })
-}
-
-/// Rotation vector of a unit quaternion `(w, v)`: `v·2·atan2(|v|, w)/|v|`,
-/// accurate to rounding at the µrad angles of a machine table (an angle from
-/// `acos` of the trace or of `w` loses half the digits there).
-pub fn rotation_vector(q: &geom::nalgebra::UnitQuaternion<f64>) -> Vector3<f64> {
-    let (w, v) = (q.scalar(), q.vector().into_owned());
-    let (w, v) = if w < 0.0 { (-w, -v) } else { (w, v) };
-    let s = v.norm();
-    if s == 0.0 {
-        return Vector3::zeros();
-    }
-    v * (2.0 * s.atan2(w) / s)
 }
 
 /// `[roll, pitch, yaw]` of a rotation vector for a moving `axis` (rad).
@@ -80,9 +67,9 @@ mod tests {
         // µrad angles to rounding, where acos-based conversions lose digits.
         let tiny = Vector3::new(1.1e-6, -2.3e-7, 1.4e-7);
         let q = geom::nalgebra::UnitQuaternion::from_scaled_axis(tiny);
-        assert!((rotation_vector(&q) - tiny).norm() < 1e-20);
+        assert!((geom::transform::quaternion_vector(&q) - tiny).norm() < 1e-20);
         let big = Vector3::new(0.3, -1.1, 0.7);
         let q = geom::nalgebra::UnitQuaternion::from_scaled_axis(big);
-        assert!((rotation_vector(&q) - big).norm() < 1e-14);
+        assert!((geom::transform::quaternion_vector(&q) - big).norm() < 1e-14);
     }
 }
