@@ -18,6 +18,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Throughput figures for this machine.
+    Bench(cmd::bench::Args),
     /// ISO 230-2 positioning, straightness, flatness and angular errors from points.csv.
     Evaluate(cmd::evaluate::Args),
     /// Sub-pixel blob centres of images into blobs.csv (thresholded gray centroid).
@@ -53,6 +55,7 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
+        Command::Bench(args) => cmd::bench::run(&args),
         Command::Evaluate(args) => cmd::evaluate::run(&args),
         Command::Extract(args) => cmd::extract::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),

@@ -1,8 +1,10 @@
 //! Many frames: decode and extract in parallel, deliver results in input
 //! order, carry on past a bad file. Memory stays bounded: files are taken in
-//! chunks, each thread reuses one [`FrameReader`], and blob runs are dropped.
+//! chunks, [`FrameReader`]s (and so their buffers) are pooled and reused for
+//! the whole batch, and blob runs are dropped.
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use rayon::prelude::*;
 
@@ -62,13 +64,29 @@ pub fn extract_files<F>(paths: &[PathBuf], backend: &dyn Backend, params: &Extra
 where
     F: FnMut(usize, &Path, Result<FrameBlobs>),
 {
+    // A pool, not `map_init`: rayon calls `map_init`'s init once per job split,
+    // which would allocate fresh 25 MB buffers for most frames.
+    let pool: Mutex<Vec<FrameReader>> = Mutex::new(Vec::new());
+    let take = || {
+        pool.lock()
+            .ok()
+            .and_then(|mut p| p.pop())
+            .unwrap_or_else(|| FrameReader::new().expect_bit_depth(expected_depth))
+    };
+    let give_back = |reader: FrameReader| {
+        if let Ok(mut p) = pool.lock() {
+            p.push(reader);
+        }
+    };
     for (c, chunk) in paths.chunks(CHUNK_FILES).enumerate() {
         let results: Vec<Result<FrameBlobs>> = chunk
             .par_iter()
-            .map_init(
-                || FrameReader::new().expect_bit_depth(expected_depth),
-                |reader, path| extract_file(reader, path, backend, params),
-            )
+            .map(|path| {
+                let mut reader = take();
+                let result = extract_file(&mut reader, path, backend, params);
+                give_back(reader);
+                result
+            })
             .collect();
         for (i, (path, result)) in chunk.iter().zip(results).enumerate() {
             sink(c * CHUNK_FILES + i, path, result);
