@@ -1,0 +1,32 @@
+//! Camera calibration from a 3-D target (METHODS.md §1, Calibration).
+//!
+//! - [`dlt`]: Hartley-normalised DLT and the non-coplanarity check.
+//! - [`refine`]: Levenberg–Marquardt on reprojection error (pinhole, k1 k2,
+//!   k1 k2 p1 p2, optional k3 and skew), analytic Jacobian, sphere markers.
+//! - [`outliers`]: robust σ and k·σ rejection.
+//! - [`calibration`]: [`calibrate`], the whole chain for one camera.
+//! - [`correspond`]: automatic marker ↔ detection assignment from a nominal camera.
+//!
+//! # Conventions
+//! - Lengths in millimetres, angles in radians, all geometry in `f64`.
+//! - Target frame = world frame; poses map target → camera, `x_c = R·X + t`.
+//! - Pixels: the centre of the top-left pixel is (0, 0), u right, v down.
+//! - Distortion: Brown's model on normalised coordinates with OpenCV's names
+//!   and signs ([`geom::Distortion`]).
+//! - Reprojection RMS is the RMS length of the 2-D residual vectors,
+//!   `√(Σ(du² + dv²)/N)` px.
+
+#![deny(missing_docs)]
+
+mod error;
+
+pub mod calibration;
+pub mod correspond;
+pub mod dlt;
+pub mod outliers;
+pub mod refine;
+
+pub use calibration::{Calibration, Observation, Options, Parameter, PointResidual, calibrate};
+pub use correspond::{CorrespondOptions, Correspondence, Marker, Match, correspond};
+pub use error::{CalibError, Result};
+pub use refine::{Layout, Model};
