@@ -28,4 +28,4 @@ pub use points::PointRow;
 pub use rig::{CameraJson, DistortionJson, NominalCamera, NominalRig, Rig, RigCamera};
 pub use table::{Invalid, Record, Row, read_csv, read_csv_from, write_csv};
 pub use target::{CorrespondenceRow, TargetRow};
-pub use truth::{Truth, TruthInstant};
+pub use truth::{Truth, TruthCamera, TruthInstant};

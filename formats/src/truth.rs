@@ -7,6 +7,34 @@ use serde::{Deserialize, Serialize};
 use crate::campaign::{Axis, Direction, SphereRow};
 use crate::rig::CameraJson;
 
+/// A true camera in `truth.json`: K, R, t, distortion, size (as in
+/// `rig.json`) and the projection `P = K·[R|t]` of the undistorted pinhole,
+/// scaled so that its third row's first three entries have unit norm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthCamera {
+    /// K, R, t, distortion, size.
+    #[serde(flatten)]
+    pub model: CameraJson,
+    /// 3×4 projection matrix.
+    #[serde(rename = "P")]
+    pub p: [[f64; 4]; 3],
+    /// Anything else the renderer records (serial, nominal pose, optics).
+    #[serde(flatten)]
+    pub extra: serde_json::Map<String, serde_json::Value>,
+}
+
+impl TruthCamera {
+    /// Describe a true camera.
+    pub fn new(id: u8, camera: &geom::Camera) -> Self {
+        let p = camera.projection_matrix();
+        Self {
+            model: CameraJson::from_camera(id, camera),
+            p: [0, 1, 2].map(|i| [p[(i, 0)], p[(i, 1)], p[(i, 2)], p[(i, 3)]]),
+            extra: serde_json::Map::new(),
+        }
+    }
+}
+
 /// The exact sphere centres at one instant.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TruthInstant {
@@ -34,7 +62,7 @@ pub struct TruthInstant {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Truth {
     /// The true camera models.
-    pub cameras: Vec<CameraJson>,
+    pub cameras: Vec<TruthCamera>,
     /// The spheres.
     pub spheres: Vec<SphereRow>,
     /// Every instant of the campaign.

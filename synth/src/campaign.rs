@@ -1,1 +1,310 @@
-//! TODO
+//! Writing a campaign (INTERFACES.md, `trinocular synth campaign`): images,
+//! `manifest.csv`, `spheres.csv`, `nominal.json`, `target.csv`, calibration
+//! images, `truth.json`, `truth_points.csv` and the effective `config.toml`.
+//!
+//! Streams: instants are rendered in parallel in bounded batches, each image
+//! written atomically as soon as it is encoded; only the plan (a few hundred
+//! bytes per instant) is held in memory. The manifest and truth are written
+//! last, so a complete `manifest.csv` means a complete campaign.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use formats::{ManifestRow, SphereRow, write_csv, write_json};
+use rayon::prelude::*;
+
+use crate::config::Config;
+use crate::encode::{FrameMetadata, write_image};
+use crate::procedure::{Instant, Plan};
+use crate::progress::Progress;
+use crate::rig::SynthRig;
+use crate::scene::{frame_clearance_px, separation_px};
+use crate::sensor::NoiseKey;
+use crate::{Result, SynthError};
+
+/// Instants rendered per batch and thread (bounds the frames in memory).
+const BATCH_PER_THREAD: usize = 2;
+
+/// Worst-case geometry of a campaign's scenes, from the analytic silhouettes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneCheck {
+    /// Smallest distance (px) of any sphere's outline from any image border
+    /// (negative: a sphere leaves a frame).
+    pub min_frame_clearance_px: f64,
+    /// Where it occurs.
+    pub worst_frame: String,
+    /// Smallest gap (px) between two spheres' silhouettes in any camera
+    /// (negative: they overlap).
+    pub min_separation_px: f64,
+    /// Where it occurs.
+    pub worst_separation: String,
+}
+
+/// Check every instant in every camera: frame clearance and separations.
+pub fn check_plan(rig: &SynthRig, plan: &Plan) -> Result<SceneCheck> {
+    let per_instant = plan
+        .instants
+        .par_iter()
+        .map(|i| -> Result<(f64, String, f64, String)> {
+            let spheres = plan.spheres_at(i);
+            let mut best = (f64::INFINITY, String::new(), f64::INFINITY, String::new());
+            for cam in &rig.cameras {
+                for (k, s) in spheres.iter().enumerate() {
+                    let c = frame_clearance_px(&cam.camera, s)?;
+                    if c < best.0 {
+                        best.0 = c;
+                        best.1 = format!(
+                            "sphere {} in camera {} at instant {}",
+                            plan.spheres[k].name,
+                            cam.id,
+                            describe(i)
+                        );
+                    }
+                    for (l, t) in spheres.iter().enumerate().skip(k + 1) {
+                        let d = separation_px(&cam.camera, s, t)?;
+                        if d < best.2 {
+                            best.2 = d;
+                            best.3 = format!(
+                                "spheres {} and {} in camera {} at instant {}",
+                                plan.spheres[k].name,
+                                plan.spheres[l].name,
+                                cam.id,
+                                describe(i)
+                            );
+                        }
+                    }
+                }
+            }
+            Ok(best)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut check = SceneCheck {
+        min_frame_clearance_px: f64::INFINITY,
+        worst_frame: String::new(),
+        min_separation_px: f64::INFINITY,
+        worst_separation: String::new(),
+    };
+    for (c, cw, s, sw) in per_instant {
+        if c < check.min_frame_clearance_px {
+            check.min_frame_clearance_px = c;
+            check.worst_frame = cw;
+        }
+        if s < check.min_separation_px {
+            check.min_separation_px = s;
+            check.worst_separation = sw;
+        }
+    }
+    Ok(check)
+}
+
+fn describe(i: &Instant) -> String {
+    format!(
+        "{} line {} run {} {} target {} capture {} (nominal {:?})",
+        i.axis,
+        i.line + 1,
+        i.run,
+        i.direction,
+        i.target,
+        i.capture,
+        i.nominal
+    )
+}
+
+/// What a campaign run produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CampaignSummary {
+    /// Instants (exposures of all cameras together).
+    pub instants: usize,
+    /// Image files of the campaign (instants × cameras), calibration images excluded.
+    pub frames: usize,
+    /// Bytes of all image files written, calibration images included.
+    pub image_bytes: u64,
+    /// Scene geometry check.
+    pub scene: SceneCheck,
+}
+
+fn create_dir(path: &Path) -> Result<()> {
+    std::fs::create_dir_all(path).map_err(|e| SynthError::io(path, e))
+}
+
+fn file_len(path: &Path) -> Result<u64> {
+    Ok(std::fs::metadata(path)
+        .map_err(|e| SynthError::io(path, e))?
+        .len())
+}
+
+/// Render and write one instant's images (all cameras).
+fn write_instant(
+    config: &Config,
+    rig: &SynthRig,
+    plan: &Plan,
+    i: &Instant,
+    out: &Path,
+    bytes: &AtomicU64,
+) -> Result<()> {
+    let spheres = plan.spheres_at(i);
+    let ext = config.output.format.extension();
+    for cam in &rig.cameras {
+        let img = cam.render(
+            &spheres,
+            NoiseKey {
+                seed: config.seed,
+                frame: i.index,
+                camera: cam.id,
+            },
+            config.render.max_depth,
+        )?;
+        let path = out.join(i.image_path(cam.id, ext));
+        let meta = FrameMetadata {
+            make: config.output.make.clone(),
+            model: config.output.model.clone(),
+            serial: cam.serial.clone(),
+            time_s: plan.start_time_s + i.time_s,
+            exposure_s: config.sensor.exposure_s,
+            f_number: config.optics.f_number,
+            focal_mm: config.optics.focal_mm,
+            description: format!("camera {} {}", cam.id, describe(i)),
+        };
+        write_image(
+            &path,
+            &img,
+            config.sensor.bits,
+            &meta,
+            config.output.format,
+            config.output.compression,
+        )?;
+        bytes.fetch_add(file_len(&path)?, Ordering::Relaxed);
+    }
+    Ok(())
+}
+
+/// Write a whole campaign under `out` (created if needed).
+pub fn write_campaign(
+    config: &Config,
+    out: &Path,
+    progress: &dyn Progress,
+) -> Result<CampaignSummary> {
+    config.validate()?;
+    let rig = SynthRig::from_config(config)?;
+    let plan = Plan::new(config)?;
+    if plan.instants.is_empty() {
+        return Err(SynthError::config(
+            "procedure.axes: the procedure has no instants",
+        ));
+    }
+    progress.begin("checking scenes", 1);
+    let scene = check_plan(&rig, &plan)?;
+    progress.advance(1);
+    progress.finish();
+
+    create_dir(out)?;
+    let dirs: BTreeSet<String> = plan.instants.iter().map(Instant::image_dir).collect();
+    for d in &dirs {
+        create_dir(&out.join(d))?;
+    }
+    formats::write_atomic(out.join("config.toml"), config.to_toml()?.as_bytes())?;
+    let sphere_rows: Vec<SphereRow> = plan
+        .spheres
+        .iter()
+        .map(|s| SphereRow {
+            name: s.name.clone(),
+            diameter: 2.0 * s.radius,
+        })
+        .collect();
+    write_csv(&out.join("spheres.csv"), &sphere_rows)?;
+    write_json(&out.join("nominal.json"), &rig.nominal())?;
+
+    let bytes = AtomicU64::new(0);
+    progress.begin("calibration images", rig.cameras.len() as u64);
+    let calib = crate::target::write_target_files(config, &rig, out, plan.start_time_s)?;
+    for p in &calib {
+        bytes.fetch_add(file_len(&out.join(p))?, Ordering::Relaxed);
+    }
+    progress.advance(rig.cameras.len() as u64);
+    progress.finish();
+
+    let frames = plan.instants.len() * rig.cameras.len();
+    progress.begin("rendering frames", frames as u64);
+    let batch = BATCH_PER_THREAD * rayon::current_num_threads().max(1);
+    for chunk in plan.instants.chunks(batch) {
+        chunk.par_iter().try_for_each(|i| -> Result<()> {
+            write_instant(config, &rig, &plan, i, out, &bytes)?;
+            progress.advance(rig.cameras.len() as u64);
+            Ok(())
+        })?;
+    }
+    progress.finish();
+
+    progress.begin("truth and manifest", 1);
+    let points = plan.truth_points();
+    write_csv(&out.join("truth_points.csv"), &points)?;
+    let mut truth = crate::truth::campaign_truth(config, &rig, &plan, &points)?;
+    truth.extra.insert(
+        "scene".into(),
+        serde_json::json!({
+            "min_frame_clearance_px": scene.min_frame_clearance_px,
+            "worst_frame": scene.worst_frame,
+            "min_separation_px": scene.min_separation_px,
+            "worst_separation": scene.worst_separation,
+        }),
+    );
+    write_json(&out.join("truth.json"), &truth)?;
+    let ext = config.output.format.extension();
+    let manifest: Vec<ManifestRow> = plan
+        .instants
+        .iter()
+        .flat_map(|i| rig.cameras.iter().map(move |c| i.manifest_row(c.id, ext)))
+        .collect();
+    write_csv(&out.join("manifest.csv"), &manifest)?;
+    progress.advance(1);
+    progress.finish();
+
+    Ok(CampaignSummary {
+        instants: plan.instants.len(),
+        frames,
+        image_bytes: bytes.into_inner(),
+        scene,
+    })
+}
+
+/// What `trinocular synth target` produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TargetSummary {
+    /// Markers on the target.
+    pub markers: usize,
+    /// Calibration images written (one per camera), relative paths.
+    pub images: Vec<String>,
+}
+
+/// Write the calibration target scene under `out`: `target.csv`,
+/// `nominal.json`, `truth.json` (true cameras; no spheres or instants),
+/// `calib/cam{k}.*` and `calib/points_cam{k}.csv`.
+pub fn write_target_scene(
+    config: &Config,
+    out: &Path,
+    progress: &dyn Progress,
+) -> Result<TargetSummary> {
+    config.validate()?;
+    let rig = SynthRig::from_config(config)?;
+    create_dir(out)?;
+    let start = crate::datetime::parse(&config.procedure.start_time).map_err(SynthError::config)?;
+    progress.begin("calibration images", rig.cameras.len() as u64);
+    let images = crate::target::write_target_files(config, &rig, out, start)?;
+    progress.advance(rig.cameras.len() as u64);
+    progress.finish();
+    write_json(&out.join("nominal.json"), &rig.nominal())?;
+    let mut extra = serde_json::Map::new();
+    extra.insert("seed".into(), serde_json::json!(config.seed));
+    let truth = formats::Truth {
+        cameras: crate::truth::truth_cameras(&rig, config),
+        spheres: Vec::new(),
+        instants: Vec::new(),
+        extra,
+    };
+    write_json(&out.join("truth.json"), &truth)?;
+    Ok(TargetSummary {
+        markers: crate::target::markers(&config.target).len(),
+        images,
+    })
+}

@@ -359,11 +359,17 @@ impl ErrorCurve {
     /// Value at commanded position `p` on a travel starting at `start` of length `length`.
     pub fn value(&self, p: f64, start: f64, length: f64) -> f64 {
         let mid = start + length / 2.0;
-        let x = if length > 0.0 { 2.0 * (p - mid) / length } else { 0.0 };
+        let x = if length > 0.0 {
+            2.0 * (p - mid) / length
+        } else {
+            0.0
+        };
         self.slope_per_m * (p - mid) / 1000.0
             + self.bow * (1.0 - x * x)
             + self.wave
-                * (std::f64::consts::TAU * (p - start) / self.wave_period_mm + self.wave_phase_deg.to_radians()).sin()
+                * (std::f64::consts::TAU * (p - start) / self.wave_period_mm
+                    + self.wave_phase_deg.to_radians())
+                .sin()
     }
 }
 
@@ -540,7 +546,10 @@ impl Config {
         }
         if let Some(n) = o.targets {
             if n < 2 {
-                return Err(bad("--targets", format!("{n}: at least 2 targets are needed")));
+                return Err(bad(
+                    "--targets",
+                    format!("{n}: at least 2 targets are needed"),
+                ));
             }
             for a in &mut self.procedure.axes {
                 a.segments = n - 1;
@@ -562,10 +571,16 @@ impl Config {
     pub fn validate(&self) -> Result<()> {
         let s = &self.sensor;
         if s.width < 16 || s.height < 16 {
-            return Err(bad("sensor.width/height", format!("{}×{} px is too small (≥ 16×16)", s.width, s.height)));
+            return Err(bad(
+                "sensor.width/height",
+                format!("{}×{} px is too small (≥ 16×16)", s.width, s.height),
+            ));
         }
         if u64::from(s.width) * u64::from(s.height) > 1 << 28 {
-            return Err(bad("sensor.width/height", format!("{}×{} px is too large", s.width, s.height)));
+            return Err(bad(
+                "sensor.width/height",
+                format!("{}×{} px is too large", s.width, s.height),
+            ));
         }
         positive("sensor.pixel_mm", s.pixel_mm)?;
         if s.bits != 8 && s.bits != 16 {
@@ -583,7 +598,10 @@ impl Config {
         positive("optics.f_number", o.f_number)?;
         positive("optics.focus_distance_mm", o.focus_distance_mm)?;
         if o.focus_distance_mm <= o.focal_mm {
-            return Err(bad("optics.focus_distance_mm", "must exceed the focal length"));
+            return Err(bad(
+                "optics.focus_distance_mm",
+                "must exceed the focal length",
+            ));
         }
         non_negative("optics.psf_sigma_um", o.psf_sigma_um)?;
 
@@ -605,10 +623,19 @@ impl Config {
             finite(&format!("{key}.up"), &c.up)?;
             finite(&format!("{key}.rotation_error_deg"), &c.rotation_error_deg)?;
             finite(&format!("{key}.position_error_mm"), &c.position_error_mm)?;
-            finite(&format!("{key}.focal_error_percent"), &[c.focal_error_percent])?;
-            finite(&format!("{key}.principal_point_offset_um"), &c.principal_point_offset_um)?;
+            finite(
+                &format!("{key}.focal_error_percent"),
+                &[c.focal_error_percent],
+            )?;
+            finite(
+                &format!("{key}.principal_point_offset_um"),
+                &c.principal_point_offset_um,
+            )?;
             let d = c.distortion;
-            finite(&format!("{key}.distortion"), &[d.k1, d.k2, d.k3, d.p1, d.p2])?;
+            finite(
+                &format!("{key}.distortion"),
+                &[d.k1, d.k2, d.k3, d.p1, d.p2],
+            )?;
             if !c.serial.is_ascii() || c.serial.contains('\0') {
                 return Err(bad(&format!("{key}.serial"), "must be ASCII without NUL"));
             }
@@ -626,10 +653,16 @@ impl Config {
         for (i, sp) in self.spheres.iter().enumerate() {
             let key = format!("spheres[{i}]");
             if sp.name.trim().is_empty() || sp.name.contains(',') {
-                return Err(bad(&format!("{key}.name"), format!("'{}' is empty or contains a comma", sp.name)));
+                return Err(bad(
+                    &format!("{key}.name"),
+                    format!("'{}' is empty or contains a comma", sp.name),
+                ));
             }
             if self.spheres[..i].iter().any(|o| o.name == sp.name) {
-                return Err(bad(&format!("{key}.name"), format!("duplicate sphere name '{}'", sp.name)));
+                return Err(bad(
+                    &format!("{key}.name"),
+                    format!("duplicate sphere name '{}'", sp.name),
+                ));
             }
             positive(&format!("{key}.diameter_mm"), sp.diameter_mm)?;
             finite(&format!("{key}.position_mm"), &sp.position_mm)?;
@@ -654,15 +687,24 @@ impl Config {
                 return Err(bad(&format!("{key}.axis"), "only X and Y are moved"));
             }
             if p.axes[..i].iter().any(|o| o.axis == a.axis) {
-                return Err(bad(&format!("{key}.axis"), format!("axis {} listed twice", a.axis)));
+                return Err(bad(
+                    &format!("{key}.axis"),
+                    format!("axis {} listed twice", a.axis),
+                ));
             }
             finite(&format!("{key}.start_mm"), &[a.start_mm])?;
             positive(&format!("{key}.length_mm"), a.length_mm)?;
             if a.segments < 1 {
-                return Err(bad(&format!("{key}.segments"), "at least one segment is needed"));
+                return Err(bad(
+                    &format!("{key}.segments"),
+                    "at least one segment is needed",
+                ));
             }
             if a.lines_mm.is_empty() {
-                return Err(bad(&format!("{key}.lines_mm"), "at least one line is needed"));
+                return Err(bad(
+                    &format!("{key}.lines_mm"),
+                    "at least one line is needed",
+                ));
             }
             finite(&format!("{key}.lines_mm"), &a.lines_mm)?;
         }
@@ -674,7 +716,10 @@ impl Config {
                 if !others.contains(&name.as_str()) {
                     return Err(bad(
                         &format!("{key}.straightness.{name}"),
-                        format!("straightness of {axis} is in {} or {}", others[0], others[1]),
+                        format!(
+                            "straightness of {axis} is in {} or {}",
+                            others[0], others[1]
+                        ),
                     ));
                 }
                 c.validate(&format!("{key}.straightness.{name}"))?;
@@ -685,13 +730,19 @@ impl Config {
             e.yaw.validate(&format!("{key}.yaw"))?;
             finite(&format!("{key}.reversal_um"), &[e.reversal_um])?;
             non_negative(&format!("{key}.repeatability_um"), e.repeatability_um)?;
-            non_negative(&format!("{key}.repeatability_perp_um"), e.repeatability_perp_um)?;
+            non_negative(
+                &format!("{key}.repeatability_perp_um"),
+                e.repeatability_perp_um,
+            )?;
             non_negative(&format!("{key}.capture_noise_um"), e.capture_noise_um)?;
         }
 
         let t = &self.target;
-        if t.grid < 2 || t.grid % 2 == 0 || t.grid % 3 == 0 {
-            return Err(bad("target.grid", format!("{} must be ≥ 5 and coprime with 6 (5, 7, 11, ...)", t.grid)));
+        if t.grid < 2 || t.grid.is_multiple_of(2) || t.grid.is_multiple_of(3) {
+            return Err(bad(
+                "target.grid",
+                format!("{} must be ≥ 5 and coprime with 6 (5, 7, 11, ...)", t.grid),
+            ));
         }
         positive("target.spacing_mm", t.spacing_mm)?;
         non_negative("target.depth_step_mm", t.depth_step_mm)?;
@@ -702,11 +753,19 @@ impl Config {
         if !self.output.make.is_ascii() || !self.output.model.is_ascii() {
             return Err(bad("output.make/model", "must be ASCII"));
         }
-        if self.output.format == ImageFormat::Png && self.output.compression != TiffCompression::None {
-            return Err(bad("output.compression", "applies to TIFF only (PNG is always deflated)"));
+        if self.output.format == ImageFormat::Png
+            && self.output.compression != TiffCompression::None
+        {
+            return Err(bad(
+                "output.compression",
+                "applies to TIFF only (PNG is always deflated)",
+            ));
         }
         if !(1..=8).contains(&self.render.max_depth) {
-            return Err(bad("render.max_depth", format!("{} must be 1..=8", self.render.max_depth)));
+            return Err(bad(
+                "render.max_depth",
+                format!("{} must be 1..=8", self.render.max_depth),
+            ));
         }
         Ok(())
     }
@@ -714,12 +773,21 @@ impl Config {
 
 impl ErrorCurve {
     fn validate(&self, key: &str) -> Result<()> {
-        finite(key, &[self.slope_per_m, self.bow, self.wave, self.wave_phase_deg])?;
+        finite(
+            key,
+            &[self.slope_per_m, self.bow, self.wave, self.wave_phase_deg],
+        )?;
         positive(&format!("{key}.wave_period_mm"), self.wave_period_mm)
     }
 }
 
-fn curve(slope_per_m: f64, bow: f64, wave: f64, wave_period_mm: f64, wave_phase_deg: f64) -> ErrorCurve {
+fn curve(
+    slope_per_m: f64,
+    bow: f64,
+    wave: f64,
+    wave_period_mm: f64,
+    wave_phase_deg: f64,
+) -> ErrorCurve {
     ErrorCurve {
         slope_per_m,
         bow,
@@ -975,7 +1043,10 @@ mod tests {
         assert_eq!(parsed, Config::default());
         // And the serialised default reads back to itself.
         let text = Config::default().to_toml().unwrap();
-        assert_eq!(Config::from_toml_str(&text, None).unwrap(), Config::default());
+        assert_eq!(
+            Config::from_toml_str(&text, None).unwrap(),
+            Config::default()
+        );
     }
 
     #[test]
@@ -988,7 +1059,9 @@ mod tests {
 
     #[test]
     fn bad_value_is_named() {
-        let e = Config::from_toml_str("[sensor]\nbits = 12\n", None).unwrap_err().to_string();
+        let e = Config::from_toml_str("[sensor]\nbits = 12\n", None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("sensor.bits"), "{e}");
         let e = Config::from_toml_str("[machine.X.straightness.X]\nbow = 1.0\n", None)
             .unwrap_err()

@@ -147,8 +147,13 @@ impl PixelFrame {
             .distortion
             .jacobian(n0)
             .try_inverse()
-            .ok_or_else(|| SynthError::Scene(format!("lens distortion is singular at pixel ({u}, {v})")))?;
-        Ok(Self { n0, j: d_inv * k_inv })
+            .ok_or_else(|| {
+                SynthError::Scene(format!("lens distortion is singular at pixel ({u}, {v})"))
+            })?;
+        Ok(Self {
+            n0,
+            j: d_inv * k_inv,
+        })
     }
 
     fn ray(&self, offset: Vector2<f64>) -> Vector3<f64> {
@@ -248,7 +253,14 @@ impl EdgePixel<'_> {
         }
     }
 
-    fn cell(&self, centre: Vector2<f64>, size: f64, depth: u8, s: &[f64; MAX_CONSTRAINTS], acc: &mut Acc) {
+    fn cell(
+        &self,
+        centre: Vector2<f64>,
+        size: f64,
+        depth: u8,
+        s: &[f64; MAX_CONSTRAINTS],
+        acc: &mut Acc,
+    ) {
         let n = self.cons.len();
         let r = size * std::f64::consts::FRAC_1_SQRT_2;
         match classify(&s[..n], self.cons, r) {
@@ -379,7 +391,16 @@ pub fn coverage(
             .zip(moment_v.par_chunks_mut(w))
             .enumerate()
             .try_for_each(|(r, ((a, mu), mv))| {
-                row(camera, &cons, rect.v0 + r as i64, rect.u0, max_depth, a, mu, mv)
+                row(
+                    camera,
+                    &cons,
+                    rect.v0 + r as i64,
+                    rect.u0,
+                    max_depth,
+                    a,
+                    mu,
+                    mv,
+                )
             })?;
     }
     Ok(Coverage {
@@ -505,7 +526,11 @@ mod tests {
             let cov = coverage(&cam, &v, &[], rect_of(&cam, &s), 4).unwrap();
             let area = ellipse_area_px(&cam, &s).unwrap();
             let rel = cov.total_area() / area - 1.0;
-            assert!(rel.abs() < 2e-5, "area {} vs {area} ({rel:e})", cov.total_area());
+            assert!(
+                rel.abs() < 2e-5,
+                "area {} vs {area} ({rel:e})",
+                cov.total_area()
+            );
             let c = cov.centroid().unwrap();
             let e = ellipse_centre_px(&cam, &s).unwrap();
             assert!((c - e.coords).norm() < 2e-5, "centroid {c:?} vs {e:?}");
@@ -535,7 +560,8 @@ mod tests {
             for c in 0..cov.width {
                 let a = cov.area[r * cov.width + c];
                 if a > 0.0 {
-                    let p = geom::Point2::new((cov.x0 + c as i64) as f64, (cov.y0 + r as i64) as f64);
+                    let p =
+                        geom::Point2::new((cov.x0 + c as i64) as f64, (cov.y0 + r as i64) as f64);
                     ideal += a * cam.undistort_pixel_area(p).unwrap().1;
                 }
             }

@@ -21,11 +21,18 @@ pub fn parse(text: &str) -> Result<f64, String> {
     let num = |s: &str| s.parse::<i64>().map_err(|_| err());
     let (y, m, day) = (num(d[0])?, num(d[1])?, num(d[2])?);
     let (h, mi, s) = (num(t[0])?, num(t[1])?, num(t[2])?);
-    if !(1..=12).contains(&m) || !(1..=31).contains(&day) || !(0..24).contains(&h) || !(0..60).contains(&mi) || !(0..60).contains(&s) {
+    if !(1..=12).contains(&m)
+        || !(1..=31).contains(&day)
+        || !(0..24).contains(&h)
+        || !(0..60).contains(&mi)
+        || !(0..60).contains(&s)
+    {
         return Err(err());
     }
     let fraction = match frac {
-        Some(f) if !f.is_empty() && f.bytes().all(|b| b.is_ascii_digit()) => format!("0.{f}").parse::<f64>().map_err(|_| err())?,
+        Some(f) if !f.is_empty() && f.bytes().all(|b| b.is_ascii_digit()) => {
+            format!("0.{f}").parse::<f64>().map_err(|_| err())?
+        }
         Some(_) => return Err(err()),
         None => 0.0,
     };
@@ -54,7 +61,15 @@ fn civil_from_days(z: i64) -> (i64, i64, i64) {
     let mp = (5 * doy + 2) / 153;
     let d = doy - (153 * mp + 2) / 5 + 1;
     let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    (if m <= 2 { yoe + era * 400 + 1 } else { yoe + era * 400 }, m, d)
+    (
+        if m <= 2 {
+            yoe + era * 400 + 1
+        } else {
+            yoe + era * 400
+        },
+        m,
+        d,
+    )
 }
 
 /// EXIF date-time `YYYY:MM:DD HH:MM:SS` and sub-second digits of a time in
@@ -67,7 +82,12 @@ pub fn exif(seconds: f64) -> (String, String) {
     let (days, secs) = (whole.div_euclid(86_400), whole.rem_euclid(86_400));
     let (y, m, d) = civil_from_days(days);
     (
-        format!("{y:04}:{m:02}:{d:02} {:02}:{:02}:{:02}", secs / 3600, secs / 60 % 60, secs % 60),
+        format!(
+            "{y:04}:{m:02}:{d:02} {:02}:{:02}:{:02}",
+            secs / 3600,
+            secs / 60 % 60,
+            secs % 60
+        ),
         format!("{sub:0width$}", width = SUBSEC_DIGITS),
     )
 }
@@ -80,9 +100,15 @@ mod tests {
     fn known_dates() {
         assert_eq!(parse("1970-01-01T00:00:00").unwrap(), 0.0);
         // 2000-03-01 is day 11017 (after a leap day).
-        assert_eq!(parse("2000-03-01T00:00:01").unwrap(), 11_017.0 * 86_400.0 + 1.0);
+        assert_eq!(
+            parse("2000-03-01T00:00:01").unwrap(),
+            11_017.0 * 86_400.0 + 1.0
+        );
         let t = parse("2025-06-02 08:00:00.25").unwrap();
-        assert_eq!(exif(t), ("2025:06:02 08:00:00".to_string(), "2500".to_string()));
+        assert_eq!(
+            exif(t),
+            ("2025:06:02 08:00:00".to_string(), "2500".to_string())
+        );
         assert_eq!(exif(t + 86_400.0 * 30.0 + 0.0055).0, "2025:07:02 08:00:00");
         assert!(parse("2025-13-01T00:00:00").is_err());
         assert!(parse("yesterday").is_err());

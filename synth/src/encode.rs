@@ -10,7 +10,9 @@
 use std::io::{Seek, Write};
 use std::path::Path;
 
-use tiff::encoder::{Compression, DeflateLevel, Predictor, Rational, TiffEncoder, TiffKind, colortype};
+use tiff::encoder::{
+    Compression, DeflateLevel, Predictor, Rational, TiffEncoder, TiffKind, colortype,
+};
 use tiff::tags::Tag;
 
 use crate::config::{ImageFormat, TiffCompression};
@@ -68,7 +70,9 @@ fn gcd(mut a: u32, mut b: u32) -> u32 {
 }
 
 fn ascii(s: &str) -> String {
-    s.chars().map(|c| if c.is_ascii() && c != '\0' { c } else { '?' }).collect()
+    s.chars()
+        .map(|c| if c.is_ascii() && c != '\0' { c } else { '?' })
+        .collect()
 }
 
 fn tiff_err(path: &Path) -> impl Fn(tiff::TiffError) -> SynthError + '_ {
@@ -86,20 +90,32 @@ fn write_exif_ifd<W: Write + Seek, K: TiffKind>(
 ) -> Result<K::OffsetType> {
     let (date, subsec) = crate::datetime::exif(meta.time_s);
     let mut dir = enc.extra_directory().map_err(tiff_err(path))?;
-    dir.write_tag(Tag::Unknown(exif_tag::EXPOSURE_TIME), rational(meta.exposure_s))
-        .map_err(tiff_err(path))?;
+    dir.write_tag(
+        Tag::Unknown(exif_tag::EXPOSURE_TIME),
+        rational(meta.exposure_s),
+    )
+    .map_err(tiff_err(path))?;
     if meta.f_number.is_finite() {
         dir.write_tag(Tag::Unknown(exif_tag::F_NUMBER), rational(meta.f_number))
             .map_err(tiff_err(path))?;
     }
     dir.write_tag(Tag::Unknown(exif_tag::DATE_TIME_ORIGINAL), date.as_str())
         .map_err(tiff_err(path))?;
-    dir.write_tag(Tag::Unknown(exif_tag::FOCAL_LENGTH), rational(meta.focal_mm))
-        .map_err(tiff_err(path))?;
-    dir.write_tag(Tag::Unknown(exif_tag::SUB_SEC_TIME_ORIGINAL), subsec.as_str())
-        .map_err(tiff_err(path))?;
-    dir.write_tag(Tag::Unknown(exif_tag::BODY_SERIAL_NUMBER), ascii(&meta.serial).as_str())
-        .map_err(tiff_err(path))?;
+    dir.write_tag(
+        Tag::Unknown(exif_tag::FOCAL_LENGTH),
+        rational(meta.focal_mm),
+    )
+    .map_err(tiff_err(path))?;
+    dir.write_tag(
+        Tag::Unknown(exif_tag::SUB_SEC_TIME_ORIGINAL),
+        subsec.as_str(),
+    )
+    .map_err(tiff_err(path))?;
+    dir.write_tag(
+        Tag::Unknown(exif_tag::BODY_SERIAL_NUMBER),
+        ascii(&meta.serial).as_str(),
+    )
+    .map_err(tiff_err(path))?;
     let offsets = dir.finish_with_offsets().map_err(tiff_err(path))?;
     Ok(offsets.offset)
 }
@@ -112,15 +128,20 @@ fn write_ifd0_tags<W: Write + Seek, K: TiffKind>(
     path: &Path,
 ) -> Result<()> {
     let (date, _) = crate::datetime::exif(meta.time_s);
-    dir.write_tag(Tag::Make, ascii(&meta.make).as_str()).map_err(tiff_err(path))?;
-    dir.write_tag(Tag::Model, ascii(&meta.model).as_str()).map_err(tiff_err(path))?;
-    dir.write_tag(Tag::Software, SOFTWARE).map_err(tiff_err(path))?;
-    dir.write_tag(Tag::DateTime, date.as_str()).map_err(tiff_err(path))?;
+    dir.write_tag(Tag::Make, ascii(&meta.make).as_str())
+        .map_err(tiff_err(path))?;
+    dir.write_tag(Tag::Model, ascii(&meta.model).as_str())
+        .map_err(tiff_err(path))?;
+    dir.write_tag(Tag::Software, SOFTWARE)
+        .map_err(tiff_err(path))?;
+    dir.write_tag(Tag::DateTime, date.as_str())
+        .map_err(tiff_err(path))?;
     if !meta.description.is_empty() {
         dir.write_tag(Tag::ImageDescription, ascii(&meta.description).as_str())
             .map_err(tiff_err(path))?;
     }
-    dir.write_tag(Tag::ExifDirectory, exif).map_err(tiff_err(path))?;
+    dir.write_tag(Tag::ExifDirectory, exif)
+        .map_err(tiff_err(path))?;
     Ok(())
 }
 
@@ -136,7 +157,10 @@ pub fn encode_tiff<W: Write + Seek>(
 ) -> Result<()> {
     let (comp, pred) = match compression {
         TiffCompression::None => (Compression::Uncompressed, Predictor::None),
-        TiffCompression::Deflate => (Compression::Deflate(DeflateLevel::Fast), Predictor::Horizontal),
+        TiffCompression::Deflate => (
+            Compression::Deflate(DeflateLevel::Fast),
+            Predictor::Horizontal,
+        ),
         TiffCompression::Lzw => (Compression::Lzw, Predictor::Horizontal),
     };
     let mut enc = TiffEncoder::new(sink)
@@ -147,13 +171,17 @@ pub fn encode_tiff<W: Write + Seek>(
     let (w, h) = image.dimensions();
     match bits {
         16 => {
-            let mut img = enc.new_image::<colortype::Gray16>(w, h).map_err(tiff_err(path))?;
+            let mut img = enc
+                .new_image::<colortype::Gray16>(w, h)
+                .map_err(tiff_err(path))?;
             write_ifd0_tags(img.encoder(), meta, exif, path)?;
             img.write_data(image.as_raw()).map_err(tiff_err(path))?;
         }
         8 => {
             let data = to_u8(image);
-            let mut img = enc.new_image::<colortype::Gray8>(w, h).map_err(tiff_err(path))?;
+            let mut img = enc
+                .new_image::<colortype::Gray8>(w, h)
+                .map_err(tiff_err(path))?;
             write_ifd0_tags(img.encoder(), meta, exif, path)?;
             img.write_data(&data).map_err(tiff_err(path))?;
         }
@@ -187,7 +215,13 @@ pub fn exif_block(meta: &FrameMetadata) -> Result<Vec<u8>> {
 }
 
 /// Encode a grayscale PNG of `bits` (8 or 16) per sample with an `eXIf` chunk.
-pub fn encode_png<W: Write>(sink: W, image: &Image16, bits: u8, meta: &FrameMetadata, path: &Path) -> Result<()> {
+pub fn encode_png<W: Write>(
+    sink: W,
+    image: &Image16,
+    bits: u8,
+    meta: &FrameMetadata,
+    path: &Path,
+) -> Result<()> {
     let png_err = |e: png::EncodingError| SynthError::Encode {
         path: path.to_path_buf(),
         message: e.to_string(),
@@ -198,7 +232,11 @@ pub fn encode_png<W: Write>(sink: W, image: &Image16, bits: u8, meta: &FrameMeta
     let data: Vec<u8> = match bits {
         16 => {
             enc.set_depth(png::BitDepth::Sixteen);
-            image.as_raw().iter().flat_map(|v| v.to_be_bytes()).collect()
+            image
+                .as_raw()
+                .iter()
+                .flat_map(|v| v.to_be_bytes())
+                .collect()
         }
         8 => {
             enc.set_depth(png::BitDepth::Eight);
@@ -217,7 +255,9 @@ pub fn encode_png<W: Write>(sink: W, image: &Image16, bits: u8, meta: &FrameMeta
             .map_err(png_err)?;
     }
     let mut writer = enc.write_header().map_err(png_err)?;
-    writer.write_chunk(png::chunk::eXIf, &exif_block(meta)?).map_err(png_err)?;
+    writer
+        .write_chunk(png::chunk::eXIf, &exif_block(meta)?)
+        .map_err(png_err)?;
     writer.write_image_data(&data).map_err(png_err)?;
     writer.finish().map_err(png_err)
 }

@@ -120,7 +120,11 @@ impl Signal {
 
 /// Half-width (px) of the blur kernel for σ.
 pub fn kernel_radius(sigma: f64) -> usize {
-    if sigma <= 0.0 { 0 } else { (KERNEL_SIGMAS * sigma + 1.0).ceil() as usize }
+    if sigma <= 0.0 {
+        0
+    } else {
+        (KERNEL_SIGMAS * sigma + 1.0).ceil() as usize
+    }
 }
 
 fn phi(x: f64) -> f64 {
@@ -193,30 +197,33 @@ pub fn blur(cov: &Coverage, sigma: f64) -> Signal {
     // Horizontal pass over the coverage rows: h1 = A∗w − Mu∗w', h2 = Mv∗w.
     let mut h1 = vec![0.0; ch * ow];
     let mut h2 = vec![0.0; ch * ow];
-    h1.par_chunks_mut(ow).zip(h2.par_chunks_mut(ow)).enumerate().for_each(|(row, (o1, o2))| {
-        let a = &cov.area[row * cw..(row + 1) * cw];
-        let mu = &cov.moment_u[row * cw..(row + 1) * cw];
-        let mv = &cov.moment_v[row * cw..(row + 1) * cw];
-        for p in 0..cw {
-            if a[p] == 0.0 && mu[p] == 0.0 && mv[p] == 0.0 {
-                continue;
-            }
-            // Output column q = p + r + j − r = p + k for kernel index k (offset k − r).
-            let (ap, mup, mvp) = (a[p], mu[p], mv[p]);
-            let o1 = &mut o1[p..p + 2 * r + 1];
-            let o2 = &mut o2[p..p + 2 * r + 1];
-            if moments {
-                for k in 0..=2 * r {
-                    o1[k] += ap * w[k] - mup * d[k];
-                    o2[k] += mvp * w[k];
+    h1.par_chunks_mut(ow)
+        .zip(h2.par_chunks_mut(ow))
+        .enumerate()
+        .for_each(|(row, (o1, o2))| {
+            let a = &cov.area[row * cw..(row + 1) * cw];
+            let mu = &cov.moment_u[row * cw..(row + 1) * cw];
+            let mv = &cov.moment_v[row * cw..(row + 1) * cw];
+            for p in 0..cw {
+                if a[p] == 0.0 && mu[p] == 0.0 && mv[p] == 0.0 {
+                    continue;
                 }
-            } else {
-                for k in 0..=2 * r {
-                    o1[k] += ap * w[k];
+                // Output column q = p + r + j − r = p + k for kernel index k (offset k − r).
+                let (ap, mup, mvp) = (a[p], mu[p], mv[p]);
+                let o1 = &mut o1[p..p + 2 * r + 1];
+                let o2 = &mut o2[p..p + 2 * r + 1];
+                if moments {
+                    for k in 0..=2 * r {
+                        o1[k] += ap * w[k] - mup * d[k];
+                        o2[k] += mvp * w[k];
+                    }
+                } else {
+                    for k in 0..=2 * r {
+                        o1[k] += ap * w[k];
+                    }
                 }
             }
-        }
-    });
+        });
     // Vertical pass: P = h1∗w − h2∗w'.
     let mut values = vec![0.0; oh * ow];
     values.par_chunks_mut(ow).enumerate().for_each(|(q, out)| {
@@ -270,7 +277,10 @@ mod tests {
             // against a pixel (aliasing ∝ exp(−2π²σ²)).
             if sigma >= 1.0 {
                 let m2: f64 = (-r..=r).zip(&w).map(|(j, v)| (j * j) as f64 * v).sum();
-                assert!((m2 / (sigma * sigma + 1.0 / 12.0) - 1.0).abs() < 1e-5, "{sigma}: {m2}");
+                assert!(
+                    (m2 / (sigma * sigma + 1.0 / 12.0) - 1.0).abs() < 1e-5,
+                    "{sigma}: {m2}"
+                );
             }
         }
     }
@@ -310,7 +320,10 @@ mod tests {
             let s = blur(&cov, sigma);
             assert!((s.total() - cov.total_area()).abs() < 1e-12);
             let c = s.centroid().unwrap();
-            assert!((c - exact).norm() < 1e-12, "σ = {sigma}: {c:?} vs {exact:?}");
+            assert!(
+                (c - exact).norm() < 1e-12,
+                "σ = {sigma}: {c:?} vs {exact:?}"
+            );
         }
     }
 }

@@ -13,7 +13,12 @@ use crate::{Result, SynthError};
 /// flux per pixel, after occlusion and blur); `None` for a sphere wholly
 /// outside the image. Signals extend past the image by the blur radius so that
 /// light from just outside reaches the border pixels.
-pub fn sphere_signals(camera: &Camera, optics: &Optics, spheres: &[Sphere], max_depth: u8) -> Result<Vec<Option<Signal>>> {
+pub fn sphere_signals(
+    camera: &Camera,
+    optics: &Optics,
+    spheres: &[Sphere],
+    max_depth: u8,
+) -> Result<Vec<Option<Signal>>> {
     check_disjoint(spheres)?;
     let viewed = spheres
         .iter()
@@ -30,7 +35,9 @@ pub fn sphere_signals(camera: &Camera, optics: &Optics, spheres: &[Sphere], max_
             .collect();
         let sigma = optics.blur_sigma_px(v.centre.z);
         if !sigma.is_finite() {
-            return Err(SynthError::Scene(format!("blur σ {sigma} px is not finite")));
+            return Err(SynthError::Scene(format!(
+                "blur σ {sigma} px is not finite"
+            )));
         }
         let r = kernel_radius(sigma) as i64;
         let b = outline_bounds(camera, sphere)?;

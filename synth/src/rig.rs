@@ -32,7 +32,14 @@ pub struct SynthCamera {
 impl SynthCamera {
     /// Render the spheres as this camera sees them.
     pub fn render(&self, spheres: &[Sphere], key: NoiseKey, max_depth: u8) -> Result<Image16> {
-        crate::render::render(&self.camera, &self.optics, &self.sensor, spheres, key, max_depth)
+        crate::render::render(
+            &self.camera,
+            &self.optics,
+            &self.sensor,
+            spheres,
+            key,
+            max_depth,
+        )
     }
 }
 
@@ -80,7 +87,7 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
     let rig = &config.rig;
     let key = format!("rig.cameras[id = {}]", c.id);
     let view = Vector3::from(c.view);
-    if !(view.norm() > 0.0) {
+    if view.norm().is_nan() || view.norm() <= 0.0 {
         return Err(SynthError::config(format!("{key}.view: zero vector")));
     }
     let wp = Point3::from(rig.working_point);
@@ -111,7 +118,10 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
     let camera = Camera {
         intrinsics: k,
         distortion: c.distortion.into(),
-        pose: Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_rotation_matrix(&r_true)),
+        pose: Isometry3::from_parts(
+            Translation3::from(t),
+            UnitQuaternion::from_rotation_matrix(&r_true),
+        ),
         width: s.width,
         height: s.height,
     };
@@ -125,7 +135,10 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
         read_noise_e: s.read_noise_e,
         shot_noise: s.shot_noise,
         background_e: s.background_e,
-        gradient_e_per_px: [s.background_gradient_e[0] / w, s.background_gradient_e[1] / h],
+        gradient_e_per_px: [
+            s.background_gradient_e[0] / w,
+            s.background_gradient_e[1] / h,
+        ],
         stray_light: c
             .stray_light
             .iter()
@@ -165,10 +178,17 @@ mod tests {
         for c in &rig.cameras {
             // ≈ 58 µm per pixel at 460 mm (METHODS §1).
             let mm_per_px = 460.0 / c.camera.intrinsics.fx;
-            assert!((mm_per_px - 0.0578).abs() < 0.0005, "camera {}: {mm_per_px}", c.id);
+            assert!(
+                (mm_per_px - 0.0578).abs() < 0.0005,
+                "camera {}: {mm_per_px}",
+                c.id
+            );
             // The true camera still looks at the working point, within its mounting errors.
             let wp = c.camera.project(&Point3::new(0.0, 0.0, 30.0)).unwrap();
-            assert!((wp.x - 2047.5).abs() < 120.0 && (wp.y - 1535.5).abs() < 120.0, "{wp:?}");
+            assert!(
+                (wp.x - 2047.5).abs() < 120.0 && (wp.y - 1535.5).abs() < 120.0,
+                "{wp:?}"
+            );
             // Nominal and true differ (mounting errors), but not wildly.
             let nom = c.nominal.to_camera().unwrap();
             let p = nom.project(&Point3::new(0.0, 0.0, 30.0)).unwrap();

@@ -40,11 +40,14 @@ impl ViewedSphere {
     /// silhouette cone is not wholly in front of the image plane.
     pub fn new(camera: &Camera, sphere: &Sphere) -> Result<Self> {
         if !(sphere.radius.is_finite() && sphere.radius > 0.0) {
-            return Err(SynthError::Scene(format!("sphere radius {} mm is not positive", sphere.radius)));
+            return Err(SynthError::Scene(format!(
+                "sphere radius {} mm is not positive",
+                sphere.radius
+            )));
         }
         let c = camera.to_camera(&sphere.centre).coords;
         let d = c.norm();
-        if !(d > sphere.radius) {
+        if d.is_nan() || d <= sphere.radius {
             return Err(SynthError::Scene(format!(
                 "camera centre lies inside the sphere at {:?}",
                 sphere.centre.coords.as_slice()
@@ -81,7 +84,11 @@ impl ViewedSphere {
     /// Unit directions of `n` rays on the silhouette cone.
     pub fn outline_rays(&self, n: usize) -> Vec<Vector3<f64>> {
         let a = self.axis;
-        let helper = if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+        let helper = if a.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
         let e1 = a.cross(&helper).normalize();
         let e2 = a.cross(&e1);
         let (s, c) = self.half_angle.sin_cos();
@@ -121,7 +128,10 @@ pub fn direction_to_pixel(camera: &Camera, d: &Vector3<f64>) -> Point2<f64> {
 /// Points of a sphere's observed outline (distorted image, px).
 pub fn outline_pixels(camera: &Camera, sphere: &Sphere, n: usize) -> Result<Vec<Point2<f64>>> {
     let v = ViewedSphere::new(camera, sphere)?;
-    Ok(v.outline_rays(n).iter().map(|d| direction_to_pixel(camera, d)).collect())
+    Ok(v.outline_rays(n)
+        .iter()
+        .map(|d| direction_to_pixel(camera, d))
+        .collect())
 }
 
 /// Bounding box `[u_min, v_min, u_max, v_max]` of a sphere's observed outline (px),
@@ -129,7 +139,12 @@ pub fn outline_pixels(camera: &Camera, sphere: &Sphere, n: usize) -> Result<Vec<
 /// sagitta between them.
 pub fn outline_bounds(camera: &Camera, sphere: &Sphere) -> Result<[f64; 4]> {
     let pts = outline_pixels(camera, sphere, OUTLINE_POINTS)?;
-    let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
     for p in &pts {
         b[0] = b[0].min(p.x);
         b[1] = b[1].min(p.y);
@@ -139,7 +154,12 @@ pub fn outline_bounds(camera: &Camera, sphere: &Sphere) -> Result<[f64; 4]> {
     let radius = 0.5 * (b[2] - b[0]).max(b[3] - b[1]);
     let step = std::f64::consts::TAU / OUTLINE_POINTS as f64;
     let sagitta = radius * step * step / 8.0 * 4.0 + 0.5;
-    Ok([b[0] - sagitta, b[1] - sagitta, b[2] + sagitta, b[3] + sagitta])
+    Ok([
+        b[0] - sagitta,
+        b[1] - sagitta,
+        b[2] + sagitta,
+        b[3] + sagitta,
+    ])
 }
 
 /// Centre of the sphere's outline ellipse in the ideal (undistorted) image, px:
@@ -147,7 +167,8 @@ pub fn outline_bounds(camera: &Camera, sphere: &Sphere) -> Result<[f64; 4]> {
 /// centroid of the silhouette after undistortion.
 pub fn ellipse_centre_px(camera: &Camera, sphere: &Sphere) -> Result<Point2<f64>> {
     let c = camera.to_camera(&sphere.centre);
-    let e = sphere_image::ellipse_centre(&c, sphere.radius).map_err(|e| SynthError::geometry("ellipse centre", e))?;
+    let e = sphere_image::ellipse_centre(&c, sphere.radius)
+        .map_err(|e| SynthError::geometry("ellipse centre", e))?;
     Ok(camera.intrinsics.to_pixel(e))
 }
 
@@ -156,7 +177,8 @@ pub fn ellipse_centre_px(camera: &Camera, sphere: &Sphere) -> Result<Point2<f64>
 /// expressed in pixels of K (fx·fy per unit normalised area, skew-free).
 pub fn ellipse_area_px(camera: &Camera, sphere: &Sphere) -> Result<f64> {
     let c = camera.to_camera(&sphere.centre);
-    let q = sphere_image::outline_conic(&c, sphere.radius).map_err(|e| SynthError::geometry("outline conic", e))?;
+    let q = sphere_image::outline_conic(&c, sphere.radius)
+        .map_err(|e| SynthError::geometry("outline conic", e))?;
     // Inside is xᵀQx > 0; use −Q so that the quadratic part is positive definite.
     let q = -q;
     let a = q.fixed_view::<2, 2>(0, 0).into_owned();
@@ -183,7 +205,10 @@ pub fn separation_px(camera: &Camera, a: &Sphere, b: &Sphere) -> Result<f64> {
 /// part of it is outside.
 pub fn frame_clearance_px(camera: &Camera, sphere: &Sphere) -> Result<f64> {
     let pts = outline_pixels(camera, sphere, OUTLINE_POINTS)?;
-    let (w, h) = (f64::from(camera.width) - 0.5, f64::from(camera.height) - 0.5);
+    let (w, h) = (
+        f64::from(camera.width) - 0.5,
+        f64::from(camera.height) - 0.5,
+    );
     Ok(pts
         .iter()
         .map(|p| (p.x + 0.5).min(p.y + 0.5).min(w - p.x).min(h - p.y))

@@ -6,13 +6,13 @@
 //! (the Gaussian approximation of Poisson shot noise plus Gaussian read noise:
 //! mean μ, variance μ + σ_read², accurate for the ≥ 100 e⁻ backgrounds used);
 //! `DN = round(offset + gain·e)` clamped to `[0, 2^bits − 1]` (saturation).
-//! Random numbers: one ChaCha8 stream per (seed, frame, camera) key, one
-//! stream id per row, so the bytes do not depend on the thread count.
+//! Random numbers: one PCG-64 MCG generator per row, seeded with a hash of
+//! (seed, frame, camera, row) — portable and fixed by its constants, so the
+//! bytes do not depend on the platform or the thread count.
 
 use image::{ImageBuffer, Luma};
-use rand_chacha::ChaCha8Rng;
-use rand_chacha::rand_core::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
+use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 
 use crate::psf::Signal;
@@ -71,8 +71,13 @@ impl Sensor {
 
     /// Mean background electrons at pixel (u, v), without stray light.
     pub fn background_at(&self, u: f64, v: f64) -> f64 {
-        let (cu, cv) = ((f64::from(self.width) - 1.0) / 2.0, (f64::from(self.height) - 1.0) / 2.0);
-        self.background_e + self.gradient_e_per_px[0] * (u - cu) + self.gradient_e_per_px[1] * (v - cv)
+        let (cu, cv) = (
+            (f64::from(self.width) - 1.0) / 2.0,
+            (f64::from(self.height) - 1.0) / 2.0,
+        );
+        self.background_e
+            + self.gradient_e_per_px[0] * (u - cu)
+            + self.gradient_e_per_px[1] * (v - cv)
     }
 
     /// Expected DN (before rounding and clamping) of a pixel receiving `e` mean electrons.
@@ -124,11 +129,24 @@ pub fn chacha_key(purpose: u64, words: &[u64]) -> [u8; 32] {
 const NOISE_PURPOSE: u64 = 1;
 
 impl NoiseKey {
-    /// The generator of one row.
-    pub fn row_rng(&self, row: u32) -> ChaCha8Rng {
-        let mut rng = ChaCha8Rng::from_seed(chacha_key(NOISE_PURPOSE, &[self.seed, self.frame, u64::from(self.camera)]));
-        rng.set_stream(u64::from(row));
-        rng
+    /// The generator of one row: PCG-64 MCG (XSL-RR 128/64 on a
+    /// multiplicative congruential state, O'Neill 2014) seeded with a hash of
+    /// (seed, frame, camera, row). Fully specified by its constants: the same
+    /// bytes on every platform; twice as fast as ChaCha8 for the 12.6 M draws
+    /// of a frame.
+    pub fn row_rng(&self, row: u32) -> Pcg64Mcg {
+        let k = chacha_key(
+            NOISE_PURPOSE,
+            &[
+                self.seed,
+                self.frame,
+                u64::from(self.camera),
+                u64::from(row),
+            ],
+        );
+        let mut b = [0u8; 16];
+        b.copy_from_slice(&k[..16]);
+        Pcg64Mcg::new(u128::from_le_bytes(b))
     }
 }
 
@@ -141,40 +159,155 @@ pub struct Exposure<'a> {
     pub radiance_e: f64,
 }
 
+/// Exact sampler of the quantised DN of a pixel with a given mean: the
+/// distribution of `round_half_up(offset + gain·(μ + σ·z))` clamped to
+/// `[0, max]`, z standard normal, by Walker's alias method (one 64-bit draw
+/// per sample; the normal is truncated at ±9σ, probability 2e-19). Used for
+/// the uniform background, which is most of every frame; it is ≈ 3× faster
+/// than drawing z and quantising.
+#[derive(Debug, Clone)]
+struct QuantisedNoise {
+    first: u32,
+    threshold: Vec<u32>,
+    alias: Vec<u16>,
+}
+
+impl QuantisedNoise {
+    fn new(mean_dn: f64, sd_dn: f64, max: u16) -> Option<Self> {
+        if !(sd_dn > 0.0 && mean_dn.is_finite()) {
+            return None;
+        }
+        let lo = (mean_dn - 9.0 * sd_dn).floor().clamp(0.0, f64::from(max)) as u32;
+        let hi = (mean_dn + 9.0 * sd_dn).ceil().clamp(0.0, f64::from(max)) as u32;
+        let n = (hi - lo + 1) as usize;
+        if n > 1 << 16 {
+            return None;
+        }
+        let cdf = |x: f64| 0.5 * libm::erfc(-(x - mean_dn) / (sd_dn * std::f64::consts::SQRT_2));
+        // P(DN = k) = P(k − ½ ≤ x < k + ½); the end values take the clamped tails.
+        let mut p: Vec<f64> = (lo..=hi)
+            .map(|k| {
+                let k = f64::from(k);
+                let a = if k <= 0.0 { 0.0 } else { cdf(k - 0.5) };
+                let b = if k >= f64::from(max) {
+                    1.0
+                } else {
+                    cdf(k + 0.5)
+                };
+                (b - a).max(0.0)
+            })
+            .collect();
+        let total: f64 = p.iter().sum();
+        if total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        p.iter_mut().for_each(|x| *x *= n as f64 / total);
+        // Vose's alias method.
+        let mut threshold = vec![u32::MAX; n];
+        let mut alias: Vec<u16> = (0..n).map(|i| i as u16).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| p[i] < 1.0);
+        while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+            threshold[s] = (p[s] * 4_294_967_296.0).min(4_294_967_295.0) as u32;
+            alias[s] = l as u16;
+            p[l] -= 1.0 - p[s];
+            if p[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        Some(Self {
+            first: lo,
+            threshold,
+            alias,
+        })
+    }
+
+    #[inline]
+    fn sample(&self, r: u64) -> u16 {
+        let i = (((r >> 32) * self.threshold.len() as u64) >> 32) as usize;
+        // Branch-free select (the comparison is a coin flip for the CPU's predictor).
+        let keep = u32::from((r as u32) < self.threshold[i]);
+        let a = u32::from(self.alias[i]);
+        let k = a ^ ((i as u32 ^ a) & keep.wrapping_neg());
+        (self.first + k) as u16
+    }
+}
+
 /// Expose the sensor: background + signals + noise → quantised image.
 /// Rows are computed in parallel; the result does not depend on the thread count.
 pub fn expose(sensor: &Sensor, layers: &[Exposure<'_>], key: NoiseKey) -> Image16 {
+    use rand_pcg::rand_core::Rng;
     let (w, h) = (sensor.width as usize, sensor.height as usize);
     let mut data = vec![0u16; w * h];
-    let max = sensor.max_dn();
+    // Rounding half up by truncation: `(x + 0.5) as u16` saturates at 0 and
+    // 65535 (NaN → 0); `.min(max)` clamps 8-bit output.
+    let max = sensor.max_dn() as u16;
+    let offset = sensor.offset_dn + 0.5;
+    let gain = sensor.gain_dn_per_e;
     let rn2 = sensor.read_noise_e * sensor.read_noise_e;
+    let noisy = sensor.noisy();
+    let shot = sensor.shot_noise;
+    let sd_of = |m: f64| (if shot { m.max(0.0) } else { 0.0 } + rn2).sqrt();
+    // The uniform background (no gradient): sampled exactly in DN.
+    let flat = sensor.gradient_e_per_px == [0.0, 0.0];
+    let bg = sensor.background_e;
+    let sampler = if noisy && flat {
+        QuantisedNoise::new(sensor.offset_dn + gain * bg, gain * sd_of(bg), max)
+    } else {
+        None
+    };
+    let row_is_plain = |v: usize| {
+        let vf = v as f64;
+        flat && !sensor
+            .stray_light
+            .iter()
+            .any(|s| s.peak_e != 0.0 && (vf - s.v).abs() <= STRAY_REACH_SIGMAS * s.sigma_px)
+            && !layers.iter().any(|l| {
+                let r = v as i64 - l.signal.y0;
+                r >= 0 && (r as usize) < l.signal.height
+            })
+    };
     data.par_chunks_mut(w).enumerate().for_each_init(
         || vec![0.0f64; w],
         |mean, (v, out)| {
-            mean_row(sensor, layers, v, mean);
+            if !noisy {
+                mean_row(sensor, layers, v, mean);
+                for (o, &m) in out.iter_mut().zip(mean.iter()) {
+                    *o = ((offset + gain * m) as u16).min(max);
+                }
+                return;
+            }
             let mut rng = key.row_rng(v as u32);
+            if let (Some(q), true) = (&sampler, row_is_plain(v)) {
+                for o in out.iter_mut() {
+                    *o = q.sample(rng.next_u64());
+                }
+                return;
+            }
+            mean_row(sensor, layers, v, mean);
             let mut last = f64::NAN;
             let mut sd = 0.0;
             for (o, &m) in out.iter_mut().zip(mean.iter()) {
-                let e = if sensor.noisy() {
-                    if m != last {
-                        let shot = if sensor.shot_noise { m.max(0.0) } else { 0.0 };
-                        sd = (shot + rn2).sqrt();
-                        last = m;
-                    }
-                    let z: f64 = StandardNormal.sample(&mut rng);
-                    m + sd * z
-                } else {
-                    m
-                };
-                let dn = (sensor.offset_dn + sensor.gain_dn_per_e * e).round();
-                *o = dn.clamp(0.0, max) as u16;
+                if let (Some(q), true) = (&sampler, m == bg) {
+                    *o = q.sample(rng.next_u64());
+                    continue;
+                }
+                if m != last {
+                    sd = sd_of(m);
+                    last = m;
+                }
+                let z: f64 = StandardNormal.sample(&mut rng);
+                *o = ((offset + gain * (m + sd * z)) as u16).min(max);
             }
         },
     );
     // The buffer has exactly width·height samples by construction.
-    ImageBuffer::from_raw(sensor.width, sensor.height, data).unwrap_or_else(|| ImageBuffer::new(sensor.width, sensor.height))
+    ImageBuffer::from_raw(sensor.width, sensor.height, data)
+        .unwrap_or_else(|| ImageBuffer::new(sensor.width, sensor.height))
 }
+
+/// Stray-light blobs are evaluated out to this many σ.
+const STRAY_REACH_SIGMAS: f64 = 6.0;
 
 /// Mean electrons of row `v` into `mean`.
 pub fn mean_row(sensor: &Sensor, layers: &[Exposure<'_>], v: usize, mean: &mut [f64]) {
@@ -189,7 +322,7 @@ pub fn mean_row(sensor: &Sensor, layers: &[Exposure<'_>], v: usize, mean: &mut [
         }
     }
     for s in &sensor.stray_light {
-        let reach = 6.0 * s.sigma_px;
+        let reach = STRAY_REACH_SIGMAS * s.sigma_px;
         let dv = vf - s.v;
         if dv.abs() > reach || s.peak_e == 0.0 {
             continue;
@@ -237,27 +370,45 @@ mod tests {
         }
     }
 
-    /// Background mean and variance against the configured noise. 196,608
-    /// pixels: the sample mean's standard error is 60/√N = 0.14 DN (0.01 %),
-    /// the variance's relative standard error √(2/N) = 0.32 %, so a 2 %
-    /// tolerance is > 6 standard errors yet catches any wrong term (read noise
-    /// alone would be 11 % of the variance; rounding adds 1/12 DN² = 0.002 %).
+    /// Background mean and variance against the configured noise, through
+    /// both noise paths: the exact DN sampler of the uniform background, and
+    /// normal draws (a uniform signal layer over the whole frame moves every
+    /// pixel off the background). 196,608 pixels: the sample mean's standard
+    /// error is σ/√N ≈ 0.14 DN (1e-4 relative), the variance's relative
+    /// standard error √(2/N) = 0.32 %. The 2 % is > 6 standard errors
+    /// yet catches any wrong term (read noise alone is 11 % of the variance;
+    /// rounding adds 1/12 DN²); the mean is also held to 5 standard errors.
     #[test]
     fn background_statistics_match_the_configuration() {
-        for s in [
-            sensor(),
-            Sensor {
-                bits: 8,
-                gain_dn_per_e: 0.05,
-                offset_dn: 10.0,
-                background_e: 600.0,
-                read_noise_e: 8.0,
-                ..sensor()
-            },
+        let flat = Signal {
+            x0: 0,
+            y0: 0,
+            width: 512,
+            height: 384,
+            values: vec![1.0; 512 * 384],
+        };
+        for (s, extra_e) in [
+            (sensor(), 0.0),
+            (sensor(), 300.0),
+            (
+                Sensor {
+                    bits: 8,
+                    gain_dn_per_e: 0.05,
+                    offset_dn: 10.0,
+                    background_e: 600.0,
+                    read_noise_e: 8.0,
+                    ..sensor()
+                },
+                0.0,
+            ),
         ] {
+            let layers = [Exposure {
+                signal: &flat,
+                radiance_e: extra_e,
+            }];
             let img = expose(
                 &s,
-                &[],
+                if extra_e > 0.0 { &layers } else { &[] },
                 NoiseKey {
                     seed: 7,
                     frame: 3,
@@ -266,11 +417,54 @@ mod tests {
             );
             let n = img.len() as f64;
             let mean = img.iter().map(|&x| f64::from(x)).sum::<f64>() / n;
-            let var = img.iter().map(|&x| (f64::from(x) - mean).powi(2)).sum::<f64>() / (n - 1.0);
-            let want_mean = s.expected_dn(s.background_e);
-            let want_var = s.variance_dn2(s.background_e) + 1.0 / 12.0;
-            assert!((mean / want_mean - 1.0).abs() < 0.02, "mean {mean} vs {want_mean}");
-            assert!((var / want_var - 1.0).abs() < 0.02, "variance {var} vs {want_var}");
+            let var = img
+                .iter()
+                .map(|&x| (f64::from(x) - mean).powi(2))
+                .sum::<f64>()
+                / (n - 1.0);
+            let e = s.background_e + extra_e;
+            let want_mean = s.expected_dn(e);
+            let want_var = s.variance_dn2(e) + 1.0 / 12.0;
+            assert!(
+                (mean / want_mean - 1.0).abs() < 0.02,
+                "mean {mean} vs {want_mean}"
+            );
+            assert!(
+                (mean - want_mean).abs() < 5.0 * (want_var / n).sqrt(),
+                "mean {mean} vs {want_mean}"
+            );
+            assert!(
+                (var / want_var - 1.0).abs() < 0.02,
+                "variance {var} vs {want_var}"
+            );
+        }
+    }
+
+    /// The alias sampler reproduces the exact DN probabilities.
+    #[test]
+    fn dn_sampler_is_exact() {
+        let (mu, sd) = (3.3, 1.7);
+        let q = QuantisedNoise::new(mu, sd, 255).unwrap();
+        let mut rng = rand_pcg::Pcg64::new(1, 2);
+        let n = 1_000_000;
+        let mut counts = vec![0u32; 256];
+        for _ in 0..n {
+            use rand_pcg::rand_core::Rng;
+            counts[usize::from(q.sample(rng.next_u64()))] += 1;
+        }
+        let cdf = |x: f64| 0.5 * libm::erfc(-(x - mu) / (sd * std::f64::consts::SQRT_2));
+        for (k, &count) in counts.iter().enumerate().take(12) {
+            let p = if k == 0 {
+                cdf(0.5)
+            } else {
+                cdf(k as f64 + 0.5) - cdf(k as f64 - 0.5)
+            };
+            let f = f64::from(count) / f64::from(n);
+            // Binomial standard error √(p(1−p)/n) ≤ 5e-4; allow 5 of them.
+            assert!(
+                (f - p).abs() < 5.0 * (p * (1.0 - p) / f64::from(n)).sqrt() + 1e-6,
+                "DN {k}: {f} vs {p}"
+            );
         }
     }
 
@@ -309,8 +503,14 @@ mod tests {
             frame: 5,
             camera: 3,
         };
-        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-        let four = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let four = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
         let a = one.install(|| expose(&s, &[], key));
         let b = four.install(|| expose(&s, &[], key));
         assert_eq!(a.as_raw(), b.as_raw());

@@ -1,1 +1,159 @@
-//! TODO
+//! The 3-D calibration target: small luminous spheres on a Latin-square
+//! lattice (non-coplanar; no two aligned along X, Y or Z, so none overlap in
+//! any of the three cameras), rendered once per camera.
+//!
+//! Files: `target.csv` (id, x, y, z, diameter; target frame = world frame),
+//! `calib/cam{k}.tif` and `calib/points_cam{k}.csv` (id, u, v: the exact
+//! observed image of each marker centre through the full true camera model, for
+//! calibration from correspondences).
+
+use std::path::Path;
+
+use formats::{CorrespondenceRow, TargetRow, write_csv};
+use geom::nalgebra::Point3;
+
+use crate::config::{Config, TargetConfig};
+use crate::encode::{FrameMetadata, write_image};
+use crate::rig::{SynthCamera, SynthRig};
+use crate::scene::Sphere;
+use crate::sensor::{Image16, NoiseKey};
+use crate::{Result, SynthError};
+
+/// Frame number of the calibration images in noise keys (campaign frames count from 0).
+pub const CALIBRATION_FRAME: u64 = u64::MAX;
+
+/// One marker of the target.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Marker {
+    /// Marker id (row-major over the lattice, from 1).
+    pub id: u32,
+    /// Centre, world frame (mm).
+    pub centre: Point3<f64>,
+    /// Diameter (mm).
+    pub diameter: f64,
+}
+
+/// The markers of a target configuration: marker (i, j) at
+/// `centre + spacing·(i − c, j − c, 0) + depth_step·(((2i + 3j) mod n) − c)·ẑ`.
+pub fn markers(t: &TargetConfig) -> Vec<Marker> {
+    let n = t.grid;
+    let c = (f64::from(n) - 1.0) / 2.0;
+    let mut out = Vec::with_capacity((n * n) as usize);
+    for i in 0..n {
+        for j in 0..n {
+            let k = (2 * i + 3 * j) % n;
+            out.push(Marker {
+                id: i * n + j + 1,
+                centre: Point3::new(
+                    t.centre[0] + t.spacing_mm * (f64::from(i) - c),
+                    t.centre[1] + t.spacing_mm * (f64::from(j) - c),
+                    t.centre[2] + t.depth_step_mm * (f64::from(k) - c),
+                ),
+                diameter: t.marker_diameter_mm,
+            });
+        }
+    }
+    out
+}
+
+/// `target.csv` rows.
+pub fn target_rows(markers: &[Marker]) -> Vec<TargetRow> {
+    markers
+        .iter()
+        .map(|m| TargetRow {
+            id: m.id,
+            x: m.centre.x,
+            y: m.centre.y,
+            z: m.centre.z,
+            diameter: Some(m.diameter),
+        })
+        .collect()
+}
+
+/// The markers as spheres for the renderer.
+pub fn marker_spheres(markers: &[Marker], radiance_e: f64) -> Vec<Sphere> {
+    markers
+        .iter()
+        .map(|m| Sphere {
+            centre: m.centre,
+            radius: m.diameter / 2.0,
+            radiance_e,
+        })
+        .collect()
+}
+
+/// Exact observed image of each marker centre in one camera (full model).
+pub fn correspondences(cam: &SynthCamera, markers: &[Marker]) -> Result<Vec<CorrespondenceRow>> {
+    markers
+        .iter()
+        .map(|m| {
+            let p = cam
+                .camera
+                .project(&m.centre)
+                .map_err(|e| SynthError::geometry(format!("projecting marker {}", m.id), e))?;
+            Ok(CorrespondenceRow {
+                id: m.id,
+                u: p.x,
+                v: p.y,
+            })
+        })
+        .collect()
+}
+
+/// Render the target once in one camera.
+pub fn render_target(cam: &SynthCamera, config: &Config) -> Result<Image16> {
+    let m = markers(&config.target);
+    cam.render(
+        &marker_spheres(&m, config.target.radiance_e),
+        NoiseKey {
+            seed: config.seed,
+            frame: CALIBRATION_FRAME,
+            camera: cam.id,
+        },
+        config.render.max_depth,
+    )
+}
+
+/// Write `target.csv` and, per camera, `calib/cam{k}.{ext}` and
+/// `calib/points_cam{k}.csv` under `out`. Returns the image paths (relative).
+pub fn write_target_files(
+    config: &Config,
+    rig: &SynthRig,
+    out: &Path,
+    time_s: f64,
+) -> Result<Vec<String>> {
+    let m = markers(&config.target);
+    write_csv(&out.join("target.csv"), &target_rows(&m))?;
+    let calib = out.join("calib");
+    std::fs::create_dir_all(&calib).map_err(|e| SynthError::io(&calib, e))?;
+    let ext = config.output.format.extension();
+    let mut paths = Vec::new();
+    for cam in &rig.cameras {
+        let img = render_target(cam, config)?;
+        let rel = format!("calib/cam{}.{ext}", cam.id);
+        let meta = FrameMetadata {
+            make: config.output.make.clone(),
+            model: config.output.model.clone(),
+            serial: cam.serial.clone(),
+            time_s,
+            exposure_s: config.sensor.exposure_s,
+            f_number: config.optics.f_number,
+            focal_mm: config.optics.focal_mm,
+            description: format!("calibration target, camera {}", cam.id),
+        };
+        write_image(
+            &out.join(&rel),
+            &img,
+            config.sensor.bits,
+            &meta,
+            config.output.format,
+            config.output.compression,
+        )?;
+        write_csv(
+            &calib.join(format!("points_cam{}.csv", cam.id)),
+            &correspondences(cam, &m)?,
+        )?;
+        paths.push(rel);
+    }
+    Ok(paths)
+}

@@ -1,1 +1,207 @@
-//! TODO
+//! Ground truth: `truth.json` (true cameras with K, R, t, P, distortion;
+//! spheres; the exact sphere centres of every instant; the injected error
+//! functions at the targets; the reference figures the evaluation gives on the
+//! true positions) and `truth_points.csv`.
+
+use std::collections::BTreeMap;
+
+use formats::{Axis, PointRow, SphereRow, Truth, TruthCamera, TruthInstant};
+use serde_json::{Map, Value, json};
+
+use crate::config::Config;
+use crate::machine::{AxisErrorValues, axis_error_values};
+use crate::procedure::Plan;
+use crate::rig::{SynthRig, principal_distance_mm};
+use crate::{Result, SynthError};
+
+/// The true cameras, with their serial, nominal description and optics in `extra`.
+pub fn truth_cameras(rig: &SynthRig, config: &Config) -> Vec<TruthCamera> {
+    rig.cameras
+        .iter()
+        .map(|c| {
+            let mut t = TruthCamera::new(c.id, &c.camera);
+            t.extra.insert("serial".into(), json!(c.serial));
+            t.extra.insert("nominal".into(), json!(c.nominal));
+            t.extra.insert(
+                "optics".into(),
+                json!({
+                    "focal_mm": config.optics.focal_mm,
+                    "principal_distance_mm": principal_distance_mm(config.optics.focal_mm, config.optics.focus_distance_mm),
+                    "f_number": config.optics.f_number,
+                    "focus_distance_mm": config.optics.focus_distance_mm,
+                    "psf_sigma_px": c.optics.psf_sigma_px,
+                    "pixel_mm": c.optics.pixel_mm,
+                }),
+            );
+            t
+        })
+        .collect()
+}
+
+/// Round to 1e-12 mm so that JSON stays short (far below any measurable size).
+fn clean(x: f64) -> f64 {
+    (x * 1e12).round() / 1e12
+}
+
+/// One instant of `truth.json`, with its sequence number, line, time and pose error.
+pub fn truth_instant(plan: &Plan, i: &crate::procedure::Instant) -> TruthInstant {
+    let spheres: BTreeMap<String, [f64; 3]> = plan
+        .centres(i)
+        .iter()
+        .zip(&plan.spheres)
+        .map(|(c, s)| (s.name.clone(), [clean(c.x), clean(c.y), clean(c.z)]))
+        .collect();
+    let mut extra = Map::new();
+    extra.insert("frame".into(), json!(i.index));
+    extra.insert("line".into(), json!(i.line + 1));
+    extra.insert("time_s".into(), json!(clean(i.time_s)));
+    extra.insert(
+        "delta_um".into(),
+        json!(i.error.delta.map(|v| clean(v * 1e3)).as_slice()),
+    );
+    extra.insert(
+        "epsilon_urad".into(),
+        json!(i.error.epsilon.map(|v| clean(v * 1e6)).as_slice()),
+    );
+    TruthInstant {
+        axis: i.axis,
+        direction: i.direction,
+        run: i.run,
+        target: i.target,
+        capture: i.capture,
+        nominal: i.nominal,
+        spheres,
+        extra,
+    }
+}
+
+fn values_json(axis: Axis, v: &AxisErrorValues) -> Map<String, Value> {
+    let [a, b] = axis.others();
+    let mut m = Map::new();
+    m.insert(
+        "positioning_up_um".into(),
+        json!(clean(v.positioning_up_um)),
+    );
+    m.insert(
+        "positioning_down_um".into(),
+        json!(clean(v.positioning_down_um)),
+    );
+    m.insert(
+        format!("straightness_{}_um", a.name()),
+        json!(clean(v.straightness_a_um)),
+    );
+    m.insert(
+        format!("straightness_{}_um", b.name()),
+        json!(clean(v.straightness_b_um)),
+    );
+    m.insert("roll_urad".into(), json!(clean(v.roll_urad)));
+    m.insert("pitch_urad".into(), json!(clean(v.pitch_urad)));
+    m.insert("yaw_urad".into(), json!(clean(v.yaw_urad)));
+    m
+}
+
+/// The injected error functions of each tested axis at its targets (µm, µrad,
+/// without the random offsets), with the curve parameters, and per line the
+/// constant contribution of the other axes standing at that line.
+pub fn injected_errors(config: &Config) -> Value {
+    let mut out = Map::new();
+    for travel in &config.procedure.axes {
+        let Some(errors) = config.machine.axis(travel.axis) else {
+            continue;
+        };
+        let targets: Vec<Value> = (0..travel.targets())
+            .map(|k| {
+                let p = travel.target_position(k);
+                let mut m = values_json(travel.axis, &axis_error_values(errors, travel, p));
+                m.insert("target".into(), json!(k));
+                m.insert("position_mm".into(), json!(p));
+                Value::Object(m)
+            })
+            .collect();
+        let lines: Vec<Value> = travel
+            .lines_mm
+            .iter()
+            .enumerate()
+            .map(|(l, &offset)| {
+                let mut nominal = [0.0; 3];
+                let other = if travel.axis == Axis::X {
+                    Axis::Y
+                } else {
+                    Axis::X
+                };
+                nominal[other.index()] = offset;
+                nominal[travel.axis.index()] = travel.start_mm;
+                // Error of every axis but this one, at this line (no reversal).
+                let mut delta = [0.0; 3];
+                let mut eps = [0.0; 3];
+                for t in &config.procedure.axes {
+                    if t.axis == travel.axis {
+                        continue;
+                    }
+                    if let Some(e) = config.machine.axis(t.axis) {
+                        let se = axis_error_values(e, t, nominal[t.axis.index()])
+                            .small_error(t.axis, None);
+                        for k in 0..3 {
+                            delta[k] += se.delta[k] * 1e3;
+                            eps[k] += se.epsilon[k] * 1e6;
+                        }
+                    }
+                }
+                json!({
+                    "line": l + 1,
+                    "offset_axis": other.name(),
+                    "offset_mm": offset,
+                    "other_axes_delta_um": delta.map(clean),
+                    "other_axes_epsilon_urad": eps.map(clean),
+                })
+            })
+            .collect();
+        out.insert(
+            travel.axis.name().into(),
+            json!({
+                "model": errors,
+                "lines": lines,
+                "targets": targets,
+            }),
+        );
+    }
+    Value::Object(out)
+}
+
+/// The figures the evaluation gives on the exact positions (report.json shape).
+pub fn figures(points: &[PointRow]) -> Result<Value> {
+    let report = evaluate::evaluate(points, &evaluate::Options::default())
+        .map_err(|e| SynthError::Evaluate(e.to_string()))?;
+    serde_json::to_value(&report).map_err(|e| SynthError::Evaluate(e.to_string()))
+}
+
+/// The whole `truth.json` of a campaign.
+pub fn campaign_truth(
+    config: &Config,
+    rig: &SynthRig,
+    plan: &Plan,
+    points: &[PointRow],
+) -> Result<Truth> {
+    let mut extra = Map::new();
+    extra.insert("seed".into(), json!(config.seed));
+    extra.insert("start_time".into(), json!(config.procedure.start_time));
+    extra.insert("errors".into(), injected_errors(config));
+    extra.insert("figures".into(), figures(points)?);
+    Ok(Truth {
+        cameras: truth_cameras(rig, config),
+        spheres: plan
+            .spheres
+            .iter()
+            .map(|s| SphereRow {
+                name: s.name.clone(),
+                diameter: 2.0 * s.radius,
+            })
+            .collect(),
+        instants: plan
+            .instants
+            .iter()
+            .map(|i| truth_instant(plan, i))
+            .collect(),
+        extra,
+    })
+}
