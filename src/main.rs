@@ -26,6 +26,8 @@ enum Command {
     Extract(cmd::extract::Args),
     /// Fit a geometric element (least squares and minimum zone) to a point file.
     Fit(cmd::fit::Args),
+    /// Synthetic images of the rig with ground truth: campaign, calibration target, default config.
+    Synth(cmd::synth::Args),
 }
 
 /// Exit status for command-line usage errors (as clap uses).
@@ -59,6 +61,7 @@ fn main() -> ExitCode {
         Command::Evaluate(args) => cmd::evaluate::run(&args),
         Command::Extract(args) => cmd::extract::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),
+        Command::Synth(args) => cmd::synth::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

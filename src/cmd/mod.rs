@@ -6,3 +6,4 @@ pub mod evaluate;
 pub mod extract;
 pub mod fit;
 pub mod progress;
+pub mod synth;

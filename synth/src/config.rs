@@ -507,9 +507,21 @@ impl Config {
     /// Parse a TOML configuration; `path` names the source in errors. Unknown
     /// keys are errors naming the key.
     pub fn from_toml_str(text: &str, path: Option<&Path>) -> Result<Self> {
-        let config: Config = toml::from_str(text).map_err(|e| SynthError::Config {
-            path: path.map(Path::to_path_buf),
-            message: e.to_string().trim_end().replace('\n', " "),
+        let config: Config = toml::from_str(text).map_err(|e| {
+            let at = e.span().map(|s| {
+                let before = &text[..s.start.min(text.len())];
+                let line = before.matches('\n').count() + 1;
+                let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+                format!("line {line}, column {column}: ")
+            });
+            SynthError::Config {
+                path: path.map(Path::to_path_buf),
+                message: format!(
+                    "{}{}",
+                    at.unwrap_or_default(),
+                    e.message().trim_end().replace('\n', " ")
+                ),
+            }
         })?;
         config.validate().map_err(|e| match e {
             SynthError::Config { message, .. } => SynthError::Config {

@@ -1,0 +1,182 @@
+//! `trinocular synth campaign|target|config`: physically correct synthetic
+//! images of the rig with their ground truth (the `synth` crate).
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use anyhow::{Context, Result};
+use indicatif::ProgressBar;
+use synth::{Config, Overrides};
+
+/// Arguments of `trinocular synth`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    what: What,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum What {
+    /// Render a measurement campaign: images, manifest.csv, spheres.csv, nominal.json,
+    /// target.csv, calibration images, truth.json, truth_points.csv.
+    Campaign(CampaignArgs),
+    /// Render the calibration target once per camera: target.csv, nominal.json,
+    /// truth.json, calib/cam{1,2,3}.tif, calib/points_cam{1,2,3}.csv.
+    Target(TargetArgs),
+    /// Print the default configuration (the seed's rig and procedure), documented, as TOML.
+    Config,
+}
+
+/// Configuration file and the overrides for quick runs.
+#[derive(Debug, clap::Args)]
+struct ConfigArgs {
+    /// Configuration file (TOML; see `trinocular synth config`). Default: the seed's rig and procedure.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Image width (px); the sensor's physical width and so the field of view are kept.
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height (px), same square pixels (keep 4:3 to keep the vertical field).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Random seed (noise, repeatability); same seed → same bytes.
+    #[arg(long)]
+    seed: Option<u64>,
+}
+
+/// Arguments of `trinocular synth campaign`.
+#[derive(Debug, clap::Args)]
+struct CampaignArgs {
+    #[command(flatten)]
+    config: ConfigArgs,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Targets on every axis (same travel).
+    #[arg(long)]
+    targets: Option<u32>,
+    /// Runs.
+    #[arg(long)]
+    runs: Option<u32>,
+    /// Captures per target and approach.
+    #[arg(long)]
+    captures: Option<u32>,
+}
+
+/// Arguments of `trinocular synth target`.
+#[derive(Debug, clap::Args)]
+struct TargetArgs {
+    #[command(flatten)]
+    config: ConfigArgs,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn load(args: &ConfigArgs, overrides: Overrides) -> Result<Config> {
+    let mut config = match &args.config {
+        Some(path) => Config::from_file(path)?,
+        None => Config::default(),
+    };
+    config.apply(&Overrides {
+        width: args.width,
+        height: args.height,
+        seed: args.seed,
+        ..overrides
+    })?;
+    Ok(config)
+}
+
+/// Progress bars on stderr for the library's stages.
+struct Bars(Mutex<Option<ProgressBar>>);
+
+impl synth::progress::Progress for Bars {
+    fn begin(&self, stage: &str, total: u64) {
+        if let Ok(mut b) = self.0.lock() {
+            *b = Some(crate::cmd::progress::bar(total, stage));
+        }
+    }
+
+    fn advance(&self, n: u64) {
+        if let Ok(b) = self.0.lock()
+            && let Some(b) = b.as_ref()
+        {
+            b.inc(n);
+        }
+    }
+
+    fn finish(&self) {
+        if let Ok(mut b) = self.0.lock()
+            && let Some(b) = b.take()
+        {
+            b.finish_and_clear();
+        }
+    }
+}
+
+fn campaign(args: &CampaignArgs) -> Result<()> {
+    let config = load(
+        &args.config,
+        Overrides {
+            targets: args.targets,
+            runs: args.runs,
+            captures: args.captures,
+            ..Overrides::default()
+        },
+    )?;
+    let bars = Bars(Mutex::new(None));
+    let s = synth::campaign::write_campaign(&config, &args.out, &bars)
+        .with_context(|| format!("writing the campaign into {}", args.out.display()))?;
+    println!(
+        "{} instants, {} frames of {}×{} px ({:.2} GB of images with the calibration images) in {}",
+        s.instants,
+        s.frames,
+        config.sensor.width,
+        config.sensor.height,
+        s.image_bytes as f64 / 1e9,
+        args.out.display()
+    );
+    println!(
+        "closest approach of a sphere to a frame border: {:.1} px; of two spheres: {:.1} px",
+        s.scene.min_frame_clearance_px, s.scene.min_separation_px
+    );
+    if s.scene.min_frame_clearance_px < 0.0 {
+        eprintln!(
+            "trinocular: warning: a sphere leaves the frame: {}",
+            s.scene.worst_frame
+        );
+    }
+    if s.scene.min_separation_px < 0.0 {
+        eprintln!(
+            "trinocular: warning: two spheres overlap: {}",
+            s.scene.worst_separation
+        );
+    }
+    Ok(())
+}
+
+fn target(args: &TargetArgs) -> Result<()> {
+    let config = load(&args.config, Overrides::default())?;
+    let bars = Bars(Mutex::new(None));
+    let s = synth::campaign::write_target_scene(&config, &args.out, &bars)
+        .with_context(|| format!("writing the target scene into {}", args.out.display()))?;
+    println!(
+        "{} markers; images {} in {}",
+        s.markers,
+        s.images.join(", "),
+        Path::new(&args.out).display()
+    );
+    Ok(())
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> Result<()> {
+    match &args.what {
+        What::Campaign(a) => campaign(a),
+        What::Target(a) => target(a),
+        What::Config => {
+            print!("{}", synth::config::DEFAULT_TOML);
+            Ok(())
+        }
+    }
+}
