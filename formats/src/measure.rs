@@ -1,0 +1,115 @@
+//! Files written by `trinocular measure` beside `points.csv`: the instants
+//! that could not be measured (`problems.csv`) and the table pose per instant
+//! (`poses.csv`).
+
+use serde::{Deserialize, Serialize};
+
+use crate::campaign::{Axis, Direction, InstantKey};
+use crate::table::{Invalid, Record, finite};
+
+/// An instant that could not be measured, and why.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InstantProblemRow {
+    /// Axis moved.
+    pub axis: Axis,
+    /// Approach direction.
+    pub direction: Direction,
+    /// Run.
+    pub run: u32,
+    /// Target index.
+    pub target: u32,
+    /// Capture.
+    pub capture: u32,
+    /// Commanded x (mm).
+    pub nominal_x: f64,
+    /// Commanded y (mm).
+    pub nominal_y: f64,
+    /// Commanded z (mm).
+    pub nominal_z: f64,
+    /// Camera at fault, when one is.
+    pub camera: Option<u8>,
+    /// Image at fault, when one is.
+    pub image: Option<String>,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl InstantProblemRow {
+    /// A problem with an instant.
+    pub fn new(key: &InstantKey, camera: Option<u8>, image: Option<String>, reason: String) -> Self {
+        let [x, y, z] = key.nominal();
+        Self {
+            axis: key.axis,
+            direction: key.direction,
+            run: key.run,
+            target: key.target,
+            capture: key.capture,
+            nominal_x: x,
+            nominal_y: y,
+            nominal_z: z,
+            camera,
+            image,
+            reason,
+        }
+    }
+}
+
+impl Record for InstantProblemRow {
+    const COLUMNS: &'static [&'static str] = &["axis", "direction", "run", "target", "capture", "reason"];
+
+    fn validate(&self) -> Result<(), Invalid> {
+        Ok(())
+    }
+}
+
+/// The table's pose at an instant relative to the first instant of its line,
+/// from the rigid fit of the spheres' centres.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PoseRow {
+    /// Axis moved.
+    pub axis: Axis,
+    /// Approach direction.
+    pub direction: Direction,
+    /// Run.
+    pub run: u32,
+    /// Target index.
+    pub target: u32,
+    /// Capture.
+    pub capture: u32,
+    /// Commanded x (mm).
+    pub nominal_x: f64,
+    /// Commanded y (mm).
+    pub nominal_y: f64,
+    /// Commanded z (mm).
+    pub nominal_z: f64,
+    /// Rotation about the moving axis (rad).
+    pub roll: f64,
+    /// Pitch (rad): about Y for an X axis, about X for a Y axis.
+    pub pitch: f64,
+    /// Yaw (rad): about Z for an X or Y axis.
+    pub yaw: f64,
+    /// Rotation vector x component (rad).
+    pub rx: f64,
+    /// Rotation vector y component (rad).
+    pub ry: f64,
+    /// Rotation vector z component (rad).
+    pub rz: f64,
+    /// Translation of the fit, x (mm).
+    pub tx: f64,
+    /// Translation of the fit, y (mm).
+    pub ty: f64,
+    /// Translation of the fit, z (mm).
+    pub tz: f64,
+    /// RMS distance of the spheres from the fitted rigid motion (mm).
+    pub residual_mm: f64,
+}
+
+impl Record for PoseRow {
+    const COLUMNS: &'static [&'static str] = &["axis", "direction", "run", "target", "capture", "roll", "pitch", "yaw"];
+
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("roll", self.roll)?;
+        finite("pitch", self.pitch)?;
+        finite("yaw", self.yaw)
+    }
+}

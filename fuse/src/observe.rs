@@ -1,0 +1,76 @@
+//! What one camera sees of the spheres in one frame: blobs → candidate sphere
+//! images with their centres in ideal (undistorted) pixels.
+//!
+//! Lens distortion is handled inside the centroid, not after it (METHODS.md
+//! §1): the centroid is taken over undistorted pixel positions, each pixel
+//! weighted by `F·J` with J the area Jacobian of the undistortion, so that it
+//! is the centroid of the light in the ideal image, where a sphere's outline
+//! is an exact ellipse.
+
+use extract::{Blob, Extraction, FrameView, PixelMap, Weighting, mapped_centroid};
+use geom::{Camera, Point2};
+
+/// Circularity (minor/major moment axis) below which a blob is not a sphere image.
+pub const MIN_CIRCULARITY: f64 = 0.7;
+
+/// A blob that may be the image of a sphere.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// Index of the blob in the frame's extraction.
+    pub blob: usize,
+    /// Centroid in ideal (undistorted) pixels.
+    pub ideal_px: Point2<f64>,
+    /// Apparent diameter (px): the minor axis of the moment ellipse, which
+    /// the oblique stretch of an off-axis sphere's image leaves unchanged.
+    pub diameter_px: f64,
+    /// Why the blob cannot be a whole sphere image, if it cannot.
+    pub rejected: Option<&'static str>,
+}
+
+/// The camera's undistortion as a pixel map (observed → ideal pixel, area Jacobian).
+struct Undistortion<'a>(&'a Camera);
+
+impl PixelMap for Undistortion<'_> {
+    fn map(&self, u: f64, v: f64) -> Option<([f64; 2], f64)> {
+        self.0
+            .undistort_pixel_area(Point2::new(u, v))
+            .ok()
+            .map(|(p, j)| ([p.x, p.y], j))
+    }
+}
+
+fn rejection(blob: &Blob) -> Option<&'static str> {
+    if blob.touches_border {
+        Some("touches the image border")
+    } else if blob.circularity() < MIN_CIRCULARITY {
+        Some("not round")
+    } else {
+        None
+    }
+}
+
+/// Candidates of one frame: every blob with its undistorted centroid.
+/// `frame` must be the frame the extraction came from.
+pub fn candidates(camera: &Camera, frame: &FrameView<'_>, extraction: &Extraction, weighting: Weighting) -> Vec<Candidate> {
+    let map = Undistortion(camera);
+    extraction
+        .blobs
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let ideal = if camera.distortion.is_none() {
+                Some([b.u, b.v])
+            } else {
+                mapped_centroid(frame, b, &extraction.level, weighting, &map)
+            };
+            let rejected = rejection(b).or(if ideal.is_none() { Some("cannot be undistorted") } else { None });
+            let [u, v] = ideal.unwrap_or([b.u, b.v]);
+            Candidate {
+                blob: i,
+                ideal_px: Point2::new(u, v),
+                diameter_px: b.ellipse().minor_px,
+                rejected,
+            }
+        })
+        .collect()
+}

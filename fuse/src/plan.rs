@@ -1,0 +1,240 @@
+//! The campaign as a list of instants, checked in full before any work starts:
+//! missing files, incomplete camera sets, cameras that disagree on an
+//! instant's nominal position, unknown cameras, duplicate rows, spheres that
+//! cannot be told apart — every problem is collected into one report.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use formats::{Axis, InstantKey, ManifestRow, Row, SphereRow, read_csv};
+use geom::{Camera, Point3, Vector3};
+
+use crate::matching::spread_tolerance;
+use crate::{FuseError, Result};
+
+/// Cameras whose optical axis makes more than this |cosine| with a motion
+/// axis look along it, and are not used for it by default (the seed uses
+/// cameras 2 + 3 for X and 1 + 3 for Y).
+const ALONG_AXIS_COS: f64 = 0.7;
+
+/// A line of a sweep: the axis and the off-axis nominal coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct LineKey {
+    /// Axis moved.
+    pub axis: Axis,
+    /// Nominal coordinates of the two other axes, as `f64::to_bits`.
+    pub offsets: [u64; 2],
+}
+
+impl LineKey {
+    /// The line an instant lies on.
+    pub fn of(key: &InstantKey) -> Self {
+        let [a, b] = key.axis.others();
+        Self {
+            axis: key.axis,
+            offsets: [key.nominal_bits[a.index()], key.nominal_bits[b.index()]],
+        }
+    }
+}
+
+/// One instant to measure: its key and one image per camera.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InstantPlan {
+    /// Position in manifest order (first appearance).
+    pub index: usize,
+    /// The instant.
+    pub key: InstantKey,
+    /// The sweep line it belongs to.
+    pub line: LineKey,
+    /// Camera id → image path (resolved against the manifest's folder).
+    pub images: BTreeMap<u8, PathBuf>,
+}
+
+impl InstantPlan {
+    /// Short human description, e.g. `X + run 2 target 7 capture 1 at (21, 0, 0)`.
+    pub fn describe(&self) -> String {
+        describe(&self.key)
+    }
+}
+
+/// `X + run 2 target 7 capture 1 at (21, 0, 0)`.
+pub fn describe(k: &InstantKey) -> String {
+    let [x, y, z] = k.nominal();
+    format!(
+        "{} {} run {} target {} capture {} at ({x}, {y}, {z})",
+        k.axis, k.direction, k.run, k.target, k.capture
+    )
+}
+
+/// The calibrated rig as the measurement uses it.
+#[derive(Debug, Clone)]
+pub struct RigModel {
+    /// Camera id → model.
+    pub cameras: BTreeMap<u8, Camera>,
+    /// Least-squares intersection of the optical axes (mm): the working point.
+    pub working_point: Point3<f64>,
+}
+
+impl RigModel {
+    /// Build from `rig.json`.
+    pub fn new(rig: &formats::Rig) -> Result<Self> {
+        let mut cameras = BTreeMap::new();
+        for c in &rig.cameras {
+            let cam = c.model.to_camera().map_err(|message| FuseError::Rig {
+                camera: c.model.id,
+                message,
+            })?;
+            if cameras.insert(c.model.id, cam).is_some() {
+                return Err(FuseError::Rig {
+                    camera: c.model.id,
+                    message: "appears twice in the rig".into(),
+                });
+            }
+        }
+        if cameras.len() < 2 {
+            return Err(FuseError::Rig {
+                camera: rig.cameras.first().map_or(0, |c| c.model.id),
+                message: "a measurement needs at least two cameras".into(),
+            });
+        }
+        // Σ (I − d dᵀ)·p = Σ (I − d dᵀ)·c over the axes (c centre, d direction).
+        let (mut a, mut b) = (geom::Matrix3::zeros(), Vector3::zeros());
+        for cam in cameras.values() {
+            let d = cam.optical_axis().into_inner();
+            let m = geom::Matrix3::identity() - d * d.transpose();
+            a += m;
+            b += m * cam.centre().coords;
+        }
+        let working_point = a
+            .try_inverse()
+            .map(|inv| Point3::from(inv * b))
+            .ok_or_else(|| FuseError::Rig {
+                camera: 0,
+                message: "the optical axes are all parallel: no working point".into(),
+            })?;
+        Ok(Self { cameras, working_point })
+    }
+
+    /// Distance from a camera to the working point (mm).
+    pub fn working_distance(&self, id: u8) -> Option<f64> {
+        self.cameras.get(&id).map(|c| (c.centre() - self.working_point).norm())
+    }
+
+    /// Cameras used for motion along `axis`: all, or (default) those not looking along it.
+    pub fn cameras_for(&self, axis: Axis, all: bool) -> Vec<u8> {
+        let mut e = Vector3::zeros();
+        e[axis.index()] = 1.0;
+        self.cameras
+            .iter()
+            .filter(|(_, c)| all || c.optical_axis().dot(&e).abs() <= ALONG_AXIS_COS)
+            .map(|(&id, _)| id)
+            .collect()
+    }
+}
+
+/// Read and check the manifest against the rig and spheres; returns the
+/// instants in manifest order, or one error listing every problem.
+pub fn plan(manifest: &Path, rig: &RigModel, spheres: &[SphereRow], all_cameras: bool) -> Result<Vec<InstantPlan>> {
+    let rows: Vec<Row<ManifestRow>> = read_csv(manifest)?;
+    let base = manifest.parent().unwrap_or(Path::new("."));
+    let mut problems = Vec::new();
+
+    let mut names = BTreeSet::new();
+    for s in spheres {
+        if !names.insert(s.name.as_str()) {
+            problems.push(format!("spheres: sphere {} is listed twice", s.name));
+        }
+    }
+    let diameters: Vec<f64> = spheres.iter().map(|s| s.diameter).collect();
+    if spheres.is_empty() {
+        problems.push("spheres: no spheres".into());
+    } else if spread_tolerance(&diameters).is_none() {
+        problems.push("spheres: two spheres share a diameter, so blobs cannot be matched to them".into());
+    }
+    if rows.is_empty() {
+        problems.push("the manifest has no rows".into());
+    }
+
+    // Instant → camera → (line, image); and key-without-nominal groups for consistency.
+    let mut order: Vec<InstantKey> = Vec::new();
+    let mut images: BTreeMap<InstantKey, BTreeMap<u8, (u64, PathBuf)>> = BTreeMap::new();
+    for r in &rows {
+        let m = &r.record;
+        if !rig.cameras.contains_key(&m.camera) {
+            problems.push(format!("line {}: camera {} is not in the rig", r.line, m.camera));
+            continue;
+        }
+        let path = base.join(&m.image);
+        if !path.is_file() {
+            problems.push(format!("line {}: image {} not found", r.line, path.display()));
+        }
+        let key = m.instant();
+        let entry = images.entry(key).or_insert_with(|| {
+            order.push(key);
+            BTreeMap::new()
+        });
+        if let Some((first, _)) = entry.get(&m.camera) {
+            problems.push(format!(
+                "line {}: camera {} already has an image for {} (line {first})",
+                r.line,
+                m.camera,
+                describe(&key)
+            ));
+            continue;
+        }
+        entry.insert(m.camera, (r.line, path));
+    }
+
+    // Instants that share everything but the nominal position: legitimate
+    // separate lines when each is complete, a disagreement otherwise.
+    let mut by_sweep: BTreeMap<(Axis, formats::Direction, u32, u32, u32), Vec<InstantKey>> = BTreeMap::new();
+    for k in &order {
+        by_sweep.entry((k.axis, k.direction, k.run, k.target, k.capture)).or_default().push(*k);
+    }
+    let mut plans = Vec::with_capacity(order.len());
+    for (index, key) in order.iter().enumerate() {
+        let cams = &images[key];
+        let needed = rig.cameras_for(key.axis, all_cameras);
+        let missing: Vec<u8> = needed.iter().copied().filter(|c| !cams.contains_key(c)).collect();
+        if !missing.is_empty() {
+            let siblings = &by_sweep[&(key.axis, key.direction, key.run, key.target, key.capture)];
+            for c in &missing {
+                let elsewhere = siblings
+                    .iter()
+                    .filter(|k| *k != key)
+                    .find_map(|k| images[k].get(c).map(|(line, _)| (k, *line)));
+                let (first_line, _) = cams.values().next().map_or((0, ()), |(l, _)| (*l, ()));
+                problems.push(match elsewhere {
+                    Some((other, line)) => format!(
+                        "line {first_line}: cameras disagree on the nominal position of {}: camera {c} (line {line}) has {:?}",
+                        describe(key),
+                        other.nominal()
+                    ),
+                    None => format!(
+                        "line {first_line}: {} has no image of camera {c} (needed for {} motion)",
+                        describe(key),
+                        key.axis
+                    ),
+                });
+            }
+        }
+        if needed.len() < 2 {
+            problems.push(format!("{}: fewer than two cameras of the rig can measure {} motion", describe(key), key.axis));
+        }
+        plans.push(InstantPlan {
+            index,
+            key: *key,
+            line: LineKey::of(key),
+            images: cams.iter().map(|(c, (_, p))| (*c, p.clone())).collect(),
+        });
+    }
+    if problems.is_empty() {
+        Ok(plans)
+    } else {
+        problems.dedup();
+        Err(FuseError::Campaign {
+            manifest: manifest.to_path_buf(),
+            problems,
+        })
+    }
+}
