@@ -12,8 +12,12 @@
 //! `Σ j·w'(j) = −1`. Then the image's zeroth and first moments equal the exact
 //! area and area-moment of the silhouette, for any sub-pixel position: a
 //! symmetric blur cannot move the intensity centroid, and pixel sampling
-//! cannot bias it. Below [`MIN_SIGMA_FOR_MOMENTS`] the expansion is not
-//! meaningful (W is a sharp box): the blur uses w only.
+//! cannot bias it. Second order: the expansion treats a pixel's covered area
+//! as concentrated at its centre, losing the 1/12 px² spread of a full pixel;
+//! the kernel's σ is raised to give it back ([`kernel_sigma`]), so that the
+//! image variance is the physical silhouette + σ² + 1/12. Below
+//! [`MIN_SIGMA_FOR_MOMENTS`] the expansion is not meaningful (W is a sharp
+//! box): the blur uses w with σ only, i.e. plain pixel-area integration.
 
 use geom::nalgebra::Vector2;
 use rayon::prelude::*;
@@ -176,13 +180,44 @@ pub fn kernels(sigma: f64) -> (Vec<f64>, Vec<f64>) {
     (w, d)
 }
 
+/// Discrete variance `Σ j²·w(j)` of the kernel [`kernels`] builds for `s`.
+fn kernel_variance(s: f64) -> f64 {
+    let (w, _) = kernels(s);
+    let r = (w.len() / 2) as f64;
+    w.iter()
+        .enumerate()
+        .map(|(i, v)| (i as f64 - r).powi(2) * v)
+        .sum()
+}
+
+/// The σ of the pixel-integrated Gaussian used with the first-moment terms:
+/// the one whose discrete variance is `σ² + 1/6`. The moment expansion treats
+/// each pixel's covered area as a point mass (plus dipole) at its centre, which
+/// drops the 1/12 px² within-pixel spread of every full pixel; the kernel adds
+/// it back, so the image variance is the physical `var(S) + σ² + 1/12`
+/// (silhouette, PSF, pixel integration). Bisection on the monotonic variance.
+pub fn kernel_sigma(sigma: f64) -> f64 {
+    let target = sigma * sigma + 1.0 / 6.0;
+    let (mut lo, mut hi) = (sigma, sigma + 1.0);
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if kernel_variance(mid) < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 /// Blur a coverage layer with a Gaussian of `sigma` px (PSF + defocus), keeping
 /// its area and first moments exact (see the module docs). The result extends
 /// the layer by the kernel radius on every side.
 pub fn blur(cov: &Coverage, sigma: f64) -> Signal {
-    let r = kernel_radius(sigma);
-    let (w, d) = kernels(sigma);
     let moments = sigma >= MIN_SIGMA_FOR_MOMENTS;
+    let ks = if moments { kernel_sigma(sigma) } else { sigma };
+    let r = kernel_radius(ks);
+    let (w, d) = kernels(ks);
     let (cw, ch) = (cov.width, cov.height);
     let (ow, oh) = (cw + 2 * r, ch + 2 * r);
     if cw == 0 || ch == 0 {

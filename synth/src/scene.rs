@@ -8,7 +8,7 @@ use geom::{Camera, sphere_image};
 use crate::{Result, SynthError};
 
 /// Number of outline points used for bounding boxes and frame checks.
-const OUTLINE_POINTS: usize = 256;
+pub const OUTLINE_POINTS: usize = 256;
 
 /// A self-luminous sphere of uniform radiance.
 #[derive(Debug, Clone, Copy, PartialEq)]

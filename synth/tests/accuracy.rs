@@ -193,3 +193,56 @@ fn undistorted_centroid_is_the_ellipse_centre() {
         check_bias(&cam.camera, sphere, c);
     }
 }
+
+/// The blur has the physical width: the rendered image's variance about its
+/// centroid is the silhouette's (a circle of radius ρ px on the axis: ρ²/4
+/// per axis) plus the PSF's σ² plus the pixel's 1/12 px² (sampling of
+/// S ∗ G ∗ box). Tolerance 2e-3 px² (0.5 % of the smallest blur variance):
+/// the edge pixels' second-order shape terms and the sampling of a
+/// σ ≥ 0.55 px blur are ≈ 1e-4 px²; dropping the pixel's 1/12 would fail it.
+#[test]
+fn blur_width_is_psf_plus_pixel() {
+    use synth::coverage::{PixelRect, coverage};
+    use synth::scene::ViewedSphere;
+    let cam = seed_camera(false);
+    // On the optical axis of camera 3 at 460 mm: a circle.
+    let c = cam.camera.centre() + cam.camera.optical_axis().into_inner() * 460.0;
+    let sphere = Sphere {
+        centre: c,
+        radius: 5.0,
+        radiance_e: 1.0,
+    };
+    let v = ViewedSphere::new(&cam.camera, &sphere).unwrap();
+    let f = cam.camera.intrinsics.fx;
+    let rho = f * 5.0 / (460.0f64 * 460.0 - 25.0).sqrt();
+    let e = ellipse_centre_px(&cam.camera, &sphere).unwrap();
+    let rect = PixelRect {
+        u0: (e.x - rho) as i64 - 3,
+        v0: (e.y - rho) as i64 - 3,
+        u1: (e.x + rho) as i64 + 3,
+        v1: (e.y + rho) as i64 + 3,
+    };
+    let cov = coverage(&cam.camera, &v, &[], rect, 5).unwrap();
+    for sigma in [0.55, 1.0, 2.5] {
+        let s = synth::psf::blur(&cov, sigma);
+        let c = s.centroid().unwrap();
+        let (mut vu, mut t) = (0.0, 0.0);
+        for r in 0..s.height {
+            for k in 0..s.width {
+                let val = s.values[r * s.width + k];
+                let du = (s.x0 + k as i64) as f64 - c.x;
+                vu += val * du * du;
+                t += val;
+            }
+        }
+        let added = vu / t - rho * rho / 4.0;
+        eprintln!(
+            "σ = {sigma}: variance added {added:.4} px², expected {:.4}",
+            sigma * sigma + 1.0 / 12.0
+        );
+        assert!(
+            (added - sigma * sigma - 1.0 / 12.0).abs() < 2e-3,
+            "σ = {sigma}: added {added}"
+        );
+    }
+}
