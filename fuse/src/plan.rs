@@ -199,9 +199,12 @@ pub fn plan(manifest: &Path, rig: &RigModel, spheres: &[SphereRow], all_cameras:
         if !missing.is_empty() {
             let siblings = &by_sweep[&(key.axis, key.direction, key.run, key.target, key.capture)];
             for c in &missing {
+                // A sibling that is complete is another line of the sweep; an
+                // incomplete one holding the missing camera is a disagreement.
+                let complete = |k: &InstantKey| needed.iter().all(|n| images[k].contains_key(n));
                 let elsewhere = siblings
                     .iter()
-                    .filter(|k| *k != key)
+                    .filter(|k| *k != key && !complete(k))
                     .find_map(|k| images[k].get(c).map(|(line, _)| (k, *line)));
                 let (first_line, _) = cams.values().next().map_or((0, ()), |(l, _)| (*l, ()));
                 problems.push(match elsewhere {

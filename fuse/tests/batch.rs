@@ -1,0 +1,254 @@
+//! The measure batch on damaged campaigns: every problem reported, nothing
+//! lost, nothing duplicated. The campaign is small (640×480 px, same field of
+//! view as the seed rig) and the rig is the renderer's true one.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::panic::AssertUnwindSafe;
+use std::path::{Path, PathBuf};
+
+use formats::{InstantProblemRow, ManifestRow, PointRow, Rig, RigCamera, SphereRow, Truth, read_csv, read_json, write_csv};
+use fuse::{FuseError, Inputs, MeasureOptions, Summary, measure};
+use image::{ImageBuffer, Luma};
+
+fn campaign(dir: &Path) {
+    let mut config = synth::Config::default();
+    config
+        .apply(&synth::Overrides {
+            width: Some(640),
+            height: Some(480),
+            targets: Some(3),
+            runs: Some(2),
+            captures: Some(1),
+            seed: Some(5),
+        })
+        .unwrap();
+    synth::campaign::write_campaign(&config, dir, &synth::progress::NoProgress).unwrap();
+}
+
+fn rig(dir: &Path) -> Rig {
+    let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
+    Rig {
+        cameras: truth
+            .cameras
+            .iter()
+            .map(|c| RigCamera::new(c.model.id, &c.model.to_camera().unwrap(), 0.0, 0))
+            .collect(),
+    }
+}
+
+fn spheres(dir: &Path) -> Vec<SphereRow> {
+    read_csv(&dir.join("spheres.csv")).unwrap().into_iter().map(|r| r.record).collect()
+}
+
+fn manifest(dir: &Path) -> Vec<ManifestRow> {
+    read_csv(&dir.join("manifest.csv")).unwrap().into_iter().map(|r| r.record).collect()
+}
+
+fn run(dir: &Path, out: &str, progress: &(dyn Fn(u64, u64) + Sync)) -> fuse::Result<Summary> {
+    let (rig, spheres) = (rig(dir), spheres(dir));
+    measure(
+        &Inputs {
+            manifest: &dir.join("manifest.csv"),
+            rig: &rig,
+            spheres: &spheres,
+        },
+        &dir.join(out),
+        &MeasureOptions::default(),
+        &extract::CpuBackend,
+        false,
+        progress,
+    )
+}
+
+fn points(path: &Path) -> Vec<PointRow> {
+    read_csv(path).unwrap().into_iter().map(|r| r.record).collect()
+}
+
+fn problems(dir: &Path) -> Vec<InstantProblemRow> {
+    read_csv(&dir.join("problems.csv")).unwrap().into_iter().map(|r| r.record).collect()
+}
+
+/// Image of `camera` for the i-th instant of the manifest.
+fn image_of(dir: &Path, instant: usize, camera: u8) -> (PathBuf, ManifestRow) {
+    let rows = manifest(dir);
+    let keys: Vec<_> = {
+        let mut k = Vec::new();
+        for r in &rows {
+            if !k.contains(&r.instant()) {
+                k.push(r.instant());
+            }
+        }
+        k
+    };
+    let row = rows.iter().find(|r| r.instant() == keys[instant] && r.camera == camera).unwrap().clone();
+    (dir.join(&row.image), row)
+}
+
+/// Paint a disc of value `dn` (radius r px) at the projected position of a
+/// world point seen by a camera of the true rig.
+fn paint(path: &Path, camera: &geom::Camera, at: geom::Point3<f64>, r: f64, dn: u16) {
+    let mut img: ImageBuffer<Luma<u16>, Vec<u16>> = image::open(path).unwrap().into_luma16();
+    let c = camera.project(&at).unwrap();
+    for (x, y, p) in img.enumerate_pixels_mut() {
+        if (f64::from(x) - c.x).hypot(f64::from(y) - c.y) <= r {
+            *p = Luma([dn]);
+        }
+    }
+    img.save_with_format(path, image::ImageFormat::Tiff).unwrap();
+}
+
+fn true_camera(dir: &Path, id: u8) -> geom::Camera {
+    let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
+    truth.cameras.iter().find(|c| c.model.id == id).unwrap().model.to_camera().unwrap()
+}
+
+/// True centre of a sphere at an instant.
+fn true_centre(dir: &Path, row: &ManifestRow, sphere: &str) -> geom::Point3<f64> {
+    let t = points(&dir.join("truth_points.csv"));
+    let p = t
+        .iter()
+        .find(|p| {
+            p.sphere == sphere
+                && p.axis == row.axis
+                && p.direction == row.direction
+                && p.run == row.run
+                && p.target == row.target
+                && p.capture == row.capture
+                && p.nominal() == [row.nominal_x, row.nominal_y, row.nominal_z]
+        })
+        .unwrap();
+    geom::Point3::from(p.position())
+}
+
+#[test]
+fn damaged_frames_are_reported_and_the_rest_measured() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    campaign(d);
+    let instants = {
+        let rows = manifest(d);
+        let mut k = Vec::new();
+        for r in rows {
+            if !k.contains(&r.instant()) {
+                k.push(r.instant());
+            }
+        }
+        k.len()
+    };
+
+    // Instant 1: camera 3's frame is corrupt.
+    let (corrupt, _) = image_of(d, 1, 3);
+    std::fs::write(&corrupt, b"II*\0garbage").unwrap();
+    // Instant 2: sphere C painted out of camera 2's frame (background level).
+    let (missing, row) = image_of(d, 2, 2);
+    let cam2 = true_camera(d, 2);
+    paint(&missing, &cam2, true_centre(d, &row, "C"), 30.0, 1200);
+    // Instant 3: an extra blob (a reflection, 4 mm) in camera 3: rejected, instant measured.
+    let (extra, row3) = image_of(d, 3, 3);
+    let cam3 = true_camera(d, 3);
+    let a = true_centre(d, &row3, "A");
+    paint(&extra, &cam3, a + geom::Vector3::new(-40.0, 35.0, 0.0), 4.0, 40_000);
+    // Instant 4: a twin of sphere B (same size) in camera 3: ambiguous, reported.
+    let (twin, row4) = image_of(d, 4, 3);
+    let b = true_centre(d, &row4, "B");
+    let r_px = 7.5 * cam3.intrinsics.fx / cam3.to_camera(&b).z;
+    paint(&twin, &cam3, b + geom::Vector3::new(-45.0, 30.0, 0.0), r_px, 49_000);
+
+    let summary = run(d, "points.csv", &|_, _| {}).unwrap();
+    assert_eq!(summary.instants, instants);
+    assert_eq!(summary.problems, 3, "{:?}", problems(d));
+    assert_eq!(summary.measured, instants - 3);
+    let p = problems(d);
+    assert!(p[0].reason.contains("cannot decode") && p[0].image.as_deref() == Some(corrupt.to_str().unwrap()), "{:?}", p[0]);
+    assert!(p[1].reason.contains("sphere C not found") && p[1].camera == Some(2), "{:?}", p[1]);
+    assert!(p[2].reason.contains("ambiguous") && p[2].camera == Some(3), "{:?}", p[2]);
+    // Every measured instant once, with all three spheres.
+    let rows = points(&d.join("points.csv"));
+    assert_eq!(rows.len(), 3 * (instants - 3));
+    assert!(d.join("poses.csv").exists());
+    assert!(!d.join("points.csv.partial").exists());
+}
+
+#[test]
+fn an_unusable_manifest_is_reported_in_full_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    campaign(d);
+    let mut rows = manifest(d);
+    let gone1 = rows[0].image.clone();
+    let gone2 = rows[5].image.clone();
+    std::fs::remove_file(d.join(&gone1)).unwrap();
+    std::fs::remove_file(d.join(&gone2)).unwrap();
+    rows.remove(7); // an instant loses a camera
+    rows[10].nominal_x += 0.5; // a camera disagrees on the nominal position
+    let dup = rows[20].clone();
+    rows.push(dup); // the same image twice
+    write_csv(&d.join("manifest.csv"), &rows).unwrap();
+    let err = run(d, "points.csv", &|_, _| {}).unwrap_err();
+    let FuseError::Campaign { problems, .. } = &err else {
+        panic!("{err}");
+    };
+    let text = problems.join("\n");
+    assert!(text.contains(&gone1) && text.contains(&gone2), "{text}");
+    assert!(text.contains("has no image of camera"), "{text}");
+    assert!(text.contains("disagree on the nominal position"), "{text}");
+    assert!(text.contains("already has an image"), "{text}");
+    assert!(!d.join("points.csv").exists() && !d.join("points.csv.partial").exists());
+
+    // A row that breaks the manifest's contract is named by line and column.
+    let mut rows = manifest(d);
+    rows[3].camera = 7;
+    write_csv(&d.join("manifest.csv"), &rows).unwrap();
+    let err = run(d, "points.csv", &|_, _| {}).unwrap_err().to_string();
+    assert!(err.contains("line 5, column 'camera'"), "{err}");
+}
+
+#[test]
+fn an_interrupted_run_resumes_without_loss_or_duplicates() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    campaign(d);
+    let reference = run(d, "reference.csv", &|_, _| {}).unwrap();
+    assert_eq!(reference.problems, 0);
+
+    // Interrupt after the second chunk, then tear the partial file's last line
+    // as a crash in the middle of a write would.
+    let interrupted = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        run(d, "points.csv", &|done, _| {
+            if done >= 32 {
+                panic!("interrupted");
+            }
+        })
+    }));
+    assert!(interrupted.is_err());
+    let partial = d.join("points.csv.partial");
+    let text = std::fs::read_to_string(&partial).unwrap();
+    let kept_lines = text.lines().count() - 1;
+    std::fs::write(&partial, format!("{text}X,+,9,9,9,0.0,0.0,0.0,A,1.2")).unwrap();
+
+    // Resuming with other options is refused…
+    let (rig, spheres) = (rig(d), spheres(d));
+    let other = MeasureOptions {
+        all_cameras: true,
+        ..MeasureOptions::default()
+    };
+    let inputs = Inputs {
+        manifest: &d.join("manifest.csv"),
+        rig: &rig,
+        spheres: &spheres,
+    };
+    let err = measure(&inputs, &d.join("points.csv"), &other, &extract::CpuBackend, false, &|_, _| {}).unwrap_err();
+    assert!(matches!(err, FuseError::ResumeMismatch(_)), "{err}");
+    // …with the same ones it finishes the job.
+    let resumed = run(d, "points.csv", &|_, _| {}).unwrap();
+    assert_eq!(resumed.resumed * 3, kept_lines);
+    assert!(resumed.resumed >= 32);
+    assert_eq!(resumed.measured, reference.measured);
+    assert_eq!(points(&d.join("points.csv")), points(&d.join("reference.csv")));
+    assert!(!partial.exists() && !d.join("points.csv.resume.json").exists());
+
+    // A finished output is not overwritten silently.
+    let err = run(d, "points.csv", &|_, _| {}).unwrap_err();
+    assert!(matches!(err, FuseError::OutputExists(_)), "{err}");
+}

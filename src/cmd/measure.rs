@@ -1,0 +1,103 @@
+//! `trinocular measure`: sphere centres of every instant of a campaign into
+//! `points.csv`; bad instants into `problems.csv` and table poses into
+//! `poses.csv` beside it. An interrupted run, started again, resumes.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::ValueEnum;
+use formats::{Rig, SphereRow, read_csv, read_json};
+use fuse::{Fusion, Inputs, MeasureOptions, measure};
+
+use crate::cmd::extract::ExtractOptions;
+use crate::cmd::{Finished, progress};
+
+/// Fusion method.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum FusionArg {
+    /// Rigorous triangulation (linear, then reprojection-error refinement).
+    Triangulate,
+    /// The seed's two-camera pixel-scale fusion, relative to the first instant of each line.
+    Seed,
+}
+
+/// Arguments of `trinocular measure`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Calibrated rig (rig.json).
+    #[arg(long)]
+    rig: PathBuf,
+    /// Campaign manifest (manifest.csv; image paths relative to it).
+    #[arg(long)]
+    manifest: PathBuf,
+    /// Sphere set (spheres.csv: name,diameter).
+    #[arg(long)]
+    spheres: PathBuf,
+    /// Output points.csv (problems.csv and poses.csv are written beside it).
+    #[arg(long)]
+    out: PathBuf,
+    /// How cameras are fused.
+    #[arg(long, value_enum, default_value_t = FusionArg::Triangulate)]
+    fusion: FusionArg,
+    /// Use all cameras, including the one looking along the motion.
+    #[arg(long)]
+    all_cameras: bool,
+    /// Do not remove the perspective bias of the spheres' images (diagnostics only).
+    #[arg(long)]
+    no_bias_correction: bool,
+    /// Replace an existing output and discard a partial one.
+    #[arg(long)]
+    force: bool,
+    #[command(flatten)]
+    extract: ExtractOptions,
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> Result<()> {
+    let rig: Rig = read_json(&args.rig)?;
+    let spheres: Vec<SphereRow> = read_csv(&args.spheres)?.into_iter().map(|r| r.record).collect();
+    let options = MeasureOptions {
+        fusion: match args.fusion {
+            FusionArg::Triangulate => Fusion::Triangulate,
+            FusionArg::Seed => Fusion::Seed,
+        },
+        all_cameras: args.all_cameras,
+        bias_correction: !args.no_bias_correction,
+        extract: args.extract.params()?,
+    };
+    let backend = args.extract.backend()?;
+    let bar = progress::bar(0, "measure");
+    let summary = measure(
+        &Inputs {
+            manifest: &args.manifest,
+            rig: &rig,
+            spheres: &spheres,
+        },
+        &args.out,
+        &options,
+        backend.as_ref(),
+        args.force,
+        &|done, total| {
+            bar.set_length(total);
+            bar.set_position(done);
+        },
+    )
+    .with_context(|| format!("measuring {}", args.manifest.display()))?;
+    bar.finish_and_clear();
+    eprintln!(
+        "measured {} of {} instants{} → {}",
+        summary.measured,
+        summary.instants,
+        if summary.resumed > 0 { format!(" ({} resumed from an interrupted run)", summary.resumed) } else { String::new() },
+        summary.points.display()
+    );
+    match &summary.problems_file {
+        Some(p) => Err(Finished::with_problems(format!(
+            "{} of {} instants could not be measured (listed in {})",
+            summary.problems,
+            summary.instants,
+            p.display()
+        ))),
+        None => Ok(()),
+    }
+}
