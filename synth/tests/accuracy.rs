@@ -246,3 +246,59 @@ fn blur_width_is_psf_plus_pixel() {
         );
     }
 }
+
+/// Defocus: camera 1 looks along X, so a sphere moved along X changes depth
+/// and blurs by the thin-lens circle of confusion c = f²/(N(s − f))·|z − s|/z,
+/// added as (c/4)² to the PSF's variance. Checked on the rendered image of a
+/// sphere on camera 1's axis at the focus distance and 75 mm nearer/farther,
+/// computing c here from the lens data (independently of `synth::psf`).
+#[test]
+fn defocus_grows_off_the_focus_plane() {
+    let config = Config::default();
+    let rig = SynthRig::from_config(&config).unwrap();
+    let mut cam = rig.camera(1).unwrap().clone();
+    cam.camera.distortion = Distortion::NONE;
+    let o = &config.optics;
+    let pixel = config.sensor.pixel_mm;
+    let sigma_psf = o.psf_sigma_um / 1000.0 / pixel;
+    let mut added_prev: f64 = 0.0;
+    for z in [460.0, 535.0, 385.0] {
+        let centre = cam.camera.centre() + cam.camera.optical_axis().into_inner() * z;
+        let sphere = Sphere {
+            centre,
+            radius: 5.0,
+            radiance_e: 1.0,
+        };
+        let s = sphere_signals(&cam.camera, &cam.optics, &[sphere], 5).unwrap();
+        let s = s[0].as_ref().unwrap();
+        let c = s.centroid().unwrap();
+        let (mut var, mut t) = (0.0, 0.0);
+        for r in 0..s.height {
+            for k in 0..s.width {
+                let val = s.values[r * s.width + k];
+                let dv = (s.y0 + r as i64) as f64 - c.y;
+                var += val * dv * dv;
+                t += val;
+            }
+        }
+        let rho = cam.camera.intrinsics.fy * 5.0 / (z * z - 25.0f64).sqrt();
+        let added = var / t - rho * rho / 4.0;
+        let coc = o.focal_mm * o.focal_mm / (o.f_number * (o.focus_distance_mm - o.focal_mm))
+            * (z - o.focus_distance_mm).abs()
+            / z
+            / pixel;
+        let expected = sigma_psf * sigma_psf + coc * coc / 16.0 + 1.0 / 12.0;
+        eprintln!(
+            "z = {z} mm: blur variance {added:.4} px², expected {expected:.4} (c = {coc:.2} px)"
+        );
+        assert!(
+            (added / expected - 1.0).abs() < 0.01,
+            "z = {z}: {added} vs {expected}"
+        );
+        if z != 460.0 {
+            assert!(added > 10.0 * added_prev.max(0.3), "defocus did not grow");
+        } else {
+            added_prev = added;
+        }
+    }
+}

@@ -184,3 +184,25 @@ fn calibration_target_markers_are_separated() {
         assert!(worst > 20.0, "camera {}: markers {worst} px apart", cam.id);
     }
 }
+
+/// The reference figures of the default campaign (evaluate on the exact
+/// positions) show the injected reversal: the mean reversal B̄ of each axis
+/// equals the configured B. Its standard error from the repeatability noise
+/// is σ·√(2/(runs·targets)) ≈ 0.07 µm (X) and 0.19 µm (Y); 0.5 µm is > 2.5 of
+/// them for Y and far tighter than a missing or doubled reversal (≥ 2.5 µm off).
+#[test]
+fn reference_figures_show_the_injected_reversal() {
+    let config = Config::default();
+    let plan = Plan::new(&config).unwrap();
+    let figures = synth::truth::figures(&plan.truth_points()).unwrap();
+    for (axis, b) in [
+        ("X", config.machine.x.reversal_um),
+        ("Y", config.machine.y.reversal_um),
+    ] {
+        let b_mean = figures["axes"][axis]["positioning"]["B_mean_um"]
+            .as_f64()
+            .unwrap();
+        eprintln!("{axis}: B̄ = {b_mean:.3} µm (injected {b})");
+        assert!((b_mean - b).abs() < 0.5, "{axis}: B̄ {b_mean} vs {b}");
+    }
+}

@@ -157,3 +157,21 @@ fn same_seed_same_bytes() {
     assert_eq!(a, b);
     assert_ne!(a, c);
 }
+
+/// A whole frame (coverage, blur and noise all run in parallel) is the same
+/// on 1 and on 3 threads.
+#[test]
+fn frame_bytes_do_not_depend_on_threads() {
+    let cam = small_camera();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let three = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
+    let a = one.install(|| frame(&cam, 9));
+    let b = three.install(|| frame(&cam, 9));
+    assert_eq!(a.as_raw(), b.as_raw());
+}
