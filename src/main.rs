@@ -26,6 +26,8 @@ enum Command {
     Extract(cmd::extract::Args),
     /// Fit a geometric element (least squares and minimum zone) to a point file.
     Fit(cmd::fit::Args),
+    /// Sphere centres of every instant of a campaign into points.csv (problems.csv, poses.csv beside it).
+    Measure(cmd::measure::Args),
     /// Synthetic images of the rig with ground truth: campaign, calibration target, default config.
     Synth(cmd::synth::Args),
 }
@@ -61,10 +63,15 @@ fn main() -> ExitCode {
         Command::Evaluate(args) => cmd::evaluate::run(&args),
         Command::Extract(args) => cmd::extract::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),
+        Command::Measure(args) => cmd::measure::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(err) if err.downcast_ref::<cmd::Finished>().is_some() => {
+            eprintln!("trinocular: finished with problems: {err}");
+            ExitCode::from(cmd::Finished::EXIT_STATUS)
+        }
         Err(err) => {
             eprintln!("trinocular: error: {}", one_line(&err));
             ExitCode::FAILURE

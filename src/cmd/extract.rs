@@ -9,7 +9,7 @@ use extract::{Backend, Denoise, ExtractParams, Threshold, Weighting};
 use formats::{AtomicFile, BlobRow, ProblemRow};
 
 use crate::cmd::backend::{BackendChoice, select_backend};
-use crate::cmd::progress;
+use crate::cmd::{Finished, progress};
 
 /// Centroid weighting.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -217,11 +217,11 @@ pub fn run(args: &Args) -> Result<()> {
         }
         return Ok(());
     }
-    formats::write_csv(&problems_file, &problems)?;
-    bail!(
+    formats::write_records(&problems_file, &problems)?;
+    Err(Finished::with_problems(format!(
         "{} of {} images could not be used (listed in {})",
         problems.len(),
         files.len(),
         problems_file.display()
-    )
+    )))
 }
