@@ -827,13 +827,13 @@ impl Default for Config {
                 SphereConfig {
                     name: "B".into(),
                     diameter_mm: 15.0,
-                    position_mm: [20.0, 20.0, 45.0],
+                    position_mm: [20.0, 20.0, 50.0],
                     radiance_e: 12_000.0,
                 },
                 SphereConfig {
                     name: "C".into(),
                     diameter_mm: 10.0,
-                    position_mm: [-15.0, -15.0, 18.0],
+                    position_mm: [-15.0, -15.0, 45.0],
                     radiance_e: 12_000.0,
                 },
             ],
