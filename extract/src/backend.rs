@@ -1,10 +1,13 @@
 //! The backend seam: a [`Backend`] turns a frame into blobs. The CPU backend
-//! is the reference; a GPU backend plugs in behind the same trait and must
-//! find the same blobs with the same centroids (within its stated tolerance).
+//! is the reference; the GPU backend ([`crate::gpu`]) plugs in behind the same
+//! trait and finds the same blobs with the same moments.
+
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use crate::background::BackgroundStats;
+use crate::batch::{self, FrameBlobs};
 use crate::blob::{self, Blob};
 use crate::denoise::{self, Denoise};
 use crate::frame::FrameView;
@@ -86,6 +89,30 @@ pub trait Backend: Send + Sync {
     fn name(&self) -> String;
     /// Extract the blobs of one frame.
     fn extract(&self, frame: FrameView<'_>, params: &ExtractParams) -> Result<Extraction>;
+
+    /// Decode and extract every file; `sink(index, path, result)` is called
+    /// once per file, in input order, and a failed file does not stop the
+    /// batch. `expected_depth` rejects frames of another bit depth. The default
+    /// decodes and extracts frames in parallel on the rayon pool
+    /// ([`batch::extract_parallel`]); the GPU backend pipelines instead.
+    fn extract_batch(
+        &self,
+        paths: &[PathBuf],
+        params: &ExtractParams,
+        expected_depth: Option<u8>,
+        sink: &mut dyn FnMut(usize, &Path, Result<FrameBlobs>),
+    ) {
+        batch::extract_parallel(paths, self, params, expected_depth, sink);
+    }
+
+    /// Extract frames held in memory; `sink(index, result)` is called once per
+    /// frame, in order. The default extracts one frame after the other; the
+    /// GPU backend pipelines (upload of frame n+1 overlaps the work on frame n).
+    fn extract_frames(&self, frames: &[FrameView<'_>], params: &ExtractParams, sink: &mut dyn FnMut(usize, Result<Extraction>)) {
+        for (i, frame) in frames.iter().enumerate() {
+            sink(i, self.extract(*frame, params));
+        }
+    }
 }
 
 /// The reference backend: rayon across row bands (and across frames in batches).

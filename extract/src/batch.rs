@@ -8,9 +8,10 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
-use crate::backend::{Backend, ExtractParams};
+use crate::backend::{Backend, ExtractParams, Extraction};
 use crate::blob::Blob;
 use crate::decode::FrameReader;
+use crate::frame::FrameView;
 use crate::metadata::FrameMetadata;
 use crate::Result;
 
@@ -34,11 +35,8 @@ pub struct FrameBlobs {
     pub blobs: Vec<Blob>,
 }
 
-/// Decode and extract one file with a reader whose buffers are reused.
-pub fn extract_file(reader: &mut FrameReader, path: &Path, backend: &dyn Backend, params: &ExtractParams) -> Result<FrameBlobs> {
-    let (frame, metadata) = reader.read(path)?;
-    let (width, height, bit_depth) = (frame.width, frame.height, frame.bit_depth);
-    let extraction = backend.extract(frame, params).map_err(|e| e.in_file(path))?;
+/// A file's result from its frame, metadata and extraction (blob runs dropped).
+pub(crate) fn frame_blobs(frame: &FrameView<'_>, metadata: FrameMetadata, extraction: Extraction) -> FrameBlobs {
     let blobs = extraction
         .blobs
         .into_iter()
@@ -47,23 +45,44 @@ pub fn extract_file(reader: &mut FrameReader, path: &Path, backend: &dyn Backend
             b
         })
         .collect();
-    Ok(FrameBlobs {
+    FrameBlobs {
         metadata,
-        width,
-        height,
-        bit_depth,
+        width: frame.width,
+        height: frame.height,
+        bit_depth: frame.bit_depth,
         threshold: extraction.level.describe(),
         blobs,
-    })
+    }
+}
+
+/// Decode and extract one file with a reader whose buffers are reused.
+pub fn extract_file<B: Backend + ?Sized>(reader: &mut FrameReader, path: &Path, backend: &B, params: &ExtractParams) -> Result<FrameBlobs> {
+    let (frame, metadata) = reader.read(path)?;
+    let extraction = backend.extract(frame, params).map_err(|e| e.in_file(path))?;
+    Ok(frame_blobs(&frame, metadata, extraction))
 }
 
 /// Extract every file; `sink(index, path, result)` is called once per file,
 /// in input order. A failed file is reported to the sink and the batch goes on.
-/// `expected_depth` rejects frames of another bit depth.
+/// `expected_depth` rejects frames of another bit depth. The backend decides
+/// how ([`Backend::extract_batch`]): the CPU decodes and extracts in parallel,
+/// the GPU pipelines.
 pub fn extract_files<F>(paths: &[PathBuf], backend: &dyn Backend, params: &ExtractParams, expected_depth: Option<u8>, mut sink: F)
 where
     F: FnMut(usize, &Path, Result<FrameBlobs>),
 {
+    backend.extract_batch(paths, params, expected_depth, &mut sink);
+}
+
+/// The default batch path: frames decoded and extracted in parallel on the
+/// rayon pool, in chunks, readers pooled; results in input order.
+pub fn extract_parallel<B: Backend + ?Sized>(
+    paths: &[PathBuf],
+    backend: &B,
+    params: &ExtractParams,
+    expected_depth: Option<u8>,
+    sink: &mut dyn FnMut(usize, &Path, Result<FrameBlobs>),
+) {
     // A pool, not `map_init`: rayon calls `map_init`'s init once per job split,
     // which would allocate fresh 25 MB buffers for most frames.
     let pool: Mutex<Vec<FrameReader>> = Mutex::new(Vec::new());

@@ -21,6 +21,7 @@ pub mod blob;
 pub mod decode;
 pub mod denoise;
 pub mod frame;
+pub mod gpu;
 pub mod label;
 pub mod metadata;
 pub mod threshold;
@@ -32,6 +33,8 @@ pub use decode::FrameReader;
 pub use denoise::Denoise;
 pub use error::{ExtractError, Result};
 pub use frame::{Frame, FrameView};
+#[cfg(feature = "gpu")]
+pub use gpu::GpuBackend;
 pub use label::Weighting;
 pub use metadata::FrameMetadata;
 pub use threshold::{Level, Threshold};

@@ -1,8 +1,11 @@
 //! Choosing the extraction backend (`--backend auto|cpu|gpu`).
 
-use anyhow::{Result, bail};
+use std::io::Write;
+
+use anyhow::Result;
 use clap::ValueEnum;
-use extract::{Backend, CpuBackend};
+use extract::Backend;
+use extract::gpu::{GpuOptions, Mode};
 
 /// Which compute backend extracts blobs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -11,14 +14,81 @@ pub enum BackendChoice {
     Auto,
     /// The CPU (the reference).
     Cpu,
-    /// The GPU; fails with the reason when there is none.
+    /// The GPU (any Vulkan adapter, a software one too); fails with the reason when there is none.
     Gpu,
 }
 
-/// The backend for a choice.
+impl BackendChoice {
+    fn mode(self) -> Mode {
+        match self {
+            BackendChoice::Auto => Mode::Auto,
+            BackendChoice::Cpu => Mode::Cpu,
+            BackendChoice::Gpu => Mode::Gpu,
+        }
+    }
+}
+
+/// The backend for a choice (`TRINOCULAR_NO_GPU=1` hides every GPU adapter);
+/// when `auto` falls back to the CPU, the reason is logged once on stderr.
 pub fn select_backend(choice: BackendChoice) -> Result<Box<dyn Backend>> {
-    match choice {
-        BackendChoice::Auto | BackendChoice::Cpu => Ok(Box::new(CpuBackend)),
-        BackendChoice::Gpu => bail!("this build has no GPU backend"),
+    select_backend_logged(choice, &GpuOptions::from_env(), &mut std::io::stderr())
+}
+
+/// [`select_backend`] with explicit GPU options and log.
+pub fn select_backend_logged(
+    choice: BackendChoice,
+    options: &GpuOptions,
+    log: &mut dyn Write,
+) -> Result<Box<dyn Backend>> {
+    let selection = extract::gpu::select(choice.mode(), options)?;
+    if let Some(reason) = &selection.cpu_reason {
+        // A log that cannot be written is no reason to stop.
+        let _ = writeln!(log, "trinocular: note: using the CPU backend: {reason}");
+    }
+    Ok(selection.backend)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn no_adapter() -> GpuOptions {
+        GpuOptions {
+            force_no_adapter: true,
+            ..GpuOptions::default()
+        }
+    }
+
+    #[test]
+    fn auto_without_adapter_logs_one_reason() {
+        let mut log = Vec::new();
+        let backend = select_backend_logged(BackendChoice::Auto, &no_adapter(), &mut log).unwrap();
+        assert!(backend.name().starts_with("cpu"), "{}", backend.name());
+        let log = String::from_utf8(log).unwrap();
+        assert_eq!(log.lines().count(), 1, "{log}");
+        assert!(
+            log.starts_with("trinocular: note: using the CPU backend: no GPU adapter"),
+            "{log}"
+        );
+    }
+
+    #[test]
+    fn gpu_without_adapter_is_an_error_with_the_reason() {
+        let mut log = Vec::new();
+        let e = select_backend_logged(BackendChoice::Gpu, &no_adapter(), &mut log)
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("no GPU adapter"), "{e}");
+        assert!(log.is_empty());
+    }
+
+    #[test]
+    fn cpu_logs_nothing() {
+        let mut log = Vec::new();
+        let backend =
+            select_backend_logged(BackendChoice::Cpu, &GpuOptions::default(), &mut log).unwrap();
+        assert!(backend.name().starts_with("cpu"));
+        assert!(log.is_empty());
     }
 }
