@@ -343,7 +343,18 @@ pub(crate) fn evaluate_line(
         .collect();
     let angular = if complete.len() >= 3 {
         match angular_report(axis, &complete, &data, &targets, &commanded) {
-            Ok(a) => Some(a),
+            Ok(a) => {
+                if a.lever_mm < angular::MIN_LEVER_MM {
+                    warnings.push(format!(
+                        "{what}: spheres {} are nearly in a line (smallest lever {:.2} mm): the rotation about it is \
+                         poorly determined, ≈ {:.0} µrad per µm of position error",
+                        a.spheres.join(", "),
+                        a.lever_mm,
+                        1e3 / a.lever_mm.max(1e-6)
+                    ));
+                }
+                Some(a)
+            }
             Err(e) => {
                 warnings.push(format!("{what}: angular errors left out: {e}"));
                 None
@@ -467,6 +478,7 @@ fn angular_report(
             .collect()
     };
     let first = at(targets[0]);
+    let (lever_mm, _) = angular::lever(&first);
     let mut rows = Vec::with_capacity(targets.len());
     let mut ss = 0.0;
     for (i, &t) in targets.iter().enumerate() {
@@ -491,6 +503,7 @@ fn angular_report(
         yaw_urad: range(|r| r.yaw_urad)?,
         spheres: spheres.iter().map(|s| s.to_string()).collect(),
         fit_rms_um: um((ss / rows.len() as f64).sqrt()),
+        lever_mm,
         convention: ANGULAR_CONVENTION.to_string(),
         targets: rows,
     })

@@ -263,6 +263,9 @@ pub struct AngularReport {
     pub spheres: Vec<String>,
     /// RMS residual of the rigid fits (µm): how rigid the sphere triplet stayed.
     pub fit_rms_um: f64,
+    /// Smallest principal lever of the sphere set (mm): the rotation error is
+    /// ≈ position error / lever about the worst axis (`angular::lever`).
+    pub lever_mm: f64,
     /// How roll, pitch and yaw are defined.
     pub convention: String,
     /// Per-target values relative to the first target.

@@ -46,6 +46,9 @@ fn true_rig(dir: &Path) -> Rig {
     }
 }
 
+/// A sweep line: axis and off-axis nominal coordinates.
+type Line = (formats::Axis, [u64; 2]);
+
 type Key = (formats::Axis, formats::Direction, u32, u32, u32, [u64; 3], String);
 
 fn keyed(rows: &[PointRow]) -> BTreeMap<Key, [f64; 3]> {
@@ -64,7 +67,7 @@ fn keyed(rows: &[PointRow]) -> BTreeMap<Key, [f64; 3]> {
 fn displacement_errors(measured: &[PointRow], truth: &[PointRow]) -> Vec<(f64, [f64; 3])> {
     let m = keyed(measured);
     let t = keyed(truth);
-    let mut first: BTreeMap<(formats::Axis, [u64; 2]), ([f64; 3], [f64; 3])> = BTreeMap::new();
+    let mut first: BTreeMap<Line, ([f64; 3], [f64; 3])> = BTreeMap::new();
     let mut out = Vec::new();
     for (k, tp) in &t {
         if k.6 != "A" {

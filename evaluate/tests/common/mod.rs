@@ -17,11 +17,13 @@
 use formats::{Axis, Direction, PointRow};
 use geom::{Point3, Rotation3, Vector3};
 
-/// Sphere names and their offsets from the table reference point (mm).
+/// Sphere names and their offsets from the table reference point (mm): the
+/// seed's plan positions with the renderer's heights (B and C 20 and 15 mm
+/// above A), a triangle that determines all three rotations.
 pub const SPHERES: [(&str, [f64; 3]); 3] = [
     ("A", [0.0, 0.0, 10.0]),
-    ("B", [20.0, 20.0, 7.5]),
-    ("C", [-15.0, -15.0, 5.0]),
+    ("B", [20.0, 20.0, 30.0]),
+    ("C", [-15.0, -15.0, 25.0]),
 ];
 
 /// One sweep of an axis and its errors at each target (mm, rad).
