@@ -20,6 +20,8 @@ struct Cli {
 enum Command {
     /// Throughput figures for this machine.
     Bench(cmd::bench::Args),
+    /// Calibrate each camera from a 3-D target: DLT, Levenberg–Marquardt with distortion, commissioning report.
+    Calibrate(cmd::calibrate::Args),
     /// ISO 230-2 positioning, straightness, flatness and angular errors from points.csv.
     Evaluate(cmd::evaluate::Args),
     /// Sub-pixel blob centres of images into blobs.csv (thresholded gray centroid).
@@ -60,6 +62,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Bench(args) => cmd::bench::run(&args),
+        Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Evaluate(args) => cmd::evaluate::run(&args),
         Command::Extract(args) => cmd::extract::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),

@@ -2,7 +2,9 @@
 //! then Levenberg–Marquardt on reprojection error with the chosen distortion
 //! model, iterated with k·σ outlier rejection (METHODS.md §1, Calibration).
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
+
+use formats::{CorrespondenceRow, TargetRow};
 
 use geom::lm::Residuals;
 use geom::{Camera, Matrix3x4, Point2, Point3, Vector2};
@@ -187,6 +189,36 @@ pub fn validate(observations: &[Observation]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Observations from `target.csv` rows and `id,u,v` correspondences: each
+/// correspondence's id must be on the target and occur once; with
+/// `spheres`, the target's diameters make the markers spheres.
+pub fn observations(
+    target: &[TargetRow],
+    points: &[CorrespondenceRow],
+    spheres: bool,
+) -> Result<Vec<Observation>> {
+    let mut by_id = HashMap::new();
+    for t in target {
+        if by_id.insert(t.id, t).is_some() {
+            return Err(CalibError::DuplicateId { id: t.id });
+        }
+    }
+    let out: Vec<Observation> = points
+        .iter()
+        .map(|p| {
+            let t = by_id.get(&p.id).ok_or(CalibError::UnknownId { id: p.id })?;
+            Ok(Observation {
+                id: p.id,
+                world: Point3::new(t.x, t.y, t.z),
+                pixel: Point2::new(p.u, p.v),
+                sphere_diameter: if spheres { t.diameter } else { None },
+            })
+        })
+        .collect::<Result<_>>()?;
+    validate(&out)?;
+    Ok(out)
 }
 
 /// RMS length of 2-D residuals, `√(Σ|r|²/N)` (px).

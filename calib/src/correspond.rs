@@ -13,10 +13,17 @@
 //!    then the normalised DLT on the matches, reprojection of every marker,
 //!    re-assignment with a gate of `GATE_SIGMAS`·σ of the current residuals,
 //!    until the assignment no longer changes.
-//! 3. **Decision.** Among the converged candidates whose residual scale is
+//! 3. **Decision.** Candidates whose DLT camera is turned more than
+//!    `max_rotation` from the nominal camera are dropped (a target with a
+//!    near-symmetry can be fitted by a camera on another side of it). Among
+//!    the remaining candidates whose residual scale is
 //!    comparable to the best one's, the one with most matches wins; if another
 //!    such candidate assigns most of its detections differently and has
-//!    nearly as many matches, the assignment is ambiguous and an error.
+//!    nearly as many matches, the assignment is ambiguous and an error —
+//!    unless the nominal prediction is clearly nearer to the winner. A winner
+//!    whose DLT residuals exceed the gate (σ > gate/`GATE_SIGMAS`), or that
+//!    matches fewer than three quarters of the detections, fits no camera:
+//!    the image or the nominal rig is wrong, also an error.
 
 use std::collections::{HashMap, HashSet};
 
@@ -41,8 +48,17 @@ const SIGMA_FLOOR_PX: f64 = 0.1;
 /// has at least this fraction of the winner's matches (the assignment must
 /// tolerate 20 % missing detections, so fewer matches alone do not decide).
 const AMBIGUOUS_FRACTION: f64 = 0.8;
+/// Fewest matches, as a fraction of the detections (or of the markers, if
+/// fewer), for an assignment to be believed. 20 % of the markers missing and
+/// 20 % spurious blobs give 0.8; the lattice-like seed target fits a wrong
+/// camera's image with ≈ 0.73 of its markers under a near-symmetry.
+const MIN_MATCHED_FRACTION: f64 = 0.75;
+/// Between two equally good assignments, the nominal rig decides when the
+/// winner's displacement from the nominal prediction is below this fraction
+/// of the other's.
+const NOMINAL_PREFERENCE: f64 = 0.5;
 /// Distinct hypotheses carried through the re-estimation.
-const CANDIDATES: usize = 10;
+const CANDIDATES: usize = 20;
 /// Base pairs of predicted markers for the similarity hypotheses.
 const BASE_PAIRS: usize = 12;
 
@@ -55,11 +71,24 @@ pub struct Marker {
     pub centre: Point3<f64>,
 }
 
+/// The markers of `target.csv` rows.
+pub fn markers(target: &[formats::TargetRow]) -> Vec<Marker> {
+    target
+        .iter()
+        .map(|t| Marker {
+            id: t.id,
+            centre: Point3::new(t.x, t.y, t.z),
+        })
+        .collect()
+}
+
 /// Search limits of the automatic assignment.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CorrespondOptions {
     /// Largest roll of the real image against the nominal prediction (rad).
     pub max_roll: f64,
+    /// Largest rotation of the camera a candidate implies against the nominal camera (rad).
+    pub max_rotation: f64,
     /// Largest scale ratio between the real image and the nominal prediction (≥ 1).
     pub max_scale: f64,
     /// Gate of the global alignment as a fraction of the median nearest-neighbour
@@ -73,6 +102,7 @@ impl Default for CorrespondOptions {
     fn default() -> Self {
         Self {
             max_roll: 20f64.to_radians(),
+            max_rotation: 20f64.to_radians(),
             max_scale: 1.3,
             gate_fraction: 0.3,
             max_iterations: 30,
@@ -309,7 +339,10 @@ pub fn correspond(
     }
     Spread::of(&world).check()?;
     if detections.len() < MIN_POINTS {
-        return Err(too_few(0));
+        return Err(CalibError::TooFewDetections {
+            detections: detections.len(),
+            needed: MIN_POINTS,
+        });
     }
     let predicted: Vec<Option<Point2<f64>>> =
         world.iter().map(|x| nominal.project(x).ok()).collect();
@@ -361,6 +394,24 @@ pub fn correspond(
             best_count
         }));
     }
+    candidates.retain(|c| c.pairs.len() >= MIN_POINTS);
+    // A candidate is a camera: it must be oriented roughly as the nominal one.
+    let nominal_rotation = nominal.rotation();
+    let turn = |c: &Candidate| -> f64 {
+        geom::camera::decompose_projection(&c.projection).map_or(f64::INFINITY, |(_, r, _)| {
+            // Angle of R_nominalᵀ·R from its trace, clamped against round-off.
+            let m = (nominal_rotation.inverse() * r).into_inner();
+            ((m.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+        })
+    };
+    let smallest_turn = candidates.iter().map(turn).fold(f64::INFINITY, f64::min);
+    candidates.retain(|c| turn(c) <= options.max_rotation);
+    if candidates.is_empty() && smallest_turn.is_finite() {
+        return Err(CalibError::FarFromNominal {
+            angle_deg: smallest_turn.to_degrees(),
+            limit_deg: options.max_rotation.to_degrees(),
+        });
+    }
     let floor = |s: f64| s.max(SIGMA_FLOOR_PX);
     let sigma_min = candidates
         .iter()
@@ -370,45 +421,98 @@ pub fn correspond(
         .iter()
         .filter(|c| floor(c.sigma) <= CONSISTENT_FACTOR * sigma_min)
         .collect();
-    let Some(best) = comparable.iter().copied().max_by(|a, b| {
+    let Some(mut best) = comparable.iter().copied().max_by(|a, b| {
         a.pairs
             .len()
             .cmp(&b.pairs.len())
             .then(b.sigma.total_cmp(&a.sigma))
     }) else {
-        return Err(too_few(0));
+        return Err(too_few(best_count));
     };
-    for other in &comparable {
-        if std::ptr::eq(*other, best) {
-            continue;
+    let (w, h) = (f64::from(nominal.width), f64::from(nominal.height));
+    let inside = |p: &Option<Point2<f64>>| {
+        p.is_some_and(|p| p.x >= -0.5 && p.y >= -0.5 && p.x <= w - 0.5 && p.y <= h - 0.5)
+    };
+    let limit = gate0 / GATE_SIGMAS;
+    let expected = detections.len().min(markers.len());
+    let believable = |c: &Candidate| -> Result<()> {
+        if c.sigma > limit || (c.pairs.len() as f64) < MIN_MATCHED_FRACTION * expected as f64 {
+            return Err(CalibError::Inconsistent {
+                matched: c.pairs.len(),
+                detections: detections.len(),
+                sigma_px: c.sigma,
+                limit_px: limit,
+            });
         }
-        let partner_of_marker: HashMap<usize, usize> =
-            best.pairs.iter().map(|p| (p.0, p.1)).collect();
-        let partner_of_detection: HashMap<usize, usize> =
-            best.pairs.iter().map(|p| (p.1, p.0)).collect();
-        let conflicts = other
+        Ok(())
+    };
+    believable(best)?;
+    // How far a candidate moved the markers from the nominal prediction (median, px).
+    let displacement = |c: &Candidate| -> f64 {
+        let mut d: Vec<f64> = c
             .pairs
             .iter()
-            .filter(|(i, j, _)| {
-                partner_of_marker.get(i).is_some_and(|bj| bj != j)
-                    || partner_of_detection.get(j).is_some_and(|bi| bi != i)
+            .filter_map(|p| Some((c.positions[p.0]? - predicted[p.0]?).norm()))
+            .collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(f64::INFINITY)
+    };
+    // Rivals: comparable candidates with nearly as many matches that assign
+    // most of their detections differently.
+    let rivals = |of: &Candidate| -> Vec<(&Candidate, usize)> {
+        let partner_of_marker: HashMap<usize, usize> =
+            of.pairs.iter().map(|p| (p.0, p.1)).collect();
+        let partner_of_detection: HashMap<usize, usize> =
+            of.pairs.iter().map(|p| (p.1, p.0)).collect();
+        comparable
+            .iter()
+            .filter(|o| !std::ptr::eq(**o, of))
+            .map(|o| {
+                let conflicts = o
+                    .pairs
+                    .iter()
+                    .filter(|(i, j, _)| {
+                        partner_of_marker.get(i).is_some_and(|bj| bj != j)
+                            || partner_of_detection.get(j).is_some_and(|bi| bi != i)
+                    })
+                    .count();
+                (*o, conflicts)
             })
-            .count();
-        if 2 * conflicts > other.pairs.len()
-            && other.pairs.len() as f64 >= AMBIGUOUS_FRACTION * best.pairs.len() as f64
-        {
-            return Err(CalibError::Ambiguous(format!(
-                "two different assignments fit the image equally well ({} markers matched with \
-                 σ = {:.3} px, and {} with σ = {:.3} px, {} of them matched differently); \
-                 correct the nominal rig or use a target without repeating structure",
-                best.pairs.len(),
-                best.sigma,
-                other.pairs.len(),
-                other.sigma,
-                conflicts
-            )));
-        }
+            .filter(|(o, conflicts)| {
+                2 * conflicts > o.pairs.len()
+                    && o.pairs.len() as f64 >= AMBIGUOUS_FRACTION * of.pairs.len() as f64
+            })
+            .collect()
+    };
+    // The nominal rig decides between equally good assignments when it is
+    // clearly nearer to one of them.
+    if let Some((nearer, _)) = rivals(best)
+        .into_iter()
+        .filter(|(o, _)| displacement(o) < NOMINAL_PREFERENCE * displacement(best))
+        .min_by(|a, b| displacement(a.0).total_cmp(&displacement(b.0)))
+    {
+        best = nearer;
     }
+    let d_best = displacement(best);
+    if let Some((other, conflicts)) = rivals(best)
+        .into_iter()
+        .find(|(o, _)| d_best > NOMINAL_PREFERENCE * displacement(o))
+    {
+        return Err(CalibError::Ambiguous(format!(
+            "two different assignments fit the image equally well ({} markers matched with \
+             σ = {:.3} px, {:.0} px from the nominal prediction; and {} with σ = {:.3} px, \
+             {:.0} px from it; {} of them matched differently); correct the nominal rig or \
+             use a target without repeating structure",
+            best.pairs.len(),
+            best.sigma,
+            d_best,
+            other.pairs.len(),
+            other.sigma,
+            displacement(other),
+            conflicts
+        )));
+    }
+    believable(best)?;
     check_local_ambiguity(best, markers, detections, &grid)?;
 
     let matched_markers: HashSet<usize> = best.pairs.iter().map(|p| p.0).collect();
@@ -423,7 +527,6 @@ pub fn correspond(
         })
         .collect();
     matches.sort_by_key(|m| m.id);
-    let (w, h) = (f64::from(nominal.width), f64::from(nominal.height));
     Ok(Correspondence {
         matches,
         projection: best.projection,
@@ -434,10 +537,7 @@ pub fn correspond(
             .collect(),
         missing_markers: (0..markers.len())
             .filter(|i| !matched_markers.contains(i))
-            .filter(|&i| {
-                best.positions[i]
-                    .is_some_and(|p| p.x >= -0.5 && p.y >= -0.5 && p.x <= w - 0.5 && p.y <= h - 0.5)
-            })
+            .filter(|&i| inside(&best.positions[i]))
             .map(|i| markers[i].id)
             .collect(),
         candidates: refined,

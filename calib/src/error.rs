@@ -16,6 +16,17 @@ pub enum CalibError {
         /// Number of points given.
         got: usize,
     },
+    /// The image has too few detections to calibrate from.
+    #[error(
+        "only {detections} markers were detected in the image; calibration needs at least {needed} \
+         (is the target in view and the threshold right?)"
+    )]
+    TooFewDetections {
+        /// Detections offered.
+        detections: usize,
+        /// Minimum needed.
+        needed: usize,
+    },
     /// The automatic assignment matched too few markers.
     #[error(
         "only {matched} target markers could be matched to the {detections} detections \
@@ -43,6 +54,37 @@ pub enum CalibError {
         ratio: f64,
         /// The limit below which the points are rejected.
         limit: f64,
+    },
+    /// No assignment of detections to markers fits a camera (residuals too
+    /// large for the marker spacing, or fewer than three quarters of the
+    /// detections matched): wrong image or wrong nominal rig.
+    #[error(
+        "no assignment of the {detections} detections to target markers is consistent with a \
+         camera: the best matches {matched} markers with DLT residuals of σ = {sigma_px:.2} px \
+         (a believable one matches at least three quarters of the detections with σ ≤ {limit_px:.2} px); \
+         is this the right image for this camera, and is the nominal rig right?"
+    )]
+    Inconsistent {
+        /// Markers matched by the best candidate.
+        matched: usize,
+        /// Detections offered.
+        detections: usize,
+        /// Robust σ of its DLT residuals (px).
+        sigma_px: f64,
+        /// Largest acceptable σ (px).
+        limit_px: f64,
+    },
+    /// The assignments that fit the image need a camera turned far from its nominal orientation.
+    #[error(
+        "the only assignments of detections to markers that fit the image put the camera \
+         {angle_deg:.1}° from its nominal orientation (at most {limit_deg:.0}° accepted); is this \
+         the right image for this camera, and is the nominal rig right?"
+    )]
+    FarFromNominal {
+        /// Smallest rotation from the nominal camera among the candidates (deg).
+        angle_deg: f64,
+        /// The limit (deg).
+        limit_deg: f64,
     },
     /// Two different assignments of detections to markers explain the image equally well.
     #[error("the marker assignment is ambiguous: {0}")]

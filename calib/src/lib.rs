@@ -5,7 +5,10 @@
 //!   k1 k2 p1 p2, optional k3 and skew), analytic Jacobian, sphere markers.
 //! - [`outliers`]: robust σ and k·σ rejection.
 //! - [`calibration`]: [`calibrate`], the whole chain for one camera.
+//! - [`commission`]: the rig commissioning report (axis angles, pixel sizes,
+//!   depth of field over each axis's travel).
 //! - [`correspond`]: automatic marker ↔ detection assignment from a nominal camera.
+//! - [`opencv`]: export in OpenCV's `FileStorage` YAML format.
 //!
 //! # Conventions
 //! - Lengths in millimetres, angles in radians, all geometry in `f64`.
@@ -21,12 +24,18 @@
 mod error;
 
 pub mod calibration;
+pub mod commission;
 pub mod correspond;
 pub mod dlt;
+pub mod opencv;
 pub mod outliers;
 pub mod refine;
 
-pub use calibration::{Calibration, Observation, Options, Parameter, PointResidual, calibrate};
-pub use correspond::{CorrespondOptions, Correspondence, Marker, Match, correspond};
+pub use calibration::{
+    Calibration, Observation, Options, Parameter, PointResidual, calibrate, observations,
+};
+pub use commission::{CameraInput, CommissionOptions, Report, commission};
+pub use correspond::{CorrespondOptions, Correspondence, Marker, Match, correspond, markers};
 pub use error::{CalibError, Result};
+pub use opencv::opencv_yaml;
 pub use refine::{Layout, Model};

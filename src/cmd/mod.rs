@@ -2,6 +2,7 @@
 
 pub mod backend;
 pub mod bench;
+pub mod calibrate;
 pub mod evaluate;
 pub mod extract;
 pub mod fit;
