@@ -1,5 +1,7 @@
 //! Extraction throughput on a full 4096×3072 16-bit frame with three spheres,
-//! against a plain sum over the same buffer (the memory-bandwidth floor).
+//! against a plain sum over the same buffer (the memory-bandwidth floor); on
+//! the GPU backend (feature `gpu`) one frame at a time and pipelined, on the
+//! best Vulkan adapter (skipped with a notice when there is none).
 //! Run: `cargo bench -p extract`.
 
 #![allow(missing_docs, clippy::unwrap_used)]
@@ -68,5 +70,53 @@ fn extract_auto_threshold(bencher: divan::Bencher, threads: usize) {
             let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
             CpuBackend.extract(f, &params).unwrap()
         })
+    });
+}
+
+/// The GPU backend on the best adapter, or `None` with a notice.
+#[cfg(feature = "gpu")]
+fn gpu() -> Option<extract::GpuBackend> {
+    match extract::GpuBackend::new(&extract::gpu::GpuOptions::default()) {
+        Ok(b) => {
+            eprintln!("GPU benchmarks on {}", b.name());
+            Some(b)
+        }
+        Err(e) => {
+            eprintln!("GPU benchmarks skipped: {e}");
+            None
+        }
+    }
+}
+
+#[cfg(feature = "gpu")]
+#[divan::bench]
+fn extract_gpu_one_frame(bencher: divan::Bencher) {
+    let Some(gpu) = gpu() else { return };
+    let px = seed_frame();
+    let params = ExtractParams {
+        threshold: Threshold::Fixed(6000),
+        ..ExtractParams::default()
+    };
+    bencher.counter(divan::counter::BytesCount::of_slice(&px)).bench(|| {
+        let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
+        gpu.extract(f, &params).unwrap()
+    });
+}
+
+/// Eight frames through the pipeline (upload of frame n+1 overlaps the work on frame n).
+#[cfg(feature = "gpu")]
+#[divan::bench]
+fn extract_gpu_pipelined_8_frames(bencher: divan::Bencher) {
+    let Some(gpu) = gpu() else { return };
+    let px = seed_frame();
+    let params = ExtractParams {
+        threshold: Threshold::Fixed(6000),
+        ..ExtractParams::default()
+    };
+    let frames = vec![FrameView::new(W, H, 16, &px).unwrap(); 8];
+    bencher.counter(divan::counter::BytesCount::new(8 * px.len() * 2)).bench(|| {
+        let mut blobs = 0;
+        gpu.extract_frames(divan::black_box(&frames), &params, &mut |_, r| blobs += r.unwrap().blobs.len());
+        blobs
     });
 }

@@ -5,7 +5,7 @@
 //! a slot's staging buffers are mapped again as soon as the GPU is done with
 //! them, and its readback buffer is mapped with the submission. The readback
 //! copies the counter and as many segments as the previous frames suggest
-//! (twice the last count plus a margin); a frame with more segments is read
+//! (5/4 of the last count plus a margin); a frame with more segments is read
 //! again, and one with more than the segment buffer holds is dispatched again
 //! with a larger buffer. The data read back scales with the signal.
 
@@ -23,7 +23,7 @@ use crate::threshold::Level;
 
 /// Segment records of a fresh slot.
 const INITIAL_SEGMENTS: u64 = 1 << 16;
-/// Segments read back beyond twice the last frame's count.
+/// Segments read back beyond 5/4 of the last frame's count.
 const READBACK_MARGIN: u64 = 1024;
 /// Bytes before the first segment in the readback buffer (the counter, padded).
 const COUNT_BYTES: u64 = 8;
@@ -376,7 +376,7 @@ impl Passes {
             ctx.max_workgroups,
         )
         .map_err(|m| ctx.error(m))?;
-        let copy_estimate = 2 * self.last_count + READBACK_MARGIN;
+        let copy_estimate = self.last_count + self.last_count / 4 + READBACK_MARGIN;
         let s = self.slots[slot % 2].get_or_insert_with(|| Slot::new(ctx));
         let w = frame.width as usize;
         let (threshold, map) = match level {
