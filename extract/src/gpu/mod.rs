@@ -2,8 +2,9 @@
 //!
 //! # What runs where
 //! - Host: denoising and the threshold (fixed, automatic from the sparse
-//!   background sample, or the local map) exactly as the CPU backend does.
-//! - GPU ([`runs.wgsl`](runs.wgsl)): the frame is uploaded as `u32` words (two
+//!   background sample, or the local map) exactly as the CPU backend does; a
+//!   local threshold map is uploaded beside the frame in the same layout.
+//! - GPU (`runs.wgsl`): the frame is uploaded as `u32` words (two
 //!   `u16` pixels each, the [`FrameView`](crate::FrameView) layout; 8-bit
 //!   frames use the same layout). One invocation per 32-pixel chunk of a row
 //!   tests "any pixel ≥ T" and, where there is signal, writes each maximal run
@@ -23,10 +24,14 @@
 //! - Frames whose storage binding would pass the adapter's limit (at most
 //!   128 MiB) are cut into bands of rows, one binding each; runs are joined
 //!   across bands on the host like any other rows.
-//! - Sequences ([`Backend::extract_batch`](crate::Backend::extract_batch)) are
-//!   pipelined: decoding and uploading frame n+1 overlap the GPU work on frame
-//!   n and the host labelling of frame n − 1, with two sets of buffers reused
-//!   across frames.
+//! - Sequences ([`Backend::extract_batch`](crate::Backend::extract_batch),
+//!   [`Backend::extract_frames`](crate::Backend::extract_frames)) are
+//!   pipelined over two sets of buffers reused across frames: frame n+1 is
+//!   decoded, thresholded and copied into its staging buffers while the GPU
+//!   works on frame n, and frame n is labelled on the host while the GPU works
+//!   on frame n+1. (wgpu has one queue, so the GPU-side copy of frame n+1
+//!   follows the kernel of frame n; what overlaps is all host work with all
+//!   GPU work.)
 //!
 //! Backend choice ([`choose`]) is a pure function of the probed adapter, so
 //! the fallback rules are testable without a GPU.
@@ -151,7 +156,7 @@ pub struct AdapterSummary {
 }
 
 impl AdapterSummary {
-    /// "name [driver]" for messages.
+    /// `name [driver]` for messages.
     pub fn describe(&self) -> String {
         if self.driver.is_empty() {
             self.name.clone()
