@@ -1,7 +1,10 @@
 //! `trinocular calibrate`: each camera from a 3-D target (METHODS.md §1,
 //! Calibration). From one calibration image per camera (markers extracted,
 //! then assigned to target ids automatically from the nominal rig) or from
-//! `id,u,v` correspondence files. Writes, all atomically:
+//! `id,u,v` correspondence files. With images, once a distortion estimate
+//! exists the blob centroids are recomputed over undistorted pixel positions
+//! (area-Jacobian weights, `extract::mapped_centroid`) and the camera refitted.
+//! Writes, all atomically, once every camera is calibrated:
 //! - `--out` (`rig.json`, INTERFACES.md), with each camera's model, parameter
 //!   standard deviations, outliers and DLT figures under extra keys;
 //! - `<stem>.cam<ID>.opencv.yml` beside it: OpenCV `FileStorage` YAML;
@@ -15,11 +18,11 @@ use anyhow::{Context, Result, bail};
 use calib::commission::{CameraInput, CommissionOptions, Optics};
 use calib::{Calibration, CorrespondOptions, Model, Observation, Options};
 use clap::ValueEnum;
-use extract::FrameReader;
+use extract::{Blob, FrameReader, PixelMap, mapped_centroid};
 use formats::{
     CorrespondenceRow, NominalRig, Rig, RigCamera, TargetRow, read_csv, read_json, write_json,
 };
-use geom::Point2;
+use geom::{Camera, Point2};
 use serde::Serialize;
 use serde_json::{Value, json};
 
@@ -48,6 +51,7 @@ pub enum MarkerArg {
 
 /// Arguments of `trinocular calibrate`.
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("input").required(true).args(["images", "points"])))]
 pub struct Args {
     /// Calibration target `target.csv` (`id,x,y,z[,diameter]`, mm).
     #[arg(long)]
@@ -56,7 +60,7 @@ pub struct Args {
     #[arg(long)]
     nominal: PathBuf,
     /// One calibration image per camera, in camera order (the nominal rig's ids, ascending).
-    #[arg(long, num_args = 1.., required_unless_present = "points", conflicts_with = "points")]
+    #[arg(long, num_args = 1..)]
     images: Vec<PathBuf>,
     /// Correspondence files `id,u,v`, one per camera in camera order, instead of images.
     #[arg(long, num_args = 1..)]
@@ -143,36 +147,17 @@ fn optics(raw: &Value, id: u8, pixel_mm: f64) -> Optics {
     }
 }
 
-/// Detections (centroids) of one calibration image; blobs touching the border are dropped.
-fn detect(
-    reader: &mut FrameReader,
-    path: &Path,
-    width: u32,
-    height: u32,
-    args: &Args,
-) -> Result<Vec<Point2<f64>>> {
-    let params = args.extract.params()?;
-    let backend = args.extract.backend()?;
-    let (frame, _) = reader.read(path)?;
-    if frame.width != width || frame.height != height {
-        bail!(
-            "{}: the image is {}×{} px, but nominal.json gives this camera {}×{} px",
-            path.display(),
-            frame.width,
-            frame.height,
-            width,
-            height
-        );
+/// Rounds of re-centroiding over undistorted pixel positions and refitting.
+const UNDISTORTED_ROUNDS: usize = 2;
+
+/// Observed pixel → ideal pixel with the area Jacobian, for [`mapped_centroid`].
+struct Undistortion<'a>(&'a Camera);
+
+impl PixelMap for Undistortion<'_> {
+    fn map(&self, u: f64, v: f64) -> Option<([f64; 2], f64)> {
+        let (p, area) = self.0.undistort_pixel_area(Point2::new(u, v)).ok()?;
+        Some(([p.x, p.y], area))
     }
-    let ex = backend
-        .extract(frame, &params)
-        .with_context(|| format!("{}", path.display()))?;
-    Ok(ex
-        .blobs
-        .iter()
-        .filter(|b| !b.touches_border)
-        .map(|b| Point2::new(b.u, b.v))
-        .collect())
 }
 
 /// Run the command.
@@ -228,7 +213,16 @@ pub fn run(args: &Args) -> Result<()> {
     let markers = calib::markers(&target);
     let by_id: HashMap<u32, &TargetRow> = target.iter().map(|t| (t.id, t)).collect();
 
+    let extraction = if args.images.is_empty() {
+        None
+    } else {
+        Some((args.extract.backend()?, args.extract.params()?))
+    };
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
+    }
     let mut reader = FrameReader::new();
+    let mut yaml = Vec::new();
     let mut rig = Rig {
         cameras: Vec::new(),
     };
@@ -240,50 +234,80 @@ pub fn run(args: &Args) -> Result<()> {
         let start = nominal_camera
             .to_camera()
             .map_err(|e| anyhow::anyhow!("{}: {e}", args.nominal.display()))?;
-        let (observations, matching) = if args.images.is_empty() {
-            let rows: Vec<CorrespondenceRow> =
-                read_csv(input)?.into_iter().map(|r| r.record).collect();
-            let obs = calib::observations(&target, &rows, spheres).with_context(context)?;
-            (obs, json!({ "points": rows.len() }))
-        } else {
-            let detections = detect(
-                &mut reader,
-                input,
-                nominal_camera.width,
-                nominal_camera.height,
-                args,
-            )
-            .with_context(context)?;
+        let calibrate = |obs: &[Observation]| {
+            calib::calibrate(obs, nominal_camera.width, nominal_camera.height, &options)
+                .with_context(context)
+        };
+        let (observations, cal, matching) = if let Some((backend, params)) = &extraction {
+            let (frame, _) = reader.read(input).with_context(context)?;
+            if frame.width != nominal_camera.width || frame.height != nominal_camera.height {
+                bail!(
+                    "{}: the image is {}×{} px, but {} gives this camera {}×{} px",
+                    context(),
+                    frame.width,
+                    frame.height,
+                    args.nominal.display(),
+                    nominal_camera.width,
+                    nominal_camera.height
+                );
+            }
+            let ex = backend.extract(frame, params).with_context(context)?;
+            let blobs: Vec<&Blob> = ex.blobs.iter().filter(|b| !b.touches_border).collect();
+            let detections: Vec<Point2<f64>> =
+                blobs.iter().map(|b| Point2::new(b.u, b.v)).collect();
             let c = calib::correspond(&markers, &detections, &start, &CorrespondOptions::default())
                 .with_context(context)?;
-            let obs: Vec<Observation> = c
-                .matches
-                .iter()
-                .filter_map(|m| {
-                    by_id.get(&m.id).map(|t| Observation {
-                        id: m.id,
-                        world: geom::Point3::new(t.x, t.y, t.z),
-                        pixel: detections[m.detection],
-                        sphere_diameter: if spheres { t.diameter } else { None },
+            let observe = |pixels: &[Point2<f64>]| -> Vec<Observation> {
+                c.matches
+                    .iter()
+                    .filter_map(|m| {
+                        by_id.get(&m.id).map(|t| Observation {
+                            id: m.id,
+                            world: geom::Point3::new(t.x, t.y, t.z),
+                            pixel: pixels[m.detection],
+                            sphere_diameter: if spheres { t.diameter } else { None },
+                        })
                     })
-                })
-                .collect();
+                    .collect()
+            };
+            let mut obs = observe(&detections);
+            let mut cal = calibrate(&obs)?;
+            // Centroids over undistorted pixel positions (METHODS.md §1): each
+            // blob's light re-weighted by the area Jacobian of the estimated
+            // undistortion, its centroid mapped back through the distortion; refit.
+            let denoised = extract::denoise::apply(&frame, params.denoise);
+            let view = denoised.as_ref().map_or(frame, |f| f.view());
+            if !cal.camera.distortion.is_none() {
+                for _ in 0..UNDISTORTED_ROUNDS {
+                    let map = Undistortion(&cal.camera);
+                    let pixels: Vec<Point2<f64>> = blobs
+                        .iter()
+                        .zip(&detections)
+                        .map(|(b, d)| {
+                            mapped_centroid(&view, b, &ex.level, params.weighting, &map)
+                                .map_or(*d, |q| cal.camera.distort_pixel(Point2::new(q[0], q[1])))
+                        })
+                        .collect();
+                    obs = observe(&pixels);
+                    cal = calibrate(&obs)?;
+                }
+            }
             let info = json!({
                 "detections": detections.len(),
                 "matched": c.matches.len(),
                 "unmatched_detections": c.unmatched_detections.len(),
                 "missing_markers": c.missing_markers,
                 "assignment_sigma_px": c.sigma_px,
+                "undistorted_centroids": !cal.camera.distortion.is_none(),
             });
-            (obs, info)
+            (obs, cal, info)
+        } else {
+            let rows: Vec<CorrespondenceRow> =
+                read_csv(input)?.into_iter().map(|r| r.record).collect();
+            let obs = calib::observations(&target, &rows, spheres).with_context(context)?;
+            let cal = calibrate(&obs)?;
+            (obs, cal, json!({ "points": rows.len() }))
         };
-        let cal = calib::calibrate(
-            &observations,
-            nominal_camera.width,
-            nominal_camera.height,
-            &options,
-        )
-        .with_context(context)?;
         summarise(id, &cal, &matching);
         for (o, r) in observations.iter().zip(&cal.residuals) {
             residual_rows.push(ResidualRow {
@@ -308,11 +332,15 @@ pub fn run(args: &Args) -> Result<()> {
             rms_px: cal.rms_px,
             optics: Some(optics(&raw_nominal, id, nominal_camera.pixel_mm)),
         });
-        let yml = beside(&args.out, &format!(".cam{id}.opencv.yml"));
-        formats::write_atomic(
-            &yml,
-            calib::opencv_yaml(id, &cal.camera, cal.rms_px, None).as_bytes(),
-        )?;
+        yaml.push((
+            beside(&args.out, &format!(".cam{id}.opencv.yml")),
+            calib::opencv_yaml(id, &cal.camera, cal.rms_px, None),
+        ));
+    }
+
+    // Every camera is calibrated: only now write the outputs.
+    for (path, text) in &yaml {
+        formats::write_atomic(path, text.as_bytes())?;
     }
 
     write_json(&args.out, &rig)?;
