@@ -427,44 +427,55 @@ impl Report {
         let _ = writeln!(s, "=================");
         let _ = writeln!(
             s,
-            "Working point: ({:.2}, {:.2}, {:.2}) mm",
+            "Working point: ({:.2}, {:.2}, {:.2}) mm (nearest point to the optical axes unless given)",
             wp[0], wp[1], wp[2]
         );
         let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "camera  axis  angle to axis  cos err  distance   pixel size (u, v)          principal point (offset)              RMS      depth of field"
-        );
         for c in &self.cameras {
-            let dof = c.depth_of_field.map_or("unknown".to_string(), |d| {
-                format!(
-                    "{:.1}…{} mm (f {:.2} mm, f/{}, c {:.4} mm)",
-                    d.near_mm,
-                    d.far_mm.map_or("∞".to_string(), |f| format!("{f:.1}")),
-                    d.focal_mm,
-                    d.f_number,
-                    d.coc_mm
-                )
-            });
+            let _ = writeln!(s, "Camera {} (looks along {})", c.id, c.machine_axis);
             let _ = writeln!(
                 s,
-                "{:>6}  {:>4}  {:>11.4}°  {:>4.0} ppm  {:>6.2} mm  {:.6} mm/px ({:.6}, {:.6})  ({:.2}, {:.2}) px ({:+.2}, {:+.2})  {:.4} px  {dof}",
-                c.id,
-                c.machine_axis,
+                "  optical axis {:.4}° from {} (cosine error {:.0} ppm); centre ({:.2}, {:.2}, {:.2}) mm",
                 c.axis_angle_deg,
+                c.machine_axis,
                 c.cosine_error_ppm,
-                c.working_distance_mm,
-                c.pixel_size_mm,
-                c.pixel_size_u_mm,
-                c.pixel_size_v_mm,
+                c.centre_mm[0],
+                c.centre_mm[1],
+                c.centre_mm[2]
+            );
+            let _ = writeln!(
+                s,
+                "  working distance {:.2} mm; pixel size {:.6} mm/px (u {:.6}, v {:.6})",
+                c.working_distance_mm, c.pixel_size_mm, c.pixel_size_u_mm, c.pixel_size_v_mm
+            );
+            let _ = writeln!(
+                s,
+                "  principal point ({:.2}, {:.2}) px, ({:+.2}, {:+.2}) px from the image centre; reprojection RMS {:.4} px",
                 c.principal_point_px[0],
                 c.principal_point_px[1],
                 c.principal_point_offset_px[0],
                 c.principal_point_offset_px[1],
                 c.rms_px
             );
+            match c.depth_of_field {
+                Some(d) => {
+                    let _ = writeln!(
+                        s,
+                        "  depth of field {:.1}…{} mm (lens {:.2} mm, f/{}, circle of confusion {:.4} mm, focus {:.1} mm)",
+                        d.near_mm,
+                        d.far_mm.map_or("∞".to_string(), |f| format!("{f:.1}")),
+                        d.focal_mm,
+                        d.f_number,
+                        d.coc_mm,
+                        d.focus_mm
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "  depth of field unknown (no optics given)");
+                }
+            }
+            let _ = writeln!(s);
         }
-        let _ = writeln!(s);
         let _ = writeln!(s, "Angles between optical axes (the method needs 90°):");
         for p in &self.axis_pairs {
             let _ = writeln!(

@@ -5,9 +5,9 @@
 //!   k1 k2 p1 p2, optional k3 and skew), analytic Jacobian, sphere markers.
 //! - [`outliers`]: robust σ and k·σ rejection.
 //! - [`calibration`]: [`calibrate`], the whole chain for one camera.
-//! - [`commission`]: the rig commissioning report (axis angles, pixel sizes,
+//! - [`commission`](mod@commission): the rig commissioning report (axis angles, pixel sizes,
 //!   depth of field over each axis's travel).
-//! - [`correspond`]: automatic marker ↔ detection assignment from a nominal camera.
+//! - [`correspond`](mod@correspond): automatic marker ↔ detection assignment from a nominal camera.
 //! - [`opencv`]: export in OpenCV's `FileStorage` YAML format.
 //!
 //! # Conventions
