@@ -22,6 +22,8 @@ enum Command {
     Bench(cmd::bench::Args),
     /// Calibrate each camera from a 3-D target: DLT, Levenberg–Marquardt with distortion, commissioning report.
     Calibrate(cmd::calibrate::Args),
+    /// The whole job on built-in data: render, calibrate, measure, evaluate; measured vs true figures.
+    Demo(cmd::demo::Args),
     /// ISO 230-2 positioning, straightness, flatness and angular errors from points.csv.
     Evaluate(cmd::evaluate::Args),
     /// Sub-pixel blob centres of images into blobs.csv (thresholded gray centroid).
@@ -63,6 +65,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Bench(args) => cmd::bench::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),
+        Command::Demo(args) => cmd::demo::run(&args),
         Command::Evaluate(args) => cmd::evaluate::run(&args),
         Command::Extract(args) => cmd::extract::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),

@@ -314,10 +314,16 @@ pub fn label(frame: &FrameView<'_>, level: &Level, weighting: Weighting, max_run
         debug_assert_eq!(last_row + 1, first_row);
         join_rows(&runs, upper.clone(), lower.clone(), &mut sets, 0);
     }
-    let mut id_of_root = vec![u32::MAX; total];
-    let mut component = Vec::with_capacity(total);
+    Ok(numbered(runs, &mut sets))
+}
+
+/// Number the components of labelled runs by first appearance in raster order.
+fn numbered(runs: Vec<Run>, sets: &mut DisjointSets) -> Labelling {
+    let n = runs.len();
+    let mut id_of_root = vec![u32::MAX; n];
+    let mut component = Vec::with_capacity(n);
     let mut components = 0u32;
-    for i in 0..total as u32 {
+    for i in 0..n as u32 {
         let root = sets.find(i) as usize;
         if id_of_root[root] == u32::MAX {
             id_of_root[root] = components;
@@ -325,11 +331,42 @@ pub fn label(frame: &FrameView<'_>, level: &Level, weighting: Weighting, max_run
         }
         component.push(id_of_root[root]);
     }
-    Ok(Labelling {
+    Labelling {
         runs,
         component,
         components,
-    })
+    }
+}
+
+/// Label runs already in raster order (e.g. assembled from a GPU pass):
+/// runs of consecutive rows that touch are joined, components numbered by
+/// first appearance; more than `max_runs` runs is [`ExtractError::TooManyRuns`].
+pub fn label_runs(runs: Vec<Run>, level: &Level, max_runs: usize) -> Result<Labelling> {
+    if runs.len() > max_runs {
+        return Err(ExtractError::TooManyRuns {
+            runs: runs.len(),
+            limit: max_runs,
+            threshold: level.describe(),
+        });
+    }
+    let n = runs.len();
+    let mut sets = DisjointSets {
+        parent: (0..n as u32).collect(),
+    };
+    let mut prev = 0..0;
+    let mut i = 0;
+    while i < n {
+        let y = runs[i].y;
+        let start = i;
+        while i < n && runs[i].y == y {
+            i += 1;
+        }
+        if !prev.is_empty() && runs[prev.start].y + 1 == y {
+            join_rows(&runs, prev.clone(), start..i, &mut sets, 0);
+        }
+        prev = start..i;
+    }
+    Ok(numbered(runs, &mut sets))
 }
 
 #[cfg(test)]

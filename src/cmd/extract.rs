@@ -95,7 +95,7 @@ impl ExtractOptions {
     }
 
     /// The backend these flags choose.
-    pub fn backend(&self) -> Result<Box<dyn Backend>> {
+    pub fn backend(&self) -> Result<std::sync::Arc<dyn Backend>> {
         select_backend(self.backend)
     }
 }

@@ -3,6 +3,7 @@
 pub mod backend;
 pub mod bench;
 pub mod calibrate;
+pub mod demo;
 pub mod evaluate;
 pub mod extract;
 pub mod fit;

@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::label::{Labelling, Run};
 use crate::threshold::Level;
-use crate::{ExtractError, Result};
+use crate::Result;
 
 /// One segment as the kernel writes it (`Segment` in runs.wgsl).
 #[repr(C)]
@@ -78,83 +78,15 @@ pub(crate) fn runs(mut segments: Vec<Segment>) -> Vec<Run> {
     out
 }
 
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let grand = parent[parent[i as usize] as usize];
-        parent[i as usize] = grand;
-        i = grand;
-    }
-    i
-}
-
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        parent[hi as usize] = lo;
-    }
-}
-
-/// Components of runs in raster order, numbered by first appearance; more
-/// than `max_runs` runs is the CPU's [`ExtractError::TooManyRuns`].
+/// Components of runs in raster order: the CPU labeller's own union–find.
 pub(crate) fn label(runs: Vec<Run>, level: &Level, max_runs: usize) -> Result<Labelling> {
-    if runs.len() > max_runs {
-        return Err(ExtractError::TooManyRuns {
-            runs: runs.len(),
-            limit: max_runs,
-            threshold: level.describe(),
-        });
-    }
-    let n = runs.len();
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    // Index range of the current row's runs.
-    let mut cur = 0..0;
-    let mut i = 0;
-    while i < n {
-        let y = runs[i].y;
-        let start = i;
-        while i < n && runs[i].y == y {
-            i += 1;
-        }
-        let prev = std::mem::replace(&mut cur, start..i);
-        if prev.is_empty() || runs[prev.start].y + 1 != y {
-            continue;
-        }
-        let (mut a, mut b) = (prev.start, cur.start);
-        while a < prev.end && b < cur.end {
-            let (u, l) = (&runs[a], &runs[b]);
-            if u.x0 <= l.x1 + 1 && l.x0 <= u.x1 + 1 {
-                union(&mut parent, a as u32, b as u32);
-            }
-            // Advance whichever run ends first (8-connectivity reaches one column further).
-            if u.x1 < l.x1 {
-                a += 1;
-            } else {
-                b += 1;
-            }
-        }
-    }
-    let mut id_of_root = vec![u32::MAX; n];
-    let mut component = Vec::with_capacity(n);
-    let mut components = 0u32;
-    for i in 0..n as u32 {
-        let root = find(&mut parent, i) as usize;
-        if id_of_root[root] == u32::MAX {
-            id_of_root[root] = components;
-            components += 1;
-        }
-        component.push(id_of_root[root]);
-    }
-    Ok(Labelling {
-        runs,
-        component,
-        components,
-    })
+    crate::label::label_runs(runs, level, max_runs)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ExtractError;
     use crate::frame::FrameView;
     use crate::label::{self, Weighting};
     use proptest::prelude::*;

@@ -1,0 +1,129 @@
+//! End to end through the binary: `trinocular demo` renders a campaign with
+//! injected errors, calibrates the cameras from the rendered target (the rig
+//! starts from the nominal one, off by degrees and millimetres), measures,
+//! evaluates; the results are judged against the renderer's truth.
+//!
+//! Scale: 1024×768 px instead of 4096×3072 with the seed's lens and field of
+//! view, so a pixel covers 4× more of the table (≈ 0.23 mm). Centroid noise in
+//! pixels is the same at both scales, so errors in mm grow by 4: the
+//! full-resolution requirements (sphere-A displacements ≤ 1 µm RMS; ISO 230-2
+//! A, E, R and straightness within 0.5 µm of the truth figures; roll, pitch,
+//! yaw within 5 µrad) become 4 µm, 2 µm and 20 µrad here. The angular figures
+//! of a short campaign are also limited by noise, so their tolerance adds
+//! three standard errors of the per-target means, estimated from the scatter
+//! of the instants' poses.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+use formats::{PointRow, PoseRow, read_csv, read_json};
+use serde_json::Value;
+
+const SCALE: f64 = 4.0;
+
+fn rows<T: formats::Record>(p: &Path) -> Vec<T> {
+    read_csv(p).unwrap().into_iter().map(|r| r.record).collect()
+}
+
+fn get(v: &Value, path: &str) -> f64 {
+    v.pointer(path).and_then(Value::as_f64).unwrap_or_else(|| panic!("{path} missing"))
+}
+
+#[test]
+fn demo_measures_the_injected_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
+        .args(["demo", "--out", out.to_str().unwrap(), "--width", "1024", "--targets", "5", "--runs", "2", "--captures", "2"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}\n{}", stdout, String::from_utf8_lossy(&run.stderr));
+    assert!(stdout.contains("measured") && stdout.contains("true"), "{stdout}");
+    for f in ["rig.json", "points.csv", "poses.csv", "report/report.json", "report/report.html", "campaign/truth.json"] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    assert!(!out.join("problems.csv").exists(), "some instants could not be measured");
+
+    // Sphere-A displacements against the truth, per line from its first instant.
+    let measured: Vec<PointRow> = rows(&out.join("points.csv"));
+    let truth: Vec<PointRow> = rows(&out.join("campaign/truth_points.csv"));
+    type Key = (formats::Axis, formats::Direction, u32, u32, u32, [u64; 3]);
+    let key = |p: &PointRow| -> Key { (p.axis, p.direction, p.run, p.target, p.capture, p.nominal().map(f64::to_bits)) };
+    let t: BTreeMap<Key, [f64; 3]> = truth.iter().filter(|p| p.sphere == "A").map(|p| (key(p), p.position())).collect();
+    let mut first = BTreeMap::new();
+    let (mut ss, mut n) = (0.0, 0);
+    for p in measured.iter().filter(|p| p.sphere == "A") {
+        let k = key(p);
+        let [a, b] = p.axis.others();
+        let (m0, t0) = *first.entry((p.axis, k.5[a.index()], k.5[b.index()])).or_insert((p.position(), t[&k]));
+        let (m, tt) = (p.position(), t[&k]);
+        ss += (0..3).map(|i| ((m[i] - m0[i]) - (tt[i] - t0[i])).powi(2)).sum::<f64>();
+        n += 1;
+    }
+    let rms_um = (ss / n as f64).sqrt() * 1e3;
+    println!("sphere A displacement error: {rms_um:.2} µm RMS over {n} instants");
+    assert_eq!(n * 3, measured.len());
+    assert!(rms_um <= 1.0 * SCALE, "{rms_um} µm");
+
+    // ISO 230-2 and straightness against the figures of the exact positions.
+    let report: Value = read_json(&out.join("report/report.json")).unwrap();
+    let truth_json: Value = read_json(&out.join("campaign/truth.json")).unwrap();
+    let figures = &truth_json["figures"];
+    for axis in ["X", "Y"] {
+        for k in ["A_um", "E_um", "R_um"] {
+            let p = format!("/axes/{axis}/positioning/{k}");
+            let (m, t) = (get(&report, &p), get(figures, &p));
+            println!("{axis} {k}: measured {m:.2}, true {t:.2}");
+            assert!((m - t).abs() <= 0.5 * SCALE, "{p}: {m} vs {t}");
+        }
+        let dirs: Vec<String> = report.pointer(&format!("/axes/{axis}/straightness")).unwrap().as_object().unwrap().keys().cloned().collect();
+        assert_eq!(dirs.len(), 2);
+        for d in dirs {
+            for k in ["lsq_um", "min_zone_um"] {
+                let p = format!("/axes/{axis}/straightness/{d}/{k}");
+                let (m, t) = (get(&report, &p), get(figures, &p));
+                assert!((m - t).abs() <= 0.5 * SCALE, "{p}: {m} vs {t}");
+            }
+        }
+    }
+
+    // Roll, pitch, yaw per target against the truth. Noise allowance: the
+    // scatter of the instants' poses at a target gives σ of one instant; a
+    // per-target value is a mean minus the first target's mean.
+    let poses: Vec<PoseRow> = rows(&out.join("poses.csv"));
+    for axis in ["X", "Y"] {
+        let main = report.pointer(&format!("/axes/{axis}/angular/targets")).unwrap().as_array().unwrap().clone();
+        let exact = figures.pointer(&format!("/axes/{axis}/angular/targets")).unwrap().as_array().unwrap().clone();
+        // Main line's off-axis coordinate: where the report says it is.
+        let line: Vec<&PoseRow> = poses
+            .iter()
+            .filter(|p| p.axis.name() == axis && (if axis == "X" { p.nominal_y } else { p.nominal_x }) == 0.0)
+            .collect();
+        let mut by_target: BTreeMap<u32, Vec<[f64; 3]>> = BTreeMap::new();
+        for p in &line {
+            by_target.entry(p.target).or_default().push([p.roll, p.pitch, p.yaw]);
+        }
+        let (mut var, mut dof, mut per) = (0.0, 0usize, 0usize);
+        for v in by_target.values() {
+            for c in 0..3 {
+                let m = v.iter().map(|x| x[c]).sum::<f64>() / v.len() as f64;
+                var += v.iter().map(|x| (x[c] - m).powi(2)).sum::<f64>();
+            }
+            dof += 3 * (v.len() - 1);
+            per = v.len();
+        }
+        let sigma_urad = (var / dof as f64).sqrt() * 1e6;
+        let allowance = 5.0 * SCALE + 3.0 * sigma_urad * (2.0 / per as f64).sqrt();
+        for (m, t) in main.iter().zip(&exact) {
+            for k in ["roll_urad", "pitch_urad", "yaw_urad"] {
+                let d = (m[k].as_f64().unwrap() - t[k].as_f64().unwrap()).abs();
+                assert!(d <= allowance, "{axis} target {}: {k} off by {d:.1} µrad (allowed {allowance:.1})", m["target"]);
+            }
+        }
+        println!("{axis}: angular σ per instant {sigma_urad:.1} µrad, allowance {allowance:.1} µrad");
+    }
+}
