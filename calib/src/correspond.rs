@@ -514,6 +514,8 @@ pub fn correspond(
     }
     believable(best)?;
     check_local_ambiguity(best, markers, detections, &grid)?;
+    let extended = with_distortion(best, &world, detections, &grid, gate0, nominal.width, nominal.height);
+    let best = extended.as_ref().unwrap_or(best);
 
     let matched_markers: HashSet<usize> = best.pairs.iter().map(|p| p.0).collect();
     let matched_detections: HashSet<usize> = best.pairs.iter().map(|p| p.1).collect();
@@ -714,6 +716,73 @@ fn converge(
     }
     last
 }
+
+/// Final re-assignment through a camera with radial distortion: a pinhole DLT
+/// cannot follow a lens's barrel or pincushion into the corners of the image
+/// (≈ 12 px at the corner of the seed sensor for k1 = −0.045), so corner
+/// markers fall outside its gate. Fit k1, k2 to the matched pairs (no outlier
+/// rejection: the gate decides), predict every marker through the full model
+/// and re-assign within `GATE_SIGMAS`·σ of the residuals, until stable.
+/// `None` when the fit fails (the DLT assignment then stands).
+fn with_distortion(
+    start: &Candidate,
+    world: &[Point3<f64>],
+    detections: &[Point2<f64>],
+    grid: &Grid,
+    gate0: f64,
+    width: u32,
+    height: u32,
+) -> Option<Candidate> {
+    let options = crate::calibration::Options {
+        model: crate::refine::Model::K1K2,
+        outlier_k: None,
+        ..crate::calibration::Options::default()
+    };
+    let mut pairs = start.pairs.clone();
+    let mut last = None;
+    for _ in 0..MAX_DISTORTION_ROUNDS {
+        let observations: Vec<crate::calibration::Observation> = pairs
+            .iter()
+            .map(|&(i, j, _)| crate::calibration::Observation {
+                id: i as u32,
+                world: world[i],
+                pixel: detections[j],
+                sphere_diameter: None,
+            })
+            .collect();
+        let camera = crate::calibration::calibrate(&observations, width, height, &options)
+            .ok()?
+            .camera;
+        let positions: Vec<Option<Point2<f64>>> = world.iter().map(|x| camera.project(x).ok()).collect();
+        let res: Vec<Vector2<f64>> = pairs
+            .iter()
+            .filter_map(|p| positions[p.0].map(|q| q - detections[p.1]))
+            .collect();
+        let sigma = robust_sigma(&res);
+        let gate = (GATE_SIGMAS * sigma).clamp(MIN_GATE_PX.min(gate0), gate0);
+        let next = assign(&positions, detections, grid, gate);
+        let stable = same_pairs(&next, &pairs);
+        if next.len() < pairs.len() {
+            // A worse assignment than the DLT's: keep what we had.
+            return last;
+        }
+        last = Some(Candidate {
+            pairs: next.clone(),
+            projection: camera.projection_matrix(),
+            positions,
+            sigma,
+            gate,
+        });
+        if stable {
+            break;
+        }
+        pairs = next;
+    }
+    last
+}
+
+/// Rounds of the distortion-aware re-assignment at most.
+const MAX_DISTORTION_ROUNDS: usize = 4;
 
 /// Fails when a matched marker has a second detection within the final gate,
 /// or a matched detection lies within the gate of a second marker: the

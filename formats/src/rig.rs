@@ -27,6 +27,10 @@ pub struct NominalCamera {
     pub width: u32,
     /// Sensor height (px).
     pub height: u32,
+    /// Further keys, kept as written (optics for the commissioning report:
+    /// `f_number`, `coc_px`, `lens_focal_mm`, `focus_distance_mm`).
+    #[serde(flatten)]
+    pub extra: serde_json::Map<String, serde_json::Value>,
 }
 
 impl NominalCamera {
@@ -236,6 +240,7 @@ mod tests {
             pixel_mm: 0.0055,
             width: 4096,
             height: 3072,
+            extra: serde_json::Map::new(),
         };
         let mut cam = nominal.to_camera().unwrap();
         cam.distortion.k1 = -0.05;

@@ -390,6 +390,11 @@ pub struct TargetConfig {
     pub centre: [f64; 3],
     /// Marker diameter (mm).
     pub marker_diameter_mm: f64,
+    /// Largest displacement of a marker from its lattice position along each
+    /// axis (mm): a fixed pseudo-random jitter that breaks the lattice's
+    /// periodicity, so that no image of the target matches the target
+    /// shifted by a lattice step. Below a quarter of either pitch.
+    pub jitter_mm: f64,
     /// Marker radiance (electrons per fully covered pixel per exposure).
     pub radiance_e: f64,
 }
@@ -760,6 +765,10 @@ impl Config {
         non_negative("target.depth_step_mm", t.depth_step_mm)?;
         finite("target.centre", &t.centre)?;
         positive("target.marker_diameter_mm", t.marker_diameter_mm)?;
+        non_negative("target.jitter_mm", t.jitter_mm)?;
+        if t.jitter_mm >= 0.25 * t.spacing_mm.min(if t.depth_step_mm > 0.0 { t.depth_step_mm } else { f64::INFINITY }) {
+            return Err(bad("target.jitter_mm", format!("{} mm must stay below a quarter of the lattice pitch", t.jitter_mm)));
+        }
         non_negative("target.radiance_e", t.radiance_e)?;
 
         if !self.output.make.is_ascii() || !self.output.model.is_ascii() {
@@ -1029,6 +1038,7 @@ impl Default for TargetConfig {
             depth_step_mm: 18.0,
             centre: [0.0, 0.0, 30.0],
             marker_diameter_mm: 3.0,
+            jitter_mm: 3.0,
             radiance_e: 12_000.0,
         }
     }

@@ -102,6 +102,15 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
         pixel_mm: s.pixel_mm,
         width: s.width,
         height: s.height,
+        // The lens as built, for the commissioning report's depth of field.
+        extra: serde_json::json!({
+            "lens_focal_mm": o.focal_mm,
+            "f_number": o.f_number,
+            "focus_distance_mm": o.focus_distance_mm,
+        })
+        .as_object()
+        .cloned()
+        .unwrap_or_default(),
     };
     let nominal_camera = nominal
         .to_camera()

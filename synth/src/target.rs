@@ -33,8 +33,22 @@ pub struct Marker {
     pub diameter: f64,
 }
 
+/// Purpose tag of the target's jitter (see `sensor::chacha_key`).
+const JITTER_PURPOSE: u64 = 3;
+
+/// Fixed pseudo-random jitter of marker `id`: each component uniform in [−1, 1).
+fn jitter(id: u32) -> [f64; 3] {
+    let key = crate::sensor::chacha_key(JITTER_PURPOSE, &[u64::from(id)]);
+    [0, 1, 2].map(|i| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&key[8 * i..8 * i + 8]);
+        (u64::from_le_bytes(b) >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    })
+}
+
 /// The markers of a target configuration: marker (i, j) at
-/// `centre + spacing·(i − c, j − c, 0) + depth_step·(((2i + 3j) mod n) − c)·ẑ`.
+/// `centre + spacing·(i − c, j − c, 0) + depth_step·(((2i + 3j) mod n) − c)·ẑ`
+/// plus its fixed jitter of up to `jitter_mm` per axis.
 pub fn markers(t: &TargetConfig) -> Vec<Marker> {
     let n = t.grid;
     let c = (f64::from(n) - 1.0) / 2.0;
@@ -42,12 +56,14 @@ pub fn markers(t: &TargetConfig) -> Vec<Marker> {
     for i in 0..n {
         for j in 0..n {
             let k = (2 * i + 3 * j) % n;
+            let id = i * n + j + 1;
+            let [jx, jy, jz] = jitter(id).map(|v| v * t.jitter_mm);
             out.push(Marker {
-                id: i * n + j + 1,
+                id,
                 centre: Point3::new(
-                    t.centre[0] + t.spacing_mm * (f64::from(i) - c),
-                    t.centre[1] + t.spacing_mm * (f64::from(j) - c),
-                    t.centre[2] + t.depth_step_mm * (f64::from(k) - c),
+                    t.centre[0] + t.spacing_mm * (f64::from(i) - c) + jx,
+                    t.centre[1] + t.spacing_mm * (f64::from(j) - c) + jy,
+                    t.centre[2] + t.depth_step_mm * (f64::from(k) - c) + jz,
                 ),
                 diameter: t.marker_diameter_mm,
             });
