@@ -6,15 +6,14 @@
 //! the same distance, while swapping two spheres of diameters D1 ≠ D2 shifts
 //! the implied distances apart by the factor D1/D2. An assignment is accepted
 //! when its implied distances agree within half the smallest log-ratio of two
-//! sphere diameters and lie in a generous window around the working distance;
+//! sphere diameters and lie within the distances the campaign's travel allows
+//! (the working distance ± half the largest commanded extent + 50 mm);
 //! extra blobs (reflections, stray light) are left unassigned; a sphere with
 //! no consistent blob is missing, and two near-equally good assignments make
 //! the frame ambiguous. Never a guess.
 
 use crate::observe::Candidate;
 
-/// Implied distances must lie within `[d0/WINDOW, d0·WINDOW]` of the working distance d0.
-const WINDOW: f64 = 2.0;
 /// Largest log-distance spread tolerated, whatever the diameters.
 const MAX_SPREAD: f64 = 0.2;
 /// At most this many candidates enter the exhaustive search (the largest first).
@@ -100,11 +99,11 @@ fn consistent(logs: &[Vec<Option<f64>>], tol: f64, spheres: &[usize], candidates
 
 /// Assign one candidate to each sphere. `candidates` are the frame's usable
 /// blobs, `diameters` the spheres' (mm), `focal_px` the camera's focal length,
-/// `working_distance` (mm) its distance to the working volume. Returns, per
-/// sphere, the index into `candidates`.
-pub fn assign(candidates: &[Candidate], diameters: &[f64], focal_px: f64, working_distance: f64) -> Result<Vec<usize>, MatchFailure> {
+/// `distances` (mm) the range of distances from the camera at which the
+/// spheres can be. Returns, per sphere, the index into `candidates`.
+pub fn assign(candidates: &[Candidate], diameters: &[f64], focal_px: f64, distances: (f64, f64)) -> Result<Vec<usize>, MatchFailure> {
     let tol = spread_tolerance(diameters).ok_or(MatchFailure::Ambiguous)?;
-    let (lo, hi) = ((working_distance / WINDOW).ln(), (working_distance * WINDOW).ln());
+    let (lo, hi) = (distances.0.max(f64::MIN_POSITIVE).ln(), distances.1.ln());
     // Usable candidates, largest first, at most MAX_CANDIDATES.
     let mut usable: Vec<usize> = (0..candidates.len())
         .filter(|&i| candidates[i].rejected.is_none() && candidates[i].diameter_px > 0.0)
@@ -127,16 +126,29 @@ pub fn assign(candidates: &[Candidate], diameters: &[f64], focal_px: f64, workin
     let found = consistent(&logs, tol, &all, usable.len());
     match found.as_slice() {
         [] => {
-            // Name the missing spheres: those whose removal leaves a consistent assignment.
-            let mut missing: Vec<usize> = (0..diameters.len())
-                .filter(|&drop| {
+            // Name the missing sphere: the one whose removal leaves the most
+            // consistent assignment, when clearly more consistent than any
+            // other removal; else every sphere whose removal leaves one.
+            let mut drops: Vec<(f64, usize)> = (0..diameters.len())
+                .filter_map(|drop| {
                     let rest: Vec<usize> = all.iter().copied().filter(|&s| s != drop).collect();
-                    !rest.is_empty() && !consistent(&logs, tol, &rest, usable.len()).is_empty()
+                    if rest.is_empty() {
+                        return None;
+                    }
+                    consistent(&logs, tol, &rest, usable.len()).first().map(|(spread, _)| (*spread, drop))
                 })
                 .collect();
-            if missing.is_empty() {
-                missing = all;
-            }
+            drops.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let missing = match drops.as_slice() {
+                [] => all,
+                [(_, only)] => vec![*only],
+                [(best, one), (second, _), ..] if second - best >= 0.5 * tol => vec![*one],
+                _ => {
+                    let mut m: Vec<usize> = drops.iter().map(|(_, d)| *d).collect();
+                    m.sort_unstable();
+                    m
+                }
+            };
             Err(MatchFailure::Missing(missing))
         }
         // Another assignment within half the tolerance of the best one: ambiguous.
@@ -151,7 +163,8 @@ mod tests {
     use geom::Point2;
 
     const F: f64 = 7966.0;
-    const D0: f64 = 460.0;
+    /// 460 mm ± (75 mm of travel + 50 mm of sphere layout).
+    const D0: (f64, f64) = (335.0, 585.0);
     const DIAMETERS: [f64; 3] = [20.0, 15.0, 10.0];
 
     fn cand(diameter_px: f64) -> Candidate {
@@ -192,6 +205,14 @@ mod tests {
         // A reflection the size of sphere B next to B itself.
         let c = vec![cand(px(20.0, 460.0)), cand(px(15.0, 461.0)), cand(px(15.0, 459.0)), cand(px(10.0, 460.0))];
         assert_eq!(assign(&c, &DIAMETERS, F, D0), Err(MatchFailure::Ambiguous));
+    }
+
+    #[test]
+    fn the_distance_range_decides_which_sphere_is_missing() {
+        // C is gone; A's and B's blobs could also be B and C at ≈ 0.72 of
+        // the distance — which the travel does not allow.
+        let c = vec![cand(px(20.0, 460.0)), cand(px(15.0, 480.0))];
+        assert_eq!(assign(&c, &DIAMETERS, F, D0), Err(MatchFailure::Missing(vec![2])));
     }
 
     #[test]

@@ -28,6 +28,9 @@ use crate::pose::poses;
 use crate::triangulate::{View, seed_displacement, triangulate};
 use crate::{FuseError, Result};
 
+/// Allowance for the spheres' layout on the table around its reference point (mm).
+pub const SPHERE_LAYOUT_MM: f64 = 50.0;
+
 /// Instants measured between two appends to the partial output.
 const CHUNK_INSTANTS: usize = 16;
 
@@ -137,6 +140,9 @@ type Observations = Vec<BTreeMap<u8, Point2<f64>>>;
 /// Shared, read-only state of a run.
 struct Context<'a> {
     rig: RigModel,
+    /// How far from the working point the spheres can be (mm): half the
+    /// campaign's largest nominal extent plus [`SPHERE_LAYOUT_MM`].
+    reach_mm: f64,
     spheres: &'a [SphereRow],
     diameters: Vec<f64>,
     options: MeasureOptions,
@@ -174,7 +180,8 @@ impl Context<'_> {
                 .map_err(|e| fail(e.in_file(path).to_string()))?;
             let cands = candidates(cam, &frame, &extraction, self.options.extract.weighting);
             let wd = self.rig.working_distance(camera).unwrap_or(1.0);
-            match assign(&cands, &self.diameters, cam.intrinsics.fx, wd) {
+            let range = ((wd - self.reach_mm).max(0.1 * wd), wd + self.reach_mm);
+            match assign(&cands, &self.diameters, cam.intrinsics.fx, range) {
                 Ok(pick) => Ok(pick.iter().map(|&c| cands[c].ideal_px).collect()),
                 Err(MatchFailure::Missing(m)) => {
                     let names: Vec<&str> = m.iter().map(|&i| self.spheres[i].name.as_str()).collect();
@@ -316,6 +323,16 @@ fn measure_one(ctx: &Context<'_>, ip: &InstantPlan, references: &HashMap<LineKey
     Ok(rows_for(&ip.key, ctx.spheres, &cams, &centres))
 }
 
+/// Largest extent of the commanded positions along any axis (mm).
+fn extent(plans: &[InstantPlan]) -> f64 {
+    (0..3)
+        .map(|a| {
+            let (lo, hi) = plans.iter().map(|p| p.key.nominal()[a]).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+            if hi >= lo { hi - lo } else { 0.0 }
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Rows of complete instants in a partial output (a torn tail is dropped).
 fn load_partial(path: &Path, spheres: usize) -> Result<Vec<PointRow>> {
     let bytes = std::fs::read(path).map_err(|e| formats::FormatError::io(path, e))?;
@@ -380,7 +397,9 @@ pub fn measure(inputs: &Inputs<'_>, out: &Path, options: &MeasureOptions, backen
         .collect();
     let resumed = done.len();
 
+    let reach_mm = 0.5 * extent(&plans) + SPHERE_LAYOUT_MM;
     let ctx = Context {
+        reach_mm,
         rig,
         spheres: inputs.spheres,
         diameters: inputs.spheres.iter().map(|s| s.diameter).collect(),

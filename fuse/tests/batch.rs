@@ -143,7 +143,9 @@ fn damaged_frames_are_reported_and_the_rest_measured() {
     // Instant 2: sphere C painted out of camera 2's frame (background level).
     let (missing, row) = image_of(d, 2, 2);
     let cam2 = true_camera(d, 2);
-    paint(&missing, &cam2, true_centre(d, &row, "C"), 30.0, 1200);
+    let c = true_centre(d, &row, "C");
+    let c_px = 5.0 * cam2.intrinsics.fx / cam2.to_camera(&c).z + 3.0; // C's image radius + blur margin
+    paint(&missing, &cam2, c, c_px, 1200);
     // Instant 3: an extra blob (a reflection, 4 mm) in camera 3: rejected, instant measured.
     let (extra, row3) = image_of(d, 3, 3);
     let cam3 = true_camera(d, 3);
