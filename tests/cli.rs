@@ -37,7 +37,16 @@ fn help_lists_the_subcommands() {
     let out = trinocular(&["--help"]);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
-    for cmd in ["fit"] {
+    for cmd in [
+        "bench",
+        "calibrate",
+        "demo",
+        "evaluate",
+        "extract",
+        "fit",
+        "measure",
+        "synth",
+    ] {
         assert!(
             text.lines().any(|l| l.trim_start().starts_with(cmd)),
             "{cmd} missing from:\n{text}"

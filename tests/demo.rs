@@ -29,7 +29,9 @@ fn rows<T: formats::Record>(p: &Path) -> Vec<T> {
 }
 
 fn get(v: &Value, path: &str) -> f64 {
-    v.pointer(path).and_then(Value::as_f64).unwrap_or_else(|| panic!("{path} missing"))
+    v.pointer(path)
+        .and_then(Value::as_f64)
+        .unwrap_or_else(|| panic!("{path} missing"))
 }
 
 #[test]
@@ -37,36 +39,57 @@ fn demo_measures_the_injected_errors() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo");
     let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
-        .args(["demo", "--out", out.to_str().unwrap(), "--width", "1024", "--targets", "5", "--runs", "2", "--captures", "2"])
+        .args([
+            "demo",
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "1024",
+            "--targets",
+            "5",
+            "--runs",
+            "2",
+            "--captures",
+            "2",
+        ])
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(run.status.success(), "{}\n{}", stdout, String::from_utf8_lossy(&run.stderr));
-    assert!(stdout.contains("measured") && stdout.contains("true"), "{stdout}");
-    for f in ["rig.json", "points.csv", "poses.csv", "report/report.json", "report/report.html", "campaign/truth.json"] {
+    assert!(
+        run.status.success(),
+        "{}\n{}",
+        stdout,
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        stdout.contains("measured") && stdout.contains("true"),
+        "{stdout}"
+    );
+    for f in [
+        "rig.json",
+        "points.csv",
+        "poses.csv",
+        "report/report.json",
+        "report/report.html",
+        "campaign/truth.json",
+    ] {
         assert!(out.join(f).exists(), "{f} missing");
     }
-    assert!(!out.join("problems.csv").exists(), "some instants could not be measured");
+    assert!(
+        !out.join("problems.csv").exists(),
+        "some instants could not be measured"
+    );
 
     // Sphere-A displacements against the truth, per line from its first instant.
     let measured: Vec<PointRow> = rows(&out.join("points.csv"));
     let truth: Vec<PointRow> = rows(&out.join("campaign/truth_points.csv"));
-    type Key = (formats::Axis, formats::Direction, u32, u32, u32, [u64; 3]);
-    let key = |p: &PointRow| -> Key { (p.axis, p.direction, p.run, p.target, p.capture, p.nominal().map(f64::to_bits)) };
-    let t: BTreeMap<Key, [f64; 3]> = truth.iter().filter(|p| p.sphere == "A").map(|p| (key(p), p.position())).collect();
-    let mut first = BTreeMap::new();
-    let (mut ss, mut n) = (0.0, 0);
-    for p in measured.iter().filter(|p| p.sphere == "A") {
-        let k = key(p);
-        let [a, b] = p.axis.others();
-        let (m0, t0) = *first.entry((p.axis, k.5[a.index()], k.5[b.index()])).or_insert((p.position(), t[&k]));
-        let (m, tt) = (p.position(), t[&k]);
-        ss += (0..3).map(|i| ((m[i] - m0[i]) - (tt[i] - t0[i])).powi(2)).sum::<f64>();
-        n += 1;
-    }
-    let rms_um = (ss / n as f64).sqrt() * 1e3;
-    println!("sphere A displacement error: {rms_um:.2} µm RMS over {n} instants");
-    assert_eq!(n * 3, measured.len());
+    let errors = synth::truth::displacement_errors(&measured, &truth, "A");
+    let rms_um = synth::truth::rms(&errors).unwrap() * 1e3;
+    println!(
+        "sphere A displacement error: {rms_um:.2} µm RMS over {} instants",
+        errors.len()
+    );
+    assert_eq!(errors.len() * 3, measured.len());
     assert!(rms_um <= 1.0 * SCALE, "{rms_um} µm");
 
     // ISO 230-2 and straightness against the figures of the exact positions.
@@ -80,7 +103,14 @@ fn demo_measures_the_injected_errors() {
             println!("{axis} {k}: measured {m:.2}, true {t:.2}");
             assert!((m - t).abs() <= 0.5 * SCALE, "{p}: {m} vs {t}");
         }
-        let dirs: Vec<String> = report.pointer(&format!("/axes/{axis}/straightness")).unwrap().as_object().unwrap().keys().cloned().collect();
+        let dirs: Vec<String> = report
+            .pointer(&format!("/axes/{axis}/straightness"))
+            .unwrap()
+            .as_object()
+            .unwrap()
+            .keys()
+            .cloned()
+            .collect();
         assert_eq!(dirs.len(), 2);
         for d in dirs {
             for k in ["lsq_um", "min_zone_um"] {
@@ -96,16 +126,36 @@ fn demo_measures_the_injected_errors() {
     // per-target value is a mean minus the first target's mean.
     let poses: Vec<PoseRow> = rows(&out.join("poses.csv"));
     for axis in ["X", "Y"] {
-        let main = report.pointer(&format!("/axes/{axis}/angular/targets")).unwrap().as_array().unwrap().clone();
-        let exact = figures.pointer(&format!("/axes/{axis}/angular/targets")).unwrap().as_array().unwrap().clone();
+        let main = report
+            .pointer(&format!("/axes/{axis}/angular/targets"))
+            .unwrap()
+            .as_array()
+            .unwrap()
+            .clone();
+        let exact = figures
+            .pointer(&format!("/axes/{axis}/angular/targets"))
+            .unwrap()
+            .as_array()
+            .unwrap()
+            .clone();
         // Main line's off-axis coordinate: where the report says it is.
         let line: Vec<&PoseRow> = poses
             .iter()
-            .filter(|p| p.axis.name() == axis && (if axis == "X" { p.nominal_y } else { p.nominal_x }) == 0.0)
+            .filter(|p| {
+                p.axis.name() == axis
+                    && (if axis == "X" {
+                        p.nominal_y
+                    } else {
+                        p.nominal_x
+                    }) == 0.0
+            })
             .collect();
         let mut by_target: BTreeMap<u32, Vec<[f64; 3]>> = BTreeMap::new();
         for p in &line {
-            by_target.entry(p.target).or_default().push([p.roll, p.pitch, p.yaw]);
+            by_target
+                .entry(p.target)
+                .or_default()
+                .push([p.roll, p.pitch, p.yaw]);
         }
         let (mut var, mut dof, mut per) = (0.0, 0usize, 0usize);
         for v in by_target.values() {
@@ -121,9 +171,15 @@ fn demo_measures_the_injected_errors() {
         for (m, t) in main.iter().zip(&exact) {
             for k in ["roll_urad", "pitch_urad", "yaw_urad"] {
                 let d = (m[k].as_f64().unwrap() - t[k].as_f64().unwrap()).abs();
-                assert!(d <= allowance, "{axis} target {}: {k} off by {d:.1} µrad (allowed {allowance:.1})", m["target"]);
+                assert!(
+                    d <= allowance,
+                    "{axis} target {}: {k} off by {d:.1} µrad (allowed {allowance:.1})",
+                    m["target"]
+                );
             }
         }
-        println!("{axis}: angular σ per instant {sigma_urad:.1} µrad, allowance {allowance:.1} µrad");
+        println!(
+            "{axis}: angular σ per instant {sigma_urad:.1} µrad, allowance {allowance:.1} µrad"
+        );
     }
 }

@@ -514,7 +514,15 @@ pub fn correspond(
     }
     believable(best)?;
     check_local_ambiguity(best, markers, detections, &grid)?;
-    let extended = with_distortion(best, &world, detections, &grid, gate0, nominal.width, nominal.height);
+    let extended = with_distortion(
+        best,
+        &world,
+        detections,
+        &grid,
+        gate0,
+        nominal.width,
+        nominal.height,
+    );
     let best = extended.as_ref().unwrap_or(best);
 
     let matched_markers: HashSet<usize> = best.pairs.iter().map(|p| p.0).collect();
@@ -753,7 +761,8 @@ fn with_distortion(
         let camera = crate::calibration::calibrate(&observations, width, height, &options)
             .ok()?
             .camera;
-        let positions: Vec<Option<Point2<f64>>> = world.iter().map(|x| camera.project(x).ok()).collect();
+        let positions: Vec<Option<Point2<f64>>> =
+            world.iter().map(|x| camera.project(x).ok()).collect();
         let res: Vec<Vector2<f64>> = pairs
             .iter()
             .filter_map(|p| positions[p.0].map(|q| q - detections[p.1]))

@@ -38,12 +38,18 @@ pub fn lever(points: &[Point3<f64>]) -> (f64, Vector3<f64>) {
         m + geom::Matrix3::identity() * r.norm_squared() - r * r.transpose()
     });
     let eig = inertia.symmetric_eigen();
-    let (i, min) = eig
-        .eigenvalues
-        .iter()
-        .enumerate()
-        .fold((0, f64::INFINITY), |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) });
-    ((min.max(0.0) / n).sqrt(), eig.eigenvectors.column(i).into_owned())
+    let (i, min) =
+        eig.eigenvalues
+            .iter()
+            .enumerate()
+            .fold(
+                (0, f64::INFINITY),
+                |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) },
+            );
+    (
+        (min.max(0.0) / n).sqrt(),
+        eig.eigenvectors.column(i).into_owned(),
+    )
 }
 
 /// Rotation from the sphere centres `first` (at the first target) to `at`
@@ -77,11 +83,19 @@ mod tests {
     #[test]
     fn lever_flags_spheres_in_a_line() {
         // The seed's plan positions with heights in proportion: nearly collinear.
-        let line = [Point3::new(0.0, 0.0, 30.0), Point3::new(20.0, 20.0, 45.0), Point3::new(-15.0, -15.0, 18.0)];
+        let line = [
+            Point3::new(0.0, 0.0, 30.0),
+            Point3::new(20.0, 20.0, 45.0),
+            Point3::new(-15.0, -15.0, 18.0),
+        ];
         let (l, axis) = lever(&line);
         assert!(l < 0.5, "{l}");
         assert!(axis.dot(&Vector3::new(1.0, 1.0, 0.75).normalize()).abs() > 0.99);
-        let triangle = [Point3::new(0.0, 0.0, 30.0), Point3::new(20.0, 20.0, 50.0), Point3::new(-15.0, -15.0, 45.0)];
+        let triangle = [
+            Point3::new(0.0, 0.0, 30.0),
+            Point3::new(20.0, 20.0, 50.0),
+            Point3::new(-15.0, -15.0, 45.0),
+        ];
         assert!(lever(&triangle).0 > MIN_LEVER_MM);
     }
 

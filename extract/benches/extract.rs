@@ -15,7 +15,11 @@ const H: u32 = 3072;
 /// uniform discs of 158, 118 and 79 px radius (the 20/15/10 mm spheres at 460 mm).
 fn seed_frame() -> Vec<u16> {
     let mut state = 0x2545_F491_4F6C_DD1Du64;
-    let discs = [(1200.0, 1500.0, 158.0), (2300.0, 900.0, 118.0), (3100.0, 2200.0, 79.0)];
+    let discs = [
+        (1200.0, 1500.0, 158.0),
+        (2300.0, 900.0, 118.0),
+        (3100.0, 2200.0, 79.0),
+    ];
     (0..H)
         .flat_map(|y| (0..W).map(move |x| (x, y)))
         .map(|(x, y)| {
@@ -41,36 +45,51 @@ fn plain_sum_1_thread(bencher: divan::Bencher) {
     let px = seed_frame();
     bencher
         .counter(divan::counter::BytesCount::of_slice(&px))
-        .bench(|| divan::black_box(&px).iter().map(|&p| u64::from(p)).sum::<u64>());
+        .bench(|| {
+            divan::black_box(&px)
+                .iter()
+                .map(|&p| u64::from(p))
+                .sum::<u64>()
+        });
 }
 
 #[divan::bench(args = [1, 2])]
 fn extract_fixed_threshold(bencher: divan::Bencher, threads: usize) {
     let px = seed_frame();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     let params = ExtractParams {
         threshold: Threshold::Fixed(6000),
         ..ExtractParams::default()
     };
-    bencher.counter(divan::counter::BytesCount::of_slice(&px)).bench(|| {
-        pool.install(|| {
-            let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
-            CpuBackend.extract(f, &params).unwrap()
-        })
-    });
+    bencher
+        .counter(divan::counter::BytesCount::of_slice(&px))
+        .bench(|| {
+            pool.install(|| {
+                let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
+                CpuBackend.extract(f, &params).unwrap()
+            })
+        });
 }
 
 #[divan::bench(args = [1, 2])]
 fn extract_auto_threshold(bencher: divan::Bencher, threads: usize) {
     let px = seed_frame();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     let params = ExtractParams::default();
-    bencher.counter(divan::counter::BytesCount::of_slice(&px)).bench(|| {
-        pool.install(|| {
-            let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
-            CpuBackend.extract(f, &params).unwrap()
-        })
-    });
+    bencher
+        .counter(divan::counter::BytesCount::of_slice(&px))
+        .bench(|| {
+            pool.install(|| {
+                let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
+                CpuBackend.extract(f, &params).unwrap()
+            })
+        });
 }
 
 /// The GPU backend on the best adapter, or `None` with a notice.
@@ -97,10 +116,12 @@ fn extract_gpu_one_frame(bencher: divan::Bencher) {
         threshold: Threshold::Fixed(6000),
         ..ExtractParams::default()
     };
-    bencher.counter(divan::counter::BytesCount::of_slice(&px)).bench(|| {
-        let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
-        gpu.extract(f, &params).unwrap()
-    });
+    bencher
+        .counter(divan::counter::BytesCount::of_slice(&px))
+        .bench(|| {
+            let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
+            gpu.extract(f, &params).unwrap()
+        });
 }
 
 /// Eight frames through the pipeline (upload of frame n+1 overlaps the work on frame n).
@@ -114,9 +135,13 @@ fn extract_gpu_pipelined_8_frames(bencher: divan::Bencher) {
         ..ExtractParams::default()
     };
     let frames = vec![FrameView::new(W, H, 16, &px).unwrap(); 8];
-    bencher.counter(divan::counter::BytesCount::new(8 * px.len() * 2)).bench(|| {
-        let mut blobs = 0;
-        gpu.extract_frames(divan::black_box(&frames), &params, &mut |_, r| blobs += r.unwrap().blobs.len());
-        blobs
-    });
+    bencher
+        .counter(divan::counter::BytesCount::new(8 * px.len() * 2))
+        .bench(|| {
+            let mut blobs = 0;
+            gpu.extract_frames(divan::black_box(&frames), &params, &mut |_, r| {
+                blobs += r.unwrap().blobs.len()
+            });
+            blobs
+        });
 }

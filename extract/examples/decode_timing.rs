@@ -9,14 +9,22 @@ fn main() {
     for _ in 0..3 {
         let t = Instant::now();
         bytes.clear();
-        std::fs::File::open(&path).unwrap().read_to_end(&mut bytes).unwrap();
+        std::fs::File::open(&path)
+            .unwrap()
+            .read_to_end(&mut bytes)
+            .unwrap();
         let read = t.elapsed();
         let t = Instant::now();
-        reader.read_bytes(&bytes, std::path::Path::new(&path)).unwrap();
+        reader
+            .read_bytes(&bytes, std::path::Path::new(&path))
+            .unwrap();
         let dec = t.elapsed();
         let t = Instant::now();
         let m = extract::FrameMetadata::from_tiff_bytes(&bytes);
         let meta = t.elapsed();
-        println!("read {read:?} decode(+copy) {dec:?} exif {meta:?} {:?}", m.model);
+        println!(
+            "read {read:?} decode(+copy) {dec:?} exif {meta:?} {:?}",
+            m.model
+        );
     }
 }

@@ -62,7 +62,9 @@ impl ExtractParams {
         if let Denoise::Gaussian { sigma } = self.denoise
             && !(sigma.is_finite() && sigma > 0.0)
         {
-            return Err(ExtractError::Parameters(format!("Gaussian sigma {sigma} must be positive")));
+            return Err(ExtractError::Parameters(format!(
+                "Gaussian sigma {sigma} must be positive"
+            )));
         }
         Ok(())
     }
@@ -108,7 +110,12 @@ pub trait Backend: Send + Sync {
     /// Extract frames held in memory; `sink(index, result)` is called once per
     /// frame, in order. The default extracts one frame after the other; the
     /// GPU backend pipelines (upload of frame n+1 overlaps the work on frame n).
-    fn extract_frames(&self, frames: &[FrameView<'_>], params: &ExtractParams, sink: &mut dyn FnMut(usize, Result<Extraction>)) {
+    fn extract_frames(
+        &self,
+        frames: &[FrameView<'_>],
+        params: &ExtractParams,
+        sink: &mut dyn FnMut(usize, Result<Extraction>),
+    ) {
         for (i, frame) in frames.iter().enumerate() {
             sink(i, self.extract(*frame, params));
         }
@@ -136,7 +143,12 @@ impl Backend for CpuBackend {
 }
 
 /// Apply the area limits and assemble the result (shared by every backend).
-pub fn filter_area(all: Vec<Blob>, level: Level, background: Option<BackgroundStats>, params: &ExtractParams) -> Extraction {
+pub fn filter_area(
+    all: Vec<Blob>,
+    level: Level,
+    background: Option<BackgroundStats>,
+    params: &ExtractParams,
+) -> Extraction {
     let total = all.len();
     let too_small = all.iter().filter(|b| b.area_px < params.min_area).count();
     let blobs: Vec<Blob> = all

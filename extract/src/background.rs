@@ -26,16 +26,25 @@ pub struct BackgroundStats {
 /// κσ-clipped mean and standard deviation of `samples` (reordered in place).
 pub fn clipped_stats(samples: &mut [u16]) -> BackgroundStats {
     if samples.is_empty() {
-        return BackgroundStats { level: 0.0, sigma: 0.0 };
+        return BackgroundStats {
+            level: 0.0,
+            sigma: 0.0,
+        };
     }
     let mid = samples.len() / 2;
     let (_, median, _) = samples.select_nth_unstable(mid);
     let mut centre = f64::from(*median);
     // Start from the median absolute deviation: robust against bright blobs.
-    let mut dev: Vec<u16> = samples.iter().map(|&s| (f64::from(s) - centre).abs().min(65535.0) as u16).collect();
+    let mut dev: Vec<u16> = samples
+        .iter()
+        .map(|&s| (f64::from(s) - centre).abs().min(65535.0) as u16)
+        .collect();
     let (_, mad, _) = dev.select_nth_unstable(mid);
     let mut sigma = (f64::from(*mad) * 1.4826).max(0.5);
-    let mut stats = BackgroundStats { level: centre, sigma };
+    let mut stats = BackgroundStats {
+        level: centre,
+        sigma,
+    };
     for _ in 0..CLIP_ITERATIONS {
         let (lo, hi) = (centre - CLIP_SIGMA * sigma, centre + CLIP_SIGMA * sigma);
         let (mut n, mut s, mut ss) = (0u64, 0.0f64, 0.0f64);
@@ -53,7 +62,8 @@ pub fn clipped_stats(samples: &mut [u16]) -> BackgroundStats {
         let mean = s / n as f64;
         let var = (ss / n as f64 - mean * mean).max(0.0) * n as f64 / (n - 1) as f64;
         let new_sigma = (var.sqrt() / CLIPPED_UNIT_SIGMA).max(1e-9);
-        let converged = (mean - centre).abs() < 1e-3 * sigma && (new_sigma - sigma).abs() < 1e-3 * sigma;
+        let converged =
+            (mean - centre).abs() < 1e-3 * sigma && (new_sigma - sigma).abs() < 1e-3 * sigma;
         centre = mean;
         sigma = new_sigma;
         stats = BackgroundStats { level: mean, sigma };
@@ -100,7 +110,10 @@ impl BackgroundMesh {
             for bx in 0..cols as u32 {
                 samples.clear();
                 let (x0, y0) = (bx * box_size, by * box_size);
-                let (x1, y1) = ((x0 + box_size).min(frame.width), (y0 + box_size).min(frame.height));
+                let (x1, y1) = (
+                    (x0 + box_size).min(frame.width),
+                    (y0 + box_size).min(frame.height),
+                );
                 for y in y0..y1 {
                     samples.extend_from_slice(&frame.row(y)[x0 as usize..x1 as usize]);
                 }
@@ -123,8 +136,10 @@ impl BackgroundMesh {
     /// Interpolated (level, σ) at pixel (x, y).
     pub fn at(&self, x: u32, y: u32) -> (f64, f64) {
         let half = f64::from(self.box_size) / 2.0;
-        let gx = ((f64::from(x) + 0.5 - half) / f64::from(self.box_size)).clamp(0.0, (self.cols - 1) as f64);
-        let gy = ((f64::from(y) + 0.5 - half) / f64::from(self.box_size)).clamp(0.0, (self.rows - 1) as f64);
+        let gx = ((f64::from(x) + 0.5 - half) / f64::from(self.box_size))
+            .clamp(0.0, (self.cols - 1) as f64);
+        let gy = ((f64::from(y) + 0.5 - half) / f64::from(self.box_size))
+            .clamp(0.0, (self.rows - 1) as f64);
         let (i0, j0) = (gx.floor() as usize, gy.floor() as usize);
         let (i1, j1) = ((i0 + 1).min(self.cols - 1), (j0 + 1).min(self.rows - 1));
         let (wx, wy) = (gx - i0 as f64, gy - j0 as f64);
@@ -192,7 +207,9 @@ mod tests {
     #[test]
     fn mesh_follows_a_gradient() {
         let (w, h) = (256u32, 128u32);
-        let px: Vec<u16> = (0..h).flat_map(|_| (0..w).map(|x| 1000 + x as u16 * 4)).collect();
+        let px: Vec<u16> = (0..h)
+            .flat_map(|_| (0..w).map(|x| 1000 + x as u16 * 4))
+            .collect();
         let f = FrameView::new(w, h, 16, &px).unwrap();
         let mesh = BackgroundMesh::estimate(&f, 32);
         let (lvl, _) = mesh.at(128, 64);

@@ -8,12 +8,12 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
+use crate::Result;
 use crate::backend::{Backend, ExtractParams, Extraction};
 use crate::blob::Blob;
 use crate::decode::FrameReader;
 use crate::frame::FrameView;
 use crate::metadata::FrameMetadata;
-use crate::Result;
 
 /// Files processed together; results of a chunk are delivered in order.
 const CHUNK_FILES: usize = 32;
@@ -36,7 +36,11 @@ pub struct FrameBlobs {
 }
 
 /// A file's result from its frame, metadata and extraction (blob runs dropped).
-pub(crate) fn frame_blobs(frame: &FrameView<'_>, metadata: FrameMetadata, extraction: Extraction) -> FrameBlobs {
+pub(crate) fn frame_blobs(
+    frame: &FrameView<'_>,
+    metadata: FrameMetadata,
+    extraction: Extraction,
+) -> FrameBlobs {
     let blobs = extraction
         .blobs
         .into_iter()
@@ -56,9 +60,16 @@ pub(crate) fn frame_blobs(frame: &FrameView<'_>, metadata: FrameMetadata, extrac
 }
 
 /// Decode and extract one file with a reader whose buffers are reused.
-pub fn extract_file<B: Backend + ?Sized>(reader: &mut FrameReader, path: &Path, backend: &B, params: &ExtractParams) -> Result<FrameBlobs> {
+pub fn extract_file<B: Backend + ?Sized>(
+    reader: &mut FrameReader,
+    path: &Path,
+    backend: &B,
+    params: &ExtractParams,
+) -> Result<FrameBlobs> {
     let (frame, metadata) = reader.read(path)?;
-    let extraction = backend.extract(frame, params).map_err(|e| e.in_file(path))?;
+    let extraction = backend
+        .extract(frame, params)
+        .map_err(|e| e.in_file(path))?;
     Ok(frame_blobs(&frame, metadata, extraction))
 }
 
@@ -67,8 +78,13 @@ pub fn extract_file<B: Backend + ?Sized>(reader: &mut FrameReader, path: &Path, 
 /// `expected_depth` rejects frames of another bit depth. The backend decides
 /// how ([`Backend::extract_batch`]): the CPU decodes and extracts in parallel,
 /// the GPU pipelines.
-pub fn extract_files<F>(paths: &[PathBuf], backend: &dyn Backend, params: &ExtractParams, expected_depth: Option<u8>, mut sink: F)
-where
+pub fn extract_files<F>(
+    paths: &[PathBuf],
+    backend: &dyn Backend,
+    params: &ExtractParams,
+    expected_depth: Option<u8>,
+    mut sink: F,
+) where
     F: FnMut(usize, &Path, Result<FrameBlobs>),
 {
     backend.extract_batch(paths, params, expected_depth, &mut sink);

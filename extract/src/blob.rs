@@ -30,7 +30,11 @@ pub struct Moments {
 impl Moments {
     /// Add one run's sums (converting its run-relative x to absolute u).
     pub fn add_run(&mut self, r: &Run) {
-        let (f, fdx, fdx2) = (u128::from(r.sum_f), u128::from(r.sum_fdx), u128::from(r.sum_fdx2));
+        let (f, fdx, fdx2) = (
+            u128::from(r.sum_f),
+            u128::from(r.sum_fdx),
+            u128::from(r.sum_fdx2),
+        );
         let (x0, y) = (u128::from(r.x0), u128::from(r.y));
         let fx = x0 * f + fdx;
         self.s += f;
@@ -53,7 +57,12 @@ impl Moments {
 
     /// Centroid (u0, v0) = (Sx/S, Sy/S); `None` when S = 0.
     pub fn centroid(&self) -> Option<(f64, f64)> {
-        (self.s > 0).then(|| (self.sx as f64 / self.s as f64, self.sy as f64 / self.s as f64))
+        (self.s > 0).then(|| {
+            (
+                self.sx as f64 / self.s as f64,
+                self.sy as f64 / self.s as f64,
+            )
+        })
     }
 
     /// Central second moments (μ20, μ02, μ11) in px², from exact integer
@@ -68,9 +77,17 @@ impl Moments {
             // S·Sab − Sa·Sb, signed.
             let p = self.s * a;
             let q = b * c;
-            if p >= q { (p - q) as f64 / s2 } else { -((q - p) as f64) / s2 }
+            if p >= q {
+                (p - q) as f64 / s2
+            } else {
+                -((q - p) as f64) / s2
+            }
         };
-        (var(self.sxx, self.sx, self.sx), var(self.syy, self.sy, self.sy), var(self.sxy, self.sx, self.sy))
+        (
+            var(self.sxx, self.sx, self.sx),
+            var(self.syy, self.sy, self.sy),
+            var(self.sxy, self.sx, self.sy),
+        )
     }
 }
 
@@ -147,7 +164,11 @@ impl Blob {
     /// Circularity: minor/major axis ratio of the moment ellipse (1 for a disc).
     pub fn circularity(&self) -> f64 {
         let e = self.ellipse();
-        if e.major_px > 0.0 { e.minor_px / e.major_px } else { 0.0 }
+        if e.major_px > 0.0 {
+            e.minor_px / e.major_px
+        } else {
+            0.0
+        }
     }
 
     /// The blob is saturated somewhere.
@@ -218,7 +239,13 @@ pub trait PixelMap {
 /// pixels: the weighted centroid of the same light in another image plane
 /// (e.g. undistorted coordinates, where a sphere's outline is an ellipse).
 /// `frame` must be the frame the blob was extracted from (after denoising).
-pub fn mapped_centroid(frame: &FrameView<'_>, blob: &Blob, level: &Level, weighting: Weighting, map: &dyn PixelMap) -> Option<[f64; 2]> {
+pub fn mapped_centroid(
+    frame: &FrameView<'_>,
+    blob: &Blob,
+    level: &Level,
+    weighting: Weighting,
+    map: &dyn PixelMap,
+) -> Option<[f64; 2]> {
     let (mut su, mut sv, mut sw) = (0.0f64, 0.0f64, 0.0f64);
     for run in &blob.runs {
         let row = frame.row(run.y);

@@ -54,7 +54,11 @@ impl FrameReader {
     }
 
     /// Decode image bytes already in memory (`path` names them in errors).
-    pub fn read_bytes(&mut self, bytes: &[u8], path: &Path) -> Result<(FrameView<'_>, FrameMetadata)> {
+    pub fn read_bytes(
+        &mut self,
+        bytes: &[u8],
+        path: &Path,
+    ) -> Result<(FrameView<'_>, FrameMetadata)> {
         self.bytes.clear();
         self.bytes.extend_from_slice(bytes);
         self.decode(path)
@@ -78,7 +82,9 @@ impl FrameReader {
             other => {
                 return Err(ExtractError::Unsupported {
                     path: path.to_path_buf(),
-                    message: format!("{other:?} images are not supported (use 8- or 16-bit grayscale TIFF or PNG)"),
+                    message: format!(
+                        "{other:?} images are not supported (use 8- or 16-bit grayscale TIFF or PNG)"
+                    ),
                 });
             }
         };
@@ -91,7 +97,8 @@ impl FrameReader {
             ImageFormat::Tiff => buffers.decode_tiff(&self.bytes, path)?,
             _ => buffers.decode_png(&self.bytes, path)?,
         };
-        let view = FrameView::new(width, height, depth, &self.pixels).map_err(|e| e.in_file(path))?;
+        let view =
+            FrameView::new(width, height, depth, &self.pixels).map_err(|e| e.in_file(path))?;
         Ok((view, metadata))
     }
 }
@@ -150,7 +157,9 @@ impl Buffers<'_> {
             other => {
                 return Err(unsupported(
                     path,
-                    format!("{other:?} TIFF: only 8- or 16-bit single-channel grayscale is supported"),
+                    format!(
+                        "{other:?} TIFF: only 8- or 16-bit single-channel grayscale is supported"
+                    ),
                 ));
             }
         };
@@ -165,13 +174,19 @@ impl Buffers<'_> {
                 format!("TIFF sample format {format}: only unsigned integer samples are supported"),
             ));
         }
-        let photometric = dec.find_tag_unsigned::<u16>(Tag::PhotometricInterpretation).map_err(err)?;
+        let photometric = dec
+            .find_tag_unsigned::<u16>(Tag::PhotometricInterpretation)
+            .map_err(err)?;
         if photometric == Some(PhotometricInterpretation::WhiteIsZero.to_u16()) {
-            return Err(unsupported(path, "WhiteIsZero (inverted) TIFF is not supported".into()));
+            return Err(unsupported(
+                path,
+                "WhiteIsZero (inverted) TIFF is not supported".into(),
+            ));
         }
         self.prepare(path, width, height, depth)?;
         if depth == 16 {
-            dec.read_image_bytes(bytemuck::cast_slice_mut(&mut self.pixels[..])).map_err(err)?;
+            dec.read_image_bytes(bytemuck::cast_slice_mut(&mut self.pixels[..]))
+                .map_err(err)?;
         } else {
             dec.read_image_bytes(&mut self.narrow[..]).map_err(err)?;
             self.widen();
@@ -194,7 +209,9 @@ impl Buffers<'_> {
             other => {
                 return Err(unsupported(
                     path,
-                    format!("{other:?} image: only 8- or 16-bit single-channel grayscale is supported"),
+                    format!(
+                        "{other:?} image: only 8- or 16-bit single-channel grayscale is supported"
+                    ),
                 ));
             }
         };

@@ -59,7 +59,8 @@ pub fn median3(frame: &FrameView<'_>) -> Frame {
     let (w, h) = (frame.width as usize, frame.height as usize);
     let mut out = vec![0u16; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let rows = [y.saturating_sub(1), y, (y + 1).min(h - 1)].map(|r| &frame.pixels[r * w..(r + 1) * w]);
+        let rows =
+            [y.saturating_sub(1), y, (y + 1).min(h - 1)].map(|r| &frame.pixels[r * w..(r + 1) * w]);
         for (x, o) in row.iter_mut().enumerate() {
             let cols = [x.saturating_sub(1), x, (x + 1).min(w - 1)];
             let mut p = [0u16; 9];
@@ -82,7 +83,8 @@ pub fn median3(frame: &FrameView<'_>) -> Frame {
 /// Gaussian blur through imageproc (f32 arithmetic, rounded back to DN).
 pub fn gaussian(frame: &FrameView<'_>, sigma: f32) -> Frame {
     let img: ImageBuffer<Luma<u16>, Vec<u16>> =
-        ImageBuffer::from_raw(frame.width, frame.height, frame.pixels.to_vec()).unwrap_or_else(|| ImageBuffer::new(frame.width, frame.height));
+        ImageBuffer::from_raw(frame.width, frame.height, frame.pixels.to_vec())
+            .unwrap_or_else(|| ImageBuffer::new(frame.width, frame.height));
     let blurred = imageproc::filter::gaussian_blur_f32(&img, sigma);
     Frame {
         width: frame.width,

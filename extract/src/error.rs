@@ -36,7 +36,9 @@ pub enum ExtractError {
     #[error("invalid extraction parameters: {0}")]
     Parameters(String),
     /// Too many above-threshold runs: the threshold is far too low for this frame.
-    #[error("{runs} above-threshold runs (limit {limit}): threshold {threshold} is too low for this frame")]
+    #[error(
+        "{runs} above-threshold runs (limit {limit}): threshold {threshold} is too low for this frame"
+    )]
     TooManyRuns {
         /// Runs found before giving up.
         runs: usize,

@@ -34,7 +34,9 @@ impl<'a> FrameView<'a> {
             )));
         }
         if bit_depth != 8 && bit_depth != 16 {
-            return Err(ExtractError::Parameters(format!("bit depth {bit_depth} is not 8 or 16")));
+            return Err(ExtractError::Parameters(format!(
+                "bit depth {bit_depth} is not 8 or 16"
+            )));
         }
         Ok(Self {
             width,
@@ -56,7 +58,11 @@ impl<'a> FrameView<'a> {
 
     /// Largest representable value, `2^bit_depth − 1` (saturation).
     pub fn max_value(&self) -> u16 {
-        if self.bit_depth == 8 { u8::MAX as u16 } else { u16::MAX }
+        if self.bit_depth == 8 {
+            u8::MAX as u16
+        } else {
+            u16::MAX
+        }
     }
 
     /// Row `y`.

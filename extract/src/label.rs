@@ -117,7 +117,14 @@ impl OpenRun {
 }
 
 /// Scan one row against a constant threshold `t ≥ 1`.
-fn scan_row_constant(row: &[u16], y: u32, t: u16, weighting: Weighting, sat: u16, out: &mut Vec<Run>) {
+fn scan_row_constant(
+    row: &[u16],
+    y: u32,
+    t: u16,
+    weighting: Weighting,
+    sat: u16,
+    out: &mut Vec<Run>,
+) {
     let below = t - 1;
     let offset = match weighting {
         Weighting::Subtracted => u64::from(t),
@@ -150,7 +157,14 @@ fn scan_row_constant(row: &[u16], y: u32, t: u16, weighting: Weighting, sat: u16
 }
 
 /// Scan one row against a per-pixel threshold row (every entry ≥ 1).
-fn scan_row_map(row: &[u16], thresholds: &[u16], y: u32, weighting: Weighting, sat: u16, out: &mut Vec<Run>) {
+fn scan_row_map(
+    row: &[u16],
+    thresholds: &[u16],
+    y: u32,
+    weighting: Weighting,
+    sat: u16,
+    out: &mut Vec<Run>,
+) {
     let mut open: Option<OpenRun> = None;
     for (x, (&p, &t)) in row.iter().zip(thresholds).enumerate() {
         let x = x as u32;
@@ -159,7 +173,8 @@ fn scan_row_map(row: &[u16], thresholds: &[u16], y: u32, weighting: Weighting, s
                 Weighting::Subtracted => u64::from(p - t),
                 Weighting::Raw => u64::from(p),
             };
-            open.get_or_insert_with(|| OpenRun::new(x)).add(x, p, f, sat);
+            open.get_or_insert_with(|| OpenRun::new(x))
+                .add(x, p, f, sat);
         } else if let Some(run) = open.take() {
             out.push(run.close(y, x - 1));
         }
@@ -195,7 +210,13 @@ impl DisjointSets {
 }
 
 /// Join the runs of two adjacent rows (index ranges into `runs`) that touch.
-fn join_rows(runs: &[Run], upper: std::ops::Range<usize>, lower: std::ops::Range<usize>, sets: &mut DisjointSets, offset: u32) {
+fn join_rows(
+    runs: &[Run],
+    upper: std::ops::Range<usize>,
+    lower: std::ops::Range<usize>,
+    sets: &mut DisjointSets,
+    offset: u32,
+) {
     let (mut i, mut j) = (upper.start, lower.start);
     while i < upper.end && j < lower.end {
         if runs[i].touches(&runs[j]) {
@@ -221,7 +242,13 @@ struct Band {
     last_runs: std::ops::Range<usize>,
 }
 
-fn scan_band(frame: &FrameView<'_>, level: &Level, weighting: Weighting, rows: std::ops::Range<u32>, max_runs: usize) -> Result<Band> {
+fn scan_band(
+    frame: &FrameView<'_>,
+    level: &Level,
+    weighting: Weighting,
+    rows: std::ops::Range<u32>,
+    max_runs: usize,
+) -> Result<Band> {
     let sat = frame.max_value();
     let mut runs = Vec::new();
     let mut first_runs = 0..0;
@@ -234,7 +261,14 @@ fn scan_band(frame: &FrameView<'_>, level: &Level, weighting: Weighting, rows: s
             Level::Constant(t) => scan_row_constant(row, y, *t, weighting, sat, &mut runs),
             Level::Map(map) => {
                 let w = frame.width as usize;
-                scan_row_map(row, &map[y as usize * w..(y as usize + 1) * w], y, weighting, sat, &mut runs);
+                scan_row_map(
+                    row,
+                    &map[y as usize * w..(y as usize + 1) * w],
+                    y,
+                    weighting,
+                    sat,
+                    &mut runs,
+                );
             }
         }
         if runs.len() > max_runs {
@@ -275,13 +309,26 @@ pub struct Labelling {
 }
 
 /// Label the above-threshold pixels of `frame`: runs and their components.
-pub fn label(frame: &FrameView<'_>, level: &Level, weighting: Weighting, max_runs: usize) -> Result<Labelling> {
+pub fn label(
+    frame: &FrameView<'_>,
+    level: &Level,
+    weighting: Weighting,
+    max_runs: usize,
+) -> Result<Labelling> {
     let threads = rayon::current_num_threads() as u32;
     let band_rows = (frame.height / (4 * threads).max(1)).max(MIN_BAND_ROWS);
     let starts: Vec<u32> = (0..frame.height).step_by(band_rows as usize).collect();
     let bands: Vec<Band> = starts
         .par_iter()
-        .map(|&y0| scan_band(frame, level, weighting, y0..(y0 + band_rows).min(frame.height), max_runs))
+        .map(|&y0| {
+            scan_band(
+                frame,
+                level,
+                weighting,
+                y0..(y0 + band_rows).min(frame.height),
+                max_runs,
+            )
+        })
         .collect::<Result<_>>()?;
 
     let total: usize = bands.iter().map(|b| b.runs.len()).sum();
@@ -299,7 +346,8 @@ pub fn label(frame: &FrameView<'_>, level: &Level, weighting: Weighting, max_run
     let mut seams = Vec::with_capacity(bands.len());
     for band in bands {
         let offset = runs.len();
-        sets.parent.extend(band.parent.iter().map(|p| p + offset as u32));
+        sets.parent
+            .extend(band.parent.iter().map(|p| p + offset as u32));
         seams.push((
             band.first_row,
             band.last_row,
@@ -417,13 +465,19 @@ mod tests {
 
     fn frame_strategy() -> impl Strategy<Value = (usize, usize, Vec<u16>)> {
         (1usize..90, 1usize..140).prop_flat_map(|(w, h)| {
-            let px = proptest::collection::vec(prop_oneof![3 => Just(100u16), 1 => 1000u16..1100, 1 => Just(65535u16)], w * h);
+            let px = proptest::collection::vec(
+                prop_oneof![3 => Just(100u16), 1 => 1000u16..1100, 1 => Just(65535u16)],
+                w * h,
+            );
             (Just(w), Just(h), px)
         })
     }
 
     fn label_in_pool(threads: usize, w: usize, h: usize, px: &[u16], t: u16) -> Vec<blob::Blob> {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let f = FrameView::new(w as u32, h as u32, 16, px).unwrap();
             let l = label(&f, &Level::Constant(t), Weighting::Subtracted, usize::MAX).unwrap();
@@ -479,9 +533,13 @@ mod tests {
 
     #[test]
     fn too_many_runs_is_an_error() {
-        let px: Vec<u16> = (0..64 * 64).map(|i| if i % 2 == 0 { 500 } else { 0 }).collect();
+        let px: Vec<u16> = (0..64 * 64)
+            .map(|i| if i % 2 == 0 { 500 } else { 0 })
+            .collect();
         let f = FrameView::new(64, 64, 16, &px).unwrap();
-        let e = label(&f, &Level::Constant(100), Weighting::Subtracted, 100).err().unwrap();
+        let e = label(&f, &Level::Constant(100), Weighting::Subtracted, 100)
+            .err()
+            .unwrap();
         assert!(e.to_string().contains("too low"), "{e}");
     }
 }

@@ -14,9 +14,9 @@
 
 mod error;
 
+pub mod backend;
 pub mod background;
 pub mod batch;
-pub mod backend;
 pub mod blob;
 pub mod decode;
 pub mod denoise;

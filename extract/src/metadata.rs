@@ -23,7 +23,9 @@ pub struct FrameMetadata {
 const CAMERA_SERIAL_NUMBER: Tag = Tag(exif::Context::Tiff, 0xC62F);
 
 fn find(fields: &[Field], tag: Tag) -> Option<&Field> {
-    fields.iter().find(|f| f.tag == tag && f.ifd_num == In::PRIMARY)
+    fields
+        .iter()
+        .find(|f| f.tag == tag && f.ifd_num == In::PRIMARY)
 }
 
 fn ascii(fields: &[Field], tag: Tag) -> Option<String> {
@@ -47,7 +49,13 @@ fn iso_datetime(raw: &str, subsec: Option<String>) -> Option<String> {
     if b.len() < 19 {
         return None;
     }
-    let mut s = format!("{}-{}-{}T{}", &raw[0..4], &raw[5..7], &raw[8..10], &raw[11..19]);
+    let mut s = format!(
+        "{}-{}-{}T{}",
+        &raw[0..4],
+        &raw[5..7],
+        &raw[8..10],
+        &raw[11..19]
+    );
     if let Some(sub) = subsec.filter(|d| d.chars().all(|c| c.is_ascii_digit()) && !d.is_empty()) {
         s.push('.');
         s.push_str(&sub);
@@ -60,7 +68,10 @@ impl FrameMetadata {
     pub fn from_fields(fields: &[Field]) -> Self {
         let datetime = ascii(fields, Tag::DateTimeOriginal)
             .and_then(|d| iso_datetime(&d, ascii(fields, Tag::SubSecTimeOriginal)))
-            .or_else(|| ascii(fields, Tag::DateTime).and_then(|d| iso_datetime(&d, ascii(fields, Tag::SubSecTime))));
+            .or_else(|| {
+                ascii(fields, Tag::DateTime)
+                    .and_then(|d| iso_datetime(&d, ascii(fields, Tag::SubSecTime)))
+            });
         let exposure_s = find(fields, Tag::ExposureTime).and_then(|f| match &f.value {
             Value::Rational(r) if !r.is_empty() && r[0].denom != 0 => Some(r[0].to_f64()),
             _ => None,
@@ -68,7 +79,8 @@ impl FrameMetadata {
         Self {
             make: ascii(fields, Tag::Make),
             model: ascii(fields, Tag::Model),
-            serial: ascii(fields, Tag::BodySerialNumber).or_else(|| ascii(fields, CAMERA_SERIAL_NUMBER)),
+            serial: ascii(fields, Tag::BodySerialNumber)
+                .or_else(|| ascii(fields, CAMERA_SERIAL_NUMBER)),
             datetime,
             exposure_s,
         }
@@ -102,7 +114,10 @@ mod tests {
             iso_datetime("2026:11:21 10:15:30", Some("123456".into())).as_deref(),
             Some("2026-11-21T10:15:30.123456")
         );
-        assert_eq!(iso_datetime("2026:11:21 10:15:30", None).as_deref(), Some("2026-11-21T10:15:30"));
+        assert_eq!(
+            iso_datetime("2026:11:21 10:15:30", None).as_deref(),
+            Some("2026-11-21T10:15:30")
+        );
         assert_eq!(iso_datetime("bad", None), None);
     }
 }

@@ -90,7 +90,10 @@ impl Threshold {
             Threshold::Auto { k } => {
                 check_k(k)?;
                 let b = background::global(frame);
-                Ok((Level::Constant(to_dn(b.level + k * b.sigma, frame.max_value())), Some(b)))
+                Ok((
+                    Level::Constant(to_dn(b.level + k * b.sigma, frame.max_value())),
+                    Some(b),
+                ))
             }
             Threshold::Local { k, mesh } => {
                 check_k(k)?;
@@ -113,6 +116,8 @@ fn check_k(k: f64) -> Result<()> {
     if k.is_finite() && k > 0.0 {
         Ok(())
     } else {
-        Err(ExtractError::Parameters(format!("threshold factor k = {k} must be positive")))
+        Err(ExtractError::Parameters(format!(
+            "threshold factor k = {k} must be positive"
+        )))
     }
 }

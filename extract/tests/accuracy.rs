@@ -24,11 +24,11 @@
 
 use extract::{Backend, CpuBackend, ExtractParams, FrameView, Threshold};
 use geom::{Camera, Distortion, Intrinsics, Point3};
+use synth::Sphere;
 use synth::psf::Optics;
 use synth::render::sphere_signals;
 use synth::scene::ellipse_centre_px;
 use synth::sensor::{Exposure, NoiseKey, Sensor, expose, mean_row};
-use synth::Sphere;
 
 /// Realisations per case: the standard deviation is then known to ≈ 5 %.
 const REALISATIONS: u64 = 200;
@@ -132,10 +132,24 @@ fn run_case(case: &Case) {
     let mut us = Vec::new();
     let mut vs = Vec::new();
     for k in 0..REALISATIONS {
-        let img = expose(&sensor, &layers, NoiseKey { seed: 7, frame: k, camera: 1 });
+        let img = expose(
+            &sensor,
+            &layers,
+            NoiseKey {
+                seed: 7,
+                frame: k,
+                camera: 1,
+            },
+        );
         let frame = FrameView::from_image(&img);
         let ex = CpuBackend.extract(frame, &params).unwrap();
-        assert_eq!(ex.blobs.len(), 1, "{}: realisation {k} gave {} blobs", case.name, ex.blobs.len());
+        assert_eq!(
+            ex.blobs.len(),
+            1,
+            "{}: realisation {k} gave {} blobs",
+            case.name,
+            ex.blobs.len()
+        );
         us.push(ex.blobs[0].u);
         vs.push(ex.blobs[0].v);
     }
@@ -152,10 +166,22 @@ fn run_case(case: &Case) {
         case.name
     );
     // The mean of 200 realisations carries ≈ σ/14 of statistical uncertainty; both are far below 0.005 px.
-    assert!(bu.abs() <= 0.005 && bv.abs() <= 0.005, "{}: bias ({bu}, {bv}) px", case.name);
-    assert!(su_ <= 1.2 * pred_u && sv_ <= 1.2 * pred_v, "{}: scatter above 1.2× the bound", case.name);
+    assert!(
+        bu.abs() <= 0.005 && bv.abs() <= 0.005,
+        "{}: bias ({bu}, {bv}) px",
+        case.name
+    );
+    assert!(
+        su_ <= 1.2 * pred_u && sv_ <= 1.2 * pred_v,
+        "{}: scatter above 1.2× the bound",
+        case.name
+    );
     // The bound is meaningful: the measured scatter is not far below it either.
-    assert!(su_ >= 0.8 * pred_u && sv_ >= 0.8 * pred_v, "{}: scatter far below the bound", case.name);
+    assert!(
+        su_ >= 0.8 * pred_u && sv_ >= 0.8 * pred_v,
+        "{}: scatter far below the bound",
+        case.name
+    );
 }
 
 const SIZES: [(&str, f64); 3] = [("A 20 mm", 20.0), ("B 15 mm", 15.0), ("C 10 mm", 10.0)];

@@ -15,7 +15,15 @@ const H: u32 = 48;
 /// A 16-bit frame: background 1000, one 12×12 square of 20000 at (20..32, 10..22).
 fn frame16() -> Vec<u16> {
     (0..H)
-        .flat_map(|y| (0..W).map(move |x| if (20..32).contains(&x) && (10..22).contains(&y) { 20_000 } else { 1000 }))
+        .flat_map(|y| {
+            (0..W).map(move |x| {
+                if (20..32).contains(&x) && (10..22).contains(&y) {
+                    20_000
+                } else {
+                    1000
+                }
+            })
+        })
         .collect()
 }
 
@@ -26,20 +34,28 @@ fn save16(path: &Path, format: ImageFormat) {
 
 fn save8(path: &Path) {
     let bytes: Vec<u8> = frame16().iter().map(|&p| (p / 256) as u8).collect();
-    image::save_buffer_with_format(path, &bytes, W, H, ExtendedColorType::L8, ImageFormat::Png).unwrap();
+    image::save_buffer_with_format(path, &bytes, W, H, ExtendedColorType::L8, ImageFormat::Png)
+        .unwrap();
 }
 
 fn read_err(path: &Path, depth: Option<u8>) -> String {
     let mut r = FrameReader::new().expect_bit_depth(depth);
-    let e = r.read(path).err().expect("expected an error").to_string();
-    assert!(e.contains(&path.display().to_string()), "error does not name the file: {e}");
+    let e = r.read(path).expect_err("expected an error").to_string();
+    assert!(
+        e.contains(&path.display().to_string()),
+        "error does not name the file: {e}"
+    );
     e
 }
 
 #[test]
 fn good_frames_decode_in_native_dn() {
     let dir = tempfile::tempdir().unwrap();
-    let (tif, png16, png8) = (dir.path().join("a.tif"), dir.path().join("b.png"), dir.path().join("c.png"));
+    let (tif, png16, png8) = (
+        dir.path().join("a.tif"),
+        dir.path().join("b.png"),
+        dir.path().join("c.png"),
+    );
     save16(&tif, ImageFormat::Tiff);
     save16(&png16, ImageFormat::Png);
     save8(&png8);
@@ -87,8 +103,15 @@ fn bad_files_are_named_errors() {
     assert!(read_err(&missing, None).contains("No such file"));
 
     let colour = d.join("colour.png");
-    image::save_buffer_with_format(&colour, &vec![0u8; (W * H * 3) as usize], W, H, ExtendedColorType::Rgb8, ImageFormat::Png)
-        .unwrap();
+    image::save_buffer_with_format(
+        &colour,
+        &vec![0u8; (W * H * 3) as usize],
+        W,
+        H,
+        ExtendedColorType::Rgb8,
+        ImageFormat::Png,
+    )
+    .unwrap();
     let e = read_err(&colour, None);
     assert!(e.contains("Rgb8") && e.contains("grayscale"), "{e}");
 
@@ -98,7 +121,11 @@ fn bad_files_are_named_errors() {
     assert!(e.contains("8-bit image where 16-bit"), "{e}");
 
     let jpeg = d.join("photo.jpg");
-    std::fs::write(&jpeg, [0xFF, 0xD8, 0xFF, 0xE0, 0, 16, b'J', b'F', b'I', b'F', 0]).unwrap();
+    std::fs::write(
+        &jpeg,
+        [0xFF, 0xD8, 0xFF, 0xE0, 0, 16, b'J', b'F', b'I', b'F', 0],
+    )
+    .unwrap();
     assert!(read_err(&jpeg, None).contains("not supported"));
 }
 
@@ -137,7 +164,10 @@ fn batch_carries_on_past_bad_files_in_order() {
         }
     });
     assert_eq!(seen.len(), 40);
-    assert!(seen.iter().enumerate().all(|(k, (i, _))| k == *i), "out of order");
+    assert!(
+        seen.iter().enumerate().all(|(k, (i, _))| k == *i),
+        "out of order"
+    );
     let bad: Vec<usize> = seen.iter().filter(|(_, ok)| !ok).map(|(i, _)| *i).collect();
     assert_eq!(bad, vec![7, 23]);
 }
@@ -152,6 +182,12 @@ fn threshold_outside_the_bit_depth_is_an_error() {
         threshold: Threshold::Fixed(6000),
         ..ExtractParams::default()
     };
-    let e = extract::extract_file(&mut r, &png8, &CpuBackend, &params).err().unwrap().to_string();
-    assert!(e.contains("eight.png") && e.contains("outside 1..=255"), "{e}");
+    let e = extract::extract_file(&mut r, &png8, &CpuBackend, &params)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("eight.png") && e.contains("outside 1..=255"),
+        "{e}"
+    );
 }

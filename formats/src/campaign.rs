@@ -105,6 +105,26 @@ impl InstantKey {
     pub fn nominal(&self) -> [f64; 3] {
         self.nominal_bits.map(f64::from_bits)
     }
+
+    /// The sweep line the instant lies on.
+    pub fn line(&self) -> LineKey {
+        let [a, b] = self.axis.others();
+        LineKey {
+            axis: self.axis,
+            offsets: [self.nominal_bits[a.index()], self.nominal_bits[b.index()]],
+        }
+    }
+}
+
+/// A line of a sweep: the axis moved and the nominal coordinates of the two
+/// other axes (as `f64::to_bits`, in the order of [`Axis::others`]). A
+/// campaign may sweep an axis along several lines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct LineKey {
+    /// Axis moved.
+    pub axis: Axis,
+    /// Nominal coordinates of the two other axes.
+    pub offsets: [u64; 2],
 }
 
 /// One row of `manifest.csv`: an image and the instant it was taken at.

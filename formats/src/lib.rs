@@ -22,7 +22,7 @@ pub mod truth;
 
 pub use atomic::{AtomicFile, write_atomic};
 pub use blobs::{BlobRow, ProblemRow};
-pub use campaign::{Axis, Direction, InstantKey, ManifestRow, SphereRow};
+pub use campaign::{Axis, Direction, InstantKey, LineKey, ManifestRow, SphereRow};
 pub use error::{FormatError, Result};
 pub use json::{read_json, write_json};
 pub use measure::{InstantProblemRow, PoseRow};

@@ -36,7 +36,12 @@ pub struct InstantProblemRow {
 
 impl InstantProblemRow {
     /// A problem with an instant.
-    pub fn new(key: &InstantKey, camera: Option<u8>, image: Option<String>, reason: String) -> Self {
+    pub fn new(
+        key: &InstantKey,
+        camera: Option<u8>,
+        image: Option<String>,
+        reason: String,
+    ) -> Self {
         let [x, y, z] = key.nominal();
         Self {
             axis: key.axis,
@@ -55,7 +60,8 @@ impl InstantProblemRow {
 }
 
 impl Record for InstantProblemRow {
-    const COLUMNS: &'static [&'static str] = &["axis", "direction", "run", "target", "capture", "reason"];
+    const COLUMNS: &'static [&'static str] =
+        &["axis", "direction", "run", "target", "capture", "reason"];
 
     fn validate(&self) -> Result<(), Invalid> {
         Ok(())
@@ -105,7 +111,16 @@ pub struct PoseRow {
 }
 
 impl Record for PoseRow {
-    const COLUMNS: &'static [&'static str] = &["axis", "direction", "run", "target", "capture", "roll", "pitch", "yaw"];
+    const COLUMNS: &'static [&'static str] = &[
+        "axis",
+        "direction",
+        "run",
+        "target",
+        "capture",
+        "roll",
+        "pitch",
+        "yaw",
+    ];
 
     fn validate(&self) -> Result<(), Invalid> {
         finite("roll", self.roll)?;

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::{Axis, Direction};
+use crate::campaign::{Axis, Direction, InstantKey};
 use crate::table::{Invalid, Record, finite};
 
 /// One row of `points.csv`: one sphere at one instant.
@@ -47,6 +47,18 @@ impl PointRow {
     /// Measured position (mm).
     pub fn position(&self) -> [f64; 3] {
         [self.x, self.y, self.z]
+    }
+
+    /// The instant this row belongs to.
+    pub fn instant(&self) -> InstantKey {
+        InstantKey {
+            axis: self.axis,
+            direction: self.direction,
+            run: self.run,
+            target: self.target,
+            capture: self.capture,
+            nominal_bits: self.nominal().map(f64::to_bits),
+        }
     }
 }
 

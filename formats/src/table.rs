@@ -171,25 +171,43 @@ pub fn write_csv<'a, T: Serialize + 'a>(
 /// Write records of the contract as CSV, atomically; the header is written
 /// even when there are no records (from [`Record::COLUMNS`], which must then
 /// list every field in order).
-pub fn write_records<'a, T: Record + 'a>(path: &Path, records: impl IntoIterator<Item = &'a T>) -> Result<()> {
+pub fn write_records<'a, T: Record + 'a>(
+    path: &Path,
+    records: impl IntoIterator<Item = &'a T>,
+) -> Result<()> {
     let file = AtomicFile::create(path)?;
-    let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(file);
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(false)
+        .from_writer(file);
     let mut records = records.into_iter().peekable();
     let header: Vec<String> = match records.peek() {
         Some(first) => {
             let mut probe = csv::Writer::from_writer(Vec::new());
-            probe.serialize(first).map_err(|e| FormatError::file(path, e.to_string()))?;
-            let bytes = probe.into_inner().map_err(|e| FormatError::file(path, e.to_string()))?;
+            probe
+                .serialize(first)
+                .map_err(|e| FormatError::file(path, e.to_string()))?;
+            let bytes = probe
+                .into_inner()
+                .map_err(|e| FormatError::file(path, e.to_string()))?;
             let text = String::from_utf8_lossy(&bytes).into_owned();
-            text.lines().next().unwrap_or_default().split(',').map(str::to_string).collect()
+            text.lines()
+                .next()
+                .unwrap_or_default()
+                .split(',')
+                .map(str::to_string)
+                .collect()
         }
         None => T::COLUMNS.iter().map(|c| (*c).to_string()).collect(),
     };
-    w.write_record(&header).map_err(|e| FormatError::file(path, e.to_string()))?;
+    w.write_record(&header)
+        .map_err(|e| FormatError::file(path, e.to_string()))?;
     for r in records {
-        w.serialize(r).map_err(|e| FormatError::file(path, e.to_string()))?;
+        w.serialize(r)
+            .map_err(|e| FormatError::file(path, e.to_string()))?;
     }
-    let file = w.into_inner().map_err(|e| FormatError::io(path, e.into_error()))?;
+    let file = w
+        .into_inner()
+        .map_err(|e| FormatError::io(path, e.into_error()))?;
     file.commit()
 }
 
@@ -247,7 +265,14 @@ mod tests {
         let path = dir.path().join("p.csv");
         write_records::<P>(&path, &[]).unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "name,x\n");
-        write_records(&path, &[P { name: "a".into(), x: 1.5 }]).unwrap();
+        write_records(
+            &path,
+            &[P {
+                name: "a".into(),
+                x: 1.5,
+            }],
+        )
+        .unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "name,x\na,1.5\n");
     }
 

@@ -29,7 +29,7 @@ pub enum MatchFailure {
 }
 
 /// Tolerance on the spread of implied log-distances: half the smallest
-/// `|ln D_j − ln D_k|` over pairs of spheres, at most [`MAX_SPREAD`].
+/// `|ln D_j − ln D_k|` over pairs of spheres, at most 0.2.
 /// `None` when two spheres share a diameter (they cannot be told apart).
 pub fn spread_tolerance(diameters: &[f64]) -> Option<f64> {
     let mut tol = MAX_SPREAD;
@@ -61,8 +61,14 @@ impl Search<'_> {
     fn visit(&mut self) {
         let depth = self.pick.len();
         if depth == self.spheres.len() {
-            let vals = self.spheres.iter().zip(&self.pick).filter_map(|(&s, &c)| self.logs[s][c]);
-            let (lo, hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+            let vals = self
+                .spheres
+                .iter()
+                .zip(&self.pick)
+                .filter_map(|(&s, &c)| self.logs[s][c]);
+            let (lo, hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
             if hi - lo <= self.tol {
                 self.found.push((hi - lo, self.pick.clone()));
             }
@@ -83,7 +89,12 @@ impl Search<'_> {
 }
 
 /// All consistent assignments of `spheres`, best (smallest spread) first.
-fn consistent(logs: &[Vec<Option<f64>>], tol: f64, spheres: &[usize], candidates: usize) -> Vec<(f64, Vec<usize>)> {
+fn consistent(
+    logs: &[Vec<Option<f64>>],
+    tol: f64,
+    spheres: &[usize],
+    candidates: usize,
+) -> Vec<(f64, Vec<usize>)> {
     let mut s = Search {
         logs,
         tol,
@@ -101,14 +112,23 @@ fn consistent(logs: &[Vec<Option<f64>>], tol: f64, spheres: &[usize], candidates
 /// blobs, `diameters` the spheres' (mm), `focal_px` the camera's focal length,
 /// `distances` (mm) the range of distances from the camera at which the
 /// spheres can be. Returns, per sphere, the index into `candidates`.
-pub fn assign(candidates: &[Candidate], diameters: &[f64], focal_px: f64, distances: (f64, f64)) -> Result<Vec<usize>, MatchFailure> {
+pub fn assign(
+    candidates: &[Candidate],
+    diameters: &[f64],
+    focal_px: f64,
+    distances: (f64, f64),
+) -> Result<Vec<usize>, MatchFailure> {
     let tol = spread_tolerance(diameters).ok_or(MatchFailure::Ambiguous)?;
     let (lo, hi) = (distances.0.max(f64::MIN_POSITIVE).ln(), distances.1.ln());
     // Usable candidates, largest first, at most MAX_CANDIDATES.
     let mut usable: Vec<usize> = (0..candidates.len())
         .filter(|&i| candidates[i].rejected.is_none() && candidates[i].diameter_px > 0.0)
         .collect();
-    usable.sort_by(|&a, &b| candidates[b].diameter_px.total_cmp(&candidates[a].diameter_px));
+    usable.sort_by(|&a, &b| {
+        candidates[b]
+            .diameter_px
+            .total_cmp(&candidates[a].diameter_px)
+    });
     usable.truncate(MAX_CANDIDATES);
     let logs: Vec<Vec<Option<f64>>> = diameters
         .iter()
@@ -135,7 +155,9 @@ pub fn assign(candidates: &[Candidate], diameters: &[f64], focal_px: f64, distan
                     if rest.is_empty() {
                         return None;
                     }
-                    consistent(&logs, tol, &rest, usable.len()).first().map(|(spread, _)| (*spread, drop))
+                    consistent(&logs, tol, &rest, usable.len())
+                        .first()
+                        .map(|(spread, _)| (*spread, drop))
                 })
                 .collect();
             drops.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -183,27 +205,45 @@ mod tests {
 
     #[test]
     fn assigns_by_size_in_any_order_with_extras() {
-        let c = vec![cand(px(10.0, 470.0)), cand(25.0), cand(px(20.0, 455.0)), cand(px(15.0, 440.0)), cand(3000.0)];
+        let c = vec![
+            cand(px(10.0, 470.0)),
+            cand(25.0),
+            cand(px(20.0, 455.0)),
+            cand(px(15.0, 440.0)),
+            cand(3000.0),
+        ];
         assert_eq!(assign(&c, &DIAMETERS, F, D0), Ok(vec![2, 3, 0]));
     }
 
     #[test]
     fn consistent_even_far_from_the_working_distance() {
         // Camera 1 during an X sweep: everything 75 mm nearer.
-        let c = vec![cand(px(20.0, 385.0)), cand(px(15.0, 392.0)), cand(px(10.0, 380.0))];
+        let c = vec![
+            cand(px(20.0, 385.0)),
+            cand(px(15.0, 392.0)),
+            cand(px(10.0, 380.0)),
+        ];
         assert_eq!(assign(&c, &DIAMETERS, F, D0), Ok(vec![0, 1, 2]));
     }
 
     #[test]
     fn missing_sphere_is_named() {
         let c = vec![cand(px(20.0, 460.0)), cand(px(10.0, 462.0))];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), Err(MatchFailure::Missing(vec![1])));
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            Err(MatchFailure::Missing(vec![1]))
+        );
     }
 
     #[test]
     fn twin_of_a_sphere_is_ambiguous() {
         // A reflection the size of sphere B next to B itself.
-        let c = vec![cand(px(20.0, 460.0)), cand(px(15.0, 461.0)), cand(px(15.0, 459.0)), cand(px(10.0, 460.0))];
+        let c = vec![
+            cand(px(20.0, 460.0)),
+            cand(px(15.0, 461.0)),
+            cand(px(15.0, 459.0)),
+            cand(px(10.0, 460.0)),
+        ];
         assert_eq!(assign(&c, &DIAMETERS, F, D0), Err(MatchFailure::Ambiguous));
     }
 
@@ -212,7 +252,10 @@ mod tests {
         // C is gone; A's and B's blobs could also be B and C at ≈ 0.72 of
         // the distance — which the travel does not allow.
         let c = vec![cand(px(20.0, 460.0)), cand(px(15.0, 480.0))];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), Err(MatchFailure::Missing(vec![2])));
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            Err(MatchFailure::Missing(vec![2]))
+        );
     }
 
     #[test]
@@ -220,12 +263,17 @@ mod tests {
         let mut b = cand(px(15.0, 460.0));
         b.rejected = Some("touches the image border");
         let c = vec![cand(px(20.0, 460.0)), b, cand(px(10.0, 460.0))];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), Err(MatchFailure::Missing(vec![1])));
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            Err(MatchFailure::Missing(vec![1]))
+        );
     }
 
     #[test]
     fn equal_diameters_cannot_be_matched() {
         assert_eq!(spread_tolerance(&[10.0, 10.0]), None);
-        assert!((spread_tolerance(&DIAMETERS).unwrap() - 0.5 * (20.0f64 / 15.0).ln()).abs() < 1e-12);
+        assert!(
+            (spread_tolerance(&DIAMETERS).unwrap() - 0.5 * (20.0f64 / 15.0).ln()).abs() < 1e-12
+        );
     }
 }

@@ -16,14 +16,17 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use extract::{Backend, ExtractParams, FrameReader};
-use formats::{InstantKey, InstantProblemRow, PointRow, SphereRow, read_csv_from, write_json, write_records};
+use formats::{
+    InstantKey, InstantProblemRow, LineKey, PointRow, SphereRow, read_csv_from, write_json,
+    write_records,
+};
 use geom::{Point2, Point3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{MatchFailure, assign};
 use crate::observe::candidates;
-use crate::plan::{InstantPlan, LineKey, RigModel, plan};
+use crate::plan::{InstantPlan, RigModel, plan};
 use crate::pose::poses;
 use crate::triangulate::{View, seed_displacement, triangulate};
 use crate::{FuseError, Result};
@@ -125,7 +128,8 @@ fn json_crc<T: Serialize + ?Sized>(value: &T) -> u32 {
 }
 
 fn fingerprint(inputs: &Inputs<'_>, options: &MeasureOptions) -> Result<Fingerprint> {
-    let manifest = std::fs::read(inputs.manifest).map_err(|e| formats::FormatError::io(inputs.manifest, e))?;
+    let manifest =
+        std::fs::read(inputs.manifest).map_err(|e| formats::FormatError::io(inputs.manifest, e))?;
     Ok(Fingerprint {
         manifest_crc32: crc32fast::hash(&manifest),
         rig_crc32: json_crc(inputs.rig),
@@ -154,24 +158,47 @@ struct Context<'a> {
 type Failure = InstantProblemRow;
 
 impl Context<'_> {
-    fn failure(key: &InstantKey, camera: Option<u8>, image: Option<&Path>, reason: impl Into<String>) -> Failure {
-        InstantProblemRow::new(key, camera, image.map(|p| p.display().to_string()), reason.into())
+    fn failure(
+        key: &InstantKey,
+        camera: Option<u8>,
+        image: Option<&Path>,
+        reason: impl Into<String>,
+    ) -> Failure {
+        InstantProblemRow::new(
+            key,
+            camera,
+            image.map(|p| p.display().to_string()),
+            reason.into(),
+        )
     }
 
     /// Extract and match one camera's image: the ideal-pixel centre of each sphere.
-    fn observe(&self, ip: &InstantPlan, camera: u8) -> std::result::Result<Vec<Point2<f64>>, Failure> {
+    fn observe(
+        &self,
+        ip: &InstantPlan,
+        camera: u8,
+    ) -> std::result::Result<Vec<Point2<f64>>, Failure> {
         let key = &ip.key;
-        let path = ip
-            .images
-            .get(&camera)
-            .ok_or_else(|| Self::failure(key, Some(camera), None, format!("no image of camera {camera}")))?;
+        let path = ip.images.get(&camera).ok_or_else(|| {
+            Self::failure(
+                key,
+                Some(camera),
+                None,
+                format!("no image of camera {camera}"),
+            )
+        })?;
         let fail = |reason: String| Self::failure(key, Some(camera), Some(path), reason);
         let cam = self
             .rig
             .cameras
             .get(&camera)
             .ok_or_else(|| fail(format!("camera {camera} is not in the rig")))?;
-        let mut reader = self.readers.lock().ok().and_then(|mut r| r.pop()).unwrap_or_default();
+        let mut reader = self
+            .readers
+            .lock()
+            .ok()
+            .and_then(|mut r| r.pop())
+            .unwrap_or_default();
         let result = (|| {
             let (frame, _) = reader.read(path).map_err(|e| fail(e.to_string()))?;
             let extraction = self
@@ -184,7 +211,8 @@ impl Context<'_> {
             match assign(&cands, &self.diameters, cam.intrinsics.fx, range) {
                 Ok(pick) => Ok(pick.iter().map(|&c| cands[c].ideal_px).collect()),
                 Err(MatchFailure::Missing(m)) => {
-                    let names: Vec<&str> = m.iter().map(|&i| self.spheres[i].name.as_str()).collect();
+                    let names: Vec<&str> =
+                        m.iter().map(|&i| self.spheres[i].name.as_str()).collect();
                     Err(fail(format!(
                         "sphere{} {} not found among {} blob{}",
                         if names.len() == 1 { "" } else { "s" },
@@ -206,7 +234,10 @@ impl Context<'_> {
     }
 
     /// Observations of all spheres by the cameras used for this instant.
-    fn observe_instant(&self, ip: &InstantPlan) -> std::result::Result<(Vec<u8>, Observations), Failure> {
+    fn observe_instant(
+        &self,
+        ip: &InstantPlan,
+    ) -> std::result::Result<(Vec<u8>, Observations), Failure> {
         let cams = self.rig.cameras_for(ip.key.axis, self.options.all_cameras);
         let mut obs: Observations = vec![BTreeMap::new(); self.spheres.len()];
         for &c in &cams {
@@ -219,7 +250,11 @@ impl Context<'_> {
     }
 
     fn radius(&self, sphere: usize) -> f64 {
-        if self.options.bias_correction { self.diameters[sphere] / 2.0 } else { 0.0 }
+        if self.options.bias_correction {
+            self.diameters[sphere] / 2.0
+        } else {
+            0.0
+        }
     }
 
     fn views<'c>(&'c self, obs: &BTreeMap<u8, Point2<f64>>) -> Vec<View<'c>> {
@@ -234,20 +269,36 @@ impl Context<'_> {
     }
 
     /// Triangulated centres and residuals of every sphere.
-    fn triangulate_all(&self, key: &InstantKey, obs: &Observations) -> std::result::Result<Vec<(Point3<f64>, f64)>, Failure> {
+    fn triangulate_all(
+        &self,
+        key: &InstantKey,
+        obs: &Observations,
+    ) -> std::result::Result<Vec<(Point3<f64>, f64)>, Failure> {
         obs.iter()
             .enumerate()
             .map(|(s, o)| {
                 triangulate(&self.views(o), self.radius(s))
                     .map(|t| (t.point, t.residual_px))
-                    .map_err(|e| Self::failure(key, None, None, format!("sphere {}: {e}", self.spheres[s].name)))
+                    .map_err(|e| {
+                        Self::failure(
+                            key,
+                            None,
+                            None,
+                            format!("sphere {}: {e}", self.spheres[s].name),
+                        )
+                    })
             })
             .collect()
     }
 
     /// Image centres with the perspective bias removed for a sphere at `point`
     /// (projected centre c = e·(1 − r²/Cz²), geom::sphere_image).
-    fn debiased(&self, sphere: usize, obs: &BTreeMap<u8, Point2<f64>>, point: &Point3<f64>) -> BTreeMap<u8, Point2<f64>> {
+    fn debiased(
+        &self,
+        sphere: usize,
+        obs: &BTreeMap<u8, Point2<f64>>,
+        point: &Point3<f64>,
+    ) -> BTreeMap<u8, Point2<f64>> {
         let r = self.radius(sphere);
         if r == 0.0 {
             return obs.clone();
@@ -270,7 +321,12 @@ struct Reference {
     points: Vec<(Point3<f64>, f64)>,
 }
 
-fn rows_for(key: &InstantKey, spheres: &[SphereRow], cams: &[u8], centres: &[(Point3<f64>, f64)]) -> Vec<PointRow> {
+fn rows_for(
+    key: &InstantKey,
+    spheres: &[SphereRow],
+    cams: &[u8],
+    centres: &[(Point3<f64>, f64)],
+) -> Vec<PointRow> {
     let [nx, ny, nz] = key.nominal();
     let cameras = cams.iter().map(u8::to_string).collect::<Vec<_>>().join("+");
     spheres
@@ -295,7 +351,11 @@ fn rows_for(key: &InstantKey, spheres: &[SphereRow], cams: &[u8], centres: &[(Po
         .collect()
 }
 
-fn measure_one(ctx: &Context<'_>, ip: &InstantPlan, references: &HashMap<LineKey, std::result::Result<Reference, String>>) -> std::result::Result<Vec<PointRow>, Failure> {
+fn measure_one(
+    ctx: &Context<'_>,
+    ip: &InstantPlan,
+    references: &HashMap<LineKey, std::result::Result<Reference, String>>,
+) -> std::result::Result<Vec<PointRow>, Failure> {
     let (cams, obs) = ctx.observe_instant(ip)?;
     let centres = match ctx.options.fusion {
         Fusion::Triangulate => ctx.triangulate_all(&ip.key, &obs)?,
@@ -303,18 +363,40 @@ fn measure_one(ctx: &Context<'_>, ip: &InstantPlan, references: &HashMap<LineKey
             let reference = match references.get(&ip.line) {
                 Some(Ok(r)) => r,
                 Some(Err(reason)) => {
-                    return Err(Context::failure(&ip.key, None, None, format!("the first instant of the line could not be measured: {reason}")));
+                    return Err(Context::failure(
+                        &ip.key,
+                        None,
+                        None,
+                        format!("the first instant of the line could not be measured: {reason}"),
+                    ));
                 }
-                None => return Err(Context::failure(&ip.key, None, None, "no reference instant for the line")),
+                None => {
+                    return Err(Context::failure(
+                        &ip.key,
+                        None,
+                        None,
+                        "no reference instant for the line",
+                    ));
+                }
             };
             let mut out = Vec::with_capacity(obs.len());
             for (s, o) in obs.iter().enumerate() {
                 let (p0, _) = reference.points[s];
                 let r0 = ctx.debiased(s, &reference.observations[s], &p0);
                 let r1 = ctx.debiased(s, o, &p0);
-                let depths: Vec<f64> = r0.keys().filter_map(|c| ctx.rig.cameras.get(c).map(|cam| cam.to_camera(&p0).z)).collect();
+                let depths: Vec<f64> = r0
+                    .keys()
+                    .filter_map(|c| ctx.rig.cameras.get(c).map(|cam| cam.to_camera(&p0).z))
+                    .collect();
                 let (d, res) = seed_displacement(&ctx.views(&r0), &ctx.views(&r1), &depths)
-                    .map_err(|e| Context::failure(&ip.key, None, None, format!("sphere {}: {e}", ctx.spheres[s].name)))?;
+                    .map_err(|e| {
+                        Context::failure(
+                            &ip.key,
+                            None,
+                            None,
+                            format!("sphere {}: {e}", ctx.spheres[s].name),
+                        )
+                    })?;
                 out.push((p0 + d, res));
             }
             out
@@ -327,7 +409,12 @@ fn measure_one(ctx: &Context<'_>, ip: &InstantPlan, references: &HashMap<LineKey
 fn extent(plans: &[InstantPlan]) -> f64 {
     (0..3)
         .map(|a| {
-            let (lo, hi) = plans.iter().map(|p| p.key.nominal()[a]).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+            let (lo, hi) = plans
+                .iter()
+                .map(|p| p.key.nominal()[a])
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(v), hi.max(v))
+                });
             if hi >= lo { hi - lo } else { 0.0 }
         })
         .fold(0.0, f64::max)
@@ -339,14 +426,7 @@ fn load_partial(path: &Path, spheres: usize) -> Result<Vec<PointRow>> {
     let end = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
     let rows = read_csv_from::<PointRow, _>(&bytes[..end], path).map_err(FuseError::Format)?;
     let mut count: BTreeMap<InstantKey, usize> = BTreeMap::new();
-    let key = |p: &PointRow| InstantKey {
-        axis: p.axis,
-        direction: p.direction,
-        run: p.run,
-        target: p.target,
-        capture: p.capture,
-        nominal_bits: p.nominal().map(f64::to_bits),
-    };
+    let key = PointRow::instant;
     for r in &rows {
         *count.entry(key(&r.record)).or_default() += 1;
     }
@@ -360,7 +440,14 @@ fn load_partial(path: &Path, spheres: usize) -> Result<Vec<PointRow>> {
 /// Measure a campaign into `out` (`points.csv`); `force` replaces an existing
 /// output and discards a partial one. `progress(done, total)` is called as
 /// instants finish.
-pub fn measure(inputs: &Inputs<'_>, out: &Path, options: &MeasureOptions, backend: &dyn Backend, force: bool, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<Summary> {
+pub fn measure(
+    inputs: &Inputs<'_>,
+    out: &Path,
+    options: &MeasureOptions,
+    backend: &dyn Backend,
+    force: bool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Summary> {
     options.extract.validate()?;
     let rig = RigModel::new(inputs.rig)?;
     let plans = plan(inputs.manifest, &rig, inputs.spheres, options.all_cameras)?;
@@ -385,14 +472,7 @@ pub fn measure(inputs: &Inputs<'_>, out: &Path, options: &MeasureOptions, backen
     let index_of: HashMap<InstantKey, usize> = plans.iter().map(|p| (p.key, p.index)).collect();
     let done: std::collections::HashSet<InstantKey> = done_rows
         .iter()
-        .map(|p| InstantKey {
-            axis: p.axis,
-            direction: p.direction,
-            run: p.run,
-            target: p.target,
-            capture: p.capture,
-            nominal_bits: p.nominal().map(f64::to_bits),
-        })
+        .map(PointRow::instant)
         .filter(|k| index_of.contains_key(k))
         .collect();
     let resumed = done.len();
@@ -422,7 +502,11 @@ pub fn measure(inputs: &Inputs<'_>, out: &Path, options: &MeasureOptions, backen
                 let r = ctx
                     .observe_instant(ip)
                     .and_then(|(_, observations)| {
-                        ctx.triangulate_all(&ip.key, &observations).map(|points| Reference { observations, points })
+                        ctx.triangulate_all(&ip.key, &observations)
+                            .map(|points| Reference {
+                                observations,
+                                points,
+                            })
                     })
                     .map_err(|f| f.reason);
                 (line, r)
@@ -440,22 +524,28 @@ pub fn measure(inputs: &Inputs<'_>, out: &Path, options: &MeasureOptions, backen
     let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
     let mut finished = resumed as u64;
     for chunk in todo.chunks(CHUNK_INSTANTS) {
-        let results: Vec<std::result::Result<Vec<PointRow>, Failure>> =
-            chunk.par_iter().map(|ip| measure_one(&ctx, ip, &references)).collect();
+        let results: Vec<std::result::Result<Vec<PointRow>, Failure>> = chunk
+            .par_iter()
+            .map(|ip| measure_one(&ctx, ip, &references))
+            .collect();
         let mut bytes = Vec::new();
         {
-            let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(&mut bytes);
+            let mut w = csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(&mut bytes);
             for (ip, r) in chunk.iter().zip(results) {
                 match r {
                     Ok(rows) => {
                         for row in rows {
-                            w.serialize(row).map_err(|e| formats::FormatError::file(&partial, e.to_string()))?;
+                            w.serialize(row)
+                                .map_err(|e| formats::FormatError::file(&partial, e.to_string()))?;
                         }
                     }
                     Err(problem) => problems.push((ip.index, problem)),
                 }
             }
-            w.flush().map_err(|e| formats::FormatError::io(&partial, e))?;
+            w.flush()
+                .map_err(|e| formats::FormatError::io(&partial, e))?;
         }
         appender
             .write_all(&bytes)
@@ -468,17 +558,21 @@ pub fn measure(inputs: &Inputs<'_>, out: &Path, options: &MeasureOptions, backen
 
     // Final outputs, in manifest order, atomically.
     let mut rows = load_partial(&partial, inputs.spheres.len())?;
-    let sphere_rank: HashMap<&str, usize> = inputs.spheres.iter().enumerate().map(|(i, s)| (s.name.as_str(), i)).collect();
+    let sphere_rank: HashMap<&str, usize> = inputs
+        .spheres
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.name.as_str(), i))
+        .collect();
     let rank = |p: &PointRow| {
-        let key = InstantKey {
-            axis: p.axis,
-            direction: p.direction,
-            run: p.run,
-            target: p.target,
-            capture: p.capture,
-            nominal_bits: p.nominal().map(f64::to_bits),
-        };
-        (index_of.get(&key).copied().unwrap_or(usize::MAX), sphere_rank.get(p.sphere.as_str()).copied().unwrap_or(usize::MAX))
+        let key = p.instant();
+        (
+            index_of.get(&key).copied().unwrap_or(usize::MAX),
+            sphere_rank
+                .get(p.sphere.as_str())
+                .copied()
+                .unwrap_or(usize::MAX),
+        )
     };
     rows.sort_by_key(rank);
     write_records(out, &rows)?;
@@ -489,7 +583,8 @@ pub fn measure(inputs: &Inputs<'_>, out: &Path, options: &MeasureOptions, backen
     let problems_path = beside(out, "problems.csv");
     let problems_file = if problems.is_empty() {
         if problems_path.exists() {
-            std::fs::remove_file(&problems_path).map_err(|e| formats::FormatError::io(&problems_path, e))?;
+            std::fs::remove_file(&problems_path)
+                .map_err(|e| formats::FormatError::io(&problems_path, e))?;
         }
         None
     } else {

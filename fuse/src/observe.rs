@@ -51,7 +51,12 @@ fn rejection(blob: &Blob) -> Option<&'static str> {
 
 /// Candidates of one frame: every blob with its undistorted centroid.
 /// `frame` must be the frame the extraction came from.
-pub fn candidates(camera: &Camera, frame: &FrameView<'_>, extraction: &Extraction, weighting: Weighting) -> Vec<Candidate> {
+pub fn candidates(
+    camera: &Camera,
+    frame: &FrameView<'_>,
+    extraction: &Extraction,
+    weighting: Weighting,
+) -> Vec<Candidate> {
     let map = Undistortion(camera);
     extraction
         .blobs
@@ -63,7 +68,11 @@ pub fn candidates(camera: &Camera, frame: &FrameView<'_>, extraction: &Extractio
             } else {
                 mapped_centroid(frame, b, &extraction.level, weighting, &map)
             };
-            let rejected = rejection(b).or(if ideal.is_none() { Some("cannot be undistorted") } else { None });
+            let rejected = rejection(b).or(if ideal.is_none() {
+                Some("cannot be undistorted")
+            } else {
+                None
+            });
             let [u, v] = ideal.unwrap_or([b.u, b.v]);
             Candidate {
                 blob: i,

@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-use formats::{Axis, InstantKey, ManifestRow, Row, SphereRow, read_csv};
+use formats::{Axis, InstantKey, LineKey, ManifestRow, Row, SphereRow, read_csv};
 use geom::{Camera, Point3, Vector3};
 
 use crate::matching::spread_tolerance;
@@ -16,26 +16,6 @@ use crate::{FuseError, Result};
 /// axis look along it, and are not used for it by default (the seed uses
 /// cameras 2 + 3 for X and 1 + 3 for Y).
 const ALONG_AXIS_COS: f64 = 0.7;
-
-/// A line of a sweep: the axis and the off-axis nominal coordinates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct LineKey {
-    /// Axis moved.
-    pub axis: Axis,
-    /// Nominal coordinates of the two other axes, as `f64::to_bits`.
-    pub offsets: [u64; 2],
-}
-
-impl LineKey {
-    /// The line an instant lies on.
-    pub fn of(key: &InstantKey) -> Self {
-        let [a, b] = key.axis.others();
-        Self {
-            axis: key.axis,
-            offsets: [key.nominal_bits[a.index()], key.nominal_bits[b.index()]],
-        }
-    }
-}
 
 /// One instant to measure: its key and one image per camera.
 #[derive(Debug, Clone, PartialEq)]
@@ -112,12 +92,17 @@ impl RigModel {
                 camera: 0,
                 message: "the optical axes are all parallel: no working point".into(),
             })?;
-        Ok(Self { cameras, working_point })
+        Ok(Self {
+            cameras,
+            working_point,
+        })
     }
 
     /// Distance from a camera to the working point (mm).
     pub fn working_distance(&self, id: u8) -> Option<f64> {
-        self.cameras.get(&id).map(|c| (c.centre() - self.working_point).norm())
+        self.cameras
+            .get(&id)
+            .map(|c| (c.centre() - self.working_point).norm())
     }
 
     /// Cameras used for motion along `axis`: all, or (default) those not looking along it.
@@ -134,7 +119,12 @@ impl RigModel {
 
 /// Read and check the manifest against the rig and spheres; returns the
 /// instants in manifest order, or one error listing every problem.
-pub fn plan(manifest: &Path, rig: &RigModel, spheres: &[SphereRow], all_cameras: bool) -> Result<Vec<InstantPlan>> {
+pub fn plan(
+    manifest: &Path,
+    rig: &RigModel,
+    spheres: &[SphereRow],
+    all_cameras: bool,
+) -> Result<Vec<InstantPlan>> {
     let rows: Vec<Row<ManifestRow>> = read_csv(manifest)?;
     let base = manifest.parent().unwrap_or(Path::new("."));
     let mut problems = Vec::new();
@@ -149,7 +139,9 @@ pub fn plan(manifest: &Path, rig: &RigModel, spheres: &[SphereRow], all_cameras:
     if spheres.is_empty() {
         problems.push("spheres: no spheres".into());
     } else if spread_tolerance(&diameters).is_none() {
-        problems.push("spheres: two spheres share a diameter, so blobs cannot be matched to them".into());
+        problems.push(
+            "spheres: two spheres share a diameter, so blobs cannot be matched to them".into(),
+        );
     }
     if rows.is_empty() {
         problems.push("the manifest has no rows".into());
@@ -161,12 +153,19 @@ pub fn plan(manifest: &Path, rig: &RigModel, spheres: &[SphereRow], all_cameras:
     for r in &rows {
         let m = &r.record;
         if !rig.cameras.contains_key(&m.camera) {
-            problems.push(format!("line {}: camera {} is not in the rig", r.line, m.camera));
+            problems.push(format!(
+                "line {}: camera {} is not in the rig",
+                r.line, m.camera
+            ));
             continue;
         }
         let path = base.join(&m.image);
         if !path.is_file() {
-            problems.push(format!("line {}: image {} not found", r.line, path.display()));
+            problems.push(format!(
+                "line {}: image {} not found",
+                r.line,
+                path.display()
+            ));
         }
         let key = m.instant();
         let entry = images.entry(key).or_insert_with(|| {
@@ -187,15 +186,23 @@ pub fn plan(manifest: &Path, rig: &RigModel, spheres: &[SphereRow], all_cameras:
 
     // Instants that share everything but the nominal position: legitimate
     // separate lines when each is complete, a disagreement otherwise.
-    let mut by_sweep: BTreeMap<(Axis, formats::Direction, u32, u32, u32), Vec<InstantKey>> = BTreeMap::new();
+    let mut by_sweep: BTreeMap<(Axis, formats::Direction, u32, u32, u32), Vec<InstantKey>> =
+        BTreeMap::new();
     for k in &order {
-        by_sweep.entry((k.axis, k.direction, k.run, k.target, k.capture)).or_default().push(*k);
+        by_sweep
+            .entry((k.axis, k.direction, k.run, k.target, k.capture))
+            .or_default()
+            .push(*k);
     }
     let mut plans = Vec::with_capacity(order.len());
     for (index, key) in order.iter().enumerate() {
         let cams = &images[key];
         let needed = rig.cameras_for(key.axis, all_cameras);
-        let missing: Vec<u8> = needed.iter().copied().filter(|c| !cams.contains_key(c)).collect();
+        let missing: Vec<u8> = needed
+            .iter()
+            .copied()
+            .filter(|c| !cams.contains_key(c))
+            .collect();
         if !missing.is_empty() {
             let siblings = &by_sweep[&(key.axis, key.direction, key.run, key.target, key.capture)];
             for c in &missing {
@@ -222,12 +229,16 @@ pub fn plan(manifest: &Path, rig: &RigModel, spheres: &[SphereRow], all_cameras:
             }
         }
         if needed.len() < 2 {
-            problems.push(format!("{}: fewer than two cameras of the rig can measure {} motion", describe(key), key.axis));
+            problems.push(format!(
+                "{}: fewer than two cameras of the rig can measure {} motion",
+                describe(key),
+                key.axis
+            ));
         }
         plans.push(InstantPlan {
             index,
             key: *key,
-            line: LineKey::of(key),
+            line: key.line(),
             images: cams.iter().map(|(c, (_, p))| (*c, p.clone())).collect(),
         });
     }

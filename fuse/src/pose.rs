@@ -5,7 +5,7 @@
 
 use std::collections::BTreeMap;
 
-use formats::{Axis, PointRow, PoseRow};
+use formats::{Axis, InstantKey, LineKey, PointRow, PoseRow};
 use geom::Point3;
 use geom::transform::{quaternion_vector, rigid_fit};
 
@@ -23,14 +23,10 @@ pub fn roll_pitch_yaw(axis: Axis, r: &geom::Vector3<f64>) -> [f64; 3] {
 /// such instant of its line (rows in the order of `points`). Instants are
 /// identified by their key columns; lines by axis and off-axis nominal coordinates.
 pub fn poses(points: &[PointRow], spheres: &[String]) -> Vec<PoseRow> {
-    type Key = (Axis, formats::Direction, u32, u32, u32, [u64; 3]);
-    let key = |p: &PointRow| -> Key {
-        (p.axis, p.direction, p.run, p.target, p.capture, p.nominal().map(f64::to_bits))
-    };
-    let mut order: Vec<Key> = Vec::new();
-    let mut centres: BTreeMap<Key, BTreeMap<&str, Point3<f64>>> = BTreeMap::new();
+    let mut order: Vec<InstantKey> = Vec::new();
+    let mut centres: BTreeMap<InstantKey, BTreeMap<&str, Point3<f64>>> = BTreeMap::new();
     for p in points {
-        let k = key(p);
+        let k = p.instant();
         centres
             .entry(k)
             .or_insert_with(|| {
@@ -39,21 +35,21 @@ pub fn poses(points: &[PointRow], spheres: &[String]) -> Vec<PoseRow> {
             })
             .insert(p.sphere.as_str(), Point3::from(p.position()));
     }
-    let mut reference: BTreeMap<(Axis, [u64; 2]), Vec<Point3<f64>>> = BTreeMap::new();
+    let mut reference: BTreeMap<LineKey, Vec<Point3<f64>>> = BTreeMap::new();
     let mut out = Vec::new();
     for k in order {
         let c = &centres[&k];
-        let Some(now): Option<Vec<Point3<f64>>> = spheres.iter().map(|s| c.get(s.as_str()).copied()).collect() else {
+        let Some(now): Option<Vec<Point3<f64>>> =
+            spheres.iter().map(|s| c.get(s.as_str()).copied()).collect()
+        else {
             continue;
         };
-        let [a, b] = k.0.others();
-        let line = (k.0, [k.5[a.index()], k.5[b.index()]]);
-        let first = reference.entry(line).or_insert_with(|| now.clone());
+        let first = reference.entry(k.line()).or_insert_with(|| now.clone());
         let Ok(motion) = rigid_fit(first, &now) else {
             continue;
         };
         let r = quaternion_vector(&motion.rotation);
-        let [roll, pitch, yaw] = roll_pitch_yaw(k.0, &r);
+        let [roll, pitch, yaw] = roll_pitch_yaw(k.axis, &r);
         let residual = (first
             .iter()
             .zip(&now)
@@ -61,14 +57,14 @@ pub fn poses(points: &[PointRow], spheres: &[String]) -> Vec<PoseRow> {
             .sum::<f64>()
             / now.len() as f64)
             .sqrt();
-        let [nx, ny, nz] = k.5.map(f64::from_bits);
+        let [nx, ny, nz] = k.nominal();
         let t = motion.translation.vector;
         out.push(PoseRow {
-            axis: k.0,
-            direction: k.1,
-            run: k.2,
-            target: k.3,
-            capture: k.4,
+            axis: k.axis,
+            direction: k.direction,
+            run: k.run,
+            target: k.target,
+            capture: k.capture,
             nominal_x: nx,
             nominal_y: ny,
             nominal_z: nz,

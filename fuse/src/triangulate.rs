@@ -36,7 +36,11 @@ pub struct Triangulated {
 
 /// Predicted ellipse centre (ideal pixels) of a sphere of radius `radius` at
 /// `x`, and its Jacobian with respect to x (px/mm).
-pub fn predict(camera: &Camera, x: &Point3<f64>, radius: f64) -> Option<(Vector2<f64>, Matrix2x3<f64>)> {
+pub fn predict(
+    camera: &Camera,
+    x: &Point3<f64>,
+    radius: f64,
+) -> Option<(Vector2<f64>, Matrix2x3<f64>)> {
     let c = camera.to_camera(x);
     let d = c.z * c.z - radius * radius;
     if !(c.z > 0.0 && d > 0.0) {
@@ -57,7 +61,10 @@ pub fn predict(camera: &Camera, x: &Point3<f64>, radius: f64) -> Option<(Vector2
 /// normalised coordinates, `x·P₃ − P₁ = 0`, `y·P₃ − P₂ = 0`, P = [R|t].
 pub fn linear(views: &[View<'_>]) -> Result<Point3<f64>> {
     if views.len() < 2 {
-        return Err(FuseError::Instant(format!("a sphere needs two views, has {}", views.len())));
+        return Err(FuseError::Instant(format!(
+            "a sphere needs two views, has {}",
+            views.len()
+        )));
     }
     let mut a = Matrix4::<f64>::zeros();
     for v in views {
@@ -71,14 +78,19 @@ pub fn linear(views: &[View<'_>]) -> Result<Point3<f64>> {
     }
     // Smallest eigenvector of AᵀA.
     let eig = a.symmetric_eigen();
-    let (imin, _) = eig
-        .eigenvalues
-        .iter()
-        .enumerate()
-        .fold((0, f64::INFINITY), |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) });
+    let (imin, _) =
+        eig.eigenvalues
+            .iter()
+            .enumerate()
+            .fold(
+                (0, f64::INFINITY),
+                |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) },
+            );
     let h = eig.eigenvectors.column(imin);
     if h[3].abs() < 1e-12 * h.norm() {
-        return Err(FuseError::Instant("views are parallel: the sphere is at infinity".into()));
+        return Err(FuseError::Instant(
+            "views are parallel: the sphere is at infinity".into(),
+        ));
     }
     Ok(Point3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]))
 }
@@ -94,7 +106,8 @@ impl Residuals for Reprojection<'_> {
         let x = Point3::new(p[0], p[1], p[2]);
         let mut r = DVector::zeros(2 * self.views.len());
         for (i, v) in self.views.iter().enumerate() {
-            let pred = predict(v.camera, &x, self.radius).map_or(Vector2::repeat(f64::NAN), |(q, _)| q);
+            let pred =
+                predict(v.camera, &x, self.radius).map_or(Vector2::repeat(f64::NAN), |(q, _)| q);
             r[2 * i] = pred.x - v.ideal_px.x;
             r[2 * i + 1] = pred.y - v.ideal_px.y;
         }
@@ -105,7 +118,8 @@ impl Residuals for Reprojection<'_> {
         let x = Point3::new(p[0], p[1], p[2]);
         let mut j = DMatrix::zeros(2 * self.views.len(), 3);
         for (i, v) in self.views.iter().enumerate() {
-            let jac = predict(v.camera, &x, self.radius).map_or(Matrix2x3::repeat(f64::NAN), |(_, j)| j);
+            let jac =
+                predict(v.camera, &x, self.radius).map_or(Matrix2x3::repeat(f64::NAN), |(_, j)| j);
             j.view_mut((2 * i, 0), (2, 3)).copy_from(&jac);
         }
         j
@@ -118,8 +132,12 @@ impl Residuals for Reprojection<'_> {
 pub fn triangulate(views: &[View<'_>], radius: f64) -> Result<Triangulated> {
     let start = linear(views)?;
     let problem = Reprojection { views, radius };
-    let sol = lm::minimize(&problem, DVector::from_column_slice(start.coords.as_slice()), &LmOptions::default())
-        .map_err(|e| FuseError::geometry("triangulation", e))?;
+    let sol = lm::minimize(
+        &problem,
+        DVector::from_column_slice(start.coords.as_slice()),
+        &LmOptions::default(),
+    )
+    .map_err(|e| FuseError::geometry("triangulation", e))?;
     let point = Point3::new(sol.params[0], sol.params[1], sol.params[2]);
     Ok(Triangulated {
         point,
@@ -136,9 +154,15 @@ pub fn triangulate(views: &[View<'_>], radius: f64) -> Result<Triangulated> {
 /// together by least squares — for cameras 2 and 3 on an X sweep, x is the
 /// mean of the two cameras' Δx, y comes from camera 3 and z from camera 2.
 /// Returns Δ (mm) and the RMS residual of the equations in pixels.
-pub fn seed_displacement(reference: &[View<'_>], current: &[View<'_>], depths: &[f64]) -> Result<(Vector3<f64>, f64)> {
+pub fn seed_displacement(
+    reference: &[View<'_>],
+    current: &[View<'_>],
+    depths: &[f64],
+) -> Result<(Vector3<f64>, f64)> {
     if reference.len() != current.len() || reference.len() != depths.len() || reference.len() < 2 {
-        return Err(FuseError::Instant("pixel-scale fusion needs the same two or more cameras at both instants".into()));
+        return Err(FuseError::Instant(
+            "pixel-scale fusion needs the same two or more cameras at both instants".into(),
+        ));
     }
     let n = reference.len();
     let mut a = DMatrix::zeros(2 * n, 3);
@@ -163,7 +187,13 @@ pub fn seed_displacement(reference: &[View<'_>], current: &[View<'_>], depths: &
         .solve(&b, 1e-12)
         .map_err(|e| FuseError::Instant(format!("pixel-scale fusion: {e}")))?;
     let res = &a * &d - &b;
-    let rms = (res.iter().zip(&scale).map(|(r, s)| (r * s).powi(2)).sum::<f64>() / n as f64).sqrt();
+    let rms = (res
+        .iter()
+        .zip(&scale)
+        .map(|(r, s)| (r * s).powi(2))
+        .sum::<f64>()
+        / n as f64)
+        .sqrt();
     Ok((Vector3::new(d[0], d[1], d[2]), rms))
 }
 
@@ -175,7 +205,8 @@ mod tests {
     fn rig() -> Vec<Camera> {
         let k = Intrinsics::centred(7966.0, 4096, 3072);
         let look = |pos: Point3<f64>, up: Vector3<f64>| {
-            let mut c = Camera::look_at(pos, Point3::new(0.0, 0.0, 30.0), up, k, 4096, 3072).unwrap();
+            let mut c =
+                Camera::look_at(pos, Point3::new(0.0, 0.0, 30.0), up, k, 4096, 3072).unwrap();
             c.distortion.k1 = -0.04;
             c
         };
@@ -208,7 +239,10 @@ mod tests {
             assert!((p - c.intrinsics.to_pixel(e).coords).norm() < 1e-9);
         }
         let v = views(&cams, &x, 10.0);
-        let problem = Reprojection { views: &v, radius: 10.0 };
+        let problem = Reprojection {
+            views: &v,
+            radius: 10.0,
+        };
         let at = DVector::from_vec(vec![61.0, -39.0, 44.0]);
         assert!(lm::jacobian_error(&problem, &at) < 1e-6);
     }
@@ -232,10 +266,14 @@ mod tests {
         let (a, b) = (Point3::new(-75.0, 0.0, 30.0), Point3::new(75.0, 0.0, 30.0));
         let pair = |x: &Point3<f64>| -> Vec<View<'_>> { views(&cams, x, 10.0)[1..].to_vec() };
         let d_true = (b - a).norm();
-        let d_biased = (triangulate(&pair(&b), 0.0).unwrap().point - triangulate(&pair(&a), 0.0).unwrap().point).norm();
+        let d_biased = (triangulate(&pair(&b), 0.0).unwrap().point
+            - triangulate(&pair(&a), 0.0).unwrap().point)
+            .norm();
         let ppm = (d_biased / d_true - 1.0) * 1e6;
         assert!(ppm > 400.0 && ppm < 560.0, "{ppm} ppm");
-        let d_corrected = (triangulate(&pair(&b), 10.0).unwrap().point - triangulate(&pair(&a), 10.0).unwrap().point).norm();
+        let d_corrected = (triangulate(&pair(&b), 10.0).unwrap().point
+            - triangulate(&pair(&a), 10.0).unwrap().point)
+            .norm();
         assert!((d_corrected - d_true).abs() < 1e-9);
     }
 

@@ -7,7 +7,10 @@
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 
-use formats::{InstantProblemRow, ManifestRow, PointRow, Rig, RigCamera, SphereRow, Truth, read_csv, read_json, write_csv};
+use formats::{
+    InstantProblemRow, ManifestRow, PointRow, Rig, RigCamera, SphereRow, Truth, read_csv,
+    read_json, write_csv,
+};
 use fuse::{FuseError, Inputs, MeasureOptions, Summary, measure};
 use image::{ImageBuffer, Luma};
 
@@ -38,11 +41,19 @@ fn rig(dir: &Path) -> Rig {
 }
 
 fn spheres(dir: &Path) -> Vec<SphereRow> {
-    read_csv(&dir.join("spheres.csv")).unwrap().into_iter().map(|r| r.record).collect()
+    read_csv(&dir.join("spheres.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
 }
 
 fn manifest(dir: &Path) -> Vec<ManifestRow> {
-    read_csv(&dir.join("manifest.csv")).unwrap().into_iter().map(|r| r.record).collect()
+    read_csv(&dir.join("manifest.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
 }
 
 fn run(dir: &Path, out: &str, progress: &(dyn Fn(u64, u64) + Sync)) -> fuse::Result<Summary> {
@@ -62,11 +73,19 @@ fn run(dir: &Path, out: &str, progress: &(dyn Fn(u64, u64) + Sync)) -> fuse::Res
 }
 
 fn points(path: &Path) -> Vec<PointRow> {
-    read_csv(path).unwrap().into_iter().map(|r| r.record).collect()
+    read_csv(path)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
 }
 
 fn problems(dir: &Path) -> Vec<InstantProblemRow> {
-    read_csv(&dir.join("problems.csv")).unwrap().into_iter().map(|r| r.record).collect()
+    read_csv(&dir.join("problems.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
 }
 
 /// Image of `camera` for the i-th instant of the manifest.
@@ -81,7 +100,11 @@ fn image_of(dir: &Path, instant: usize, camera: u8) -> (PathBuf, ManifestRow) {
         }
         k
     };
-    let row = rows.iter().find(|r| r.instant() == keys[instant] && r.camera == camera).unwrap().clone();
+    let row = rows
+        .iter()
+        .find(|r| r.instant() == keys[instant] && r.camera == camera)
+        .unwrap()
+        .clone();
     (dir.join(&row.image), row)
 }
 
@@ -95,12 +118,20 @@ fn paint(path: &Path, camera: &geom::Camera, at: geom::Point3<f64>, r: f64, dn: 
             *p = Luma([dn]);
         }
     }
-    img.save_with_format(path, image::ImageFormat::Tiff).unwrap();
+    img.save_with_format(path, image::ImageFormat::Tiff)
+        .unwrap();
 }
 
 fn true_camera(dir: &Path, id: u8) -> geom::Camera {
     let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
-    truth.cameras.iter().find(|c| c.model.id == id).unwrap().model.to_camera().unwrap()
+    truth
+        .cameras
+        .iter()
+        .find(|c| c.model.id == id)
+        .unwrap()
+        .model
+        .to_camera()
+        .unwrap()
 }
 
 /// True centre of a sphere at an instant.
@@ -150,21 +181,46 @@ fn damaged_frames_are_reported_and_the_rest_measured() {
     let (extra, row3) = image_of(d, 3, 3);
     let cam3 = true_camera(d, 3);
     let a = true_centre(d, &row3, "A");
-    paint(&extra, &cam3, a + geom::Vector3::new(-40.0, 35.0, 0.0), 4.0, 40_000);
+    paint(
+        &extra,
+        &cam3,
+        a + geom::Vector3::new(-40.0, 35.0, 0.0),
+        4.0,
+        40_000,
+    );
     // Instant 4: a twin of sphere B (same size) in camera 3: ambiguous, reported.
     let (twin, row4) = image_of(d, 4, 3);
     let b = true_centre(d, &row4, "B");
     let r_px = 7.5 * cam3.intrinsics.fx / cam3.to_camera(&b).z;
-    paint(&twin, &cam3, b + geom::Vector3::new(-45.0, 30.0, 0.0), r_px, 49_000);
+    paint(
+        &twin,
+        &cam3,
+        b + geom::Vector3::new(-45.0, 30.0, 0.0),
+        r_px,
+        49_000,
+    );
 
     let summary = run(d, "points.csv", &|_, _| {}).unwrap();
     assert_eq!(summary.instants, instants);
     assert_eq!(summary.problems, 3, "{:?}", problems(d));
     assert_eq!(summary.measured, instants - 3);
     let p = problems(d);
-    assert!(p[0].reason.contains("cannot decode") && p[0].image.as_deref() == Some(corrupt.to_str().unwrap()), "{:?}", p[0]);
-    assert!(p[1].reason.contains("sphere C not found") && p[1].camera == Some(2), "{:?}", p[1]);
-    assert!(p[2].reason.contains("ambiguous") && p[2].camera == Some(3), "{:?}", p[2]);
+    assert!(
+        p[0].reason.contains("cannot decode")
+            && p[0].image.as_deref() == Some(corrupt.to_str().unwrap()),
+        "{:?}",
+        p[0]
+    );
+    assert!(
+        p[1].reason.contains("sphere C not found") && p[1].camera == Some(2),
+        "{:?}",
+        p[1]
+    );
+    assert!(
+        p[2].reason.contains("ambiguous") && p[2].camera == Some(3),
+        "{:?}",
+        p[2]
+    );
     // Every measured instant once, with all three spheres.
     let rows = points(&d.join("points.csv"));
     assert_eq!(rows.len(), 3 * (instants - 3));
@@ -240,14 +296,25 @@ fn an_interrupted_run_resumes_without_loss_or_duplicates() {
         rig: &rig,
         spheres: &spheres,
     };
-    let err = measure(&inputs, &d.join("points.csv"), &other, &extract::CpuBackend, false, &|_, _| {}).unwrap_err();
+    let err = measure(
+        &inputs,
+        &d.join("points.csv"),
+        &other,
+        &extract::CpuBackend,
+        false,
+        &|_, _| {},
+    )
+    .unwrap_err();
     assert!(matches!(err, FuseError::ResumeMismatch(_)), "{err}");
     // …with the same ones it finishes the job.
     let resumed = run(d, "points.csv", &|_, _| {}).unwrap();
     assert_eq!(resumed.resumed * 3, kept_lines);
     assert!(resumed.resumed >= 32);
     assert_eq!(resumed.measured, reference.measured);
-    assert_eq!(points(&d.join("points.csv")), points(&d.join("reference.csv")));
+    assert_eq!(
+        points(&d.join("points.csv")),
+        points(&d.join("reference.csv"))
+    );
     assert!(!partial.exists() && !d.join("points.csv.resume.json").exists());
 
     // A finished output is not overwritten silently.

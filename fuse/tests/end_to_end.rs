@@ -46,47 +46,22 @@ fn true_rig(dir: &Path) -> Rig {
     }
 }
 
-/// A sweep line: axis and off-axis nominal coordinates.
-type Line = (formats::Axis, [u64; 2]);
-
-type Key = (formats::Axis, formats::Direction, u32, u32, u32, [u64; 3], String);
-
-fn keyed(rows: &[PointRow]) -> BTreeMap<Key, [f64; 3]> {
-    rows.iter()
-        .map(|p| {
-            (
-                (p.axis, p.direction, p.run, p.target, p.capture, p.nominal().map(f64::to_bits), p.sphere.clone()),
-                p.position(),
-            )
-        })
-        .collect()
-}
-
-/// Per line of sphere A: (true displacement along the axis, measured − true
-/// displacement vector) relative to the line's first instant.
+/// Per instant of sphere A: (true displacement along the axis, measured −
+/// true displacement vector) relative to the line's first instant.
 fn displacement_errors(measured: &[PointRow], truth: &[PointRow]) -> Vec<(f64, [f64; 3])> {
-    let m = keyed(measured);
-    let t = keyed(truth);
-    let mut first: BTreeMap<Line, ([f64; 3], [f64; 3])> = BTreeMap::new();
-    let mut out = Vec::new();
-    for (k, tp) in &t {
-        if k.6 != "A" {
-            continue;
-        }
-        let mp = m.get(k).expect("every instant measured");
-        let [a, b] = k.0.others();
-        let line = (k.0, [k.5[a.index()], k.5[b.index()]]);
-        let (m0, t0) = *first.entry(line).or_insert((*mp, *tp));
-        let dm = [0, 1, 2].map(|i| mp[i] - m0[i]);
-        let dt = [0, 1, 2].map(|i| tp[i] - t0[i]);
-        out.push((dt[k.0.index()], [0, 1, 2].map(|i| dm[i] - dt[i])));
-    }
-    out
+    synth::truth::displacement_errors(measured, truth, "A")
+        .into_iter()
+        .map(|e| (e.travel, e.error))
+        .collect()
 }
 
 fn run(dir: &Path, options: &MeasureOptions, name: &str) -> Vec<PointRow> {
     let rig = true_rig(dir);
-    let spheres: Vec<SphereRow> = read_csv(&dir.join("spheres.csv")).unwrap().into_iter().map(|r| r.record).collect();
+    let spheres: Vec<SphereRow> = read_csv(&dir.join("spheres.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
     let out = dir.join(name);
     let summary = measure(
         &Inputs {
@@ -101,20 +76,42 @@ fn run(dir: &Path, options: &MeasureOptions, name: &str) -> Vec<PointRow> {
         &|_, _| {},
     )
     .unwrap();
-    assert_eq!(summary.problems, 0, "problems: {:?}", std::fs::read_to_string(dir.join("problems.csv")).ok());
-    read_csv(&out).unwrap().into_iter().map(|r| r.record).collect()
+    assert_eq!(
+        summary.problems,
+        0,
+        "problems: {:?}",
+        std::fs::read_to_string(dir.join("problems.csv")).ok()
+    );
+    read_csv(&out)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
 }
 
 #[test]
 fn triangulated_displacements_match_the_truth() {
     let dir = tempfile::tempdir().unwrap();
     campaign(dir.path(), 11);
-    let truth: Vec<PointRow> = read_csv(&dir.path().join("truth_points.csv")).unwrap().into_iter().map(|r| r.record).collect();
+    let truth: Vec<PointRow> = read_csv(&dir.path().join("truth_points.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
 
     let measured = run(dir.path(), &MeasureOptions::default(), "points.csv");
     let errs = displacement_errors(&measured, &truth);
-    let rms = (errs.iter().map(|(_, e)| e.iter().map(|v| v * v).sum::<f64>()).sum::<f64>() / errs.len() as f64).sqrt();
-    println!("sphere A displacement error: {:.2} µm RMS over {} instants", rms * 1e3, errs.len());
+    let rms = (errs
+        .iter()
+        .map(|(_, e)| e.iter().map(|v| v * v).sum::<f64>())
+        .sum::<f64>()
+        / errs.len() as f64)
+        .sqrt();
+    println!(
+        "sphere A displacement error: {:.2} µm RMS over {} instants",
+        rms * 1e3,
+        errs.len()
+    );
     assert!(rms < 4e-3, "{} µm RMS", rms * 1e3);
 
     // Without the bias correction sphere A's displacements are scaled: fit
@@ -136,14 +133,19 @@ fn triangulated_displacements_match_the_truth() {
         sxy / sxx
     };
     let by_axis = |rows: &[PointRow], axis: formats::Axis| -> Vec<(f64, [f64; 3])> {
-        let pick = |r: &[PointRow]| -> Vec<PointRow> { r.iter().filter(|p| p.axis == axis).cloned().collect() };
+        let pick = |r: &[PointRow]| -> Vec<PointRow> {
+            r.iter().filter(|p| p.axis == axis).cloned().collect()
+        };
         displacement_errors(&pick(rows), &pick(&truth))
     };
     for axis in [formats::Axis::X, formats::Axis::Y] {
         let with = slope(&by_axis(&measured, axis), axis.index()) * 1e6;
         let without = slope(&by_axis(&biased, axis), axis.index()) * 1e6;
         println!("{axis}: scale error {with:+.0} ppm corrected, {without:+.0} ppm uncorrected");
-        assert!(without.abs() >= 300.0, "{axis}: only {without} ppm without the correction");
+        assert!(
+            without.abs() >= 300.0,
+            "{axis}: only {without} ppm without the correction"
+        );
         assert!(with.abs() < 60.0, "{axis}: {with} ppm with the correction");
     }
 }
@@ -162,25 +164,37 @@ fn view<'c>(camera: &'c geom::Camera, x: &geom::Point3<f64>) -> fuse::triangulat
 /// the change of depth that camera misalignment gives a displacement).
 fn seed_model(dir: &Path, truth: &[PointRow]) -> Vec<PointRow> {
     let rig = true_rig(dir);
-    let cams: BTreeMap<u8, geom::Camera> = rig.cameras.iter().map(|c| (c.model.id, c.model.to_camera().unwrap())).collect();
-    let mut first: BTreeMap<(formats::Axis, [u64; 2], String), geom::Point3<f64>> = BTreeMap::new();
+    let cams: BTreeMap<u8, geom::Camera> = rig
+        .cameras
+        .iter()
+        .map(|c| (c.model.id, c.model.to_camera().unwrap()))
+        .collect();
+    let mut first: BTreeMap<(formats::LineKey, String), geom::Point3<f64>> = BTreeMap::new();
     truth
         .iter()
         .map(|p| {
-            let [a, b] = p.axis.others();
-            let n = p.nominal().map(f64::to_bits);
             let x = geom::Point3::from(p.position());
-            let x0 = *first.entry((p.axis, [n[a.index()], n[b.index()]], p.sphere.clone())).or_insert(x);
+            let x0 = *first
+                .entry((p.instant().line(), p.sphere.clone()))
+                .or_insert(x);
             // Default cameras: those not looking along the motion.
             let mut e = geom::Vector3::zeros();
             e[p.axis.index()] = 1.0;
-            let used: Vec<&geom::Camera> = cams.values().filter(|c| c.optical_axis().dot(&e).abs() <= 0.7).collect();
+            let used: Vec<&geom::Camera> = cams
+                .values()
+                .filter(|c| c.optical_axis().dot(&e).abs() <= 0.7)
+                .collect();
             let r: Vec<_> = used.iter().map(|c| view(c, &x0)).collect();
             let now: Vec<_> = used.iter().map(|c| view(c, &x)).collect();
             let depths: Vec<f64> = used.iter().map(|c| c.to_camera(&x0).z).collect();
             let (d, _) = fuse::triangulate::seed_displacement(&r, &now, &depths).unwrap();
             let m = x0 + d;
-            PointRow { x: m.x, y: m.y, z: m.z, ..p.clone() }
+            PointRow {
+                x: m.x,
+                y: m.y,
+                z: m.z,
+                ..p.clone()
+            }
         })
         .collect()
 }
@@ -189,7 +203,11 @@ fn seed_model(dir: &Path, truth: &[PointRow]) -> Vec<PointRow> {
 fn seed_fusion_matches_its_model() {
     let dir = tempfile::tempdir().unwrap();
     campaign(dir.path(), 12);
-    let truth: Vec<PointRow> = read_csv(&dir.path().join("truth_points.csv")).unwrap().into_iter().map(|r| r.record).collect();
+    let truth: Vec<PointRow> = read_csv(&dir.path().join("truth_points.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
     let measured = run(
         dir.path(),
         &MeasureOptions {
@@ -198,7 +216,14 @@ fn seed_fusion_matches_its_model() {
         },
         "points.csv",
     );
-    let rms = |errs: &[(f64, [f64; 3])]| (errs.iter().map(|(_, e)| e.iter().map(|v| v * v).sum::<f64>()).sum::<f64>() / errs.len() as f64).sqrt();
+    let rms = |errs: &[(f64, [f64; 3])]| {
+        (errs
+            .iter()
+            .map(|(_, e)| e.iter().map(|v| v * v).sum::<f64>())
+            .sum::<f64>()
+            / errs.len() as f64)
+            .sqrt()
+    };
     let model = seed_model(dir.path(), &truth);
     let against_truth = rms(&displacement_errors(&measured, &truth));
     let model_error = rms(&displacement_errors(&model, &truth));

@@ -140,16 +140,27 @@ impl Camera {
             z.transpose(),
         ]));
         let t = -(r * position.coords);
-        Ok(Self {
+        Ok(Self::pinhole(intrinsics, &r, t, width, height))
+    }
+
+    /// A camera without distortion from K, R and t (`x_cam = R·x_world + t`).
+    pub fn pinhole(
+        intrinsics: Intrinsics,
+        r: &Rotation3<f64>,
+        t: Vector3<f64>,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        Self {
             intrinsics,
             distortion: Distortion::NONE,
             pose: Isometry3::from_parts(
                 Translation3::from(t),
-                UnitQuaternion::from_rotation_matrix(&r),
+                UnitQuaternion::from_rotation_matrix(r),
             ),
             width,
             height,
-        })
+        }
     }
 
     /// World → camera rotation R.
@@ -255,16 +266,7 @@ impl Camera {
     /// Camera (without distortion) from a projection matrix of any scale and sign.
     pub fn from_projection_matrix(p: &Matrix3x4<f64>, width: u32, height: u32) -> Result<Self> {
         let (intrinsics, r, t) = decompose_projection(p)?;
-        Ok(Self {
-            intrinsics,
-            distortion: Distortion::NONE,
-            pose: Isometry3::from_parts(
-                Translation3::from(t),
-                UnitQuaternion::from_rotation_matrix(&r),
-            ),
-            width,
-            height,
-        })
+        Ok(Self::pinhole(intrinsics, &r, t, width, height))
     }
 }
 

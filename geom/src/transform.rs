@@ -165,7 +165,11 @@ mod tests {
         assert!((quaternion_vector(&q) - tiny).norm() < 1e-20);
         let r = rotation_from_vector(tiny);
         assert!((rotation_vector(&r) - tiny).norm() < 1e-19);
-        assert!((SmallError::from_isometry(&Isometry3::new(Vector3::zeros(), tiny)).epsilon - tiny).norm() < 1e-20);
+        assert!(
+            (SmallError::from_isometry(&Isometry3::new(Vector3::zeros(), tiny)).epsilon - tiny)
+                .norm()
+                < 1e-20
+        );
     }
 
     #[test]

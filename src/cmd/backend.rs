@@ -32,17 +32,23 @@ impl BackendChoice {
 /// Backends already opened by this process, by choice: probing the adapters
 /// costs time (and Mesa's Vulkan layers print to stderr while it runs), so a
 /// process that extracts in several steps (the demo) does it once.
-static OPENED: OnceLock<Mutex<Vec<(BackendChoice, Arc<dyn Backend>)>>> = OnceLock::new();
+static OPENED: OnceLock<Mutex<Opened>> = OnceLock::new();
+
+/// Opened backends, by choice.
+type Opened = Vec<(BackendChoice, Arc<dyn Backend>)>;
 
 /// The backend for a choice (`TRINOCULAR_NO_GPU=1` hides every GPU adapter);
 /// when `auto` falls back to the CPU, the reason is logged once on stderr.
 pub fn select_backend(choice: BackendChoice) -> Result<Arc<dyn Backend>> {
     let opened = OPENED.get_or_init(|| Mutex::new(Vec::new()));
-    let mut opened = opened.lock().map_err(|_| anyhow::anyhow!("backend cache poisoned"))?;
+    let mut opened = opened
+        .lock()
+        .map_err(|_| anyhow::anyhow!("backend cache poisoned"))?;
     if let Some((_, b)) = opened.iter().find(|(c, _)| *c == choice) {
         return Ok(Arc::clone(b));
     }
-    let backend: Arc<dyn Backend> = select_backend_logged(choice, &GpuOptions::from_env(), &mut std::io::stderr())?.into();
+    let backend: Arc<dyn Backend> =
+        select_backend_logged(choice, &GpuOptions::from_env(), &mut std::io::stderr())?.into();
     opened.push((choice, Arc::clone(&backend)));
     Ok(backend)
 }

@@ -74,8 +74,18 @@ fn seed_frame(camera: u8, frame: u64) -> Result<synth::Image16> {
     let rig = synth::SynthRig::from_config(&config)?;
     let plan = synth::procedure::Plan::new(&config)?;
     let spheres = plan.spheres_at(&plan.instants[0]);
-    let cam = rig.camera(camera).context("the default rig has no such camera")?;
-    Ok(cam.render(&spheres, synth::NoiseKey { seed: 1, frame, camera }, config.render.max_depth)?)
+    let cam = rig
+        .camera(camera)
+        .context("the default rig has no such camera")?;
+    Ok(cam.render(
+        &spheres,
+        synth::NoiseKey {
+            seed: 1,
+            frame,
+            camera,
+        },
+        config.render.max_depth,
+    )?)
 }
 
 fn write_tiff(path: &Path, img: &synth::Image16) -> Result<()> {
@@ -90,7 +100,14 @@ fn write_tiff(path: &Path, img: &synth::Image16) -> Result<()> {
         description: String::new(),
     };
     let mut bytes = std::io::Cursor::new(Vec::with_capacity(img.len() * 2 + 4096));
-    synth::encode::encode_tiff(&mut bytes, img, 16, &meta, synth::config::TiffCompression::None, path)?;
+    synth::encode::encode_tiff(
+        &mut bytes,
+        img,
+        16,
+        &meta,
+        synth::config::TiffCompression::None,
+        path,
+    )?;
     formats::write_atomic(path, bytes.get_ref())?;
     Ok(())
 }
@@ -109,7 +126,12 @@ fn bench_extract(args: &ExtractArgs) -> Result<()> {
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
 
     let sum = median_time(args.repeat, || {
-        let s: u64 = one.install(|| std::hint::black_box(frame.pixels).iter().map(|&p| u64::from(p)).sum());
+        let s: u64 = one.install(|| {
+            std::hint::black_box(frame.pixels)
+                .iter()
+                .map(|&p| u64::from(p))
+                .sum()
+        });
         std::hint::black_box(s);
     });
     let ext1 = median_time(args.repeat, || {
@@ -117,7 +139,11 @@ fn bench_extract(args: &ExtractArgs) -> Result<()> {
         std::hint::black_box(r.is_ok());
     });
     let extn = median_time(args.repeat, || {
-        std::hint::black_box(backend.extract(std::hint::black_box(frame), &params).is_ok());
+        std::hint::black_box(
+            backend
+                .extract(std::hint::black_box(frame), &params)
+                .is_ok(),
+        );
     });
     let auto = ExtractParams::default();
     let ext_auto = median_time(args.repeat, || {
@@ -126,11 +152,18 @@ fn bench_extract(args: &ExtractArgs) -> Result<()> {
     // A sequence of frames in memory (the same buffer, uploaded each time on a GPU).
     let sequence = vec![frame; args.repeat.max(8)];
     let mut failures = 0usize;
-    backend.extract_frames(&sequence[..2], &params, &mut |_, r| failures += usize::from(r.is_err()));
+    backend.extract_frames(&sequence[..2], &params, &mut |_, r| {
+        failures += usize::from(r.is_err())
+    });
     let start = Instant::now();
-    backend.extract_frames(&sequence, &params, &mut |_, r| failures += usize::from(r.is_err()));
+    backend.extract_frames(&sequence, &params, &mut |_, r| {
+        failures += usize::from(r.is_err())
+    });
     let pipelined = sequence.len() as f64 / start.elapsed().as_secs_f64();
-    anyhow::ensure!(failures == 0, "{failures} in-memory benchmark frames failed to extract");
+    anyhow::ensure!(
+        failures == 0,
+        "{failures} in-memory benchmark frames failed to extract"
+    );
 
     let temp;
     let dir = match &args.dir {
@@ -160,16 +193,32 @@ fn bench_extract(args: &ExtractArgs) -> Result<()> {
     // Decode + extract over the folder (the `extract` command's path).
     let mut failures = 0usize;
     let start = Instant::now();
-    extract::extract_files(&files, backend.as_ref(), &params, Some(16), |_, _, r| failures += usize::from(r.is_err()));
+    extract::extract_files(&files, backend.as_ref(), &params, Some(16), |_, _, r| {
+        failures += usize::from(r.is_err())
+    });
     let folder = start.elapsed();
-    anyhow::ensure!(failures == 0, "{failures} benchmark frames failed to extract");
+    anyhow::ensure!(
+        failures == 0,
+        "{failures} benchmark frames failed to extract"
+    );
 
     let fps = files.len() as f64 / folder.as_secs_f64();
     let mpx = f64::from(frame.width) * f64::from(frame.height) / 1e6;
     println!("backend: {}", backend.name());
-    println!("frame: {}×{} 16-bit, {blobs} blobs, threshold 6000 DN", frame.width, frame.height);
-    println!("plain sum, 1 thread:            {:8.3} ms  ({:.1} GB/s)", ms(sum), 2.0 * mpx / 1e3 / sum.as_secs_f64());
-    println!("extract in memory, 1 thread:    {:8.3} ms  ({:.2}× the plain sum)", ms(ext1), ext1.as_secs_f64() / sum.as_secs_f64());
+    println!(
+        "frame: {}×{} 16-bit, {blobs} blobs, threshold 6000 DN",
+        frame.width, frame.height
+    );
+    println!(
+        "plain sum, 1 thread:            {:8.3} ms  ({:.1} GB/s)",
+        ms(sum),
+        2.0 * mpx / 1e3 / sum.as_secs_f64()
+    );
+    println!(
+        "extract in memory, 1 thread:    {:8.3} ms  ({:.2}× the plain sum)",
+        ms(ext1),
+        ext1.as_secs_f64() / sum.as_secs_f64()
+    );
     println!(
         "extract in memory, {} threads:   {:8.3} ms  ({:.0} frames/s)",
         rayon::current_num_threads(),
@@ -177,8 +226,14 @@ fn bench_extract(args: &ExtractArgs) -> Result<()> {
         1.0 / extn.as_secs_f64()
     );
     println!("  with automatic threshold:     {:8.3} ms", ms(ext_auto));
-    println!("pipelined in memory, {} frames: {pipelined:8.1} frames/s", sequence.len());
-    println!("decode TIFF, 1 thread:          {:8.3} ms per frame (reused buffers)", ms(decode));
+    println!(
+        "pipelined in memory, {} frames: {pipelined:8.1} frames/s",
+        sequence.len()
+    );
+    println!(
+        "decode TIFF, 1 thread:          {:8.3} ms per frame (reused buffers)",
+        ms(decode)
+    );
     println!(
         "decode + extract, folder of {}: {:8.1} frames/s ({:.0} Mpx/s)",
         files.len(),

@@ -4,7 +4,6 @@
 //! measured figures beside the true ones. Each step runs the same code as its
 //! command, and the commands are printed so that every step can be rerun.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -63,7 +62,12 @@ fn path(p: &Path) -> String {
 }
 
 /// Run one step: print its command line, parse it, run it, report the time.
-fn step<A: ClapArgs + FromArgMatches>(title: &str, name: &'static str, args: Vec<String>, run: fn(&A) -> Result<()>) -> Result<()> {
+fn step<A: ClapArgs + FromArgMatches>(
+    title: &str,
+    name: &'static str,
+    args: Vec<String>,
+    run: fn(&A) -> Result<()>,
+) -> Result<()> {
     let mut line = name.split(' ').map(str::to_string).collect::<Vec<_>>();
     line.extend(args.iter().cloned());
     show(title, &line);
@@ -75,33 +79,18 @@ fn step<A: ClapArgs + FromArgMatches>(title: &str, name: &'static str, args: Vec
 }
 
 fn figure(v: &Value, path: &[&str]) -> Option<f64> {
-    path.iter().try_fold(v, |v, k| v.get(*k)).and_then(Value::as_f64)
-}
-
-/// Sphere-A displacement errors against the truth: per line, the measured
-/// displacement from the line's first instant minus the true one; RMS (mm)
-/// over every instant, and the number of instants compared.
-fn displacement_rms(measured: &[PointRow], truth: &[PointRow], sphere: &str) -> Option<(f64, usize)> {
-    type Key = (formats::Axis, formats::Direction, u32, u32, u32, [u64; 3]);
-    let key = |p: &PointRow| -> Key { (p.axis, p.direction, p.run, p.target, p.capture, p.nominal().map(f64::to_bits)) };
-    let truth: BTreeMap<Key, [f64; 3]> = truth.iter().filter(|p| p.sphere == sphere).map(|p| (key(p), p.position())).collect();
-    let mut first: BTreeMap<(formats::Axis, [u64; 2]), ([f64; 3], [f64; 3])> = BTreeMap::new();
-    let (mut ss, mut n) = (0.0, 0usize);
-    for p in measured.iter().filter(|p| p.sphere == sphere) {
-        let Some(t) = truth.get(&key(p)) else { continue };
-        let k = key(p);
-        let [a, b] = p.axis.others();
-        let (m0, t0) = *first.entry((p.axis, [k.5[a.index()], k.5[b.index()]])).or_insert((p.position(), *t));
-        let m = p.position();
-        ss += (0..3).map(|i| ((m[i] - m0[i]) - (t[i] - t0[i])).powi(2)).sum::<f64>();
-        n += 1;
-    }
-    (n > 0).then(|| ((ss / n as f64).sqrt(), n))
+    path.iter()
+        .try_fold(v, |v, k| v.get(*k))
+        .and_then(Value::as_f64)
 }
 
 /// Largest |measured − true| of roll, pitch and yaw over the targets of an axis's main line (µrad).
 fn angular_worst(report: &Value, truth: &Value, axis: &str) -> Option<f64> {
-    let targets = |v: &Value| -> Option<Vec<Value>> { v.pointer(&format!("/axes/{axis}/angular/targets"))?.as_array().cloned() };
+    let targets = |v: &Value| -> Option<Vec<Value>> {
+        v.pointer(&format!("/axes/{axis}/angular/targets"))?
+            .as_array()
+            .cloned()
+    };
     let (m, t) = (targets(report)?, targets(truth)?);
     let mut worst: f64 = 0.0;
     for (a, b) in m.iter().zip(&t) {
@@ -114,7 +103,10 @@ fn angular_worst(report: &Value, truth: &Value, axis: &str) -> Option<f64> {
 
 /// Print measured against true figures.
 fn compare(report: &Value, truth: &Value) {
-    println!("\n{:<34} {:>12} {:>12} {:>10}", "figure (µm, µrad)", "measured", "true", "difference");
+    println!(
+        "\n{:<34} {:>12} {:>12} {:>10}",
+        "figure (µm, µrad)", "measured", "true", "difference"
+    );
     let row = |label: String, path: Vec<&str>| {
         if let (Some(m), Some(t)) = (figure(report, &path), figure(truth, &path)) {
             println!("{label:<34} {m:>12.2} {t:>12.2} {:>+10.2}", m - t);
@@ -129,15 +121,24 @@ fn compare(report: &Value, truth: &Value) {
             ("M_um", "M  mean deviation"),
             ("seed_3sigma_um", "seed 3σ positioning error"),
         ] {
-            row(format!("{axis} {label}"), vec!["axes", axis, "positioning", key]);
+            row(
+                format!("{axis} {label}"),
+                vec!["axes", axis, "positioning", key],
+            );
         }
         for dir in ["X", "Y", "Z"] {
             for (key, what) in [("lsq_um", "LSQ"), ("min_zone_um", "min zone")] {
-                row(format!("{axis} straightness in {dir}, {what}"), vec!["axes", axis, "straightness", dir, key]);
+                row(
+                    format!("{axis} straightness in {dir}, {what}"),
+                    vec!["axes", axis, "straightness", dir, key],
+                );
             }
         }
         for key in ["roll_urad", "pitch_urad", "yaw_urad"] {
-            row(format!("{axis} {} range", key.trim_end_matches("_urad")), vec!["axes", axis, "angular", key]);
+            row(
+                format!("{axis} {} range", key.trim_end_matches("_urad")),
+                vec!["axes", axis, "angular", key],
+            );
         }
     }
     row("flatness, LSQ".into(), vec!["flatness", "lsq_um"]);
@@ -164,8 +165,19 @@ pub fn run(args: &Args) -> Result<()> {
         "1/4 render a campaign with known errors",
         "synth",
         [
-            "campaign", "--out", &path(&campaign), "--width", &args.width.to_string(), "--height", &height.to_string(),
-            "--targets", &args.targets.to_string(), "--runs", &args.runs.to_string(), "--captures", &args.captures.to_string(),
+            "campaign",
+            "--out",
+            &path(&campaign),
+            "--width",
+            &args.width.to_string(),
+            "--height",
+            &height.to_string(),
+            "--targets",
+            &args.targets.to_string(),
+            "--runs",
+            &args.runs.to_string(),
+            "--captures",
+            &args.captures.to_string(),
         ]
         .map(str::to_string)
         .to_vec(),
@@ -177,8 +189,16 @@ pub fn run(args: &Args) -> Result<()> {
         "2/4 calibrate the cameras from the rendered 3-D target",
         "calibrate",
         vec![
-            "--target".into(), c("target.csv"), "--nominal".into(), c("nominal.json"), "--images".into(),
-            c("calib/cam1.tif"), c("calib/cam2.tif"), c("calib/cam3.tif"), "--out".into(), rig.clone(),
+            "--target".into(),
+            c("target.csv"),
+            "--nominal".into(),
+            c("nominal.json"),
+            "--images".into(),
+            c("calib/cam1.tif"),
+            c("calib/cam2.tif"),
+            c("calib/cam3.tif"),
+            "--out".into(),
+            rig.clone(),
         ],
         cmd::calibrate::run,
     )?;
@@ -187,8 +207,15 @@ pub fn run(args: &Args) -> Result<()> {
         "3/4 measure every instant",
         "measure",
         vec![
-            "--rig".into(), rig, "--manifest".into(), c("manifest.csv"), "--spheres".into(), c("spheres.csv"),
-            "--out".into(), points.clone(), "--force".into(),
+            "--rig".into(),
+            rig,
+            "--manifest".into(),
+            c("manifest.csv"),
+            "--spheres".into(),
+            c("spheres.csv"),
+            "--out".into(),
+            points.clone(),
+            "--force".into(),
         ],
         cmd::measure::run,
     )?;
@@ -202,19 +229,34 @@ pub fn run(args: &Args) -> Result<()> {
 
     let report: Value = formats::read_json(&report_dir.join("report.json"))?;
     let truth: Value = formats::read_json(&campaign.join("truth.json"))?;
-    let truth_figures = truth
-        .get("figures")
-        .with_context(|| format!("{}: no reference figures", campaign.join("truth.json").display()))?;
+    let truth_figures = truth.get("figures").with_context(|| {
+        format!(
+            "{}: no reference figures",
+            campaign.join("truth.json").display()
+        )
+    })?;
     compare(&report, truth_figures);
-    let read = |p: &Path| -> Result<Vec<PointRow>> { Ok(formats::read_csv(p)?.into_iter().map(|r| r.record).collect()) };
+    let read = |p: &Path| -> Result<Vec<PointRow>> {
+        Ok(formats::read_csv(p)?
+            .into_iter()
+            .map(|r| r.record)
+            .collect())
+    };
     let measured = read(&out.join("points.csv"))?;
     let exact = read(&campaign.join("truth_points.csv"))?;
-    if let Some((rms, n)) = displacement_rms(&measured, &exact, "A") {
-        println!("\nsphere A displacement from each line's first instant: {:.2} µm RMS against the truth ({n} instants)", rms * 1e3);
+    let errors = synth::truth::displacement_errors(&measured, &exact, "A");
+    if let Some(rms) = synth::truth::rms(&errors) {
+        let n = errors.len();
+        println!(
+            "\nsphere A displacement from each line's first instant: {:.2} µm RMS against the truth ({n} instants)",
+            rms * 1e3
+        );
     }
     for axis in ["X", "Y"] {
         if let Some(w) = angular_worst(&report, truth_figures, axis) {
-            println!("{axis}: roll, pitch, yaw per target: largest difference from the truth {w:.1} µrad");
+            println!(
+                "{axis}: roll, pitch, yaw per target: largest difference from the truth {w:.1} µrad"
+            );
         }
     }
     println!(

@@ -69,11 +69,13 @@ impl ExtractOptions {
     pub fn params(&self) -> Result<ExtractParams> {
         let threshold = match self.threshold.as_str() {
             "auto" => Threshold::Auto { k: self.k },
-            "local" => Threshold::Local { k: self.k, mesh: self.mesh },
-            t => Threshold::Fixed(
-                t.parse()
-                    .with_context(|| format!("--threshold {t}: expected a level in DN, 'auto' or 'local'"))?,
-            ),
+            "local" => Threshold::Local {
+                k: self.k,
+                mesh: self.mesh,
+            },
+            t => Threshold::Fixed(t.parse().with_context(|| {
+                format!("--threshold {t}: expected a level in DN, 'auto' or 'local'")
+            })?),
         };
         let params = ExtractParams {
             threshold,
@@ -126,9 +128,9 @@ pub fn expand_images(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|p| {
                     p.is_file()
-                        && p.extension()
-                            .and_then(|e| e.to_str())
-                            .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "tif" | "tiff" | "png"))
+                        && p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                            matches!(e.to_ascii_lowercase().as_str(), "tif" | "tiff" | "png")
+                        })
                 })
                 .collect();
             if found.is_empty() {
@@ -152,68 +154,79 @@ pub fn problems_path(out: &Path) -> PathBuf {
 pub fn run(args: &Args) -> Result<()> {
     let params = args.options.params()?;
     let backend = args.options.backend()?;
-    let depth = args.bit_depth.as_deref().map(|d| if d == "8" { 8 } else { 16 });
+    let depth = args
+        .bit_depth
+        .as_deref()
+        .map(|d| if d == "8" { 8 } else { 16 });
     let files = expand_images(&args.images)?;
     let mut out = AtomicFile::create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);
     let mut problems: Vec<ProblemRow> = Vec::new();
     let mut write_error: Option<anyhow::Error> = None;
     let bar = progress::bar(files.len() as u64, "extract");
-    extract::extract_files(&files, backend.as_ref(), &params, depth, |_, path, result| {
-        bar.inc(1);
-        let name = path.display().to_string();
-        match result {
-            Ok(frame) => {
-                for (i, b) in frame.blobs.iter().enumerate() {
-                    let e = b.ellipse();
-                    let row = BlobRow {
-                        image: name.clone(),
-                        blob: i as u32,
-                        u: b.u,
-                        v: b.v,
-                        area_px: b.area_px,
-                        diameter_px: b.diameter_px(),
-                        peak: b.peak,
-                        saturated: b.saturated(),
-                        touches_border: b.touches_border,
-                        sphere: None,
-                        signal: b.signal() as f64,
-                        major_px: e.major_px,
-                        minor_px: e.minor_px,
-                        orientation_rad: e.orientation_rad,
-                        circularity: b.circularity(),
-                        threshold: frame.threshold.clone(),
-                        camera_model: frame.metadata.model.clone(),
-                        camera_serial: frame.metadata.serial.clone(),
-                        datetime: frame.metadata.datetime.clone(),
-                        exposure_s: frame.metadata.exposure_s,
-                    };
-                    if let Err(e) = csv.serialize(row) {
-                        write_error.get_or_insert(e.into());
+    extract::extract_files(
+        &files,
+        backend.as_ref(),
+        &params,
+        depth,
+        |_, path, result| {
+            bar.inc(1);
+            let name = path.display().to_string();
+            match result {
+                Ok(frame) => {
+                    for (i, b) in frame.blobs.iter().enumerate() {
+                        let e = b.ellipse();
+                        let row = BlobRow {
+                            image: name.clone(),
+                            blob: i as u32,
+                            u: b.u,
+                            v: b.v,
+                            area_px: b.area_px,
+                            diameter_px: b.diameter_px(),
+                            peak: b.peak,
+                            saturated: b.saturated(),
+                            touches_border: b.touches_border,
+                            sphere: None,
+                            signal: b.signal() as f64,
+                            major_px: e.major_px,
+                            minor_px: e.minor_px,
+                            orientation_rad: e.orientation_rad,
+                            circularity: b.circularity(),
+                            threshold: frame.threshold.clone(),
+                            camera_model: frame.metadata.model.clone(),
+                            camera_serial: frame.metadata.serial.clone(),
+                            datetime: frame.metadata.datetime.clone(),
+                            exposure_s: frame.metadata.exposure_s,
+                        };
+                        if let Err(e) = csv.serialize(row) {
+                            write_error.get_or_insert(e.into());
+                        }
                     }
                 }
+                Err(e) => {
+                    bar.suspend(|| eprintln!("trinocular: warning: {e}"));
+                    problems.push(ProblemRow {
+                        item: name,
+                        reason: e.to_string(),
+                    });
+                }
             }
-            Err(e) => {
-                bar.suspend(|| eprintln!("trinocular: warning: {e}"));
-                problems.push(ProblemRow {
-                    item: name,
-                    reason: e.to_string(),
-                });
-            }
-        }
-    });
+        },
+    );
     bar.finish_and_clear();
     if let Some(e) = write_error {
         return Err(e.context(format!("{}", args.out.display())));
     }
-    csv.flush().with_context(|| format!("{}", args.out.display()))?;
+    csv.flush()
+        .with_context(|| format!("{}", args.out.display()))?;
     drop(csv);
     out.commit()?;
     let problems_file = problems_path(&args.out);
     if problems.is_empty() {
         // A stale problems.csv from an earlier run would mislead.
         if problems_file.exists() {
-            std::fs::remove_file(&problems_file).with_context(|| format!("{}", problems_file.display()))?;
+            std::fs::remove_file(&problems_file)
+                .with_context(|| format!("{}", problems_file.display()))?;
         }
         return Ok(());
     }

@@ -38,7 +38,7 @@ pub struct Args {
     /// Element to fit.
     #[arg(value_enum)]
     kind: Kind,
-    /// Points: CSV with columns x,y[,z] (mm), or a NIST `.ds` file.
+    /// Points: CSV with columns `x,y[,z]` (mm), or a NIST `.ds` file.
     file: PathBuf,
 }
 

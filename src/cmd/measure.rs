@@ -55,7 +55,10 @@ pub struct Args {
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
     let rig: Rig = read_json(&args.rig)?;
-    let spheres: Vec<SphereRow> = read_csv(&args.spheres)?.into_iter().map(|r| r.record).collect();
+    let spheres: Vec<SphereRow> = read_csv(&args.spheres)?
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
     let options = MeasureOptions {
         fusion: match args.fusion {
             FusionArg::Triangulate => Fusion::Triangulate,
@@ -88,7 +91,11 @@ pub fn run(args: &Args) -> Result<()> {
         "measured {} of {} instants{} → {}",
         summary.measured,
         summary.instants,
-        if summary.resumed > 0 { format!(" ({} resumed from an interrupted run)", summary.resumed) } else { String::new() },
+        if summary.resumed > 0 {
+            format!(" ({} resumed from an interrupted run)", summary.resumed)
+        } else {
+            String::new()
+        },
         summary.points.display()
     );
     match &summary.problems_file {

@@ -766,8 +766,21 @@ impl Config {
         finite("target.centre", &t.centre)?;
         positive("target.marker_diameter_mm", t.marker_diameter_mm)?;
         non_negative("target.jitter_mm", t.jitter_mm)?;
-        if t.jitter_mm >= 0.25 * t.spacing_mm.min(if t.depth_step_mm > 0.0 { t.depth_step_mm } else { f64::INFINITY }) {
-            return Err(bad("target.jitter_mm", format!("{} mm must stay below a quarter of the lattice pitch", t.jitter_mm)));
+        if t.jitter_mm
+            >= 0.25
+                * t.spacing_mm.min(if t.depth_step_mm > 0.0 {
+                    t.depth_step_mm
+                } else {
+                    f64::INFINITY
+                })
+        {
+            return Err(bad(
+                "target.jitter_mm",
+                format!(
+                    "{} mm must stay below a quarter of the lattice pitch",
+                    t.jitter_mm
+                ),
+            ));
         }
         non_negative("target.radiance_e", t.radiance_e)?;
 

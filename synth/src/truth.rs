@@ -210,3 +210,58 @@ pub fn campaign_truth(
         extra,
     })
 }
+
+/// How far a measured sphere moved from the first instant of its sweep line,
+/// against how far it truly moved.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DisplacementError {
+    /// The instant.
+    pub instant: formats::InstantKey,
+    /// True displacement along the moving axis since the line's first instant (mm).
+    pub travel: f64,
+    /// Measured minus true displacement vector (mm).
+    pub error: [f64; 3],
+}
+
+/// Displacement errors of `sphere` over every instant present in both
+/// `measured` and `truth` (points.csv rows), in the order of `measured`;
+/// each line's reference is its first instant in `measured`.
+pub fn displacement_errors(
+    measured: &[PointRow],
+    truth: &[PointRow],
+    sphere: &str,
+) -> Vec<DisplacementError> {
+    let exact: BTreeMap<formats::InstantKey, [f64; 3]> = truth
+        .iter()
+        .filter(|p| p.sphere == sphere)
+        .map(|p| (p.instant(), p.position()))
+        .collect();
+    let mut first: BTreeMap<formats::LineKey, ([f64; 3], [f64; 3])> = BTreeMap::new();
+    measured
+        .iter()
+        .filter(|p| p.sphere == sphere)
+        .filter_map(|p| {
+            let key = p.instant();
+            let t = *exact.get(&key)?;
+            let m = p.position();
+            let (m0, t0) = *first.entry(key.line()).or_insert((m, t));
+            let a = key.axis.index();
+            Some(DisplacementError {
+                instant: key,
+                travel: t[a] - t0[a],
+                error: [0, 1, 2].map(|i| (m[i] - m0[i]) - (t[i] - t0[i])),
+            })
+        })
+        .collect()
+}
+
+/// Root mean square length of displacement errors (mm); `None` when there are none.
+pub fn rms(errors: &[DisplacementError]) -> Option<f64> {
+    (!errors.is_empty()).then(|| {
+        let ss: f64 = errors
+            .iter()
+            .map(|e| e.error.iter().map(|v| v * v).sum::<f64>())
+            .sum();
+        (ss / errors.len() as f64).sqrt()
+    })
+}

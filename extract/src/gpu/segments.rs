@@ -12,9 +12,9 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::Result;
 use crate::label::{Labelling, Run};
 use crate::threshold::Level;
-use crate::Result;
 
 /// One segment as the kernel writes it (`Segment` in runs.wgsl).
 #[repr(C)]
