@@ -11,29 +11,25 @@ use extract::{Backend, CpuBackend, ExtractParams, FrameView, Threshold};
 const W: u32 = 4096;
 const H: u32 = 3072;
 
-/// A frame like the seed rig's: background ≈ 1000 DN with noise, three
-/// uniform discs of 158, 118 and 79 px radius (the 20/15/10 mm spheres at 460 mm).
+/// The seed rig's frame: camera 2 of the renderer's default campaign at its
+/// first instant (spheres A, B, C of 20, 15, 10 mm at ≈ 460 mm, full noise).
 fn seed_frame() -> Vec<u16> {
-    let mut state = 0x2545_F491_4F6C_DD1Du64;
-    let discs = [
-        (1200.0, 1500.0, 158.0),
-        (2300.0, 900.0, 118.0),
-        (3100.0, 2200.0, 79.0),
-    ];
-    (0..H)
-        .flat_map(|y| (0..W).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let noise = (state >> 58) as u16; // 0..63
-            let inside = discs.iter().any(|&(cx, cy, r)| {
-                let (dx, dy) = (f64::from(x) - cx, f64::from(y) - cy);
-                dx * dx + dy * dy <= r * r
-            });
-            if inside { 40_000 + noise } else { 1000 + noise }
-        })
-        .collect()
+    let config = synth::Config::default();
+    let rig = synth::SynthRig::from_config(&config).unwrap();
+    let plan = synth::procedure::Plan::new(&config).unwrap();
+    let spheres = plan.spheres_at(&plan.instants[0]);
+    let key = synth::NoiseKey {
+        seed: 1,
+        frame: 0,
+        camera: 2,
+    };
+    let img = rig
+        .camera(2)
+        .unwrap()
+        .render(&spheres, key, config.render.max_depth)
+        .unwrap();
+    assert_eq!((img.width(), img.height()), (W, H));
+    img.into_raw()
 }
 
 fn main() {
