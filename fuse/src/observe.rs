@@ -7,8 +7,10 @@
 //! is the centroid of the light in the ideal image, where a sphere's outline
 //! is an exact ellipse.
 
+use std::cell::Cell;
+
 use extract::{Blob, Extraction, FrameView, PixelMap, Weighting, mapped_centroid};
-use geom::{Camera, Point2};
+use geom::{Camera, Point2, Vector2};
 
 /// Circularity (minor/major moment axis) below which a blob is not a sphere image.
 pub const MIN_CIRCULARITY: f64 = 0.7;
@@ -27,15 +29,27 @@ pub struct Candidate {
     pub rejected: Option<&'static str>,
 }
 
-/// The camera's undistortion as a pixel map (observed → ideal pixel, area Jacobian).
-struct Undistortion<'a>(&'a Camera);
+/// The camera's undistortion as a pixel map (observed → ideal pixel, area
+/// Jacobian). Pixels come run by run, so each is solved starting from the
+/// previous pixel's solution: one or two Newton steps instead of several,
+/// converged to the same tolerance.
+struct Undistortion<'a> {
+    camera: &'a Camera,
+    last: Cell<Option<(Point2<f64>, Vector2<f64>)>>,
+}
 
 impl PixelMap for Undistortion<'_> {
     fn map(&self, u: f64, v: f64) -> Option<([f64; 2], f64)> {
-        self.0
-            .undistort_pixel_area(Point2::new(u, v))
-            .ok()
-            .map(|(p, j)| ([p.x, p.y], j))
+        let observed = Point2::new(u, v);
+        let (p, j, n) = match self.last.get() {
+            Some(near) => self.camera.undistort_pixel_area_near(observed, near).ok()?,
+            None => {
+                let (p, j) = self.camera.undistort_pixel_area(observed).ok()?;
+                (p, j, self.camera.intrinsics.to_normalized(p))
+            }
+        };
+        self.last.set(Some((observed, n)));
+        Some(([p.x, p.y], j))
     }
 }
 
@@ -57,7 +71,10 @@ pub fn candidates(
     extraction: &Extraction,
     weighting: Weighting,
 ) -> Vec<Candidate> {
-    let map = Undistortion(camera);
+    let map = Undistortion {
+        camera,
+        last: Cell::new(None),
+    };
     extraction
         .blobs
         .iter()

@@ -270,7 +270,10 @@ fn an_interrupted_run_resumes_without_loss_or_duplicates() {
     let reference = run(d, "reference.csv", &|_, _| {}).unwrap();
     assert_eq!(reference.problems, 0);
     // The same bytes on one thread as on many.
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     one.install(|| run(d, "single.csv", &|_, _| {})).unwrap();
     assert_eq!(
         std::fs::read(d.join("single.csv")).unwrap(),

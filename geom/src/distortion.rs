@@ -10,6 +10,10 @@ use crate::{GeomError, Result};
 
 /// Maximum Newton iterations of [`Distortion::undistort`].
 const MAX_UNDISTORT_ITERATIONS: usize = 100;
+/// Newton aims this factor below the requested tolerance.
+const AIM_BELOW_TOLERANCE: f64 = 10.0;
+/// Smallest fraction of a Newton step tried before giving up.
+const MIN_STEP_SCALE: f64 = 1e-6;
 
 /// Brown distortion coefficients: radial k1, k2, k3 and tangential p1, p2.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -77,17 +81,37 @@ impl Distortion {
     /// whose distorted image is `distorted`, until `‖distort(x) − x_d‖ ≤ tolerance`
     /// (normalised units; the camera converts a pixel tolerance).
     pub fn undistort(&self, distorted: Vector2<f64>, tolerance: f64) -> Result<Vector2<f64>> {
-        if !(distorted.x.is_finite() && distorted.y.is_finite()) {
+        self.undistort_from(distorted, distorted, tolerance)
+    }
+
+    /// [`Distortion::undistort`] starting the iteration at `start` (e.g. the
+    /// solution for a neighbouring point, which one or two Newton steps then
+    /// refine); the result is converged to the same tolerance.
+    pub fn undistort_from(
+        &self,
+        distorted: Vector2<f64>,
+        start: Vector2<f64>,
+        tolerance: f64,
+    ) -> Result<Vector2<f64>> {
+        if !(distorted.x.is_finite()
+            && distorted.y.is_finite()
+            && start.x.is_finite()
+            && start.y.is_finite())
+        {
             return Err(GeomError::NonFinite("undistort"));
         }
         if self.is_none() {
             return Ok(distorted);
         }
-        let mut x = distorted;
+        // Newton aims a decade below the tolerance (margin for the rounding of
+        // whoever re-distorts the result) and accepts anything within it once
+        // no step can improve further (the floating-point floor).
+        let aim = tolerance / AIM_BELOW_TOLERANCE;
+        let mut x = start;
         let mut err = self.distort(x) - distorted;
         let mut norm = err.norm();
         for _ in 0..MAX_UNDISTORT_ITERATIONS {
-            if norm <= tolerance {
+            if norm <= aim {
                 return Ok(x);
             }
             let step = self
@@ -108,18 +132,16 @@ impl Distortion {
                     norm = cand_norm;
                     break;
                 }
+                if norm <= tolerance {
+                    return Ok(x);
+                }
                 scale *= 0.5;
-                if scale < 1e-6 {
-                    // No decrease possible: at the floating-point floor.
-                    return if norm <= tolerance * 1e3 {
-                        Ok(x)
-                    } else {
-                        Err(GeomError::NotConverged {
-                            what: "undistortion",
-                            iterations: MAX_UNDISTORT_ITERATIONS,
-                            last_step: norm,
-                        })
-                    };
+                if scale < MIN_STEP_SCALE {
+                    return Err(GeomError::NotConverged {
+                        what: "undistortion",
+                        iterations: MAX_UNDISTORT_ITERATIONS,
+                        last_step: norm,
+                    });
                 }
             }
         }
