@@ -382,8 +382,11 @@ impl ErrorCurve {
 pub struct TargetConfig {
     /// Lattice size n (markers = n²); must be coprime with 6.
     pub grid: u32,
-    /// Lattice pitch in X and Y (mm).
-    pub spacing_mm: f64,
+    /// Lattice pitch along X and along Y (mm). The target should span the
+    /// volume the spheres travel through: a camera calibrated on a smaller
+    /// target is extrapolated at the ends of the travel, which shows first in
+    /// the angular errors (a sphere set's lever is only ≈ 8 mm).
+    pub spacing_mm: [f64; 2],
     /// Lattice pitch in Z (mm).
     pub depth_step_mm: f64,
     /// Centre of the lattice, world frame (mm).
@@ -761,18 +764,21 @@ impl Config {
                 format!("{} must be ≥ 5 and coprime with 6 (5, 7, 11, ...)", t.grid),
             ));
         }
-        positive("target.spacing_mm", t.spacing_mm)?;
+        positive("target.spacing_mm[0]", t.spacing_mm[0])?;
+        positive("target.spacing_mm[1]", t.spacing_mm[1])?;
         non_negative("target.depth_step_mm", t.depth_step_mm)?;
         finite("target.centre", &t.centre)?;
         positive("target.marker_diameter_mm", t.marker_diameter_mm)?;
         non_negative("target.jitter_mm", t.jitter_mm)?;
         if t.jitter_mm
             >= 0.25
-                * t.spacing_mm.min(if t.depth_step_mm > 0.0 {
-                    t.depth_step_mm
-                } else {
-                    f64::INFINITY
-                })
+                * t.spacing_mm[0]
+                    .min(t.spacing_mm[1])
+                    .min(if t.depth_step_mm > 0.0 {
+                        t.depth_step_mm
+                    } else {
+                        f64::INFINITY
+                    })
         {
             return Err(bad(
                 "target.jitter_mm",
@@ -1047,7 +1053,7 @@ impl Default for TargetConfig {
     fn default() -> Self {
         Self {
             grid: 7,
-            spacing_mm: 18.0,
+            spacing_mm: [28.0, 20.0],
             depth_step_mm: 18.0,
             centre: [0.0, 0.0, 30.0],
             marker_diameter_mm: 3.0,

@@ -47,7 +47,7 @@ fn jitter(id: u32) -> [f64; 3] {
 }
 
 /// The markers of a target configuration: marker (i, j) at
-/// `centre + spacing·(i − c, j − c, 0) + depth_step·(((2i + 3j) mod n) − c)·ẑ`
+/// `centre + (sx·(i − c), sy·(j − c), 0) + depth_step·(((2i + 3j) mod n) − c)·ẑ`
 /// plus its fixed jitter of up to `jitter_mm` per axis.
 pub fn markers(t: &TargetConfig) -> Vec<Marker> {
     let n = t.grid;
@@ -61,8 +61,8 @@ pub fn markers(t: &TargetConfig) -> Vec<Marker> {
             out.push(Marker {
                 id,
                 centre: Point3::new(
-                    t.centre[0] + t.spacing_mm * (f64::from(i) - c) + jx,
-                    t.centre[1] + t.spacing_mm * (f64::from(j) - c) + jy,
+                    t.centre[0] + t.spacing_mm[0] * (f64::from(i) - c) + jx,
+                    t.centre[1] + t.spacing_mm[1] * (f64::from(j) - c) + jy,
                     t.centre[2] + t.depth_step_mm * (f64::from(k) - c) + jz,
                 ),
                 diameter: t.marker_diameter_mm,
