@@ -4,6 +4,7 @@
 //! reference line and the minimum zone, angular errors, and a flatness map.
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 /// The colour type of the plot constants.
@@ -68,6 +69,48 @@ fn with_legend_room((lo, hi): (f64, f64)) -> (f64, f64) {
     (lo, hi + 0.35 * (hi - lo))
 }
 
+/// A line plot's chart over the commanded position: caption, axes, light grid.
+type LineChart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Build a line plot's chart on `root` with its title, ranges and y-axis label.
+fn line_chart<'a, 'b>(
+    root: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    title: &str,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    y_desc: &str,
+) -> std::result::Result<LineChart<'a, 'b>, String> {
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FONT, 20))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc("commanded position (mm)")
+        .y_desc(y_desc)
+        .light_line_style(RGBColor(240, 240, 240))
+        .max_light_lines(2)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    Ok(chart)
+}
+
+/// Draw a line plot's legend in its upper left corner.
+fn legend<'a, 'b: 'a>(chart: &mut LineChart<'a, 'b>) -> std::result::Result<(), String> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(180, 180, 180))
+        .label_font((FONT, 13))
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
 /// Draw into a fresh SVG string of `size` with `draw`; errors carry `title`.
 fn svg(
     title: &str,
@@ -105,21 +148,7 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
     });
     let (y0, y1) = with_legend_room(padded(ys, 0.5));
     svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 20))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("commanded position (mm)")
-            .y_desc("positional deviation (µm)")
-            .light_line_style(RGBColor(240, 240, 240))
-            .max_light_lines(2)
-            .draw()
-            .map_err(|e| e.to_string())?;
+        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), "positional deviation (µm)")?;
         type Get = fn(&crate::report::PositioningTarget) -> (Option<f64>, Option<f64>, &[f64]);
         let directions: [(&str, RGBColor, Get); 2] = [
             ("↑", UP, |t| (t.mean_up_um, t.s_up_um, &t.runs_up_um)),
@@ -190,14 +219,7 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
                 .label("bidirectional mean x̄")
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MEAN));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(180, 180, 180))
-            .label_font((FONT, 13))
-            .draw()
-            .map_err(|e| e.to_string())
+        legend(&mut chart)
     })
 }
 
@@ -212,21 +234,13 @@ pub fn straightness(title: &str, s: &StraightnessReport) -> Result<String> {
         0.5,
     ));
     svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 20))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("commanded position (mm)")
-            .y_desc("straightness deviation (µm)")
-            .light_line_style(RGBColor(240, 240, 240))
-            .max_light_lines(2)
-            .draw()
-            .map_err(|e| e.to_string())?;
+        let mut chart = line_chart(
+            root,
+            title,
+            (x0, x1),
+            (y0, y1),
+            "straightness deviation (µm)",
+        )?;
         let mut band: Vec<(f64, f64)> = s
             .targets
             .iter()
@@ -282,14 +296,7 @@ pub fn straightness(title: &str, s: &StraightnessReport) -> Result<String> {
                     .map(|c| Circle::new(c, 3, MEAN.filled())),
             )
             .map_err(|e| e.to_string())?;
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(180, 180, 180))
-            .label_font((FONT, 13))
-            .draw()
-            .map_err(|e| e.to_string())
+        legend(&mut chart)
     })
 }
 
@@ -303,21 +310,7 @@ pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
         1.0,
     ));
     svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 20))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("commanded position (mm)")
-            .y_desc("angle (µrad)")
-            .light_line_style(RGBColor(240, 240, 240))
-            .max_light_lines(2)
-            .draw()
-            .map_err(|e| e.to_string())?;
+        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), "angle (µrad)")?;
         type Get = fn(&crate::report::AngularTarget) -> f64;
         let series: [(&str, f64, Get); 3] = [
             ("roll", a.roll_urad, |t| t.roll_urad),
@@ -337,14 +330,7 @@ pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
                 .draw_series(pts.into_iter().map(|c| Circle::new(c, 3, colour.filled())))
                 .map_err(|e| e.to_string())?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(180, 180, 180))
-            .label_font((FONT, 13))
-            .draw()
-            .map_err(|e| e.to_string())
+        legend(&mut chart)
     })
 }
 
