@@ -4,48 +4,28 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 
 use formats::{
-    InstantProblemRow, ManifestRow, PointRow, Rig, RigCamera, SphereRow, Truth, read_csv,
-    read_json, write_csv,
+    InstantProblemRow, ManifestRow, PointRow, Rig, SphereRow, Truth, read_csv, read_json, write_csv,
 };
 use fuse::{FuseError, Inputs, MeasureOptions, Summary, measure};
 use image::{ImageBuffer, Luma};
 
+/// 640×480 px, 3 targets per axis, 2 runs.
 fn campaign(dir: &Path) {
-    let mut config = synth::Config::default();
-    config
-        .apply(&synth::Overrides {
-            width: Some(640),
-            height: Some(480),
-            targets: Some(3),
-            runs: Some(2),
-            captures: Some(1),
-            seed: Some(5),
-        })
-        .unwrap();
-    synth::campaign::write_campaign(&config, dir, &synth::progress::NoProgress).unwrap();
+    common::campaign(dir, 640, 3, 2, 5);
 }
 
 fn rig(dir: &Path) -> Rig {
-    let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
-    Rig {
-        cameras: truth
-            .cameras
-            .iter()
-            .map(|c| RigCamera::new(c.model.id, &c.model.to_camera().unwrap(), 0.0, 0))
-            .collect(),
-    }
+    common::true_rig(dir)
 }
 
 fn spheres(dir: &Path) -> Vec<SphereRow> {
-    read_csv(&dir.join("spheres.csv"))
-        .unwrap()
-        .into_iter()
-        .map(|r| r.record)
-        .collect()
+    common::spheres(dir)
 }
 
 fn manifest(dir: &Path) -> Vec<ManifestRow> {

@@ -11,40 +11,20 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use formats::{PointRow, Rig, RigCamera, SphereRow, Truth, read_csv, read_json};
+use formats::{PointRow, SphereRow, read_csv};
 use fuse::{Fusion, Inputs, MeasureOptions, measure};
-use synth::Config;
 
 /// Reduced-resolution campaign: X and Y sweeps, 6 targets, 2 runs each way.
 fn campaign(dir: &Path, seed: u64) {
-    let mut config = Config::default();
-    config
-        .apply(&synth::Overrides {
-            width: Some(1024),
-            height: Some(768),
-            targets: Some(6),
-            runs: Some(2),
-            captures: Some(1),
-            seed: Some(seed),
-        })
-        .unwrap();
-    synth::campaign::write_campaign(&config, dir, &synth::progress::NoProgress).unwrap();
+    common::campaign(dir, 1024, 6, 2, seed);
 }
 
-/// The true cameras as a rig.json.
-fn true_rig(dir: &Path) -> Rig {
-    let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
-    Rig {
-        cameras: truth
-            .cameras
-            .iter()
-            .map(|c| RigCamera::new(c.model.id, &c.model.to_camera().unwrap(), 0.0, 0))
-            .collect(),
-    }
-}
+use common::true_rig;
 
 /// Per instant of sphere A: (true displacement along the axis, measured −
 /// true displacement vector) relative to the line's first instant.
@@ -57,11 +37,7 @@ fn displacement_errors(measured: &[PointRow], truth: &[PointRow]) -> Vec<(f64, [
 
 fn run(dir: &Path, options: &MeasureOptions, name: &str) -> Vec<PointRow> {
     let rig = true_rig(dir);
-    let spheres: Vec<SphereRow> = read_csv(&dir.join("spheres.csv"))
-        .unwrap()
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
+    let spheres: Vec<SphereRow> = common::spheres(dir);
     let out = dir.join(name);
     let summary = measure(
         &Inputs {

@@ -1,0 +1,45 @@
+//! Shared fixtures of the fuse tests: rendered campaigns and their true rig.
+
+#![allow(dead_code, clippy::unwrap_used)]
+
+use std::path::Path;
+
+use formats::{Rig, RigCamera, SphereRow, Truth, read_csv, read_json};
+
+/// Render a campaign of the seed rig at `width` px (same field of view), with
+/// `targets` per axis, `runs` runs, one capture.
+pub fn campaign(dir: &Path, width: u32, targets: u32, runs: u32, seed: u64) {
+    let mut config = synth::Config::default();
+    config
+        .apply(&synth::Overrides {
+            width: Some(width),
+            height: Some(width * 3 / 4),
+            targets: Some(targets),
+            runs: Some(runs),
+            captures: Some(1),
+            seed: Some(seed),
+        })
+        .unwrap();
+    synth::campaign::write_campaign(&config, dir, &synth::progress::NoProgress).unwrap();
+}
+
+/// The renderer's true cameras as a rig.json: measurements then judge fusion alone.
+pub fn true_rig(dir: &Path) -> Rig {
+    let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
+    Rig {
+        cameras: truth
+            .cameras
+            .iter()
+            .map(|c| RigCamera::new(c.model.id, &c.model.to_camera().unwrap(), 0.0, 0))
+            .collect(),
+    }
+}
+
+/// The campaign's spheres.
+pub fn spheres(dir: &Path) -> Vec<SphereRow> {
+    read_csv(&dir.join("spheres.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
+}
