@@ -274,19 +274,7 @@ fn wrong_image() {
     .unwrap();
     let down = down_camera(Vector3::zeros());
     let e = correspond(&t, &images(&side, &t), &down, &CorrespondOptions::default()).unwrap_err();
-    println!("{e}");
-    assert!(
-        matches!(
-            e,
-            CalibError::Inconsistent { .. } | CalibError::FarFromNominal { .. }
-        ),
-        "{e}"
-    );
-    assert!(
-        e.to_string()
-            .contains("is this the right image for this camera"),
-        "{e}"
-    );
+    assert_wrong_image(&e);
     // Random blobs.
     let mut x: u64 = 99;
     let mut next = || {
@@ -299,19 +287,7 @@ fn wrong_image() {
         .map(|_| Point2::new(next() * 1999.0, next() * 1499.0))
         .collect();
     let e = correspond(&t, &noise, &down, &CorrespondOptions::default()).unwrap_err();
-    println!("{e}");
-    assert!(
-        matches!(
-            e,
-            CalibError::Inconsistent { .. } | CalibError::FarFromNominal { .. }
-        ),
-        "{e}"
-    );
-    assert!(
-        e.to_string()
-            .contains("is this the right image for this camera"),
-        "{e}"
-    );
+    assert_wrong_image(&e);
 }
 
 #[test]
@@ -402,4 +378,21 @@ fn bad_options() {
             .contains("outlier k")
     );
     assert!(calibrate(&o, 0, 1500, &Options::default()).is_err());
+}
+
+/// The error for an image no camera near the nominal one explains.
+fn assert_wrong_image(e: &CalibError) {
+    println!("{e}");
+    assert!(
+        matches!(
+            e,
+            CalibError::Inconsistent { .. } | CalibError::FarFromNominal { .. }
+        ),
+        "{e}"
+    );
+    assert!(
+        e.to_string()
+            .contains("is this the right image for this camera"),
+        "{e}"
+    );
 }

@@ -32,6 +32,14 @@ fn seed_frame() -> Vec<u16> {
     img.into_raw()
 }
 
+/// The seed's fixed threshold on 16-bit frames (METHODS.md §1).
+fn seed_params() -> ExtractParams {
+    ExtractParams {
+        threshold: Threshold::Fixed(6000),
+        ..ExtractParams::default()
+    }
+}
+
 fn main() {
     divan::main();
 }
@@ -56,10 +64,7 @@ fn extract_fixed_threshold(bencher: divan::Bencher, threads: usize) {
         .num_threads(threads)
         .build()
         .unwrap();
-    let params = ExtractParams {
-        threshold: Threshold::Fixed(6000),
-        ..ExtractParams::default()
-    };
+    let params = seed_params();
     bencher
         .counter(divan::counter::BytesCount::of_slice(&px))
         .bench(|| {
@@ -108,10 +113,7 @@ fn gpu() -> Option<extract::GpuBackend> {
 fn extract_gpu_one_frame(bencher: divan::Bencher) {
     let Some(gpu) = gpu() else { return };
     let px = seed_frame();
-    let params = ExtractParams {
-        threshold: Threshold::Fixed(6000),
-        ..ExtractParams::default()
-    };
+    let params = seed_params();
     bencher
         .counter(divan::counter::BytesCount::of_slice(&px))
         .bench(|| {
@@ -126,10 +128,7 @@ fn extract_gpu_one_frame(bencher: divan::Bencher) {
 fn extract_gpu_pipelined_8_frames(bencher: divan::Bencher) {
     let Some(gpu) = gpu() else { return };
     let px = seed_frame();
-    let params = ExtractParams {
-        threshold: Threshold::Fixed(6000),
-        ..ExtractParams::default()
-    };
+    let params = seed_params();
     let frames = vec![FrameView::new(W, H, 16, &px).unwrap(); 8];
     bencher
         .counter(divan::counter::BytesCount::new(8 * px.len() * 2))

@@ -185,13 +185,13 @@ mod tests {
     use geom::Point2;
 
     const F: f64 = 7966.0;
-    /// 460 mm ± (75 mm of travel + 50 mm of sphere layout).
-    const D0: (f64, f64) = (335.0, 585.0);
+    /// Working distance ± (half of 150 mm of travel + the sphere layout allowance).
+    const REACH: f64 = 75.0 + crate::measure::SPHERE_LAYOUT_MM;
+    const D0: (f64, f64) = (460.0 - REACH, 460.0 + REACH);
     const DIAMETERS: [f64; 3] = [20.0, 15.0, 10.0];
 
     fn cand(diameter_px: f64) -> Candidate {
         Candidate {
-            blob: 0,
             ideal_px: Point2::origin(),
             diameter_px,
             rejected: None,

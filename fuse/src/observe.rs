@@ -18,8 +18,6 @@ pub const MIN_CIRCULARITY: f64 = 0.7;
 /// A blob that may be the image of a sphere.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Candidate {
-    /// Index of the blob in the frame's extraction.
-    pub blob: usize,
     /// Centroid in ideal (undistorted) pixels.
     pub ideal_px: Point2<f64>,
     /// Apparent diameter (px): the minor axis of the moment ellipse, which
@@ -78,8 +76,7 @@ pub fn candidates(
     extraction
         .blobs
         .iter()
-        .enumerate()
-        .map(|(i, b)| {
+        .map(|b| {
             let ideal = if camera.distortion.is_none() {
                 Some([b.u, b.v])
             } else {
@@ -92,7 +89,6 @@ pub fn candidates(
             });
             let [u, v] = ideal.unwrap_or([b.u, b.v]);
             Candidate {
-                blob: i,
                 ideal_px: Point2::new(u, v),
                 diameter_px: b.ellipse().minor_px,
                 rejected,

@@ -45,12 +45,13 @@ fn parse<A: ClapArgs + FromArgMatches>(name: &'static str, args: &[String]) -> R
 
 /// A fresh folder: `trinocular-demo`, else `trinocular-demo-2`, ….
 fn fresh_folder() -> PathBuf {
-    let base = PathBuf::from("trinocular-demo");
-    (2..)
-        .map(|n| PathBuf::from(format!("trinocular-demo-{n}")))
-        .find(|p| !p.exists())
-        .filter(|_| base.exists())
-        .unwrap_or(base)
+    let mut folder = PathBuf::from("trinocular-demo");
+    let mut n = 1;
+    while folder.exists() {
+        n += 1;
+        folder = PathBuf::from(format!("trinocular-demo-{n}"));
+    }
+    folder
 }
 
 fn show(step: &str, line: &[String]) {
