@@ -32,6 +32,8 @@ enum Command {
     Fit(cmd::fit::Args),
     /// Sphere centres of every instant of a campaign into points.csv (problems.csv, poses.csv beside it).
     Measure(cmd::measure::Args),
+    /// Probe-based methods: rotary table, probe-head indexing, laser-tracer multilateration, volumetric model.
+    Probe(cmd::probe::Args),
     /// Synthetic images of the rig with ground truth: campaign, calibration target, default config.
     Synth(cmd::synth::Args),
 }
@@ -70,6 +72,7 @@ fn main() -> ExitCode {
         Command::Extract(args) => cmd::extract::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),
         Command::Measure(args) => cmd::measure::run(&args),
+        Command::Probe(args) => cmd::probe::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),
     };
     match result {

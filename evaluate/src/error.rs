@@ -50,13 +50,8 @@ pub enum EvaluateError {
         source: geom::GeomError,
     },
     /// A plot could not be drawn.
-    #[error("plot '{plot}': {message}")]
-    Plot {
-        /// Plot title.
-        plot: String,
-        /// The drawing error.
-        message: String,
-    },
+    #[error(transparent)]
+    Plot(#[from] ::report::ReportError),
     /// Operating-system error on an output path.
     #[error("{}: {source}", path.display())]
     Io {

@@ -5,58 +5,24 @@
 use std::fmt::Write;
 
 use crate::report::{AxisReport, FlatnessReport, LineReport, PositioningReport, Report};
+use ::report::{Page, escape, num};
+
 use crate::{Result, plot};
-
-/// Escape text for HTML content and attribute values.
-pub fn escape(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-/// A figure to 3 decimals, or an em dash when absent.
-fn num(v: Option<f64>) -> String {
-    v.map_or_else(|| "—".into(), |v| format!("{v:.3}"))
-}
-
-const STYLE: &str = "
-body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-serif;margin:0;background:#f5f6f8;color:#1d2127}
-main{max-width:960px;margin:0 auto;padding:16px 24px 48px}
-h1{font-size:26px;margin:18px 0 4px}h2{font-size:21px;margin:34px 0 8px;border-bottom:2px solid #d0d5dd;padding-bottom:4px}
-h3{font-size:17px;margin:22px 0 8px}p.meta{color:#555;margin:0 0 12px}
-table{border-collapse:collapse;margin:8px 0 14px;background:#fff;font-size:13.5px}
-th,td{border:1px solid #d0d5dd;padding:3px 8px;text-align:right}th{background:#eef1f5}
-td.l,th.l{text-align:left}
-figure.plot{margin:10px 0 16px;background:#fff;border:1px solid #d0d5dd;padding:6px;width:max-content}
-figure.plot svg{display:block}figcaption{font-size:13px;color:#444;padding:4px 2px 0}
-ul.notes{font-size:13px;color:#444}.warn{color:#8a4b00}
-";
 
 /// Render the whole page.
 pub fn render(report: &Report) -> Result<String> {
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-         <title>trinocular — machine geometric error report</title>\n<style>{STYLE}</style>\n</head>\n<body>\n<main>\n\
-         <h1>Machine geometric error report</h1>\n\
-         <p class=\"meta\">Source: {} · {} point rows · spheres {} · figures from sphere <b>{}</b> · \
-         positioning per ISO 230-2, straightness and flatness by least squares and minimum zone</p>\n",
+    let mut h = Page::new(
+        "trinocular — machine geometric error report",
+        "Machine geometric error report",
+    );
+    h.meta(&format!(
+        "Source: {} · {} point rows · spheres {} · figures from sphere <b>{}</b> · \
+         positioning per ISO 230-2, straightness and flatness by least squares and minimum zone",
         escape(&report.source),
         report.rows,
         escape(&report.spheres.join(", ")),
         escape(&report.sphere),
-    );
+    ));
     summary(&mut h, report);
     for (axis, a) in report.axes.iter() {
         axis_section(&mut h, axis.name(), a)?;
@@ -64,31 +30,19 @@ pub fn render(report: &Report) -> Result<String> {
     if let Some(f) = &report.flatness {
         flatness_section(&mut h, f)?;
     }
-    if !report.warnings.is_empty() {
-        h.push_str("<h2>Warnings</h2>\n<ul class=\"notes warn\">\n");
-        for w in &report.warnings {
-            let _ = writeln!(h, "<li>{}</li>", escape(w));
-        }
-        h.push_str("</ul>\n");
-    }
-    h.push_str("<h2>Conventions</h2>\n<ul class=\"notes\">\n");
-    for c in &report.conventions {
-        let _ = writeln!(h, "<li>{}</li>", escape(c));
-    }
-    h.push_str("</ul>\n</main>\n</body>\n</html>\n");
-    Ok(h)
+    h.notes("Warnings", &report.warnings, true);
+    h.notes("Conventions", &report.conventions, false);
+    Ok(h.finish())
 }
 
 /// The one table a reader checks first: every axis's headline figures.
-fn summary(h: &mut String, report: &Report) {
-    h.push_str(
-        "<h2>Summary</h2>\n<table id=\"summary\">\n<tr><th class=\"l\">figure (µm / µrad)</th>",
-    );
+fn summary(h: &mut Page, report: &Report) {
+    h.raw("<h2>Summary</h2>\n<table id=\"summary\">\n<tr><th class=\"l\">figure (µm / µrad)</th>");
     let axes: Vec<(&str, &AxisReport)> = report.axes.iter().map(|(a, r)| (a.name(), r)).collect();
     for (name, _) in &axes {
         let _ = write!(h, "<th>{name} axis</th>");
     }
-    h.push_str("</tr>\n");
+    h.raw("</tr>\n");
     type Get = fn(&LineReport) -> Option<f64>;
     let rows: [(&str, Get); 13] = [
         ("A — bidirectional accuracy", |l| l.positioning.a_um),
@@ -118,7 +72,7 @@ fn summary(h: &mut String, report: &Report) {
         for (_, a) in &axes {
             let _ = write!(h, "<td>{}</td>", num(get(&a.main)));
         }
-        h.push_str("</tr>\n");
+        h.raw("</tr>\n");
     }
     for (name, a) in &axes {
         for (dir, s) in &a.main.straightness {
@@ -130,10 +84,10 @@ fn summary(h: &mut String, report: &Report) {
                 if other == name {
                     let _ = write!(h, "<td>{:.3} / {:.3}</td>", s.lsq_um, s.min_zone_um);
                 } else {
-                    h.push_str("<td></td>");
+                    h.raw("<td></td>");
                 }
             }
-            h.push_str("</tr>\n");
+            h.raw("</tr>\n");
         }
     }
     if let Some(f) = &report.flatness {
@@ -145,17 +99,7 @@ fn summary(h: &mut String, report: &Report) {
             f.min_zone_um
         );
     }
-    h.push_str("</table>\n");
-}
-
-/// A plot in a titled figure.
-fn figure(h: &mut String, id: &str, svg: &str, caption: &str) {
-    let _ = write!(
-        h,
-        "<figure class=\"plot\" id=\"{}\">\n{svg}\n<figcaption>{}</figcaption>\n</figure>\n",
-        escape(id),
-        escape(caption)
-    );
+    h.raw("</table>\n");
 }
 
 /// `y = 0, z = 0 mm` for a line's off-axis coordinates.
@@ -168,7 +112,7 @@ fn off_axis(l: &LineReport) -> String {
     format!("{} mm", parts.join(", "))
 }
 
-fn axis_section(h: &mut String, name: &str, a: &AxisReport) -> Result<()> {
+fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
     let l = &a.main;
     let _ = write!(
         h,
@@ -182,24 +126,22 @@ fn axis_section(h: &mut String, name: &str, a: &AxisReport) -> Result<()> {
         l.direction[1],
         l.direction[2]
     );
-    h.push_str("<h3>Positioning (ISO 230-2)</h3>\n");
+    h.raw("<h3>Positioning (ISO 230-2)</h3>\n");
     let title = format!("{name} axis — positional deviation");
-    figure(
-        h,
+    h.figure(
         &format!("plot-{name}-positioning"),
         &plot::positioning(&title, &l.positioning)?,
         "Dots: the deviation of every run (captures averaged); solid: mean per direction; dashed: mean ± 2s.",
     );
     positioning_tables(h, &l.positioning);
 
-    h.push_str("<h3>Straightness</h3>\n");
+    h.raw("<h3>Straightness</h3>\n");
     for (dir, s) in &l.straightness {
         let title = format!(
             "{name} axis — straightness in {dir}: LSQ {:.3} µm, min zone {:.3} µm",
             s.lsq_um, s.min_zone_um
         );
-        figure(
-            h,
+        h.figure(
             &format!("plot-{name}-straightness-{dir}"),
             &plot::straightness(&title, s)?,
             "Deviation of the per-target mean position from the least-squares reference line; \
@@ -207,10 +149,9 @@ fn axis_section(h: &mut String, name: &str, a: &AxisReport) -> Result<()> {
         );
     }
     if let Some(ang) = &l.angular {
-        h.push_str("<h3>Angular errors</h3>\n");
+        h.raw("<h3>Angular errors</h3>\n");
         let title = format!("{name} axis — roll, pitch, yaw");
-        figure(
-            h,
+        h.figure(
             &format!("plot-{name}-angular"),
             &plot::angular(&title, ang)?,
             &format!(
@@ -236,7 +177,7 @@ fn axis_section(h: &mut String, name: &str, a: &AxisReport) -> Result<()> {
         for d in &dirs {
             let _ = write!(h, "<th>straightness {d} LSQ / MZ</th>");
         }
-        h.push_str("</tr>\n");
+        h.raw("</tr>\n");
         for line in &a.lines {
             let p = &line.positioning;
             let _ = write!(
@@ -257,18 +198,20 @@ fn axis_section(h: &mut String, name: &str, a: &AxisReport) -> Result<()> {
                     Some(s) => {
                         let _ = write!(h, "<td>{:.3} / {:.3}</td>", s.lsq_um, s.min_zone_um);
                     }
-                    None => h.push_str("<td>—</td>"),
+                    None => {
+                        h.raw("<td>—</td>");
+                    }
                 }
             }
-            h.push_str("</tr>\n");
+            h.raw("</tr>\n");
         }
-        h.push_str("</table>\n");
+        h.raw("</table>\n");
     }
     Ok(())
 }
 
-fn positioning_tables(h: &mut String, p: &PositioningReport) {
-    h.push_str(
+fn positioning_tables(h: &mut Page, p: &PositioningReport) {
+    h.raw(
         "<table><tr><th class=\"l\">ISO 230-2 (µm)</th><th>bidirectional</th><th>↑</th><th>↓</th></tr>\n",
     );
     type Row<'a> = (&'a str, Option<f64>, Option<f64>, Option<f64>);
@@ -313,7 +256,7 @@ fn positioning_tables(h: &mut String, p: &PositioningReport) {
             v.p_um, v.ps_um, v.u_um, v.u_mean_um, v.pa_um
         );
     }
-    h.push_str(
+    h.raw(
         "<table><tr><th>target</th><th>nominal (mm)</th><th>x̄↑</th><th>s↑</th><th>x̄↓</th><th>s↓</th>\
          <th>B</th><th>x̄</th><th>R↑</th><th>R↓</th><th>R</th></tr>\n",
     );
@@ -334,17 +277,16 @@ fn positioning_tables(h: &mut String, p: &PositioningReport) {
             num(t.r_um)
         );
     }
-    h.push_str("</table>\n");
+    h.raw("</table>\n");
 }
 
-fn flatness_section(h: &mut String, f: &FlatnessReport) -> Result<()> {
-    h.push_str("<h2 id=\"flatness\">Flatness</h2>\n");
+fn flatness_section(h: &mut Page, f: &FlatnessReport) -> Result<()> {
+    h.raw("<h2 id=\"flatness\">Flatness</h2>\n");
     let title = format!(
         "Flatness: LSQ {:.3} µm, min zone {:.3} µm",
         f.lsq_um, f.min_zone_um
     );
-    figure(
-        h,
+    h.figure(
         "plot-flatness",
         &plot::flatness(&title, f)?,
         &format!(
@@ -362,14 +304,4 @@ fn flatness_section(h: &mut String, f: &FlatnessReport) -> Result<()> {
         f.points.len()
     );
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn escapes_markup() {
-        assert_eq!(escape("a<b & \"c\""), "a&lt;b &amp; &quot;c&quot;");
-    }
 }

@@ -3,129 +3,20 @@
 //! laser-calibration software shows it), straightness profiles with the
 //! reference line and the minimum zone, angular errors, and a flatness map.
 
-use plotters::coord::Shift;
-use plotters::coord::types::RangedCoordf64;
+use ::report::plot::{
+    DOWN, FONT, HEIGHT, MAP_HEIGHT, MEAN, RPY, UP, WIDTH, ZONE, colour_bar, diverging, legend,
+    line_chart, padded, svg, with_legend_room,
+};
 use plotters::prelude::*;
 
 /// The colour type of the plot constants.
-pub use plotters::style::RGBColor;
+pub use ::report::plot::RGBColor;
 
+use crate::Result;
 use crate::report::{AngularReport, FlatnessReport, PositioningReport, StraightnessReport};
-use crate::{EvaluateError, Result};
 
-/// Width of every plot (px).
-pub const WIDTH: u32 = 900;
-/// Height of the line plots (px).
-pub const HEIGHT: u32 = 420;
-/// Height of the flatness map (px).
-pub const MAP_HEIGHT: u32 = 560;
-
-/// Colour of the ↑ direction.
-pub const UP: RGBColor = RGBColor(31, 119, 180);
-/// Colour of the ↓ direction.
-pub const DOWN: RGBColor = RGBColor(214, 39, 40);
-/// Colour of the bidirectional mean and of profiles.
-pub const MEAN: RGBColor = RGBColor(40, 40, 40);
-/// Colour of the minimum zone.
-pub const ZONE: RGBColor = RGBColor(44, 160, 44);
-/// Colours of roll, pitch, yaw.
-pub const RPY: [RGBColor; 3] = [
-    RGBColor(148, 103, 189),
-    RGBColor(255, 127, 14),
-    RGBColor(23, 190, 207),
-];
-
-const FONT: &str = "sans-serif";
-
-/// A drawing error with the plot's title.
-fn plot_error(title: &str, e: impl std::fmt::Display) -> EvaluateError {
-    EvaluateError::Plot {
-        plot: title.to_string(),
-        message: e.to_string(),
-    }
-}
-
-/// `(lo, hi)` of the values padded by 8 % (at least `min_half` around the centre).
-fn padded(values: impl Iterator<Item = f64>, min_half: f64) -> (f64, f64) {
-    let (lo, hi) = values
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-    if lo
-        .partial_cmp(&hi)
-        .is_none_or(|o| o == std::cmp::Ordering::Greater)
-    {
-        return (-min_half, min_half);
-    }
-    let centre = (lo + hi) / 2.0;
-    let half = ((hi - lo) / 2.0 * 1.08).max(min_half);
-    (centre - half, centre + half)
-}
-
-/// Raise the top of a range by 35 % so that the legend (upper left) sits
-/// above the data.
-fn with_legend_room((lo, hi): (f64, f64)) -> (f64, f64) {
-    (lo, hi + 0.35 * (hi - lo))
-}
-
-/// A line plot's chart over the commanded position: caption, axes, light grid.
-type LineChart<'a, 'b> =
-    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
-
-/// Build a line plot's chart on `root` with its title, ranges and y-axis label.
-fn line_chart<'a, 'b>(
-    root: &'a DrawingArea<SVGBackend<'b>, Shift>,
-    title: &str,
-    (x0, x1): (f64, f64),
-    (y0, y1): (f64, f64),
-    y_desc: &str,
-) -> std::result::Result<LineChart<'a, 'b>, String> {
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, (FONT, 20))
-        .margin(12)
-        .x_label_area_size(44)
-        .y_label_area_size(64)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(|e| e.to_string())?;
-    chart
-        .configure_mesh()
-        .x_desc("commanded position (mm)")
-        .y_desc(y_desc)
-        .light_line_style(RGBColor(240, 240, 240))
-        .max_light_lines(2)
-        .draw()
-        .map_err(|e| e.to_string())?;
-    Ok(chart)
-}
-
-/// Draw a line plot's legend in its upper left corner.
-fn legend<'a, 'b: 'a>(chart: &mut LineChart<'a, 'b>) -> std::result::Result<(), String> {
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(180, 180, 180))
-        .label_font((FONT, 13))
-        .draw()
-        .map_err(|e| e.to_string())
-}
-
-/// Draw into a fresh SVG string of `size` with `draw`; errors carry `title`.
-fn svg(
-    title: &str,
-    size: (u32, u32),
-    draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> std::result::Result<(), String>,
-) -> Result<String> {
-    let mut out = String::new();
-    {
-        let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(title, e))?;
-        draw(&root).map_err(|e| plot_error(title, e))?;
-        root.present().map_err(|e| plot_error(title, e))?;
-    }
-    Ok(out)
-}
+/// The x axis of the line plots.
+const POSITION: &str = "commanded position (mm)";
 
 /// Positioning deviation per target: each run as a dot, the mean per
 /// direction as a solid line, `x̄ ± 2s` as dashed lines, the bidirectional
@@ -147,8 +38,15 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
             .collect::<Vec<f64>>()
     });
     let (y0, y1) = with_legend_room(padded(ys, 0.5));
-    svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), "positional deviation (µm)")?;
+    Ok(svg(title, (WIDTH, HEIGHT), |root| {
+        let mut chart = line_chart(
+            root,
+            title,
+            (x0, x1),
+            (y0, y1),
+            POSITION,
+            "positional deviation (µm)",
+        )?;
         type Get = fn(&crate::report::PositioningTarget) -> (Option<f64>, Option<f64>, &[f64]);
         let directions: [(&str, RGBColor, Get); 2] = [
             ("↑", UP, |t| (t.mean_up_um, t.s_up_um, &t.runs_up_um)),
@@ -220,7 +118,7 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MEAN));
         }
         legend(&mut chart)
-    })
+    })?)
 }
 
 /// Straightness profile: deviation from the least-squares reference line per
@@ -233,12 +131,13 @@ pub fn straightness(title: &str, s: &StraightnessReport) -> Result<String> {
             .flat_map(|t| [t.deviation_um, t.zone_low_um, t.zone_high_um]),
         0.5,
     ));
-    svg(title, (WIDTH, HEIGHT), |root| {
+    Ok(svg(title, (WIDTH, HEIGHT), |root| {
         let mut chart = line_chart(
             root,
             title,
             (x0, x1),
             (y0, y1),
+            POSITION,
             "straightness deviation (µm)",
         )?;
         let mut band: Vec<(f64, f64)> = s
@@ -297,7 +196,7 @@ pub fn straightness(title: &str, s: &StraightnessReport) -> Result<String> {
             )
             .map_err(|e| e.to_string())?;
         legend(&mut chart)
-    })
+    })?)
 }
 
 /// Roll, pitch and yaw per target (µrad).
@@ -309,8 +208,8 @@ pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
             .flat_map(|t| [t.roll_urad, t.pitch_urad, t.yaw_urad]),
         1.0,
     ));
-    svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), "angle (µrad)")?;
+    Ok(svg(title, (WIDTH, HEIGHT), |root| {
+        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), POSITION, "angle (µrad)")?;
         type Get = fn(&crate::report::AngularTarget) -> f64;
         let series: [(&str, f64, Get); 3] = [
             ("roll", a.roll_urad, |t| t.roll_urad),
@@ -331,28 +230,7 @@ pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
                 .map_err(|e| e.to_string())?;
         }
         legend(&mut chart)
-    })
-}
-
-/// Diverging colour for `t` in [−1, 1]: blue (low) – white – red (high).
-pub fn diverging(t: f64) -> RGBColor {
-    let t = t.clamp(-1.0, 1.0);
-    let lerp = |a: f64, b: f64, u: f64| (a + (b - a) * u).round().clamp(0.0, 255.0) as u8;
-    let (low, mid, high) = (
-        (33.0, 102.0, 172.0),
-        (247.0, 247.0, 247.0),
-        (178.0, 24.0, 43.0),
-    );
-    let (from, to, u) = if t < 0.0 {
-        (mid, low, -t)
-    } else {
-        (mid, high, t)
-    };
-    RGBColor(
-        lerp(from.0, to.0, u),
-        lerp(from.1, to.1, u),
-        lerp(from.2, to.2, u),
-    )
+    })?)
 }
 
 /// Flatness map: the points in the XY plane, coloured by their deviation
@@ -366,7 +244,7 @@ pub fn flatness(title: &str, f: &FlatnessReport) -> Result<String> {
         .map(|p| p.lsq_um.abs())
         .fold(0.0, f64::max)
         .max(1e-3);
-    svg(title, (WIDTH, MAP_HEIGHT), |root| {
+    Ok(svg(title, (WIDTH, MAP_HEIGHT), |root| {
         let (plot, bar) = root.split_horizontally(WIDTH - 130);
         let mut chart = ChartBuilder::on(&plot)
             .caption(title, (FONT, 20))
@@ -407,56 +285,12 @@ pub fn flatness(title: &str, f: &FlatnessReport) -> Result<String> {
                     + Circle::new((0, 0), 7, RGBColor(90, 90, 90).stroke_width(1))
             }))
             .map_err(|e| e.to_string())?;
-        // Colour bar.
-        let steps = 40;
-        let (top, height) = (60, MAP_HEIGHT as i32 - 140);
-        for k in 0..steps {
-            let t = 1.0 - 2.0 * k as f64 / (steps - 1) as f64;
-            let y = top + k * height / steps;
-            bar.draw(&Rectangle::new(
-                [(20, y), (44, y + height / steps + 1)],
-                diverging(t).filled(),
-            ))
-            .map_err(|e| e.to_string())?;
-        }
-        bar.draw(&Rectangle::new(
-            [(20, top), (44, top + height)],
-            RGBColor(90, 90, 90).stroke_width(1),
-        ))
-        .map_err(|e| e.to_string())?;
-        let style = (FONT, 13).into_font().color(&BLACK);
-        for (text, y) in [
-            (format!("{:+.2} µm", limit), top),
-            ("0".to_string(), top + height / 2),
-            (format!("{:+.2} µm", -limit), top + height),
-        ] {
-            bar.draw_text(&text, &style, (50, y - 6))
-                .map_err(|e| e.to_string())?;
-        }
-        bar.draw_text("deviation from", &style, (6, top - 40))
-            .map_err(|e| e.to_string())?;
-        bar.draw_text("LSQ plane", &style, (6, top - 24))
-            .map_err(|e| e.to_string())?;
-        Ok(())
-    })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn diverging_ends_and_middle() {
-        assert_eq!(diverging(0.0), RGBColor(247, 247, 247));
-        assert_eq!(diverging(-1.0), RGBColor(33, 102, 172));
-        assert_eq!(diverging(2.0), RGBColor(178, 24, 43));
-    }
-
-    #[test]
-    fn padded_range_never_collapses() {
-        assert_eq!(padded([3.0, 3.0].into_iter(), 0.5), (2.5, 3.5));
-        let (lo, hi) = padded([0.0, 10.0].into_iter(), 0.5);
-        assert!(lo < 0.0 && hi > 10.0);
-        assert_eq!(padded(std::iter::empty(), 1.0), (-1.0, 1.0));
-    }
+        colour_bar(
+            &bar,
+            MAP_HEIGHT,
+            limit,
+            "µm",
+            ["deviation from", "LSQ plane"],
+        )
+    })?)
 }

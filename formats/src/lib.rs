@@ -15,6 +15,7 @@ pub mod campaign;
 pub mod json;
 pub mod measure;
 pub mod points;
+pub mod probe;
 pub mod rig;
 pub mod table;
 pub mod target;

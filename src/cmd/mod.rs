@@ -8,6 +8,7 @@ pub mod evaluate;
 pub mod extract;
 pub mod fit;
 pub mod measure;
+pub mod probe;
 pub mod progress;
 pub mod synth;
 

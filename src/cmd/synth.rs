@@ -25,6 +25,8 @@ enum What {
     Target(TargetArgs),
     /// Print the default configuration (the seed's rig and procedure), documented, as TOML.
     Config,
+    /// Check data for the probe-based methods, with truth.json.
+    Probe(crate::cmd::probe::SynthArgs),
 }
 
 /// Configuration file and the overrides for quick runs.
@@ -174,6 +176,7 @@ pub fn run(args: &Args) -> Result<()> {
     match &args.what {
         What::Campaign(a) => campaign(a),
         What::Target(a) => target(a),
+        What::Probe(a) => crate::cmd::probe::synth(a),
         What::Config => {
             print!("{}", synth::config::DEFAULT_TOML);
             Ok(())

@@ -37,6 +37,7 @@ pub mod coverage;
 pub mod datetime;
 pub mod encode;
 pub mod machine;
+pub mod probe;
 pub mod procedure;
 pub mod progress;
 pub mod psf;

@@ -1,0 +1,1 @@
+//! (to be written: the indexing method's input and output files.)

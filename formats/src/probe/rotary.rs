@@ -1,0 +1,1 @@
+//! (to be written: the rotary method's input and output files.)

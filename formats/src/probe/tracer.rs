@@ -1,0 +1,1 @@
+//! (to be written: the tracer method's input and output files.)

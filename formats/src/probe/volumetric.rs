@@ -1,0 +1,1 @@
+//! (to be written: the volumetric method's input and output files.)

@@ -1,0 +1,532 @@
+//! A report page in a real browser, for tests: headless Chromium (Debian
+//! package `chromium`) driven over the DevTools protocol on a pipe
+//! (`--remote-debugging-pipe`) opens the page, lays it out at full height,
+//! takes a screenshot and collects console errors, exceptions and failed
+//! loads (`Runtime.consoleAPICalled`, `Runtime.exceptionThrown`,
+//! `Log.entryAdded` at level error). [`check_region`] then tells a drawn
+//! plot from a blank one.
+//!
+//! [`browser_or_skip`] finds the browser: `TRINOCULAR_CHROMIUM`, else
+//! `chromium` or `chromium-browser` on the PATH. Without one the test prints
+//! a notice that it is skipped, unless `TRINOCULAR_REQUIRE_BROWSER=1`, when
+//! that is an error (CI sets it).
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
+use std::time::{Duration, Instant};
+
+use image::RgbaImage;
+use serde_json::{Value, json};
+
+use crate::{ReportError, Result};
+
+/// Longest wait for one browser answer.
+const TIMEOUT: Duration = Duration::from_secs(60);
+/// Page width (CSS px, device scale 1).
+pub const PAGE_WIDTH: u32 = 1280;
+
+fn fail(message: impl Into<String>) -> ReportError {
+    ReportError::Browser(message.into())
+}
+
+/// The browser to use: `TRINOCULAR_CHROMIUM`, else `chromium` or
+/// `chromium-browser` on the PATH.
+pub fn find_browser() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("TRINOCULAR_CHROMIUM") {
+        return Some(PathBuf::from(p));
+    }
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .flat_map(|d| ["chromium", "chromium-browser"].map(|n| d.join(n)))
+        .find(|p| p.is_file())
+}
+
+/// `Ok(Some(browser))`; `Ok(None)` after a notice on stderr naming `test`
+/// as SKIPPED when there is no browser; an error when there is none and
+/// `TRINOCULAR_REQUIRE_BROWSER=1`.
+pub fn browser_or_skip(test: &str) -> Result<Option<PathBuf>> {
+    match find_browser() {
+        Some(b) => Ok(Some(b)),
+        None if std::env::var("TRINOCULAR_REQUIRE_BROWSER").as_deref() == Ok("1") => Err(fail(
+            "TRINOCULAR_REQUIRE_BROWSER=1 but no chromium on the PATH (apt-get install chromium)",
+        )),
+        None => {
+            // Straight to stderr, past the test harness's capture, so that the skip is seen.
+            let _ = writeln!(
+                std::io::stderr(),
+                "NOTICE: {test}: SKIPPED, chromium not found on the PATH \
+                 (install the Debian package `chromium`; TRINOCULAR_REQUIRE_BROWSER=1 makes this an error)"
+            );
+            Ok(None)
+        }
+    }
+}
+
+/// Standard base64 (with padding) to bytes.
+fn base64(text: &str) -> Result<Vec<u8>> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => Ok(c - b'A'),
+        b'a'..=b'z' => Ok(c - b'a' + 26),
+        b'0'..=b'9' => Ok(c - b'0' + 52),
+        b'+' => Ok(62),
+        b'/' => Ok(63),
+        _ => Err(fail(format!("screenshot: not base64: {c}"))),
+    };
+    let clean: Vec<u8> = text
+        .bytes()
+        .filter(|c| !c.is_ascii_whitespace() && *c != b'=')
+        .collect();
+    let mut out = Vec::with_capacity(clean.len() * 3 / 4);
+    for chunk in clean.chunks(4) {
+        let mut n = 0u32;
+        for (i, &c) in chunk.iter().enumerate() {
+            n |= u32::from(value(c)?) << (18 - 6 * i);
+        }
+        out.extend(n.to_be_bytes()[1..chunk.len()].iter());
+    }
+    Ok(out)
+}
+
+/// A headless Chromium driven over `--remote-debugging-pipe` (fd 3 in, fd 4
+/// out, messages separated by NUL), set up through two FIFOs.
+struct Browser {
+    child: Child,
+    to: File,
+    from: Receiver<Value>,
+    next_id: u64,
+    session: Option<String>,
+    /// Every event received so far.
+    events: Vec<Value>,
+    stderr: PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+impl Browser {
+    fn launch(browser: &Path) -> Result<Browser> {
+        let io = |e: std::io::Error| fail(format!("starting {}: {e}", browser.display()));
+        let dir = tempfile::tempdir().map_err(io)?;
+        let (fifo_in, fifo_out) = (dir.path().join("in"), dir.path().join("out"));
+        for f in [&fifo_in, &fifo_out] {
+            if !Command::new("mkfifo")
+                .arg(f)
+                .status()
+                .map_err(io)?
+                .success()
+            {
+                return Err(fail(format!("mkfifo {} failed", f.display())));
+            }
+        }
+        let stderr = dir.path().join("stderr.txt");
+        let child = Command::new("sh")
+            .arg("-c")
+            .arg(
+                "exec \"$0\" --headless --no-sandbox --disable-gpu --disable-quic --no-first-run \
+                 --disable-background-networking --disable-component-update --disable-sync \
+                 --hide-scrollbars --user-data-dir=\"$3\" --remote-debugging-pipe 3<\"$1\" 4>\"$2\"",
+            )
+            .arg(browser)
+            .arg(&fifo_in)
+            .arg(&fifo_out)
+            .arg(dir.path().join("profile"))
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(File::create(&stderr).map_err(io)?)
+            .spawn()
+            .map_err(io)?;
+        let (tx, rx) = channel();
+        std::thread::spawn(move || {
+            let Ok(out) = File::open(&fifo_out) else {
+                return;
+            };
+            let mut reader = BufReader::new(out);
+            let mut buf = Vec::new();
+            while reader.read_until(0, &mut buf).is_ok_and(|n| n > 0) {
+                if buf.last() == Some(&0) {
+                    buf.pop();
+                }
+                if let Ok(v) = serde_json::from_slice::<Value>(&buf)
+                    && tx.send(v).is_err()
+                {
+                    return;
+                }
+                buf.clear();
+            }
+        });
+        let to = File::options().write(true).open(&fifo_in).map_err(io)?;
+        Ok(Browser {
+            child,
+            to,
+            from: rx,
+            next_id: 0,
+            session: None,
+            events: Vec::new(),
+            stderr,
+            _dir: dir,
+        })
+    }
+
+    fn stderr_tail(&self) -> String {
+        let text = std::fs::read_to_string(&self.stderr).unwrap_or_default();
+        let lines: Vec<&str> = text.lines().collect();
+        lines[lines.len().saturating_sub(15)..].join("\n")
+    }
+
+    fn send(&mut self, msg: &Value) -> Result<()> {
+        let mut bytes = serde_json::to_vec(msg).map_err(|e| fail(e.to_string()))?;
+        bytes.push(0);
+        self.to
+            .write_all(&bytes)
+            .and_then(|()| self.to.flush())
+            .map_err(|e| fail(format!("writing to the browser: {e}")))
+    }
+
+    /// Send a command (to the page session once attached) and wait for its result.
+    fn call(&mut self, method: &str, params: Value) -> Result<Value> {
+        self.next_id += 1;
+        let id = self.next_id;
+        let mut msg = json!({"id": id, "method": method, "params": params});
+        if let Some(s) = &self.session {
+            msg["sessionId"] = json!(s);
+        }
+        self.send(&msg)?;
+        let deadline = Instant::now() + TIMEOUT;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.from.recv_timeout(left) {
+                Ok(v) if v["id"] == json!(id) => {
+                    if let Some(e) = v.get("error") {
+                        return Err(fail(format!("{method} failed: {e}")));
+                    }
+                    return Ok(v["result"].clone());
+                }
+                Ok(v) => self.events.push(v),
+                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => {
+                    return Err(fail(format!(
+                        "no answer to {method}; its stderr:\n{}",
+                        self.stderr_tail()
+                    )));
+                }
+            }
+        }
+    }
+
+    /// Wait for an event named `method`.
+    fn wait_event(&mut self, method: &str) -> Result<()> {
+        if self.events.iter().any(|e| e["method"] == json!(method)) {
+            return Ok(());
+        }
+        let deadline = Instant::now() + TIMEOUT;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.from.recv_timeout(left) {
+                Ok(v) => {
+                    let done = v["method"] == json!(method);
+                    self.events.push(v);
+                    if done {
+                        return Ok(());
+                    }
+                }
+                Err(_) => {
+                    return Err(fail(format!(
+                        "no {method}; its stderr:\n{}",
+                        self.stderr_tail()
+                    )));
+                }
+            }
+        }
+    }
+
+    /// Open `url` in a fresh page of `PAGE_WIDTH` × `height` and wait for its load event.
+    fn open(&mut self, url: &str, height: u32) -> Result<()> {
+        let target = self.call("Target.createTarget", json!({"url": "about:blank"}))?;
+        let attached = self.call(
+            "Target.attachToTarget",
+            json!({"targetId": target["targetId"], "flatten": true}),
+        )?;
+        let session = attached["sessionId"]
+            .as_str()
+            .ok_or_else(|| fail("no session id"))?;
+        self.session = Some(session.to_string());
+        for domain in ["Runtime.enable", "Log.enable", "Page.enable"] {
+            self.call(domain, json!({}))?;
+        }
+        self.resize(height)?;
+        // Only the load of `url` counts, not a late one of about:blank.
+        self.events
+            .retain(|e| e["method"] != json!("Page.loadEventFired"));
+        self.call("Page.navigate", json!({"url": url}))?;
+        self.wait_event("Page.loadEventFired")
+    }
+
+    fn resize(&mut self, height: u32) -> Result<()> {
+        self.call(
+            "Emulation.setDeviceMetricsOverride",
+            json!({"width": PAGE_WIDTH, "height": height, "deviceScaleFactor": 1, "mobile": false}),
+        )
+        .map(|_| ())
+    }
+
+    /// Evaluate a JavaScript expression in the page, by value.
+    fn eval(&mut self, expression: &str) -> Result<Value> {
+        let r = self.call(
+            "Runtime.evaluate",
+            json!({"expression": expression, "returnByValue": true}),
+        )?;
+        Ok(r["result"]["value"].clone())
+    }
+
+    /// Screenshot of the whole viewport as RGBA.
+    fn screenshot(&mut self) -> Result<RgbaImage> {
+        let r = self.call("Page.captureScreenshot", json!({"format": "png"}))?;
+        let data = r["data"].as_str().ok_or_else(|| fail("no screenshot"))?;
+        let png = base64(data)?;
+        Ok(image::load_from_memory(&png)
+            .map_err(|e| fail(format!("screenshot: {e}")))?
+            .to_rgba8())
+    }
+
+    /// Console errors, exceptions and failed loads seen so far.
+    fn errors(&mut self) -> Vec<String> {
+        // Let late messages arrive.
+        while let Ok(v) = self.from.recv_timeout(Duration::from_millis(300)) {
+            self.events.push(v);
+        }
+        self.events
+            .iter()
+            .filter_map(|e| {
+                let p = &e["params"];
+                match e["method"].as_str()? {
+                    "Runtime.consoleAPICalled"
+                        if matches!(p["type"].as_str(), Some("error" | "assert")) =>
+                    {
+                        Some(format!("console.{}: {}", p["type"], p["args"]))
+                    }
+                    "Runtime.exceptionThrown" => {
+                        Some(format!("exception: {}", p["exceptionDetails"]))
+                    }
+                    "Log.entryAdded" if p["entry"]["level"] == json!("error") => {
+                        Some(format!("log error: {}", p["entry"]))
+                    }
+                    _ => None,
+                }
+            })
+            .collect()
+    }
+
+    fn close(&mut self) {
+        self.session = None;
+        self.next_id += 1;
+        let msg = json!({"id": self.next_id, "method": "Browser.close", "params": {}});
+        let _ = self.send(&msg);
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < deadline {
+            if matches!(self.child.try_wait(), Ok(Some(_))) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Browser {
+    /// A browser left running (a failed check) is stopped: only the process started here.
+    fn drop(&mut self) {
+        if matches!(self.child.try_wait(), Ok(None)) {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+/// A plot's box on the page (CSS px = screenshot px).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlotBox {
+    /// The `id` of its `figure.plot`.
+    pub id: String,
+    /// Left edge.
+    pub x: u32,
+    /// Top edge.
+    pub y: u32,
+    /// Width of the SVG.
+    pub w: u32,
+    /// Height of the SVG.
+    pub h: u32,
+}
+
+/// A page as the browser showed it.
+#[derive(Debug)]
+pub struct Rendered {
+    /// Every `figure.plot` in document order.
+    pub plots: Vec<PlotBox>,
+    /// Scroll width of the page (CSS px).
+    pub width: u32,
+    /// The whole page, laid out at its full height.
+    pub screenshot: RgbaImage,
+    /// Console errors, exceptions and failed loads.
+    pub errors: Vec<String>,
+}
+
+const LAYOUT: &str = "JSON.stringify({height: document.documentElement.scrollHeight, \
+    width: document.documentElement.scrollWidth, \
+    plots: Array.from(document.querySelectorAll('figure.plot')).map(f => { \
+      const s = f.querySelector('svg'); const r = s ? s.getBoundingClientRect() : {left:0,top:0,width:0,height:0}; \
+      return {id: f.id, x: r.left + window.scrollX, y: r.top + window.scrollY, w: r.width, h: r.height}; })})";
+
+fn layout(b: &mut Browser) -> Result<Value> {
+    let text = b.eval(LAYOUT)?;
+    let text = text.as_str().ok_or_else(|| fail("no layout"))?;
+    serde_json::from_str(text).map_err(|e| fail(format!("layout: {e}")))
+}
+
+fn px(v: &Value) -> u32 {
+    v.as_f64().unwrap_or(0.0).round().max(0.0) as u32
+}
+
+/// Open the HTML file `page` in `browser`, lay it out at its full height
+/// (at most 16000 px) and return what was shown.
+pub fn render(browser: &Path, page: &Path) -> Result<Rendered> {
+    let mut b = Browser::launch(browser)?;
+    b.open(&format!("file://{}", page.display()), 900)?;
+    let first = layout(&mut b)?;
+    let height = first["height"].as_u64().unwrap_or(900).clamp(100, 16000) as u32;
+    b.resize(height)?;
+    let shown = layout(&mut b)?;
+    let screenshot = b.screenshot()?;
+    let errors = b.errors();
+    b.close();
+    let plots = shown["plots"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|p| PlotBox {
+                    id: p["id"].as_str().unwrap_or_default().to_string(),
+                    x: px(&p["x"]),
+                    y: px(&p["y"]),
+                    w: px(&p["w"]),
+                    h: px(&p["h"]),
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(Rendered {
+        plots,
+        width: px(&shown["width"]),
+        screenshot,
+        errors,
+    })
+}
+
+/// Near `c` within `tol` per channel.
+fn near(p: &image::Rgba<u8>, c: [u8; 3], tol: i32) -> bool {
+    (0..3).all(|i| (i32::from(p[i]) - i32::from(c[i])).abs() <= tol)
+}
+
+/// The region of `img` under `b` is a drawn plot: ≥ 3 % of its pixels differ
+/// from white, ≥ 12 distinct colours (quantised), and each of `colours`
+/// covers ≥ 40 pixels. The error says which test failed.
+pub fn check_region(
+    img: &RgbaImage,
+    b: &PlotBox,
+    colours: &[[u8; 3]],
+) -> std::result::Result<(), String> {
+    if b.x + b.w > img.width() || b.y + b.h > img.height() || b.w < 100 || b.h < 100 {
+        return Err(format!(
+            "{}: box {b:?} outside a {}×{} screenshot",
+            b.id,
+            img.width(),
+            img.height()
+        ));
+    }
+    let mut drawn = 0usize;
+    let mut palette = std::collections::HashSet::new();
+    let mut hits = vec![0usize; colours.len()];
+    for y in b.y..b.y + b.h {
+        for x in b.x..b.x + b.w {
+            let p = img.get_pixel(x, y);
+            if !near(p, [255, 255, 255], 8) {
+                drawn += 1;
+            }
+            palette.insert((p[0] >> 3, p[1] >> 3, p[2] >> 3));
+            for (k, c) in colours.iter().enumerate() {
+                if near(p, *c, 24) {
+                    hits[k] += 1;
+                }
+            }
+        }
+    }
+    let area = (b.w * b.h) as usize;
+    if drawn * 100 < 3 * area {
+        return Err(format!(
+            "{}: only {drawn} of {area} pixels drawn: blank",
+            b.id
+        ));
+    }
+    if palette.len() < 12 {
+        return Err(format!("{}: only {} colours", b.id, palette.len()));
+    }
+    for (c, n) in colours.iter().zip(hits) {
+        if n < 40 {
+            return Err(format!("{}: series colour {c:?} covers {n} pixels", b.id));
+        }
+    }
+    Ok(())
+}
+
+/// The colour triple of a plot colour, for [`check_region`].
+pub fn rgb(c: crate::plot::RGBColor) -> [u8; 3] {
+    [c.0, c.1, c.2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_decodes() {
+        assert_eq!(base64("aGVsbG8=").ok(), Some(b"hello".to_vec()));
+        assert_eq!(base64("aGVsbG8h").ok(), Some(b"hello!".to_vec()));
+        assert_eq!(base64("aGk=").ok(), Some(b"hi".to_vec()));
+        assert!(base64("a*").is_err());
+    }
+
+    /// The harness can fail: a page with a console error and a missing image
+    /// is caught, and a blank region is rejected.
+    #[test]
+    fn catches_console_errors_and_blank_plots() {
+        let browser = match browser_or_skip("report::browser harness test") {
+            Ok(Some(b)) => b,
+            Ok(None) => return,
+            Err(e) => panic!("{e}"),
+        };
+        let dir = tempfile::tempdir().expect("temp dir");
+        let page = dir.path().join("bad.html");
+        std::fs::write(
+            &page,
+            "<!DOCTYPE html><html><body><figure class=\"plot\" id=\"plot-blank\">\
+             <svg width=\"400\" height=\"300\"><rect width=\"400\" height=\"300\" fill=\"white\"/></svg></figure>\
+             <img src=\"missing.png\"><script>console.error('broken')</script></body></html>",
+        )
+        .expect("write page");
+        let shown = render(&browser, &page).expect("render");
+        assert!(
+            shown.errors.iter().any(|e| e.contains("broken")),
+            "console.error missed: {:#?}",
+            shown.errors
+        );
+        assert!(
+            shown.errors.iter().any(|e| e.contains("missing.png")),
+            "failed load missed: {:#?}",
+            shown.errors
+        );
+        assert_eq!(shown.plots.len(), 1);
+        assert!(
+            check_region(&shown.screenshot, &shown.plots[0], &[]).is_err(),
+            "a blank plot passed"
+        );
+    }
+}

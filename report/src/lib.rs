@@ -1,0 +1,21 @@
+//! Self-contained HTML report pages: one file, inline CSS and SVG, no
+//! scripts, no external resources — what `trinocular evaluate` and the
+//! probe methods write as `report.html`.
+//!
+//! - [`Page`]: the document scaffold, headings, tables, figures, notes.
+//! - [`plot`]: SVG plots drawn with plotters in memory, the shared chart
+//!   set-up, legend and colours.
+//! - `browser` (feature `browser`): opens a page in headless Chromium and
+//!   checks that it logs no errors and that its plots are drawn, for tests.
+
+#![deny(missing_docs)]
+
+mod error;
+mod page;
+
+#[cfg(feature = "browser")]
+pub mod browser;
+pub mod plot;
+
+pub use error::{ReportError, Result};
+pub use page::{Page, escape, num};

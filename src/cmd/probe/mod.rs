@@ -1,0 +1,69 @@
+//! `trinocular probe <method>`: the probe-based methods (the `probe` crate),
+//! and `trinocular synth probe <method>`: their check-data generators (the
+//! `synth` crate). One module per method: the arguments and `run` of the
+//! method, the arguments and `synth` of its generator.
+
+pub mod indexing;
+pub mod rotary;
+pub mod tracer;
+pub mod volumetric;
+
+use anyhow::Result;
+
+/// Arguments of `trinocular probe`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    method: Method,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum Method {
+    /// Rotary-table errors (ISO 230-7 EXC…ECC, location errors) from a standard ball at three positions.
+    Rotary(rotary::Args),
+    /// Probe-head indexing errors ΔθA, ΔθB from the reference-sphere centre per (A, B) position.
+    Indexing(indexing::Args),
+    /// CMM volumetric corrections by laser-tracer multilateration.
+    Tracer(tracer::Args),
+    /// 21-error volumetric model: error-curve fits, volumetric errors, circular-test prediction.
+    Volumetric(volumetric::Args),
+}
+
+/// Run the method.
+pub fn run(args: &Args) -> Result<()> {
+    match &args.method {
+        Method::Rotary(a) => rotary::run(a),
+        Method::Indexing(a) => indexing::run(a),
+        Method::Tracer(a) => tracer::run(a),
+        Method::Volumetric(a) => volumetric::run(a),
+    }
+}
+
+/// Arguments of `trinocular synth probe`.
+#[derive(Debug, clap::Args)]
+pub struct SynthArgs {
+    #[command(subcommand)]
+    method: SynthMethod,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum SynthMethod {
+    /// Ball centres (or probed points) of a rotary table with known errors, and truth.json.
+    Rotary(rotary::SynthArgs),
+    /// Reference-sphere centres of a probe head with known indexing errors, and truth.json.
+    Indexing(indexing::SynthArgs),
+    /// Grid and tracer readings of a CMM with a known error field, and truth.json.
+    Tracer(tracer::SynthArgs),
+    /// Error curves of a machine with known error motions, and truth.json.
+    Volumetric(volumetric::SynthArgs),
+}
+
+/// Run the generator.
+pub fn synth(args: &SynthArgs) -> Result<()> {
+    match &args.method {
+        SynthMethod::Rotary(a) => rotary::synth(a),
+        SynthMethod::Indexing(a) => indexing::synth(a),
+        SynthMethod::Tracer(a) => tracer::synth(a),
+        SynthMethod::Volumetric(a) => volumetric::synth(a),
+    }
+}

@@ -1,0 +1,1 @@
+//! (to be written: generator of indexing check data with truth.)

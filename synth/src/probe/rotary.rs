@@ -1,0 +1,1 @@
+//! (to be written: generator of rotary check data with truth.)

@@ -1,0 +1,1 @@
+//! (to be written: generator of tracer check data with truth.)

@@ -1,0 +1,1 @@
+//! (to be written: generator of volumetric check data with truth.)
