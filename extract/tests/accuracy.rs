@@ -86,7 +86,7 @@ fn run_case(case: &Case) {
         gradient_e_per_px: [0.0, 0.0],
         stray_light: vec![],
     };
-    let signals = sphere_signals(&cam, &optics, &[sphere], 6).unwrap();
+    let signals = sphere_signals(&cam, &optics, &[sphere], 6, None).unwrap();
     let signal = signals[0].as_ref().unwrap();
     let layers = [Exposure {
         signal,
@@ -107,7 +107,7 @@ fn run_case(case: &Case) {
     let (mut sf, mut su2, mut sv2, mut su, mut sv) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let mut pixels = Vec::new();
     for v in 0..window as usize {
-        mean_row(&sensor, &layers, v, &mut mean);
+        mean_row(&sensor, &layers, v, &mut mean, None);
         for (u, &e) in mean.iter().enumerate() {
             let dn = sensor.expected_dn(e);
             if dn >= f64::from(t) {
@@ -140,6 +140,7 @@ fn run_case(case: &Case) {
                 frame: k,
                 camera: 1,
             },
+            None,
         );
         let frame = FrameView::from_image(&img);
         let ex = CpuBackend.extract(frame, &params).unwrap();

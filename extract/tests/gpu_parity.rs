@@ -99,7 +99,7 @@ fn render(diameter_mm: f64, bits: u8, frame: u64) -> Image16 {
         gradient_e_per_px: [0.3, -0.2],
         stray_light: vec![],
     };
-    let signals = sphere_signals(&cam, &optics, &[sphere], 6).unwrap();
+    let signals = sphere_signals(&cam, &optics, &[sphere], 6, None).unwrap();
     let layers = [Exposure {
         signal: signals[0].as_ref().unwrap(),
         radiance_e: sphere.radiance_e,
@@ -112,6 +112,7 @@ fn render(diameter_mm: f64, bits: u8, frame: u64) -> Image16 {
             frame,
             camera: 2,
         },
+        None,
     )
 }
 

@@ -28,7 +28,9 @@ pub use error::{FormatError, Result};
 pub use json::{read_json, write_json};
 pub use measure::{InstantProblemRow, PoseRow};
 pub use points::PointRow;
-pub use rig::{CameraJson, DistortionJson, NominalCamera, NominalRig, Rig, RigCamera};
+pub use rig::{
+    CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera,
+};
 pub use table::{Invalid, Record, Row, read_csv, read_csv_from, write_csv, write_records};
 pub use target::{CorrespondenceRow, TargetRow};
 pub use truth::{Truth, TruthCamera, TruthInstant};

@@ -2,7 +2,9 @@
 //! calibration, and the calibrated rig (`rig.json`).
 
 use geom::nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
-use geom::{Camera, Distortion, Intrinsics, Matrix3x4, Point3, Vector3};
+use geom::{
+    Camera, Distortion, Illumination, Intrinsics, Matrix3x4, Point3, RadialIllumination, Vector3,
+};
 use serde::{Deserialize, Serialize};
 
 /// Tolerance on ‖RᵀR − I‖ for a rotation read from a file.
@@ -178,6 +180,132 @@ impl CameraJson {
     }
 }
 
+/// A camera's relative illumination as written in `rig.json`
+/// (`relative_illumination`, tagged by `model`): `ideal` (cos⁴θ natural
+/// vignetting, energy-conserving under distortion: assumed when no flat field
+/// was given, and when the key is absent), `uniform` (RI = 1, radiance
+/// images) or `radial` (fitted from flat fields: `RI = Σ qₖ·ρ²ᵏ`,
+/// `ρ = |p − centre_px|/scale_px`). Further keys (the fit's residual, dark
+/// level, source files) are kept as written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "lowercase")]
+pub enum IlluminationJson {
+    /// The ideal lens.
+    Ideal {
+        /// Further keys.
+        #[serde(flatten)]
+        extra: serde_json::Map<String, serde_json::Value>,
+    },
+    /// No fall-off.
+    Uniform {
+        /// Further keys.
+        #[serde(flatten)]
+        extra: serde_json::Map<String, serde_json::Value>,
+    },
+    /// Fitted from flat fields.
+    Radial {
+        /// Centre of the model (observed pixels).
+        centre_px: [f64; 2],
+        /// Scale of ρ (px).
+        scale_px: f64,
+        /// q₀, q₁, … of ρ⁰, ρ², ….
+        coefficients: Vec<f64>,
+        /// Further keys.
+        #[serde(flatten)]
+        extra: serde_json::Map<String, serde_json::Value>,
+    },
+}
+
+impl Default for IlluminationJson {
+    fn default() -> Self {
+        IlluminationJson::Ideal {
+            extra: serde_json::Map::new(),
+        }
+    }
+}
+
+impl IlluminationJson {
+    /// Describe a model (no further keys).
+    pub fn from_model(model: &Illumination) -> Self {
+        let extra = serde_json::Map::new();
+        match model {
+            Illumination::Ideal => IlluminationJson::Ideal { extra },
+            Illumination::Uniform => IlluminationJson::Uniform { extra },
+            Illumination::Radial(r) => IlluminationJson::Radial {
+                centre_px: r.centre,
+                scale_px: r.scale_px,
+                coefficients: r.coefficients.clone(),
+                extra,
+            },
+        }
+    }
+
+    /// The further keys.
+    pub fn extra_mut(&mut self) -> &mut serde_json::Map<String, serde_json::Value> {
+        match self {
+            IlluminationJson::Ideal { extra }
+            | IlluminationJson::Uniform { extra }
+            | IlluminationJson::Radial { extra, .. } => extra,
+        }
+    }
+
+    /// The model, checked over a `width` × `height` image: finite
+    /// coefficients, a positive scale, and RI positive at the centre, the
+    /// edge midpoints and the corners.
+    pub fn to_model(&self, width: u32, height: u32) -> Result<Illumination, String> {
+        match self {
+            IlluminationJson::Ideal { .. } => Ok(Illumination::Ideal),
+            IlluminationJson::Uniform { .. } => Ok(Illumination::Uniform),
+            IlluminationJson::Radial {
+                centre_px,
+                scale_px,
+                coefficients,
+                ..
+            } => {
+                if !(scale_px.is_finite() && *scale_px > 0.0) {
+                    return Err(format!(
+                        "relative_illumination: scale_px {scale_px} must be positive"
+                    ));
+                }
+                if coefficients.is_empty()
+                    || !coefficients
+                        .iter()
+                        .chain(centre_px.iter())
+                        .all(|v| v.is_finite())
+                {
+                    return Err(
+                        "relative_illumination: centre_px and coefficients must be finite numbers, at least one coefficient"
+                            .into(),
+                    );
+                }
+                let r = RadialIllumination {
+                    centre: *centre_px,
+                    scale_px: *scale_px,
+                    coefficients: coefficients.clone(),
+                };
+                let (w, h) = (f64::from(width) - 1.0, f64::from(height) - 1.0);
+                for (u, v) in [
+                    (w / 2.0, h / 2.0),
+                    (0.0, 0.0),
+                    (w, 0.0),
+                    (0.0, h),
+                    (w, h),
+                    (w / 2.0, 0.0),
+                    (0.0, h / 2.0),
+                ] {
+                    let ri = r.at(u, v);
+                    if !(ri.is_finite() && ri > 0.0) {
+                        return Err(format!(
+                            "relative_illumination: RI = {ri} at pixel ({u}, {v}) is not positive"
+                        ));
+                    }
+                }
+                Ok(Illumination::Radial(r))
+            }
+        }
+    }
+}
+
 /// One calibrated camera of `rig.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RigCamera {
@@ -192,6 +320,9 @@ pub struct RigCamera {
     pub rms_px: f64,
     /// Number of points the calibration used.
     pub points: usize,
+    /// The lens's relative illumination (absent in older files: the ideal lens).
+    #[serde(default)]
+    pub relative_illumination: IlluminationJson,
     /// Anything else the calibration reports (standard deviations, model, outliers).
     #[serde(flatten)]
     pub extra: serde_json::Map<String, serde_json::Value>,
@@ -206,6 +337,7 @@ impl RigCamera {
             p: [0, 1, 2].map(|i| [p[(i, 0)], p[(i, 1)], p[(i, 2)], p[(i, 3)]]),
             rms_px,
             points,
+            relative_illumination: IlluminationJson::default(),
             extra: serde_json::Map::new(),
         }
     }
@@ -250,6 +382,52 @@ mod tests {
         let x = Point3::new(10.0, -20.0, 5.0);
         assert!((cam.project(&x).unwrap() - cam2.project(&x).unwrap()).norm() < 1e-9);
         assert!(json.contains("\"P\"") && json.contains("\"K\"") && json.contains("\"rms_px\""));
+    }
+
+    #[test]
+    fn illumination_is_ideal_when_absent_and_round_trips() {
+        let nominal = NominalCamera {
+            id: 1,
+            position: [-460.0, 0.0, 0.0],
+            look_at: [0.0, 0.0, 0.0],
+            up: [0.0, 0.0, 1.0],
+            focal_mm: 40.0,
+            pixel_mm: 0.0055,
+            width: 400,
+            height: 300,
+            extra: serde_json::Map::new(),
+        };
+        let cam = nominal.to_camera().unwrap();
+        let mut json = serde_json::to_value(RigCamera::new(1, &cam, 0.01, 40)).unwrap();
+        assert_eq!(json["relative_illumination"]["model"], "ideal");
+        json.as_object_mut()
+            .unwrap()
+            .remove("relative_illumination");
+        let old: RigCamera = serde_json::from_value(json.clone()).unwrap();
+        assert_eq!(
+            old.relative_illumination.to_model(400, 300).unwrap(),
+            Illumination::Ideal
+        );
+        json["relative_illumination"] = serde_json::json!({
+            "model": "radial", "centre_px": [200.0, 150.0], "scale_px": 7000.0,
+            "coefficients": [1.0, -1.9], "residual_rms": 1e-4
+        });
+        let fitted: RigCamera = serde_json::from_value(json.clone()).unwrap();
+        let Illumination::Radial(r) = fitted.relative_illumination.to_model(400, 300).unwrap()
+        else {
+            panic!("not radial")
+        };
+        assert_eq!(r.coefficients, vec![1.0, -1.9]);
+        let back = serde_json::to_value(&fitted).unwrap();
+        assert_eq!(back["relative_illumination"]["residual_rms"], 1e-4);
+        json["relative_illumination"]["coefficients"] = serde_json::json!([1.0, -1e9]);
+        let bad: RigCamera = serde_json::from_value(json).unwrap();
+        assert!(
+            bad.relative_illumination
+                .to_model(400, 300)
+                .unwrap_err()
+                .contains("not positive")
+        );
     }
 
     #[test]

@@ -21,6 +21,7 @@ mod error;
 pub mod camera;
 pub mod distortion;
 pub mod fit;
+pub mod illumination;
 pub mod interp;
 pub mod lm;
 pub mod min_zone;
@@ -31,6 +32,7 @@ pub mod transform;
 pub use camera::{Camera, Intrinsics};
 pub use distortion::Distortion;
 pub use error::{GeomError, Result};
+pub use illumination::{Illumination, RadialIllumination};
 
 /// nalgebra types used throughout the workspace, re-exported so every crate
 /// uses the same version.

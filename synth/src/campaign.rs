@@ -1,6 +1,7 @@
 //! Writing a campaign (INTERFACES.md, `trinocular synth campaign`): images,
 //! `manifest.csv`, `spheres.csv`, `nominal.json`, `target.csv`, calibration
-//! images, `truth.json`, `truth_points.csv` and the effective `config.toml`.
+//! images (target, flat field and dark frame per camera), `truth.json`,
+//! `truth_points.csv` and the effective `config.toml`.
 //!
 //! Streams: instants are rendered in parallel in bounded batches, each image
 //! written atomically as soon as it is encoded; only the plan (a few hundred
@@ -273,7 +274,7 @@ pub fn write_campaign(
 pub struct TargetSummary {
     /// Markers on the target.
     pub markers: usize,
-    /// Calibration images written (one per camera), relative paths.
+    /// Calibration images written (per camera: target, flat field, dark frame), relative paths.
     pub images: Vec<String>,
 }
 

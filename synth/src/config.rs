@@ -92,6 +92,25 @@ pub struct OpticsConfig {
     pub focus_distance_mm: f64,
     /// Standard deviation of the Gaussian point-spread function in focus (µm on the sensor).
     pub psf_sigma_um: f64,
+    /// What a pixel's value is proportional to: the image irradiance of a real
+    /// lens, or the radiance a pinhole ray tracer writes.
+    pub illumination: IlluminationModel,
+    /// The lens's own vignetting beyond cos⁴θ, `V = 1 + v₁·tan²θ + v₂·tan⁴θ`
+    /// (`[v₁, v₂]`; `lens` only).
+    pub vignetting: [f64; 2],
+}
+
+/// The lens's relative illumination in the rendered images.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum IlluminationModel {
+    /// A real lens: each pixel's value is radiance × cos⁴θ·V/J (natural
+    /// vignetting, the lens's own vignetting V, energy conserved under the
+    /// distortion, J the distorted/undistorted area ratio).
+    #[default]
+    Lens,
+    /// Radiance per pixel (RI = 1), as a pinhole ray tracer writes it.
+    Radiance,
 }
 
 /// Placement of the cameras.
@@ -624,6 +643,33 @@ impl Config {
             ));
         }
         non_negative("optics.psf_sigma_um", o.psf_sigma_um)?;
+        finite("optics.vignetting", &o.vignetting)?;
+        if o.illumination == IlluminationModel::Radiance && o.vignetting != [0.0, 0.0] {
+            return Err(bad(
+                "optics.vignetting",
+                "applies to illumination = \"lens\" only",
+            ));
+        }
+        // V must stay positive out to the field's corner (tan θ ≤ half-diagonal / f).
+        let half_diagonal = 0.5 * s.pixel_mm * f64::from(s.width).hypot(f64::from(s.height));
+        let t2 = (half_diagonal
+            / crate::rig::principal_distance_mm(o.focal_mm, o.focus_distance_mm))
+        .powi(2);
+        let [v1, v2] = o.vignetting;
+        let v = |x: f64| 1.0 + v1 * x + v2 * x * x;
+        let vertex = -v1 / (2.0 * v2);
+        let mut v_min = v(0.0).min(v(t2));
+        if v2 > 0.0 && (0.0..t2).contains(&vertex) {
+            v_min = v_min.min(v(vertex));
+        }
+        if !(v_min > 0.0) {
+            return Err(bad(
+                "optics.vignetting",
+                format!(
+                    "V = 1 + v1·tan²θ + v2·tan⁴θ reaches {v_min} in the field: it must stay positive"
+                ),
+            ));
+        }
 
         finite("rig.working_point", &self.rig.working_point)?;
         positive("rig.working_distance_mm", self.rig.working_distance_mm)?;
@@ -899,6 +945,8 @@ impl Default for OpticsConfig {
             f_number: 8.0,
             focus_distance_mm: 460.0,
             psf_sigma_um: 3.0,
+            illumination: IlluminationModel::Lens,
+            vignetting: [0.0, 0.0],
         }
     }
 }

@@ -11,6 +11,8 @@
 //!   moment-exact blur (centroids are exact, not just unbiased).
 //! - [`sensor`]: background, gradient, stray light, shot/read noise, gain,
 //!   quantisation, saturation; deterministic per-row random streams.
+//! - [`illumination`]: the lens's relative illumination (natural vignetting,
+//!   the lens's own vignetting, energy conservation under distortion).
 //! - [`render`]: one frame from the above; [`rig`]: nominal and true cameras.
 //! - [`encode`]: 8/16-bit TIFF and PNG with EXIF metadata.
 //! - [`machine`], [`procedure`], [`campaign`], [`target`], [`truth`]: the
@@ -23,8 +25,10 @@
 //! - World frame = machine frame: right-handed, Z up. Camera frame: x right,
 //!   y down, z forward; `x_cam = R·x_world + t`.
 //! - Pixel coordinates: the centre of the top-left pixel is (0, 0).
-//! - Uniform radiance gives uniform image irradiance over a silhouette
-//!   (no vignetting, no cos⁴ fall-off); lens distortion only moves light.
+//! - A pixel's value is the scene radiance times the lens's relative
+//!   illumination (`[optics] illumination = "lens"`: cos⁴θ·V/J, see
+//!   [`illumination`]) or the radiance itself (`"radiance"`, a pinhole ray
+//!   tracer); lens distortion only moves light.
 //! - The library never prints; long jobs report through [`progress::Progress`].
 
 #![deny(missing_docs)]
@@ -36,6 +40,7 @@ pub mod config;
 pub mod coverage;
 pub mod datetime;
 pub mod encode;
+pub mod illumination;
 pub mod machine;
 pub mod probe;
 pub mod procedure;
@@ -48,8 +53,9 @@ pub mod sensor;
 pub mod target;
 pub mod truth;
 
-pub use config::{Config, Overrides};
+pub use config::{Config, IlluminationModel, Overrides};
 pub use error::{Result, SynthError};
+pub use illumination::LensIllumination;
 pub use psf::{Optics, Signal};
 pub use rig::{SynthCamera, SynthRig};
 pub use scene::Sphere;

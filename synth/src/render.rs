@@ -1,23 +1,27 @@
-//! One frame: each sphere's visible silhouette → exact coverage → its own
+//! One frame: each sphere's visible silhouette → exact coverage → times the
+//! lens's relative illumination (when rendering through a lens) → its own
 //! blur (PSF + defocus at its depth) → sensor exposure.
 
 use geom::Camera;
 
 use crate::coverage::{PixelRect, coverage};
+use crate::illumination::LensIllumination;
 use crate::psf::{Optics, Signal, blur, kernel_radius};
 use crate::scene::{Sphere, ViewedSphere, check_disjoint, outline_bounds};
 use crate::sensor::{Exposure, Image16, NoiseKey, Sensor, expose};
 use crate::{Result, SynthError};
 
 /// The noise-free signal of each sphere (fraction of a fully covered pixel's
-/// flux per pixel, after occlusion and blur); `None` for a sphere wholly
-/// outside the image. Signals extend past the image by the blur radius so that
-/// light from just outside reaches the border pixels.
+/// flux per pixel at the principal point, after occlusion, the lens's
+/// relative illumination `lens` when given, and blur); `None` for a sphere
+/// wholly outside the image. Signals extend past the image by the blur radius
+/// so that light from just outside reaches the border pixels.
 pub fn sphere_signals(
     camera: &Camera,
     optics: &Optics,
     spheres: &[Sphere],
     max_depth: u8,
+    lens: Option<&LensIllumination>,
 ) -> Result<Vec<Option<Signal>>> {
     check_disjoint(spheres)?;
     let viewed = spheres
@@ -51,13 +55,18 @@ pub fn sphere_signals(
             out.push(None);
             continue;
         }
-        let cov = coverage(camera, v, &occluders, rect, max_depth)?;
+        let mut cov = coverage(camera, v, &occluders, rect, max_depth)?;
+        if let Some(lens) = lens {
+            lens.weigh(&mut cov);
+        }
         out.push(Some(blur(&cov, sigma)));
     }
     Ok(out)
 }
 
-/// Render one frame: the spheres over the sensor's background, with noise.
+/// Render one frame: the spheres over the sensor's background, with noise;
+/// through the lens's relative illumination `lens` when given (the spheres'
+/// light and the background light), radiance per pixel otherwise.
 pub fn render(
     camera: &Camera,
     optics: &Optics,
@@ -65,6 +74,7 @@ pub fn render(
     spheres: &[Sphere],
     key: NoiseKey,
     max_depth: u8,
+    lens: Option<&LensIllumination>,
 ) -> Result<Image16> {
     if sensor.width != camera.width || sensor.height != camera.height {
         return Err(SynthError::Scene(format!(
@@ -72,7 +82,7 @@ pub fn render(
             sensor.width, sensor.height, camera.width, camera.height
         )));
     }
-    let signals = sphere_signals(camera, optics, spheres, max_depth)?;
+    let signals = sphere_signals(camera, optics, spheres, max_depth, lens)?;
     let layers: Vec<Exposure<'_>> = signals
         .iter()
         .zip(spheres)
@@ -83,5 +93,5 @@ pub fn render(
             })
         })
         .collect();
-    Ok(expose(sensor, &layers, key))
+    Ok(expose(sensor, &layers, key, lens))
 }

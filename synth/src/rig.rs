@@ -6,7 +6,8 @@ use formats::{NominalCamera, NominalRig};
 use geom::nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use geom::{Camera, Intrinsics};
 
-use crate::config::{CameraConfig, Config};
+use crate::config::{CameraConfig, Config, IlluminationModel};
+use crate::illumination::LensIllumination;
 use crate::psf::Optics;
 use crate::scene::Sphere;
 use crate::sensor::{Image16, NoiseKey, Sensor, StrayLight};
@@ -27,7 +28,17 @@ pub struct SynthCamera {
     pub optics: Optics,
     /// Sensor, with this camera's stray light.
     pub sensor: Sensor,
+    /// The lens's relative illumination; `None`: radiance images.
+    pub lens: Option<LensIllumination>,
 }
+
+/// Fraction of the full scale that a flat field reaches where it is brightest.
+pub const FLAT_FIELD_LEVEL: f64 = 0.75;
+
+/// Frame numbers of the flat-field and dark frames in noise keys.
+pub const FLAT_FIELD_FRAME: u64 = u64::MAX - 1;
+/// See [`FLAT_FIELD_FRAME`].
+pub const DARK_FRAME: u64 = u64::MAX - 2;
 
 impl SynthCamera {
     /// Render the spheres as this camera sees them.
@@ -39,7 +50,55 @@ impl SynthCamera {
             spheres,
             key,
             max_depth,
+            self.lens.as_ref(),
         )
+    }
+
+    /// Radiance (electrons of a pixel at the principal point) of the flat
+    /// field: [`FLAT_FIELD_LEVEL`] of the full scale where it is brightest.
+    pub fn flat_field_radiance_e(&self) -> f64 {
+        let s = &self.sensor;
+        let peak = self
+            .lens
+            .as_ref()
+            .map_or(1.0, |l| l.max_in(s.width, s.height));
+        (FLAT_FIELD_LEVEL * s.max_dn() - s.offset_dn) / s.gain_dn_per_e / peak
+    }
+
+    /// A flat-field frame: a uniform radiance source filling the view (no
+    /// stray light, no spheres), through the lens, with the sensor's noise.
+    pub fn flat_field(&self, seed: u64) -> Image16 {
+        let sensor = Sensor {
+            background_e: self.flat_field_radiance_e(),
+            gradient_e_per_px: [0.0, 0.0],
+            stray_light: Vec::new(),
+            ..self.sensor.clone()
+        };
+        crate::sensor::expose(
+            &sensor,
+            &[],
+            self.key(seed, FLAT_FIELD_FRAME),
+            self.lens.as_ref(),
+        )
+    }
+
+    /// A dark frame: the lens capped, the sensor's offset and read noise only.
+    pub fn dark_frame(&self, seed: u64) -> Image16 {
+        let sensor = Sensor {
+            background_e: 0.0,
+            gradient_e_per_px: [0.0, 0.0],
+            stray_light: Vec::new(),
+            ..self.sensor.clone()
+        };
+        crate::sensor::expose(&sensor, &[], self.key(seed, DARK_FRAME), None)
+    }
+
+    fn key(&self, seed: u64, frame: u64) -> NoiseKey {
+        NoiseKey {
+            seed,
+            frame,
+            camera: self.id,
+        }
     }
 }
 
@@ -166,6 +225,10 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
         focus_distance_mm: o.focus_distance_mm,
         pixel_mm: s.pixel_mm,
     };
+    let lens = match o.illumination {
+        IlluminationModel::Lens => Some(LensIllumination::new(&camera, o.vignetting)?),
+        IlluminationModel::Radiance => None,
+    };
     Ok(SynthCamera {
         id: c.id,
         camera,
@@ -173,6 +236,7 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
         serial: c.serial.clone(),
         optics,
         sensor,
+        lens,
     })
 }
 

@@ -1,7 +1,9 @@
 //! The image sensor: background (level, linear gradient, stray-light blobs),
 //! signal, shot and read noise, gain, offset, quantisation and saturation.
 //!
-//! Per pixel: mean electrons `μ = background + Σ radiance·signal`;
+//! Per pixel: mean electrons `μ = RI·background + Σ radiance·signal` (RI the
+//! lens's relative illumination when rendering through a lens, 1 otherwise;
+//! the signals carry it already);
 //! electrons `e = μ + √(μ + σ_read²)·z` with one standard normal z per pixel
 //! (the Gaussian approximation of Poisson shot noise plus Gaussian read noise:
 //! mean μ, variance μ + σ_read², accurate for the ≥ 100 e⁻ backgrounds used);
@@ -15,6 +17,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 
+use crate::illumination::LensIllumination;
 use crate::psf::Signal;
 
 /// A 16-bit grayscale image (8-bit images hold values ≤ 255).
@@ -233,9 +236,15 @@ impl QuantisedNoise {
     }
 }
 
-/// Expose the sensor: background + signals + noise → quantised image.
-/// Rows are computed in parallel; the result does not depend on the thread count.
-pub fn expose(sensor: &Sensor, layers: &[Exposure<'_>], key: NoiseKey) -> Image16 {
+/// Expose the sensor: background (times the lens's relative illumination
+/// `lens` when given) + signals + noise → quantised image. Rows are computed
+/// in parallel; the result does not depend on the thread count.
+pub fn expose(
+    sensor: &Sensor,
+    layers: &[Exposure<'_>],
+    key: NoiseKey,
+    lens: Option<&LensIllumination>,
+) -> Image16 {
     use rand_pcg::rand_core::Rng;
     let (w, h) = (sensor.width as usize, sensor.height as usize);
     let mut data = vec![0u16; w * h];
@@ -248,8 +257,8 @@ pub fn expose(sensor: &Sensor, layers: &[Exposure<'_>], key: NoiseKey) -> Image1
     let noisy = sensor.noisy();
     let shot = sensor.shot_noise;
     let sd_of = |m: f64| (if shot { m.max(0.0) } else { 0.0 } + rn2).sqrt();
-    // The uniform background (no gradient): sampled exactly in DN.
-    let flat = sensor.gradient_e_per_px == [0.0, 0.0];
+    // The uniform background (no gradient, no fall-off): sampled exactly in DN.
+    let flat = sensor.gradient_e_per_px == [0.0, 0.0] && lens.is_none();
     let bg = sensor.background_e;
     let sampler = if noisy && flat {
         QuantisedNoise::new(sensor.offset_dn + gain * bg, gain * sd_of(bg), max)
@@ -271,7 +280,7 @@ pub fn expose(sensor: &Sensor, layers: &[Exposure<'_>], key: NoiseKey) -> Image1
         || vec![0.0f64; w],
         |mean, (v, out)| {
             if !noisy {
-                mean_row(sensor, layers, v, mean);
+                mean_row(sensor, layers, v, mean, lens);
                 for (o, &m) in out.iter_mut().zip(mean.iter()) {
                     *o = ((offset + gain * m) as u16).min(max);
                 }
@@ -284,7 +293,7 @@ pub fn expose(sensor: &Sensor, layers: &[Exposure<'_>], key: NoiseKey) -> Image1
                 }
                 return;
             }
-            mean_row(sensor, layers, v, mean);
+            mean_row(sensor, layers, v, mean, lens);
             let mut last = f64::NAN;
             let mut sd = 0.0;
             for (o, &m) in out.iter_mut().zip(mean.iter()) {
@@ -309,8 +318,15 @@ pub fn expose(sensor: &Sensor, layers: &[Exposure<'_>], key: NoiseKey) -> Image1
 /// Stray-light blobs are evaluated out to this many σ.
 const STRAY_REACH_SIGMAS: f64 = 6.0;
 
-/// Mean electrons of row `v` into `mean`.
-pub fn mean_row(sensor: &Sensor, layers: &[Exposure<'_>], v: usize, mean: &mut [f64]) {
+/// Mean electrons of row `v` into `mean`: background light (times `lens`'s
+/// relative illumination when given), then the signal layers.
+pub fn mean_row(
+    sensor: &Sensor,
+    layers: &[Exposure<'_>],
+    v: usize,
+    mean: &mut [f64],
+    lens: Option<&LensIllumination>,
+) {
     let vf = v as f64;
     let b0 = sensor.background_at(0.0, vf);
     let gu = sensor.gradient_e_per_px[0];
@@ -333,6 +349,11 @@ pub fn mean_row(sensor: &Sensor, layers: &[Exposure<'_>], v: usize, mean: &mut [
         for (u, m) in mean.iter_mut().enumerate().take(hi).skip(lo) {
             let du = u as f64 - s.u;
             *m += row_peak * (-(du * du) / (2.0 * s.sigma_px * s.sigma_px)).exp();
+        }
+    }
+    if let Some(lens) = lens {
+        for (u, m) in mean.iter_mut().enumerate() {
+            *m *= lens.at(u as f64, vf);
         }
     }
     for layer in layers {
@@ -414,6 +435,7 @@ mod tests {
                     frame: 3,
                     camera: 2,
                 },
+                None,
             );
             let n = img.len() as f64;
             let mean = img.iter().map(|&x| f64::from(x)).sum::<f64>() / n;
@@ -488,6 +510,7 @@ mod tests {
                 frame: 0,
                 camera: 1,
             },
+            None,
         );
         assert_eq!(img.get_pixel(100, 100).0[0], u16::MAX);
         // Noise-free: DN = 400 + 4·(200 + (u − 255.5)).
@@ -511,10 +534,10 @@ mod tests {
             .num_threads(4)
             .build()
             .unwrap();
-        let a = one.install(|| expose(&s, &[], key));
-        let b = four.install(|| expose(&s, &[], key));
+        let a = one.install(|| expose(&s, &[], key, None));
+        let b = four.install(|| expose(&s, &[], key, None));
         assert_eq!(a.as_raw(), b.as_raw());
-        let c = expose(&s, &[], NoiseKey { frame: 6, ..key });
+        let c = expose(&s, &[], NoiseKey { frame: 6, ..key }, None);
         assert_ne!(a.as_raw(), c.as_raw());
     }
 }

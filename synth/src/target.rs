@@ -5,7 +5,9 @@
 //! Files: `target.csv` (id, x, y, z, diameter; target frame = world frame),
 //! `calib/cam{k}.tif` and `calib/points_cam{k}.csv` (id, u, v: the exact
 //! observed image of each marker centre through the full true camera model, for
-//! calibration from correspondences).
+//! calibration from correspondences), and per camera the radiometric frames a
+//! user captures beside the target: `calib/flat_cam{k}.tif` (a uniform
+//! radiance source filling the view) and `calib/dark_cam{k}.tif` (lens capped).
 
 use std::path::Path;
 
@@ -130,7 +132,8 @@ pub fn render_target(cam: &SynthCamera, config: &Config) -> Result<Image16> {
     )
 }
 
-/// Write `target.csv` and, per camera, `calib/cam{k}.{ext}` and
+/// Write `target.csv` and, per camera, `calib/cam{k}.{ext}`,
+/// `calib/flat_cam{k}.{ext}`, `calib/dark_cam{k}.{ext}` and
 /// `calib/points_cam{k}.csv` under `out`. Returns the image paths (relative).
 pub fn write_target_files(
     config: &Config,
@@ -145,31 +148,37 @@ pub fn write_target_files(
     let ext = config.output.format.extension();
     let mut paths = Vec::new();
     for cam in &rig.cameras {
-        let img = render_target(cam, config)?;
-        let rel = format!("calib/cam{}.{ext}", cam.id);
-        let meta = FrameMetadata {
-            make: config.output.make.clone(),
-            model: config.output.model.clone(),
-            serial: cam.serial.clone(),
-            time_s,
-            exposure_s: config.sensor.exposure_s,
-            f_number: config.optics.f_number,
-            focal_mm: config.optics.focal_mm,
-            description: format!("calibration target, camera {}", cam.id),
-        };
-        write_image(
-            &out.join(&rel),
-            &img,
-            config.sensor.bits,
-            &meta,
-            config.output.format,
-            config.output.compression,
-        )?;
+        let frames = [
+            ("cam", render_target(cam, config)?, "calibration target"),
+            ("flat_cam", cam.flat_field(config.seed), "flat field"),
+            ("dark_cam", cam.dark_frame(config.seed), "dark frame"),
+        ];
+        for (name, img, what) in frames {
+            let rel = format!("calib/{name}{}.{ext}", cam.id);
+            let meta = FrameMetadata {
+                make: config.output.make.clone(),
+                model: config.output.model.clone(),
+                serial: cam.serial.clone(),
+                time_s,
+                exposure_s: config.sensor.exposure_s,
+                f_number: config.optics.f_number,
+                focal_mm: config.optics.focal_mm,
+                description: format!("{what}, camera {}", cam.id),
+            };
+            write_image(
+                &out.join(&rel),
+                &img,
+                config.sensor.bits,
+                &meta,
+                config.output.format,
+                config.output.compression,
+            )?;
+            paths.push(rel);
+        }
         write_csv(
             &calib.join(format!("points_cam{}.csv", cam.id)),
             &correspondences(cam, &m)?,
         )?;
-        paths.push(rel);
     }
     Ok(paths)
 }

@@ -33,6 +33,19 @@ pub fn truth_cameras(rig: &SynthRig, config: &Config) -> Vec<TruthCamera> {
                     "pixel_mm": c.optics.pixel_mm,
                 }),
             );
+            // What a pixel's value is proportional to (see synth::illumination).
+            t.extra.insert(
+                "illumination".into(),
+                match &c.lens {
+                    Some(l) => json!({
+                        "model": "lens",
+                        "relative_illumination": "cos⁴θ·V(tan θ)·|∂ideal/∂observed|",
+                        "vignetting": l.vignetting(),
+                        "flat_field_radiance_e": c.flat_field_radiance_e(),
+                    }),
+                    None => json!({"model": "radiance", "relative_illumination": 1.0}),
+                },
+            );
             t
         })
         .collect()

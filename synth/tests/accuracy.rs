@@ -1,5 +1,5 @@
-//! Sub-pixel truth of rendered spheres against the analytic image of a sphere
-//! (geom::sphere_image): intensity centroid = ellipse centre within 1e-3 px,
+//! Sub-pixel truth of rendered radiance images of spheres against the analytic
+//! image of a sphere (geom::sphere_image): intensity centroid = ellipse centre within 1e-3 px,
 //! perspective bias Δ = r_c·R²/(Z² − R²) within 2 %, with and without lens
 //! distortion (after undistortion with the area Jacobian).
 
@@ -11,10 +11,13 @@ use synth::render::sphere_signals;
 use synth::scene::{Sphere, ellipse_centre_px};
 use synth::{Config, NoiseKey, SynthRig};
 
-/// The seed camera 3 (true model of the default config), optionally without distortion.
+/// The seed camera 3 (true model of the default config) rendering radiance
+/// images (the lens's relative illumination has its own tests in
+/// `illumination.rs`), optionally without distortion.
 fn seed_camera(distortion: bool) -> synth::SynthCamera {
     let rig = SynthRig::from_config(&Config::default()).unwrap();
     let mut cam = rig.camera(3).unwrap().clone();
+    cam.lens = None;
     if !distortion {
         cam.camera.distortion = Distortion::NONE;
     }
@@ -52,7 +55,7 @@ const CENTROID_TOL_PX: f64 = 1e-3;
 fn centroid_is_the_ellipse_centre() {
     let cam = seed_camera(false);
     let s = spheres();
-    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4).unwrap();
+    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, None).unwrap();
     for (sphere, signal) in s.iter().zip(&signals) {
         let c = signal.as_ref().unwrap().centroid().unwrap();
         let e = ellipse_centre_px(&cam.camera, sphere).unwrap();
@@ -85,7 +88,7 @@ fn quantised_frame_centroid_is_the_ellipse_centre() {
             4,
         )
         .unwrap();
-    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4).unwrap();
+    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, None).unwrap();
     for (sphere, signal) in s.iter().zip(&signals) {
         let sig = signal.as_ref().unwrap();
         let mut sum = Vector2::zeros();
@@ -142,7 +145,7 @@ fn check_bias(camera: &Camera, sphere: &Sphere, centroid: Vector2<f64>) {
 fn perspective_bias_matches_the_formula() {
     let cam = seed_camera(false);
     let s = spheres();
-    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4).unwrap();
+    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, None).unwrap();
     for (sphere, signal) in s.iter().zip(&signals) {
         check_bias(
             &cam.camera,
@@ -160,7 +163,7 @@ fn undistorted_centroid_is_the_ellipse_centre() {
     let cam = seed_camera(true);
     assert!(!cam.camera.distortion.is_none());
     let s = spheres();
-    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4).unwrap();
+    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, None).unwrap();
     for (sphere, signal) in s.iter().zip(&signals) {
         let sig = signal.as_ref().unwrap();
         let mut sum = Vector2::zeros();
@@ -269,7 +272,7 @@ fn defocus_grows_off_the_focus_plane() {
             radius: 5.0,
             radiance_e: 1.0,
         };
-        let s = sphere_signals(&cam.camera, &cam.optics, &[sphere], 5).unwrap();
+        let s = sphere_signals(&cam.camera, &cam.optics, &[sphere], 5, None).unwrap();
         let s = s[0].as_ref().unwrap();
         let c = s.centroid().unwrap();
         let (mut var, mut t) = (0.0, 0.0);
