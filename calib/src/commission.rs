@@ -16,11 +16,31 @@
 //!   camera looking along an axis is not used for it (X: cameras 2 + 3,
 //!   Y: 1 + 3, Z: 1 + 2).
 //!
+//! - Relative illumination (`crate::illumination`): the camera's measured
+//!   (or assumed) fall-off against the ideal lens's cos⁴θ over the field, and
+//!   what correcting with the ideal lens or with none would cost in scale
+//!   (ppm) for each sphere at the ends of each travel.
+//!
 //! Past a tolerance the report carries a warning; it never fails.
 
 use geom::nalgebra::{Matrix3, Vector3};
-use geom::{Camera, Point3};
+use geom::{Camera, Illumination, Point3};
 use serde::Serialize;
+
+use crate::illumination::{FlatFieldFit, ProfilePoint, profile, scale_error_ppm};
+
+/// Field positions of the relative-illumination profile.
+const PROFILE_POINTS: usize = 6;
+
+/// What a user must capture for the relative illumination, in the report.
+pub const FLAT_FIELD_ADVICE: &str = "A pixel's value is the sphere's radiance times the lens's \
+relative illumination, which falls off towards the edge of the field (cos⁴θ for an ideal lens, \
+more or less for a real one); left uncorrected, or corrected with the wrong model, it moves each \
+sphere's centroid along the radius and scales every displacement by up to ≈ 480 ppm. Capture per \
+camera, with the same lens, aperture, focus and exposure settings as the measurement: a flat \
+field (a uniform radiance source, e.g. an opal diffuser or integrating sphere, filling the whole \
+view, at about ¾ of full scale, never saturated) and a dark frame (lens capped), and give them to \
+`trinocular calibrate --flat-fields … --dark-frames …`.";
 
 /// Default f-number when the nominal rig does not give one.
 pub const DEFAULT_F_NUMBER: f64 = 8.0;
@@ -54,6 +74,10 @@ pub struct CameraInput {
     pub rms_px: f64,
     /// Optics; `None` skips the depth-of-field check for this camera.
     pub optics: Option<Optics>,
+    /// The lens's relative illumination (measured, or the ideal lens assumed).
+    pub illumination: Illumination,
+    /// The flat-field fit it came from, when measured.
+    pub flat_field: Option<FlatFieldFit>,
 }
 
 /// Tolerances and the travels to check.
@@ -72,6 +96,9 @@ pub struct CommissionOptions {
     pub rms_tolerance_px: f64,
     /// Largest principal-point offset from the image centre, as a fraction of the image diagonal.
     pub principal_point_tolerance: f64,
+    /// Spheres (name, diameter mm) whose scale error the relative
+    /// illumination is reported for.
+    pub spheres: Vec<(String, f64)>,
 }
 
 impl Default for CommissionOptions {
@@ -83,6 +110,7 @@ impl Default for CommissionOptions {
             alignment_tolerance_deg: 1.0,
             rms_tolerance_px: 0.1,
             principal_point_tolerance: 0.05,
+            spheres: vec![("A".into(), 20.0), ("B".into(), 15.0), ("C".into(), 10.0)],
         }
     }
 }
@@ -118,6 +146,37 @@ pub struct CameraReport {
     pub rms_px: f64,
     /// Depth of field, when the optics are known.
     pub depth_of_field: Option<DepthOfField>,
+    /// Relative illumination: model, profile and scale costs.
+    pub relative_illumination: IlluminationReport,
+}
+
+/// The relative illumination of one camera in the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IlluminationReport {
+    /// `radial` (measured from a flat field), `ideal` (assumed: no flat
+    /// field given) or `uniform`.
+    pub model: String,
+    /// The flat-field fit, when measured.
+    pub flat_field: Option<FlatFieldFit>,
+    /// RI against the ideal lens from the principal point to the farthest corner.
+    pub profile: Vec<ProfilePoint>,
+    /// Scale errors of wrong assumptions, per sphere and travel end.
+    pub scale_costs: Vec<ScaleCost>,
+}
+
+/// What a wrong relative illumination would cost one sphere at the end of a travel.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScaleCost {
+    /// Machine axis of the travel.
+    pub axis: String,
+    /// Sphere name.
+    pub sphere: String,
+    /// Sphere diameter (mm).
+    pub diameter_mm: f64,
+    /// Correcting with the ideal lens (cos⁴θ) instead of this camera's model (ppm).
+    pub ideal_lens_ppm: f64,
+    /// Not correcting at all (flat RI) (ppm).
+    pub flat_ppm: f64,
 }
 
 /// Near and far limits of acceptable sharpness.
@@ -231,6 +290,69 @@ pub fn depth_of_field(focal_mm: f64, f_number: f64, coc_mm: f64, s: f64) -> Dept
     }
 }
 
+/// Unit vector of machine axis `axis` ('X', 'Y' or 'Z').
+fn axis_direction(axis: char) -> Option<Vector3<f64>> {
+    ['X', 'Y', 'Z']
+        .iter()
+        .position(|a| *a == axis)
+        .map(|i| Vector3::ith(i, 1.0))
+}
+
+/// The relative-illumination part of a camera's report: profile, and per
+/// travel the camera is used for, the scale costs at the travel's end that
+/// images farther from the principal point.
+fn illumination_report(
+    c: &CameraInput,
+    wp: &Point3<f64>,
+    options: &CommissionOptions,
+) -> IlluminationReport {
+    let cam = &c.camera;
+    let mut scale_costs = Vec::new();
+    for &(axis, length) in &options.travel_mm {
+        let Some(dir) = axis_direction(axis) else {
+            continue;
+        };
+        if machine_axis(c.id).is_none_or(|(n, _)| n == axis) {
+            continue;
+        }
+        let pp = geom::Point2::new(cam.intrinsics.cx, cam.intrinsics.cy);
+        let radius = |p: &Point3<f64>| cam.project_pinhole(p).map_or(0.0, |q| (q - pp).norm());
+        let ends = [wp - dir * (length / 2.0), wp + dir * (length / 2.0)];
+        let end = if radius(&ends[0]) >= radius(&ends[1]) {
+            ends[0]
+        } else {
+            ends[1]
+        };
+        for (name, diameter) in &options.spheres {
+            let cost = |assumed: &Illumination| {
+                scale_error_ppm(cam, &c.illumination, assumed, &end, diameter / 2.0)
+            };
+            if let (Some(ideal), Some(flat)) =
+                (cost(&Illumination::Ideal), cost(&Illumination::Uniform))
+            {
+                scale_costs.push(ScaleCost {
+                    axis: axis.to_string(),
+                    sphere: name.clone(),
+                    diameter_mm: *diameter,
+                    ideal_lens_ppm: ideal,
+                    flat_ppm: flat,
+                });
+            }
+        }
+    }
+    IlluminationReport {
+        model: match c.illumination {
+            Illumination::Ideal => "ideal",
+            Illumination::Uniform => "uniform",
+            Illumination::Radial(_) => "radial",
+        }
+        .into(),
+        flat_field: c.flat_field.clone(),
+        profile: profile(cam, &c.illumination, PROFILE_POINTS),
+        scale_costs,
+    }
+}
+
 /// Commission a calibrated rig (module docs).
 pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Report {
     let mut warnings = Vec::new();
@@ -312,6 +434,10 @@ pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Repor
             depth_of_field(f, o.f_number, o.coc_px * o.pixel_mm, s)
         });
         let (pu, pv) = (z / k.fx, z / k.fy);
+        let relative_illumination = illumination_report(c, &wp, options);
+        if let Some(w) = c.flat_field.as_ref().and_then(|f| f.warning.as_ref()) {
+            warnings.push(format!("camera {}: {w}", c.id));
+        }
         reports.push(CameraReport {
             id: c.id,
             machine_axis: name.to_string(),
@@ -327,6 +453,7 @@ pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Repor
             principal_point_offset_px: offset,
             rms_px: c.rms_px,
             depth_of_field: dof,
+            relative_illumination,
         });
     }
 
@@ -351,11 +478,7 @@ pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Repor
 
     let mut travel = Vec::new();
     for &(axis, length) in &options.travel_mm {
-        let Some(dir) = ['X', 'Y', 'Z']
-            .iter()
-            .position(|a| *a == axis)
-            .map(|i| Vector3::ith(i, 1.0))
-        else {
+        let Some(dir) = axis_direction(axis) else {
             warnings.push(format!("travel: unknown machine axis '{axis}'"));
             continue;
         };
@@ -417,6 +540,59 @@ pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Repor
     }
 }
 
+/// The relative-illumination lines of one camera in the text report.
+fn illumination_text(s: &mut String, r: &IlluminationReport) {
+    use std::fmt::Write;
+    match &r.flat_field {
+        Some(f) => {
+            let _ = writeln!(
+                s,
+                "  relative illumination measured from the flat field: RI {:.4}…{:.4} of the centre, \
+                 fit residual {:.4} % RMS (noise {:.4} %), dark {:.1} DN, flat {:.0} DN above it",
+                f.ri_range[0],
+                f.ri_range[1],
+                100.0 * f.residual_rms,
+                100.0 * f.noise_rms,
+                f.dark_dn,
+                f.flat_level_dn
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  relative illumination ASSUMED: the {} lens (no flat field given)",
+                r.model
+            );
+        }
+    }
+    let row = |label: &str, f: &dyn Fn(&ProfilePoint) -> String| {
+        let cells: Vec<String> = r.profile.iter().map(f).collect();
+        format!("    {label:<22}{}", cells.join(""))
+    };
+    let _ = writeln!(
+        s,
+        "{}",
+        row("field angle (deg)", &|p| format!(
+            "{:>9.2}",
+            p.field_angle_deg
+        ))
+    );
+    let _ = writeln!(s, "{}", row("RI", &|p| format!("{:>9.4}", p.ri)));
+    let _ = writeln!(
+        s,
+        "{}",
+        row("ideal lens cos⁴θ·J", &|p| format!("{:>9.4}", p.ideal))
+    );
+    let _ = writeln!(s, "{}", row("RI / ideal", &|p| format!("{:>9.4}", p.ratio)));
+    for c in &r.scale_costs {
+        let _ = writeln!(
+            s,
+            "    sphere {} ({} mm) at the end of the {} travel: assuming cos⁴θ would cost {:+.1} ppm of scale, no correction {:+.1} ppm",
+            c.sphere, c.diameter_mm, c.axis, c.ideal_lens_ppm, c.flat_ppm
+        );
+    }
+}
+
 impl Report {
     /// Plain-text rendering for `commissioning.txt`.
     pub fn text(&self) -> String {
@@ -474,6 +650,7 @@ impl Report {
                     let _ = writeln!(s, "  depth of field unknown (no optics given)");
                 }
             }
+            illumination_text(&mut s, &c.relative_illumination);
             let _ = writeln!(s);
         }
         let _ = writeln!(s, "Angles between optical axes (the method needs 90°):");
@@ -508,6 +685,9 @@ impl Report {
                 );
             }
         }
+        let _ = writeln!(s);
+        let _ = writeln!(s, "Relative illumination:");
+        let _ = writeln!(s, "  {FLAT_FIELD_ADVICE}");
         let _ = writeln!(s);
         if self.warnings.is_empty() {
             let _ = writeln!(s, "No warnings.");
@@ -548,6 +728,8 @@ mod tests {
                 focal_mm: None,
                 focus_distance_mm: None,
             }),
+            illumination: Illumination::Ideal,
+            flat_field: None,
         }
     }
 

@@ -127,6 +127,9 @@ pub enum CalibError {
         /// What is wrong, with the value.
         message: String,
     },
+    /// A flat-field or dark frame cannot give the relative illumination.
+    #[error("{0}")]
+    FlatField(String),
     /// A geometric computation failed on degenerate data.
     #[error("{what}: {source}")]
     Geom {

@@ -8,6 +8,9 @@
 //! - [`commission`](mod@commission): the rig commissioning report (axis angles, pixel sizes,
 //!   depth of field over each axis's travel).
 //! - [`correspond`](mod@correspond): automatic marker ↔ detection assignment from a nominal camera.
+//! - [`image`]: one camera from the detections in its calibration image
+//!   (assignment, calibration, re-centroiding with the camera's model, refit).
+//! - [`illumination`]: the lens's relative illumination from a flat-field and a dark frame.
 //! - [`opencv`]: export in OpenCV's `FileStorage` YAML format.
 //!
 //! # Conventions
@@ -27,6 +30,8 @@ pub mod calibration;
 pub mod commission;
 pub mod correspond;
 pub mod dlt;
+pub mod illumination;
+pub mod image;
 pub mod opencv;
 pub mod outliers;
 pub mod refine;
@@ -37,5 +42,7 @@ pub use calibration::{
 pub use commission::{CameraInput, CommissionOptions, Report, commission};
 pub use correspond::{CorrespondOptions, Correspondence, Marker, Match, correspond, markers};
 pub use error::{CalibError, Result};
+pub use illumination::{FlatFieldFit, Pixels, fit_flat_field};
+pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};
 pub use opencv::opencv_yaml;
 pub use refine::{Layout, Model};

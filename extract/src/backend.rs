@@ -104,7 +104,7 @@ pub trait Backend: Send + Sync {
         expected_depth: Option<u8>,
         sink: &mut dyn FnMut(usize, &Path, Result<FrameBlobs>),
     ) {
-        batch::extract_parallel(paths, self, params, expected_depth, sink);
+        batch::extract_parallel(paths, self, params, expected_depth, None, sink);
     }
 
     /// Extract frames held in memory; `sink(index, result)` is called once per

@@ -8,11 +8,15 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
+use geom::RadialIllumination;
+
 use crate::Result;
 use crate::backend::{Backend, ExtractParams, Extraction};
 use crate::blob::Blob;
+use crate::correction::{FlatFieldMap, mapped_centroid};
 use crate::decode::FrameReader;
 use crate::frame::FrameView;
+use crate::label::Weighting;
 use crate::metadata::FrameMetadata;
 
 /// Files processed together; results of a chunk are delivered in order.
@@ -33,18 +37,37 @@ pub struct FrameBlobs {
     pub threshold: String,
     /// Blobs within the area limits, without their runs.
     pub blobs: Vec<Blob>,
+    /// Blobs whose flat-field correction failed (their centroid is the plain
+    /// one), with the reason; empty without a flat field.
+    pub uncorrected: Vec<(usize, String)>,
 }
 
-/// A file's result from its frame, metadata and extraction (blob runs dropped).
+/// A file's result from its frame, metadata and extraction (blob runs
+/// dropped); with a flat field, each blob's centroid is the flat-field
+/// corrected one (`crate::correction`).
 pub(crate) fn frame_blobs(
     frame: &FrameView<'_>,
     metadata: FrameMetadata,
     extraction: Extraction,
+    weighting: Weighting,
+    flat_field: Option<&RadialIllumination>,
 ) -> FrameBlobs {
+    let mut uncorrected = Vec::new();
     let blobs = extraction
         .blobs
-        .into_iter()
-        .map(|mut b| {
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let mut b = b.clone();
+            if let Some(ri) = flat_field {
+                match mapped_centroid(frame, &b, &extraction.level, weighting, &FlatFieldMap(ri)) {
+                    Some([u, v]) => (b.u, b.v) = (u, v),
+                    None => uncorrected.push((
+                        i,
+                        "no flat-field correction: too little background around the blob".into(),
+                    )),
+                }
+            }
             b.runs = Vec::new();
             b
         })
@@ -56,21 +79,33 @@ pub(crate) fn frame_blobs(
         bit_depth: frame.bit_depth,
         threshold: extraction.level.describe(),
         blobs,
+        uncorrected,
     }
 }
 
-/// Decode and extract one file with a reader whose buffers are reused.
+/// Decode and extract one file with a reader whose buffers are reused;
+/// centroids flat-field corrected when `flat_field` is given.
 pub fn extract_file<B: Backend + ?Sized>(
     reader: &mut FrameReader,
     path: &Path,
     backend: &B,
     params: &ExtractParams,
+    flat_field: Option<&RadialIllumination>,
 ) -> Result<FrameBlobs> {
     let (frame, metadata) = reader.read(path)?;
     let extraction = backend
         .extract(frame, params)
         .map_err(|e| e.in_file(path))?;
-    Ok(frame_blobs(&frame, metadata, extraction))
+    // Corrected centroids are taken over the frame the blobs came from.
+    let denoised = flat_field.and_then(|_| crate::denoise::apply(&frame, params.denoise));
+    let view = denoised.as_ref().map_or(frame, |f| f.view());
+    Ok(frame_blobs(
+        &view,
+        metadata,
+        extraction,
+        params.weighting,
+        flat_field,
+    ))
 }
 
 /// Extract every file; `sink(index, path, result)` is called once per file,
@@ -90,6 +125,29 @@ pub fn extract_files<F>(
     backend.extract_batch(paths, params, expected_depth, &mut sink);
 }
 
+/// [`extract_files`] with every centroid flat-field corrected by the lens's
+/// relative illumination `flat_field` (frames decoded and extracted in
+/// parallel, one frame per backend call).
+pub fn extract_files_flat<F>(
+    paths: &[PathBuf],
+    backend: &dyn Backend,
+    params: &ExtractParams,
+    expected_depth: Option<u8>,
+    flat_field: &RadialIllumination,
+    mut sink: F,
+) where
+    F: FnMut(usize, &Path, Result<FrameBlobs>),
+{
+    extract_parallel(
+        paths,
+        backend,
+        params,
+        expected_depth,
+        Some(flat_field),
+        &mut sink,
+    );
+}
+
 /// The default batch path: frames decoded and extracted in parallel on the
 /// rayon pool, in chunks, readers pooled; results in input order.
 pub fn extract_parallel<B: Backend + ?Sized>(
@@ -97,6 +155,7 @@ pub fn extract_parallel<B: Backend + ?Sized>(
     backend: &B,
     params: &ExtractParams,
     expected_depth: Option<u8>,
+    flat_field: Option<&RadialIllumination>,
     sink: &mut dyn FnMut(usize, &Path, Result<FrameBlobs>),
 ) {
     // A pool, not `map_init`: rayon calls `map_init`'s init once per job split,
@@ -118,7 +177,7 @@ pub fn extract_parallel<B: Backend + ?Sized>(
             .par_iter()
             .map(|path| {
                 let mut reader = take();
-                let result = extract_file(&mut reader, path, backend, params);
+                let result = extract_file(&mut reader, path, backend, params, flat_field);
                 give_back(reader);
                 result
             })

@@ -7,8 +7,7 @@
 //! of threads and on any backend that sums exactly.
 
 use crate::frame::FrameView;
-use crate::label::{Labelling, Run, Weighting};
-use crate::threshold::Level;
+use crate::label::{Labelling, Run};
 
 /// Raw weighted moment sums of a blob: S = ΣF, Sx = ΣF·u, … (pixel units).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -226,45 +225,4 @@ pub fn collect(frame: &FrameView<'_>, labelling: Labelling) -> Vec<Blob> {
         None => false,
     });
     blobs
-}
-
-/// A change of pixel coordinates with its area Jacobian: observed pixel
-/// (u, v) → (u′, v′) and `|∂(u′, v′)/∂(u, v)|`. `None` where undefined.
-pub trait PixelMap {
-    /// Map one pixel centre.
-    fn map(&self, u: f64, v: f64) -> Option<([f64; 2], f64)>;
-}
-
-/// The blob's centroid in mapped coordinates, `Σ p′·F·J / Σ F·J` over its
-/// pixels: the weighted centroid of the same light in another image plane
-/// (e.g. undistorted coordinates, where a sphere's outline is an ellipse).
-/// `frame` must be the frame the blob was extracted from (after denoising).
-pub fn mapped_centroid(
-    frame: &FrameView<'_>,
-    blob: &Blob,
-    level: &Level,
-    weighting: Weighting,
-    map: &dyn PixelMap,
-) -> Option<[f64; 2]> {
-    let (mut su, mut sv, mut sw) = (0.0f64, 0.0f64, 0.0f64);
-    for run in &blob.runs {
-        let row = frame.row(run.y);
-        for x in run.x0..=run.x1 {
-            let p = row[x as usize];
-            let t = level.at(x, run.y, frame.width);
-            let f = match weighting {
-                Weighting::Subtracted => f64::from(p.saturating_sub(t)),
-                Weighting::Raw => f64::from(p),
-            };
-            if f == 0.0 {
-                continue;
-            }
-            let ([mu, mv], j) = map.map(f64::from(x), f64::from(run.y))?;
-            let wgt = f * j;
-            su += mu * wgt;
-            sv += mv * wgt;
-            sw += wgt;
-        }
-    }
-    (sw > 0.0).then(|| [su / sw, sv / sw])
 }

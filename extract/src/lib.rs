@@ -11,6 +11,9 @@
 //! - Centroid (METHODS.md §1): `u0 = Σu·F/ΣF`, `v0 = Σv·F/ΣF` with `F = f − T`
 //!   (default) or `F = f` over each 8-connected blob of pixels with f ≥ T.
 //! - Results are exact integer sums: the same on any number of threads.
+//! - Corrected centroids ([`correction`]) re-weight a blob's pixels with the
+//!   camera's model: undistortion and the flat-field correction by the
+//!   lens's relative illumination, over the local background.
 
 mod error;
 
@@ -18,6 +21,7 @@ pub mod backend;
 pub mod background;
 pub mod batch;
 pub mod blob;
+pub mod correction;
 pub mod decode;
 pub mod denoise;
 pub mod frame;
@@ -27,8 +31,9 @@ pub mod metadata;
 pub mod threshold;
 
 pub use backend::{Backend, CpuBackend, ExtractParams, Extraction};
-pub use batch::{FrameBlobs, extract_file, extract_files};
-pub use blob::{Blob, BoundingBox, Moments, PixelMap, mapped_centroid};
+pub use batch::{FrameBlobs, extract_file, extract_files, extract_files_flat};
+pub use blob::{Blob, BoundingBox, Moments};
+pub use correction::{CameraMap, FlatFieldMap, Mapped, PixelMap, mapped_centroid};
 pub use decode::FrameReader;
 pub use denoise::Denoise;
 pub use error::{ExtractError, Result};

@@ -182,7 +182,7 @@ fn threshold_outside_the_bit_depth_is_an_error() {
         threshold: Threshold::Fixed(6000),
         ..ExtractParams::default()
     };
-    let e = extract::extract_file(&mut r, &png8, &CpuBackend, &params)
+    let e = extract::extract_file(&mut r, &png8, &CpuBackend, &params, None)
         .err()
         .unwrap()
         .to_string();

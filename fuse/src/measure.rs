@@ -100,6 +100,9 @@ pub struct Summary {
     pub problems_file: Option<PathBuf>,
     /// `poses.csv`.
     pub poses: PathBuf,
+    /// Cameras whose relative illumination is the assumed ideal lens (no
+    /// flat-field model in `rig.json`).
+    pub assumed_ideal_lens: Vec<u8>,
 }
 
 /// Paths of the outputs beside `points.csv`.
@@ -188,10 +191,11 @@ impl Context<'_> {
             )
         })?;
         let fail = |reason: String| Self::failure(key, Some(camera), Some(path), reason);
-        let cam = self
+        let (cam, illumination) = self
             .rig
             .cameras
             .get(&camera)
+            .zip(self.rig.illumination.get(&camera))
             .ok_or_else(|| fail(format!("camera {camera} is not in the rig")))?;
         let mut reader = self
             .readers
@@ -205,7 +209,13 @@ impl Context<'_> {
                 .backend
                 .extract(frame, &self.options.extract)
                 .map_err(|e| fail(e.in_file(path).to_string()))?;
-            let cands = candidates(cam, &frame, &extraction, self.options.extract.weighting);
+            let cands = candidates(
+                cam,
+                illumination,
+                &frame,
+                &extraction,
+                self.options.extract.weighting,
+            );
             let wd = self.rig.working_distance(camera).unwrap_or(1.0);
             let range = ((wd - self.reach_mm).max(0.1 * wd), wd + self.reach_mm);
             match assign(&cands, &self.diameters, cam.intrinsics.fx, range) {
@@ -450,6 +460,7 @@ pub fn measure(
 ) -> Result<Summary> {
     options.extract.validate()?;
     let rig = RigModel::new(inputs.rig)?;
+    let assumed_ideal = rig.assumed_ideal();
     let plans = plan(inputs.manifest, &rig, inputs.spheres, options.all_cameras)?;
     let partial = with_suffix(out, ".partial");
     let sidecar = with_suffix(out, ".resume.json");
@@ -603,5 +614,6 @@ pub fn measure(
         points: out.to_path_buf(),
         problems_file,
         poses: poses_path,
+        assumed_ideal_lens: assumed_ideal,
     })
 }

@@ -7,7 +7,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use formats::{Axis, InstantKey, LineKey, ManifestRow, Row, SphereRow, read_csv};
-use geom::{Camera, Point3, Vector3};
+use geom::{Camera, Illumination, Point3, Vector3};
 
 use crate::matching::spread_tolerance;
 use crate::{FuseError, Result};
@@ -51,6 +51,9 @@ pub fn describe(k: &InstantKey) -> String {
 pub struct RigModel {
     /// Camera id → model.
     pub cameras: BTreeMap<u8, Camera>,
+    /// Camera id → its lens's relative illumination (the ideal lens where
+    /// `rig.json` has no flat-field model).
+    pub illumination: BTreeMap<u8, Illumination>,
     /// Least-squares intersection of the optical axes (mm): the working point.
     pub working_point: Point3<f64>,
 }
@@ -59,11 +62,20 @@ impl RigModel {
     /// Build from `rig.json`.
     pub fn new(rig: &formats::Rig) -> Result<Self> {
         let mut cameras = BTreeMap::new();
+        let mut illumination = BTreeMap::new();
         for c in &rig.cameras {
             let cam = c.model.to_camera().map_err(|message| FuseError::Rig {
                 camera: c.model.id,
                 message,
             })?;
+            let ri = c
+                .relative_illumination
+                .to_model(c.model.width, c.model.height)
+                .map_err(|message| FuseError::Rig {
+                    camera: c.model.id,
+                    message,
+                })?;
+            illumination.insert(c.model.id, ri);
             if cameras.insert(c.model.id, cam).is_some() {
                 return Err(FuseError::Rig {
                     camera: c.model.id,
@@ -94,8 +106,18 @@ impl RigModel {
             })?;
         Ok(Self {
             cameras,
+            illumination,
             working_point,
         })
+    }
+
+    /// Cameras whose relative illumination is the assumed ideal lens (no flat field measured).
+    pub fn assumed_ideal(&self) -> Vec<u8> {
+        self.illumination
+            .iter()
+            .filter(|(_, i)| **i == Illumination::Ideal)
+            .map(|(&id, _)| id)
+            .collect()
     }
 
     /// Distance from a camera to the working point (mm).

@@ -1,9 +1,13 @@
 //! `trinocular calibrate`: each camera from a 3-D target (METHODS.md §1,
 //! Calibration). From one calibration image per camera (markers extracted,
-//! then assigned to target ids automatically from the nominal rig) or from
-//! `id,u,v` correspondence files. With images, once a distortion estimate
-//! exists the blob centroids are recomputed over undistorted pixel positions
-//! (area-Jacobian weights, `extract::mapped_centroid`) and the camera refitted.
+//! then assigned to target ids automatically from the nominal rig,
+//! `calib::calibrate_detections`) or from `id,u,v` correspondence files.
+//! With a flat field and a dark frame per camera, the lens's relative
+//! illumination is fitted (`calib::fit_flat_field`) and stored in `rig.json`;
+//! without them the ideal lens is assumed. With images, once a camera
+//! estimate exists the blob centroids are recomputed with its model — over
+//! undistorted pixel positions, flat-field corrected (`extract::correction`) —
+//! and the camera refitted.
 //! Writes, all atomically, once every camera is calibrated:
 //! - `--out` (`rig.json`, INTERFACES.md), with each camera's model, parameter
 //!   standard deviations, outliers and DLT figures under extra keys;
@@ -11,18 +15,18 @@
 //! - `<stem>.residuals.csv`: per-point residuals of every camera;
 //! - `commissioning.txt` and `commissioning.json`: the rig commissioning report.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use calib::commission::{CameraInput, CommissionOptions, Optics};
-use calib::{Calibration, CorrespondOptions, Model, Observation, Options};
+use calib::{Calibration, CorrespondOptions, FlatFieldFit, Model, Options};
 use clap::ValueEnum;
-use extract::{Blob, FrameReader, PixelMap, mapped_centroid};
+use extract::{Blob, CameraMap, FrameReader, mapped_centroid};
 use formats::{
-    CorrespondenceRow, NominalRig, Rig, RigCamera, TargetRow, read_csv, read_json, write_json,
+    CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera, SphereRow,
+    TargetRow, read_csv, read_json, write_json,
 };
-use geom::{Camera, Point2};
+use geom::{Illumination, Point2};
 use serde::Serialize;
 use serde_json::{Value, json};
 
@@ -65,6 +69,17 @@ pub struct Args {
     /// Correspondence files `id,u,v`, one per camera in camera order, instead of images.
     #[arg(long, num_args = 1..)]
     points: Vec<PathBuf>,
+    /// Flat-field frames, one per camera in camera order: a uniform radiance
+    /// source filling the view, same lens settings and exposure as the measurement.
+    #[arg(long, num_args = 1.., requires = "dark_frames")]
+    flat_fields: Vec<PathBuf>,
+    /// Dark frames (lens capped), one per camera in camera order.
+    #[arg(long, num_args = 1.., requires = "flat_fields")]
+    dark_frames: Vec<PathBuf>,
+    /// Sphere set `spheres.csv` (`name,diameter`) whose scale errors the
+    /// commissioning report gives (default: A 20, B 15, C 10 mm).
+    #[arg(long)]
+    spheres: Option<PathBuf>,
     /// Output `rig.json`; the other outputs go beside it.
     #[arg(long)]
     out: PathBuf,
@@ -147,17 +162,61 @@ fn optics(raw: &Value, id: u8, pixel_mm: f64) -> Optics {
     }
 }
 
-/// Rounds of re-centroiding over undistorted pixel positions and refitting.
-const UNDISTORTED_ROUNDS: usize = 2;
-
-/// Observed pixel → ideal pixel with the area Jacobian, for [`mapped_centroid`].
-struct Undistortion<'a>(&'a Camera);
-
-impl PixelMap for Undistortion<'_> {
-    fn map(&self, u: f64, v: f64) -> Option<([f64; 2], f64)> {
-        let (p, area) = self.0.undistort_pixel_area(Point2::new(u, v)).ok()?;
-        Some(([p.x, p.y], area))
-    }
+/// The relative illumination of camera `id` (index `k` in camera order):
+/// fitted from its flat field and dark frame when given (model centre started
+/// at the nominal image centre, ρ scaled by the nominal focal length), the
+/// ideal lens otherwise.
+fn illumination(
+    args: &Args,
+    k: usize,
+    nominal: &NominalCamera,
+    reader: &mut FrameReader,
+) -> Result<(Illumination, Option<FlatFieldFit>)> {
+    let (Some(flat), Some(dark)) = (args.flat_fields.get(k), args.dark_frames.get(k)) else {
+        return Ok((Illumination::Ideal, None));
+    };
+    let read = |reader: &mut FrameReader, path: &Path| -> Result<(Vec<u16>, u32, u32, u16)> {
+        let (f, _) = reader.read(path)?;
+        if (f.width, f.height) != (nominal.width, nominal.height) {
+            bail!(
+                "{}: the image is {}×{} px, but camera {} is {}×{} px",
+                path.display(),
+                f.width,
+                f.height,
+                nominal.id,
+                nominal.width,
+                nominal.height
+            );
+        }
+        Ok((f.pixels.to_vec(), f.width, f.height, f.max_value()))
+    };
+    let (f, w, h, max) = read(reader, flat)?;
+    let (d, _, _, _) = read(reader, dark)?;
+    let flat_pixels = calib::Pixels {
+        values: &f,
+        width: w,
+        height: h,
+        saturation: max,
+    };
+    let dark_pixels = calib::Pixels {
+        values: &d,
+        ..flat_pixels
+    };
+    let start = nominal
+        .to_camera()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.nominal.display()))?;
+    let k = start.intrinsics;
+    let fit = calib::fit_flat_field(&flat_pixels, &dark_pixels, [k.cx, k.cy], k.fx).with_context(
+        || {
+            format!(
+                "camera {}: flat field {} with dark frame {}",
+                nominal.id,
+                flat.display(),
+                dark.display()
+            )
+        },
+    )?;
+    Ok((Illumination::Radial(fit.model.clone()), Some(fit)))
 }
 
 /// Run the command.
@@ -188,6 +247,18 @@ pub fn run(args: &Args) -> Result<()> {
             }
         );
     }
+    for (flag, given) in [
+        ("--flat-fields", &args.flat_fields),
+        ("--dark-frames", &args.dark_frames),
+    ] {
+        if !given.is_empty() && given.len() != inputs.len() {
+            bail!(
+                "{flag}: {} files for {} cameras (one per camera, in camera order)",
+                given.len(),
+                inputs.len()
+            );
+        }
+    }
     let spheres = match args.markers {
         Some(m) => m == MarkerArg::Sphere,
         None => target.iter().all(|t| t.diameter.is_some()),
@@ -210,8 +281,13 @@ pub fn run(args: &Args) -> Result<()> {
         ..Options::default()
     };
     options.validate()?;
-    let markers = calib::markers(&target);
-    let by_id: HashMap<u32, &TargetRow> = target.iter().map(|t| (t.id, t)).collect();
+    let sphere_set = match &args.spheres {
+        Some(path) => read_csv::<SphereRow>(path)?
+            .into_iter()
+            .map(|r| (r.record.name, r.record.diameter))
+            .collect(),
+        None => CommissionOptions::default().spheres,
+    };
 
     let extraction = if args.images.is_empty() {
         None
@@ -221,6 +297,13 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
     }
+    if args.flat_fields.is_empty() {
+        eprintln!(
+            "trinocular: note: no flat fields given: every camera records the ideal-lens assumption \
+             (cos⁴θ relative illumination, energy-conserving under distortion); measure a flat field \
+             and a dark frame per camera (--flat-fields, --dark-frames) for a real lens"
+        );
+    }
     let mut reader = FrameReader::new();
     let mut yaml = Vec::new();
     let mut rig = Rig {
@@ -228,16 +311,13 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let mut residual_rows = Vec::new();
     let mut commissioning = Vec::new();
-    for (nominal_camera, input) in cameras.iter().zip(inputs) {
+    for (k, (nominal_camera, input)) in cameras.iter().zip(inputs).enumerate() {
         let id = nominal_camera.id;
         let context = || format!("camera {id} ({})", input.display());
         let start = nominal_camera
             .to_camera()
             .map_err(|e| anyhow::anyhow!("{}: {e}", args.nominal.display()))?;
-        let calibrate = |obs: &[Observation]| {
-            calib::calibrate(obs, nominal_camera.width, nominal_camera.height, &options)
-                .with_context(context)
-        };
+        let (illumination, flat_fit) = illumination(args, k, nominal_camera, &mut reader)?;
         let (observations, cal, matching) = if let Some((backend, params)) = &extraction {
             let (frame, _) = reader.read(input).with_context(context)?;
             if frame.width != nominal_camera.width || frame.height != nominal_camera.height {
@@ -255,60 +335,58 @@ pub fn run(args: &Args) -> Result<()> {
             let blobs: Vec<&Blob> = ex.blobs.iter().filter(|b| !b.touches_border).collect();
             let detections: Vec<Point2<f64>> =
                 blobs.iter().map(|b| Point2::new(b.u, b.v)).collect();
-            let c = calib::correspond(&markers, &detections, &start, &CorrespondOptions::default())
-                .with_context(context)?;
-            let observe = |pixels: &[Point2<f64>]| -> Vec<Observation> {
-                c.matches
+            // Centroids with a camera's model: undistorted, flat-field
+            // corrected, mapped back through the distortion.
+            let denoised = extract::denoise::apply(&frame, params.denoise);
+            let view = denoised.as_ref().map_or(frame, |f| f.view());
+            let recentroid = |camera: &geom::Camera| -> Vec<Option<Point2<f64>>> {
+                let map = CameraMap::new(camera, &illumination);
+                blobs
                     .iter()
-                    .filter_map(|m| {
-                        by_id.get(&m.id).map(|t| Observation {
-                            id: m.id,
-                            world: geom::Point3::new(t.x, t.y, t.z),
-                            pixel: pixels[m.detection],
-                            sphere_diameter: if spheres { t.diameter } else { None },
-                        })
+                    .map(|b| {
+                        mapped_centroid(&view, b, &ex.level, params.weighting, &map)
+                            .map(|q| camera.distort_pixel(Point2::new(q[0], q[1])))
                     })
                     .collect()
             };
-            let mut obs = observe(&detections);
-            let mut cal = calibrate(&obs)?;
-            // Centroids over undistorted pixel positions (METHODS.md §1): each
-            // blob's light re-weighted by the area Jacobian of the estimated
-            // undistortion, its centroid mapped back through the distortion; refit.
-            let denoised = extract::denoise::apply(&frame, params.denoise);
-            let view = denoised.as_ref().map_or(frame, |f| f.view());
-            if !cal.camera.distortion.is_none() {
-                for _ in 0..UNDISTORTED_ROUNDS {
-                    let map = Undistortion(&cal.camera);
-                    let pixels: Vec<Point2<f64>> = blobs
-                        .iter()
-                        .zip(&detections)
-                        .map(|(b, d)| {
-                            mapped_centroid(&view, b, &ex.level, params.weighting, &map)
-                                .map_or(*d, |q| cal.camera.distort_pixel(Point2::new(q[0], q[1])))
-                        })
-                        .collect();
-                    obs = observe(&pixels);
-                    cal = calibrate(&obs)?;
-                }
-            }
+            let result = calib::calibrate_detections(
+                &target,
+                spheres,
+                &detections,
+                &start,
+                &options,
+                &CorrespondOptions::default(),
+                &recentroid,
+            )
+            .with_context(context)?;
+            let c = &result.correspondence;
             let info = json!({
                 "detections": detections.len(),
                 "matched": c.matches.len(),
                 "unmatched_detections": c.unmatched_detections.len(),
                 "missing_markers": c.missing_markers,
                 "assignment_sigma_px": c.sigma_px,
-                "undistorted_centroids": !cal.camera.distortion.is_none(),
+                "corrected_centroids": calib::RECENTROID_ROUNDS,
             });
-            (obs, cal, info)
+            (result.observations, result.calibration, info)
         } else {
             let rows: Vec<CorrespondenceRow> =
                 read_csv(input)?.into_iter().map(|r| r.record).collect();
             let obs = calib::observations(&target, &rows, spheres).with_context(context)?;
-            let cal = calibrate(&obs)?;
+            let cal = calib::calibrate(&obs, nominal_camera.width, nominal_camera.height, &options)
+                .with_context(context)?;
             (obs, cal, json!({ "points": rows.len() }))
         };
         summarise(id, &cal, &matching);
+        if let Some(fit) = &flat_fit {
+            println!(
+                "camera {id}: relative illumination {:.4}…{:.4} of the centre, fit residual {:.4} % RMS (noise {:.4} %)",
+                fit.ri_range[0],
+                fit.ri_range[1],
+                100.0 * fit.residual_rms,
+                100.0 * fit.noise_rms
+            );
+        }
         for (o, r) in observations.iter().zip(&cal.residuals) {
             residual_rows.push(ResidualRow {
                 camera: id,
@@ -324,6 +402,7 @@ pub fn run(args: &Args) -> Result<()> {
             });
         }
         let mut entry = RigCamera::new(id, &cal.camera, cal.rms_px, cal.points_used());
+        entry.relative_illumination = illumination_json(&illumination, flat_fit.as_ref(), args, k);
         entry.extra = extra(&cal, input, spheres, matching);
         rig.cameras.push(entry);
         commissioning.push(CameraInput {
@@ -331,6 +410,8 @@ pub fn run(args: &Args) -> Result<()> {
             camera: cal.camera.clone(),
             rms_px: cal.rms_px,
             optics: Some(optics(&raw_nominal, id, nominal_camera.pixel_mm)),
+            illumination,
+            flat_field: flat_fit,
         });
         yaml.push((
             beside(&args.out, &format!(".cam{id}.opencv.yml")),
@@ -351,6 +432,7 @@ pub fn run(args: &Args) -> Result<()> {
             travel_mm: vec![('X', args.travel_x), ('Y', args.travel_y)],
             perpendicularity_tolerance_deg: args.perpendicularity_tolerance,
             alignment_tolerance_deg: args.alignment_tolerance,
+            spheres: sphere_set,
             ..CommissionOptions::default()
         },
     );
@@ -374,6 +456,40 @@ pub fn run(args: &Args) -> Result<()> {
         rig.cameras.len()
     );
     Ok(())
+}
+
+/// `relative_illumination` of one camera in `rig.json`: the model, and for a
+/// fitted one the fit's figures and its source frames.
+fn illumination_json(
+    model: &Illumination,
+    fit: Option<&FlatFieldFit>,
+    args: &Args,
+    k: usize,
+) -> IlluminationJson {
+    let mut j = IlluminationJson::from_model(model);
+    let extra = j.extra_mut();
+    match fit {
+        Some(f) => {
+            if let Value::Object(m) = json!(f) {
+                extra.extend(m);
+            }
+            for (key, files) in [
+                ("flat_field", &args.flat_fields),
+                ("dark_frame", &args.dark_frames),
+            ] {
+                if let Some(p) = files.get(k) {
+                    extra.insert(key.into(), json!(p.display().to_string()));
+                }
+            }
+        }
+        None => {
+            extra.insert(
+                "note".into(),
+                json!("assumed: no flat field was given (cos⁴θ natural vignetting, energy-conserving under distortion)"),
+            );
+        }
+    }
+    j
 }
 
 /// The extra `rig.json` keys of one camera.

@@ -1,6 +1,7 @@
 //! `trinocular demo`: the whole job on built-in data. Renders a small campaign
-//! of the seed's rig (reduced resolution), calibrates the cameras from the
-//! rendered target, measures the campaign, evaluates it, and prints the
+//! of the seed's rig (reduced resolution) through its lenses, calibrates the
+//! cameras from the rendered target and their relative illumination from the
+//! flat fields, measures the campaign, evaluates it, and prints the
 //! measured figures beside the true ones. Each step runs the same code as its
 //! command, and the commands are printed so that every step can be rerun.
 
@@ -187,7 +188,7 @@ pub fn run(args: &Args) -> Result<()> {
     let c = |f: &str| path(&campaign.join(f));
     let rig = path(&out.join("rig.json"));
     step::<cmd::calibrate::Args>(
-        "2/4 calibrate the cameras from the rendered 3-D target",
+        "2/4 calibrate the cameras from the rendered 3-D target, their lenses from flat fields",
         "calibrate",
         vec![
             "--target".into(),
@@ -198,6 +199,14 @@ pub fn run(args: &Args) -> Result<()> {
             c("calib/cam1.tif"),
             c("calib/cam2.tif"),
             c("calib/cam3.tif"),
+            "--flat-fields".into(),
+            c("calib/flat_cam1.tif"),
+            c("calib/flat_cam2.tif"),
+            c("calib/flat_cam3.tif"),
+            "--dark-frames".into(),
+            c("calib/dark_cam1.tif"),
+            c("calib/dark_cam2.tif"),
+            c("calib/dark_cam3.tif"),
             "--out".into(),
             rig.clone(),
         ],

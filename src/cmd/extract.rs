@@ -113,6 +113,14 @@ pub struct Args {
     /// Output CSV (one row per blob); problems go to problems.csv beside it.
     #[arg(long)]
     out: PathBuf,
+    /// Flat-field frame of the camera (a uniform radiance source filling the
+    /// view, same settings as the images): centroids are flat-field corrected
+    /// by the lens's relative illumination fitted from it.
+    #[arg(long, requires = "dark_frame")]
+    flat_field: Option<PathBuf>,
+    /// Dark frame of the camera (lens capped), with --flat-field.
+    #[arg(long, requires = "flat_field")]
+    dark_frame: Option<PathBuf>,
     /// Images (8/16-bit grayscale TIFF or PNG) or folders of them.
     #[arg(required = true)]
     images: Vec<PathBuf>,
@@ -150,6 +158,56 @@ pub fn problems_path(out: &Path) -> PathBuf {
     out.with_file_name("problems.csv")
 }
 
+/// The lens's relative illumination from a flat field and a dark frame,
+/// without a camera model: centre started at the image centre, ρ scaled by
+/// half the image diagonal.
+fn fit_flat_field(flat: &Path, dark: &Path) -> Result<geom::RadialIllumination> {
+    let mut reader = extract::FrameReader::new();
+    let (f, _) = reader.read(flat)?;
+    let (values, width, height, saturation) = (f.pixels.to_vec(), f.width, f.height, f.max_value());
+    let (d, _) = reader.read(dark)?;
+    let flat_px = calib::Pixels {
+        values: &values,
+        width,
+        height,
+        saturation,
+    };
+    let dark_px = calib::Pixels {
+        values: d.pixels,
+        width: d.width,
+        height: d.height,
+        saturation: d.max_value(),
+    };
+    let (w, h) = (f64::from(width), f64::from(height));
+    let fit = calib::fit_flat_field(
+        &flat_px,
+        &dark_px,
+        [(w - 1.0) / 2.0, (h - 1.0) / 2.0],
+        w.hypot(h) / 2.0,
+    )
+    .with_context(|| {
+        format!(
+            "flat field {} with dark frame {}",
+            flat.display(),
+            dark.display()
+        )
+    })?;
+    eprintln!(
+        "trinocular: flat field: relative illumination {:.4}…{:.4} of its centre ({:.1}, {:.1}) px, \
+         fit residual {:.4} % RMS (noise {:.4} %)",
+        fit.ri_range[0],
+        fit.ri_range[1],
+        fit.model.centre[0],
+        fit.model.centre[1],
+        100.0 * fit.residual_rms,
+        100.0 * fit.noise_rms
+    );
+    if let Some(w) = &fit.warning {
+        eprintln!("trinocular: warning: flat field {}: {w}", flat.display());
+    }
+    Ok(fit.model)
+}
+
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
     let params = args.options.params()?;
@@ -159,60 +217,68 @@ pub fn run(args: &Args) -> Result<()> {
         .as_deref()
         .map(|d| if d == "8" { 8 } else { 16 });
     let files = expand_images(&args.images)?;
+    let flat_field = match (&args.flat_field, &args.dark_frame) {
+        (Some(flat), Some(dark)) => Some(fit_flat_field(flat, dark)?),
+        _ => None,
+    };
     let mut out = AtomicFile::create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);
     let mut problems: Vec<ProblemRow> = Vec::new();
     let mut write_error: Option<anyhow::Error> = None;
     let bar = progress::bar(files.len() as u64, "extract");
-    extract::extract_files(
-        &files,
-        backend.as_ref(),
-        &params,
-        depth,
-        |_, path, result| {
-            bar.inc(1);
-            let name = path.display().to_string();
-            match result {
-                Ok(frame) => {
-                    for (i, b) in frame.blobs.iter().enumerate() {
-                        let e = b.ellipse();
-                        let row = BlobRow {
-                            image: name.clone(),
-                            blob: i as u32,
-                            u: b.u,
-                            v: b.v,
-                            area_px: b.area_px,
-                            diameter_px: b.diameter_px(),
-                            peak: b.peak,
-                            saturated: b.saturated(),
-                            touches_border: b.touches_border,
-                            sphere: None,
-                            signal: b.signal() as f64,
-                            major_px: e.major_px,
-                            minor_px: e.minor_px,
-                            orientation_rad: e.orientation_rad,
-                            circularity: b.circularity(),
-                            threshold: frame.threshold.clone(),
-                            camera_model: frame.metadata.model.clone(),
-                            camera_serial: frame.metadata.serial.clone(),
-                            datetime: frame.metadata.datetime.clone(),
-                            exposure_s: frame.metadata.exposure_s,
-                        };
-                        if let Err(e) = csv.serialize(row) {
-                            write_error.get_or_insert(e.into());
-                        }
-                    }
-                }
-                Err(e) => {
-                    bar.suspend(|| eprintln!("trinocular: warning: {e}"));
+    let sink = |_: usize, path: &Path, result: extract::Result<extract::FrameBlobs>| {
+        bar.inc(1);
+        let name = path.display().to_string();
+        match result {
+            Ok(frame) => {
+                for (i, reason) in &frame.uncorrected {
                     problems.push(ProblemRow {
-                        item: name,
-                        reason: e.to_string(),
+                        item: format!("{name}#blob{i}"),
+                        reason: reason.clone(),
                     });
                 }
+                for (i, b) in frame.blobs.iter().enumerate() {
+                    let e = b.ellipse();
+                    let row = BlobRow {
+                        image: name.clone(),
+                        blob: i as u32,
+                        u: b.u,
+                        v: b.v,
+                        area_px: b.area_px,
+                        diameter_px: b.diameter_px(),
+                        peak: b.peak,
+                        saturated: b.saturated(),
+                        touches_border: b.touches_border,
+                        sphere: None,
+                        signal: b.signal() as f64,
+                        major_px: e.major_px,
+                        minor_px: e.minor_px,
+                        orientation_rad: e.orientation_rad,
+                        circularity: b.circularity(),
+                        threshold: frame.threshold.clone(),
+                        camera_model: frame.metadata.model.clone(),
+                        camera_serial: frame.metadata.serial.clone(),
+                        datetime: frame.metadata.datetime.clone(),
+                        exposure_s: frame.metadata.exposure_s,
+                    };
+                    if let Err(e) = csv.serialize(row) {
+                        write_error.get_or_insert(e.into());
+                    }
+                }
             }
-        },
-    );
+            Err(e) => {
+                bar.suspend(|| eprintln!("trinocular: warning: {e}"));
+                problems.push(ProblemRow {
+                    item: name,
+                    reason: e.to_string(),
+                });
+            }
+        }
+    };
+    match &flat_field {
+        Some(ri) => extract::extract_files_flat(&files, backend.as_ref(), &params, depth, ri, sink),
+        None => extract::extract_files(&files, backend.as_ref(), &params, depth, sink),
+    }
     bar.finish_and_clear();
     if let Some(e) = write_error {
         return Err(e.context(format!("{}", args.out.display())));

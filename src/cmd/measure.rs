@@ -87,6 +87,20 @@ pub fn run(args: &Args) -> Result<()> {
     )
     .with_context(|| format!("measuring {}", args.manifest.display()))?;
     bar.finish_and_clear();
+    if !summary.assumed_ideal_lens.is_empty() {
+        let ids: Vec<String> = summary
+            .assumed_ideal_lens
+            .iter()
+            .map(u8::to_string)
+            .collect();
+        eprintln!(
+            "trinocular: note: camera{} {}: {} has no flat-field model: pixels corrected for an ideal lens \
+             (cos⁴θ relative illumination); calibrate with --flat-fields and --dark-frames for a real lens",
+            if ids.len() == 1 { "" } else { "s" },
+            ids.join(", "),
+            args.rig.display()
+        );
+    }
     eprintln!(
         "measured {} of {} instants{} → {}",
         summary.measured,

@@ -250,7 +250,13 @@ pub(super) fn files(
             |index, result| {
                 let path = &paths[index];
                 let result = result.map(|(pixels, metadata, extraction)| {
-                    let blobs = batch::frame_blobs(&pixels.view(), metadata, extraction);
+                    let blobs = batch::frame_blobs(
+                        &pixels.view(),
+                        metadata,
+                        extraction,
+                        params.weighting,
+                        None,
+                    );
                     if let Pixels::Owned(frame) = pixels {
                         // The decoder may be gone already; the buffer is then dropped.
                         let _ = recycle.send(frame.pixels);
