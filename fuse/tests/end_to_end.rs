@@ -90,8 +90,7 @@ fn triangulated_displacements_match_the_truth() {
     );
     assert!(rms < 4e-3, "{} µm RMS", rms * 1e3);
 
-    // Without the bias correction sphere A's displacements are scaled: fit
-    // (measured − true) along the axis against the true displacement.
+    // Without the bias correction sphere A's displacements are scaled.
     let biased = run(
         dir.path(),
         &MeasureOptions {
@@ -100,23 +99,13 @@ fn triangulated_displacements_match_the_truth() {
         },
         "points_biased.csv",
     );
-    let slope = |errs: &[(f64, [f64; 3])], axis: usize| {
-        let (mut sxy, mut sxx) = (0.0, 0.0);
-        for (d, e) in errs {
-            sxy += d * e[axis];
-            sxx += d * d;
-        }
-        sxy / sxx
-    };
-    let by_axis = |rows: &[PointRow], axis: formats::Axis| -> Vec<(f64, [f64; 3])> {
-        let pick = |r: &[PointRow]| -> Vec<PointRow> {
-            r.iter().filter(|p| p.axis == axis).cloned().collect()
-        };
-        displacement_errors(&pick(rows), &pick(&truth))
+    let scale = |rows: &[PointRow], axis: formats::Axis| {
+        synth::truth::scale_error_ppm(&synth::truth::displacement_errors(rows, &truth, "A"), axis)
+            .unwrap()
     };
     for axis in [formats::Axis::X, formats::Axis::Y] {
-        let with = slope(&by_axis(&measured, axis), axis.index()) * 1e6;
-        let without = slope(&by_axis(&biased, axis), axis.index()) * 1e6;
+        let with = scale(&measured, axis);
+        let without = scale(&biased, axis);
         println!("{axis}: scale error {with:+.0} ppm corrected, {without:+.0} ppm uncorrected");
         assert!(
             without.abs() >= 300.0,

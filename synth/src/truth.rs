@@ -268,6 +268,33 @@ pub fn displacement_errors(
         .collect()
 }
 
+/// Scale error (ppm) of the displacements along `axis`: the least-squares
+/// slope of the error component along the axis against the true travel,
+/// pooled over the lines of that axis with an offset per line (so that the
+/// error of each line's reference instant, common to all its displacements,
+/// does not tilt the slope). `None` without travel.
+pub fn scale_error_ppm(errors: &[DisplacementError], axis: formats::Axis) -> Option<f64> {
+    let mut lines: BTreeMap<formats::LineKey, Vec<(f64, f64)>> = BTreeMap::new();
+    for e in errors.iter().filter(|e| e.instant.axis == axis) {
+        lines
+            .entry(e.instant.line())
+            .or_default()
+            .push((e.travel, e.error[axis.index()]));
+    }
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for points in lines.values() {
+        let n = points.len() as f64;
+        let (md, me) = points
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (d, e)| (a + d / n, b + e / n));
+        for (d, e) in points {
+            sxy += (d - md) * (e - me);
+            sxx += (d - md) * (d - md);
+        }
+    }
+    (sxx > 0.0).then(|| sxy / sxx * 1e6)
+}
+
 /// Root mean square length of displacement errors (mm); `None` when there are none.
 pub fn rms(errors: &[DisplacementError]) -> Option<f64> {
     (!errors.is_empty()).then(|| {
