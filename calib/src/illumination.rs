@@ -386,8 +386,9 @@ pub fn profile(camera: &Camera, illumination: &Illumination, points: usize) -> V
 /// Scale error (ppm) of a sphere's measured position when pixels are
 /// corrected with `assumed` while the lens is `actual`: the corrected image
 /// keeps the weight `actual/assumed`, whose radial log-gradient g (per px)
-/// moves the centroid of the sphere's image (a disc of radius ρ px, variance
-/// ρ²/4 per axis) by `δ = g·ρ²/4` outward; for a fall-off symmetric about the
+/// moves the centroid of the sphere's image (an ellipse of semi-axes ρ and,
+/// radially, ρ·sec θ: radial variance ρ²·(1 + tan²θ)/4) by
+/// `δ = g·ρ²·(1 + tan²θ)/4` outward; for a fall-off symmetric about the
 /// principal point δ grows in proportion to the image radius r_c of the
 /// sphere, so displacements are scaled by `δ/r_c`. `None` on the optical
 /// axis or outside the lens model.
@@ -414,7 +415,9 @@ pub fn scale_error_ppm(
     let g = (log_ratio(q + e * step)? - log_ratio(q - e * step)?) / (2.0 * step);
     let z = camera.to_camera(centre).z;
     let rho = k.fx * radius_mm / (z * z - radius_mm * radius_mm).sqrt();
-    Some(g * rho * rho / 4.0 / r_c * 1e6)
+    // Radially the image is stretched by sec θ: variance ρ²·(1 + tan²θ)/4.
+    let t2 = (r_c / k.fx).powi(2);
+    Some(g * rho * rho * (1.0 + t2) / 4.0 / r_c * 1e6)
 }
 
 #[cfg(test)]
@@ -447,7 +450,8 @@ mod tests {
             r,
         )
         .unwrap();
-        assert!((got / want - 1.0).abs() < 0.02, "{got} ppm vs {want}");
+        // First order in the weight's gradient across the image: ≈ 0.2 % here.
+        assert!((got / want - 1.0).abs() < 0.005, "{got} ppm vs {want}");
         let none = scale_error_ppm(
             &camera,
             &Illumination::Ideal,
@@ -526,6 +530,24 @@ mod tests {
         );
         assert!((fit.flat_level_dn - 40_000.0).abs() < 1.0);
         assert!(fit.warning.is_none());
+        // A source that is not uniform (2 % across the view) is not a radial
+        // lens fall-off: the fit says so.
+        let uneven: Vec<u16> = flat
+            .iter()
+            .enumerate()
+            .map(|(k, &f)| {
+                let x = (k as u32 % w) as f64;
+                let d = f64::from(dark[k]);
+                (d + (f64::from(f) - d) * (1.0 + 0.02 * x / f64::from(w))).round() as u16
+            })
+            .collect();
+        let flagged =
+            fit_flat_field(&px(&uneven, w, h), &px(&dark, w, h), [319.5, 239.5], 1200.0).unwrap();
+        assert!(
+            flagged.warning.is_some(),
+            "residual {}",
+            flagged.residual_rms
+        );
         // Saturation is refused.
         let mut sat = flat.clone();
         sat.iter_mut().take(100).for_each(|v| *v = u16::MAX);
