@@ -31,6 +31,9 @@ use crate::illumination::{FlatFieldFit, ProfilePoint, profile, scale_error_ppm};
 
 /// Field positions of the relative-illumination profile.
 const PROFILE_POINTS: usize = 6;
+/// Largest distance of the fall-off's centre from the principal point before
+/// a warning, as a fraction of the image diagonal.
+const RI_CENTRE_TOLERANCE: f64 = 0.02;
 
 /// What a user must capture for the relative illumination, in the report.
 pub const FLAT_FIELD_ADVICE: &str = "A pixel's value is the sphere's radiance times the lens's \
@@ -158,6 +161,10 @@ pub struct IlluminationReport {
     pub model: String,
     /// The flat-field fit, when measured.
     pub flat_field: Option<FlatFieldFit>,
+    /// Centre of the measured fall-off minus the principal point (px): a
+    /// decentred lens, or a source that is not uniform (a smooth gradient in
+    /// the flat moves the centre).
+    pub centre_offset_px: Option<[f64; 2]>,
     /// RI against the ideal lens from the principal point to the farthest corner.
     pub profile: Vec<ProfilePoint>,
     /// Scale errors of wrong assumptions, per sphere and travel end.
@@ -348,6 +355,13 @@ fn illumination_report(
         }
         .into(),
         flat_field: c.flat_field.clone(),
+        centre_offset_px: match &c.illumination {
+            Illumination::Radial(r) => Some([
+                r.centre[0] - cam.intrinsics.cx,
+                r.centre[1] - cam.intrinsics.cy,
+            ]),
+            _ => None,
+        },
         profile: profile(cam, &c.illumination, PROFILE_POINTS),
         scale_costs,
     }
@@ -437,6 +451,17 @@ pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Repor
         let relative_illumination = illumination_report(c, &wp, options);
         if let Some(w) = c.flat_field.as_ref().and_then(|f| f.warning.as_ref()) {
             warnings.push(format!("camera {}: {w}", c.id));
+        }
+        if let Some([du, dv]) = relative_illumination.centre_offset_px {
+            let diagonal = f64::from(cam.width).hypot(f64::from(cam.height));
+            if du.hypot(dv) > RI_CENTRE_TOLERANCE * diagonal {
+                warnings.push(format!(
+                    "camera {}: the flat field's fall-off is centred {:.0} px from the principal point: \
+                     a decentred lens, or a source that is not uniform",
+                    c.id,
+                    du.hypot(dv)
+                ));
+            }
         }
         reports.push(CameraReport {
             id: c.id,
@@ -545,10 +570,12 @@ fn illumination_text(s: &mut String, r: &IlluminationReport) {
     use std::fmt::Write;
     match &r.flat_field {
         Some(f) => {
+            let [du, dv] = r.centre_offset_px.unwrap_or_default();
             let _ = writeln!(
                 s,
                 "  relative illumination measured from the flat field: RI {:.4}…{:.4} of the centre, \
-                 fit residual {:.4} % RMS (noise {:.4} %), dark {:.1} DN, flat {:.0} DN above it",
+                 centred ({du:+.1}, {dv:+.1}) px from the principal point, fit residual {:.4} % RMS \
+                 (noise {:.4} %), dark {:.1} DN, flat {:.0} DN above it",
                 f.ri_range[0],
                 f.ri_range[1],
                 100.0 * f.residual_rms,
