@@ -178,6 +178,63 @@ impl Measurement {
         Ok(())
     }
 
+    /// A measurement from centres: per ball its name and its centre (mm) at
+    /// each of `angles_deg`.
+    pub fn from_centres(angles_deg: Vec<f64>, balls: Vec<(String, Vec<[f64; 3]>)>) -> Measurement {
+        Measurement {
+            angles_deg,
+            balls: balls
+                .into_iter()
+                .map(|(name, centres)| Ball {
+                    name,
+                    centres: centres.into_iter().map(Point3::from).collect(),
+                    fits: Vec::new(),
+                })
+                .collect(),
+        }
+    }
+
+    /// A measurement from probed points: per ball its name and, at each of
+    /// `angles_deg`, the probed points (mm); a sphere is fitted to each
+    /// ([`fit_centre`]). A fit that fails is an [`ProbeError::Input`] whose
+    /// `what` is the [`centre_label`] of its ball and angle.
+    pub fn from_points(
+        angles_deg: Vec<f64>,
+        balls: Vec<(String, Vec<Vec<[f64; 3]>>)>,
+    ) -> Result<Measurement> {
+        let mut out = Vec::with_capacity(balls.len());
+        for (name, groups) in balls {
+            if groups.len() != angles_deg.len() {
+                return Err(ProbeError::Input {
+                    what: format!("ball {name}"),
+                    message: format!(
+                        "probed points at {} angles of {}: every ball needs points at every angle",
+                        groups.len(),
+                        angles_deg.len()
+                    ),
+                });
+            }
+            let mut fits = Vec::with_capacity(groups.len());
+            for (points, a) in groups.iter().zip(&angles_deg) {
+                let points: Vec<Point3<f64>> = points.iter().copied().map(Point3::from).collect();
+                let fit = fit_centre(&points).map_err(|e| ProbeError::Input {
+                    what: centre_label(&name, *a),
+                    message: format!("sphere fit: {e}"),
+                })?;
+                fits.push(fit);
+            }
+            out.push(Ball {
+                name,
+                centres: fits.iter().map(|f| f.centre).collect(),
+                fits,
+            });
+        }
+        Ok(Measurement {
+            angles_deg,
+            balls: out,
+        })
+    }
+
     /// The balls' names in input order.
     pub fn ball_names(&self) -> Vec<String> {
         self.balls.iter().map(|b| b.name.clone()).collect()

@@ -150,6 +150,20 @@ impl RotaryInput {
             .collect()
     }
 
+    /// Each ball's probed points per angle (for a points file).
+    pub fn points(&self) -> Vec<(String, Vec<Vec<[f64; 3]>>)> {
+        self.balls
+            .iter()
+            .map(|b| {
+                let groups =
+                    b.at.iter()
+                        .map(|rows| rows.iter().map(|r| r.position).collect())
+                        .collect();
+                (b.name.clone(), groups)
+            })
+            .collect()
+    }
+
     /// Each ball's single centre per angle (for a centres file).
     pub fn centres(&self) -> Vec<(String, Vec<[f64; 3]>)> {
         self.balls

@@ -291,6 +291,11 @@ impl RotaryConfig {
         Self::from_toml_str(&text, Some(path))
     }
 
+    /// The configuration as TOML (without the comments of [`DEFAULT_TOML`]).
+    pub fn to_toml(&self) -> Result<String> {
+        toml::to_string_pretty(self).map_err(|e| SynthError::config(e.to_string()))
+    }
+
     /// Check every value: a positive step below a turn, non-negative noise,
     /// a positive radius, ≥ 4 probed points per sphere, named balls at
     /// finite places, harmonics of the six errors with order ≥ 1.
@@ -565,6 +570,8 @@ mod tests {
         assert_eq!(parsed, RotaryConfig::default());
         assert_eq!(parsed.balls.len(), 3);
         assert_eq!(parsed.components.len(), 7);
+        let again = RotaryConfig::from_toml_str(&parsed.to_toml().unwrap(), None).unwrap();
+        assert_eq!(again, parsed);
     }
 
     #[test]
