@@ -369,6 +369,13 @@ fn a_pure_axis_offset_is_all_location() {
         );
         let s = round_trip(&c, "pure offset");
         let l = location(&s);
+        eprintln!(
+            "pure offset, seed {seed}: X0C {:+.3} µm, Y0C {:+.3} µm, A0C {:+.3} µrad, B0C {:+.3} µrad off",
+            (l[0] - 15e-3) * 1e3,
+            (l[1] + 6e-3) * 1e3,
+            l[2] * 1e6,
+            l[3] * 1e6
+        );
         // The bound at 0.3 µm noise: 0.5 µm and 2 µrad.
         assert!(
             (l[0] - 15e-3).abs() < 0.5e-3 && (l[1] + 6e-3).abs() < 0.5e-3,
@@ -395,6 +402,13 @@ fn a_pure_axis_tilt_is_all_location() {
         );
         let s = round_trip(&c, "pure tilt");
         let l = location(&s);
+        eprintln!(
+            "pure tilt, seed {seed}: X0C {:+.3} µm, Y0C {:+.3} µm, A0C {:+.3} µrad, B0C {:+.3} µrad off",
+            l[0] * 1e3,
+            l[1] * 1e3,
+            (l[2] - 30e-6) * 1e6,
+            (l[3] + 20e-6) * 1e6
+        );
         assert!(l[0].abs() < 0.5e-3 && l[1].abs() < 0.5e-3, "{l:?}");
         assert!(
             (l[2] - 30e-6).abs() < 2e-6 && (l[3] + 20e-6).abs() < 2e-6,

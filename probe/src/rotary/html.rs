@@ -26,6 +26,30 @@ const MEANING: [&str; 6] = [
     "angular positioning (εz)",
 ];
 
+/// A table whose first `left` columns are left-aligned text and whose
+/// cells do not wrap (figures with their uncertainties stay on one line).
+fn table<S: AsRef<str>>(h: &mut Page, id: &str, header: &[&str], rows: &[Vec<S>], left: usize) {
+    let class = |k: usize| if k < left { " class=\"l\"" } else { "" };
+    let _ = write!(h, "<table id=\"{}\">\n<tr>", escape(id));
+    for (k, c) in header.iter().enumerate() {
+        let _ = write!(h, "<th{}>{}</th>", class(k), escape(c));
+    }
+    h.raw("</tr>\n");
+    for row in rows {
+        h.raw("<tr>");
+        for (k, c) in row.iter().enumerate() {
+            let _ = write!(
+                h,
+                "<td{} style=\"white-space:nowrap\">{}</td>",
+                class(k),
+                escape(c.as_ref())
+            );
+        }
+        h.raw("</tr>\n");
+    }
+    h.raw("</table>\n");
+}
+
 /// Column `k` of the errors of every angle.
 fn column(rows: &[AngleReport], k: usize) -> Vec<f64> {
     rows.iter().map(|r| r.errors.values()[k]).collect()
@@ -115,8 +139,7 @@ pub fn render(report: &Report) -> Result<String> {
         &report.errors,
         &report.ranges.errors,
         true,
-        "The six errors of each measured angle (dots, with ±u bars) from the per-angle least squares; \
-         the line is the linear interpolation, closed to 360° = 0°.",
+        "Per-angle least squares (dots, ±u bars); the line is the interpolation, closed to 360° = 0°.",
     )?;
 
     if let Some(loc) = &report.location {
@@ -165,11 +188,12 @@ pub fn render(report: &Report) -> Result<String> {
                 &format!("plot-location-{id}"),
                 &svg,
                 &format!(
-                    "{} against {} at every measured angle. A fixed axis at the location errors alone would \
-                     trace the green circle through the origin; the red dot is the location ({}).",
-                    names.1,
-                    names.0,
-                    if id == "offset" { "X0C, Y0C" } else { "A0C, B0C" }
+                    "A fixed axis at the location alone would trace the green circle; red: ({}).",
+                    if id == "offset" {
+                        "X0C, Y0C"
+                    } else {
+                        "A0C, B0C"
+                    }
                 ),
             );
         }
@@ -187,8 +211,7 @@ pub fn render(report: &Report) -> Result<String> {
             components,
             ranges,
             false,
-            "The errors less those of a fixed axis at the location errors: what the bearing and the \
-             drive add as the table turns. Their ranges are the sign-off figures.",
+            "Errors less those of a fixed axis at the location errors; their ranges are the sign-off figures.",
         )?;
     }
 
@@ -232,8 +255,9 @@ fn summary(h: &mut Page, report: &Report) {
                 "µrad".into(),
             ],
         ];
-        h.table::<String>(
-            Some("location"),
+        table(
+            h,
+            "location",
             &[
                 "location error (ISO 230-7)",
                 "meaning",
@@ -242,6 +266,7 @@ fn summary(h: &mut Page, report: &Report) {
                 "unit",
             ],
             &rows,
+            2,
         );
     } else {
         h.paragraph("The axis average line is not reported: the measured angles do not separate it (see the warnings).");
@@ -259,8 +284,9 @@ fn summary(h: &mut Page, report: &Report) {
             ]
         })
         .collect();
-    h.table(
-        Some("ranges"),
+    table(
+        h,
+        "ranges",
         &[
             "error",
             "meaning",
@@ -269,6 +295,7 @@ fn summary(h: &mut Page, report: &Report) {
             "unit",
         ],
         &rows,
+        2,
     );
     let _ = writeln!(
         h,
@@ -318,7 +345,7 @@ fn tables(h: &mut Page, report: &Report) {
             row
         })
         .collect();
-    h.table(Some("errors"), &with_residual, &rows);
+    table(h, "errors", &with_residual, &rows, 0);
     if let Some(components) = &report.components {
         h.h2("table-components", "Component errors per angle");
         let rows: Vec<Vec<String>> = components
@@ -329,7 +356,7 @@ fn tables(h: &mut Page, report: &Report) {
                 row
             })
             .collect();
-        h.table(Some("components"), &header_refs, &rows);
+        table(h, "components", &header_refs, &rows, 0);
     }
     if !report.interpolated.is_empty() {
         h.h2(
@@ -345,7 +372,7 @@ fn tables(h: &mut Page, report: &Report) {
                 row
             })
             .collect();
-        h.table(Some("interpolated"), &header_refs, &rows);
+        table(h, "interpolated", &header_refs, &rows, 0);
     }
     h.h2("balls", "Ball layout (reference centres at 0°)");
     let rows: Vec<Vec<String>> = report
@@ -361,8 +388,9 @@ fn tables(h: &mut Page, report: &Report) {
             ]
         })
         .collect();
-    h.table(
-        Some("layout"),
+    table(
+        h,
+        "layout",
         &[
             "ball",
             "x (mm)",
@@ -371,6 +399,7 @@ fn tables(h: &mut Page, report: &Report) {
             "distance from the axis (mm)",
         ],
         &rows,
+        1,
     );
     let _ = writeln!(
         h,
@@ -394,8 +423,9 @@ fn tables(h: &mut Page, report: &Report) {
                 ]
             })
             .collect();
-        h.table(
-            Some("sphere-fits"),
+        table(
+            h,
+            "sphere-fits",
             &[
                 "ball",
                 "angle (°)",
@@ -405,6 +435,7 @@ fn tables(h: &mut Page, report: &Report) {
                 "max residual (µm)",
             ],
             &rows,
+            1,
         );
     }
 }
