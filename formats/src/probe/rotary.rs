@@ -234,7 +234,7 @@ pub fn read_points(path: &Path) -> Result<RotaryInput> {
                     last.line,
                     "ball",
                     format!(
-                        "ball {} at {a}° has {} probed point(s) (lines {}): a sphere needs at least \
+                        "ball {} at {a}° has {} probed point(s) ({}): a sphere needs at least \
                          {MIN_POINTS} (the north pole and four on the equator)",
                         b.name,
                         rows.len(),
@@ -269,12 +269,11 @@ pub fn read_points(path: &Path) -> Result<RotaryInput> {
     Ok(input)
 }
 
-/// `12, 13, 14` for the lines of some rows.
+/// `lines 12, 13, 14` (or `line 12`) for the lines of some rows.
 fn line_list(rows: &[Located]) -> String {
-    rows.iter()
-        .map(|r| r.line.to_string())
-        .collect::<Vec<_>>()
-        .join(", ")
+    let lines: Vec<String> = rows.iter().map(|r| r.line.to_string()).collect();
+    let word = if lines.len() == 1 { "line" } else { "lines" };
+    format!("{word} {}", lines.join(", "))
 }
 
 /// Read the rows, check each, and group them by ball (first appearance)
