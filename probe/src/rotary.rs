@@ -398,3 +398,158 @@ pub fn ranges(values: impl Iterator<Item = SixErrors>) -> SixErrors {
     }
     if any { hi - lo } else { SixErrors::zeros() }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geom::transform::SmallError;
+    use proptest::prelude::*;
+
+    /// Centres that follow the first-order model of §2 exactly:
+    /// `P(θ) = Rz·P0 + δ(θ) + ε(θ) × Rz·P0`, errors zero at 0°.
+    fn exact(reference: &[Point3<f64>], angles: &[f64], errors: &[SmallError]) -> Measurement {
+        let balls = reference
+            .iter()
+            .enumerate()
+            .map(|(i, p0)| Ball {
+                name: format!("{}", i + 1),
+                centres: angles
+                    .iter()
+                    .zip(errors)
+                    .map(|(a, e)| e.apply(&(rz(*a) * p0)))
+                    .collect(),
+                fits: Vec::new(),
+            })
+            .collect();
+        Measurement {
+            angles_deg: angles.to_vec(),
+            balls,
+        }
+    }
+
+    fn small_error() -> impl Strategy<Value = SmallError> {
+        (
+            prop::array::uniform3(-0.05..0.05f64),
+            prop::array::uniform3(-1e-4..1e-4f64),
+        )
+            .prop_map(|(d, e)| SmallError {
+                delta: Vector3::from(d),
+                epsilon: Vector3::from(e),
+            })
+    }
+
+    proptest! {
+        /// Any layout the check accepts and any errors: the per-angle least
+        /// squares returns the errors that made the centres, to rounding.
+        #[test]
+        fn exact_centres_give_back_their_errors(
+            layout in prop::collection::vec(prop::array::uniform3(-300.0..300.0f64), 3..6),
+            step in prop::sample::select(vec![15.0, 30.0, 45.0, 60.0, 90.0]),
+            errors in prop::collection::vec(small_error(), 24),
+        ) {
+            let reference: Vec<Point3<f64>> = layout.iter().map(|p| Point3::from(*p)).collect();
+            let angles: Vec<f64> = (0..).map(|k| f64::from(k) * step).take_while(|a| *a < 360.0).collect();
+            let mut errors = errors[..angles.len()].to_vec();
+            errors[0] = SmallError::ZERO;
+            let m = exact(&reference, &angles, &errors);
+            match solve(&m) {
+                Ok(s) => {
+                    for (got, want) in s.errors.iter().zip(&errors) {
+                        let want = SixErrors::new(
+                            want.delta.x, want.delta.y, want.delta.z,
+                            want.epsilon.x, want.epsilon.y, want.epsilon.z,
+                        );
+                        let d = got.errors - want;
+                        // Rounding of coordinates up to 520 mm (≈ 1e-13 mm), amplified
+                        // by the condition number (≤ 100) through the QR solve.
+                        prop_assert!(d.fixed_rows::<3>(0).amax() < 1e-11, "{d:?}");
+                        prop_assert!(d.fixed_rows::<3>(3).amax() < 1e-13, "{d:?}");
+                        prop_assert!(got.residual_rms_mm < 1e-11);
+                    }
+                }
+                Err(ProbeError::IllConditioned { condition, limit, .. }) => prop_assert!(condition > limit),
+                Err(e) => prop_assert!(false, "{e}"),
+            }
+        }
+
+        /// A fixed misplaced axis and nothing else: all of it is location,
+        /// none of it component error, whatever the layout and step.
+        #[test]
+        fn a_fixed_axis_is_found_whatever_the_layout(
+            c in prop::array::uniform2(-0.05..0.05f64),
+            t in prop::array::uniform2(-1e-4..1e-4f64),
+            step in prop::sample::select(vec![10.0, 20.0, 30.0, 40.0, 72.0, 120.0]),
+        ) {
+            let truth = Location { x0c_mm: c[0], y0c_mm: c[1], a0c_rad: t[0], b0c_rad: t[1], uncertainty: [0.0; 4] };
+            let angles: Vec<f64> = (0..).map(|k| f64::from(k) * step).take_while(|a| *a < 360.0).collect();
+            let errors: Vec<SmallError> = angles
+                .iter()
+                .map(|a| {
+                    let f = truth.fixed_axis_errors(*a);
+                    SmallError { delta: Vector3::new(f[0], f[1], f[2]), epsilon: Vector3::new(f[3], f[4], f[5]) }
+                })
+                .collect();
+            let reference = [
+                Point3::new(150.0, 10.0, 60.0),
+                Point3::new(-70.0, 120.0, 95.0),
+                Point3::new(-55.0, -135.0, 30.0),
+            ];
+            let s = solve(&exact(&reference, &angles, &errors)).map_err(|e| TestCaseError::fail(e.to_string()))?;
+            let axis = s.axis.ok_or_else(|| TestCaseError::fail("no location"))?;
+            let l = axis.location;
+            prop_assert!((l.x0c_mm - c[0]).abs() < 1e-12 && (l.y0c_mm - c[1]).abs() < 1e-12);
+            prop_assert!((l.a0c_rad - t[0]).abs() < 1e-14 && (l.b0c_rad - t[1]).abs() < 1e-14);
+            prop_assert!(axis.component_ranges().amax() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn bad_measurements_are_errors() {
+        let reference = [
+            Point3::new(150.0, 10.0, 60.0),
+            Point3::new(-70.0, 120.0, 95.0),
+            Point3::new(-55.0, -135.0, 30.0),
+        ];
+        let angles = [0.0, 90.0, 180.0, 270.0];
+        let good = exact(&reference, &angles, &[SmallError::ZERO; 4]);
+        assert!(solve(&good).is_ok());
+        let mut m = good.clone();
+        m.balls[1].centres[2].x = f64::NAN;
+        assert!(
+            solve(&m)
+                .unwrap_err()
+                .to_string()
+                .contains("ball 2 at 180°")
+        );
+        let mut m = good.clone();
+        m.angles_deg[0] = 10.0;
+        assert!(
+            solve(&m)
+                .unwrap_err()
+                .to_string()
+                .contains("no measurement at 0°")
+        );
+        let mut m = good.clone();
+        m.angles_deg.swap(1, 2);
+        assert!(
+            solve(&m)
+                .unwrap_err()
+                .to_string()
+                .contains("increase strictly")
+        );
+        let mut m = good.clone();
+        m.balls[2].name = "1".into();
+        assert!(solve(&m).unwrap_err().to_string().contains("twice"));
+        let mut m = good.clone();
+        m.balls[0].centres.pop();
+        assert!(
+            solve(&m)
+                .unwrap_err()
+                .to_string()
+                .contains("3 centres for 4 angles")
+        );
+        let mut m = good;
+        m.angles_deg[3] = 360.0;
+        assert!(solve(&m).unwrap_err().to_string().contains("[0°, 360°)"));
+    }
+}

@@ -2,7 +2,9 @@
 //! (METHODS.md §2): for each angle θ and ball i, `Pᵢ = Rz(θ)·P0ᵢ` and the
 //! three rows of `ΔPᵢ = δ + ε × Pᵢ` (`geom::transform::SmallError`); the
 //! stacked system `A·X = b` (3 rows per ball) is solved by least squares,
-//! `X = (AᵀA)⁻¹Aᵀb`, through the singular value decomposition.
+//! `X = (AᵀA)⁻¹Aᵀb`, through the Householder QR decomposition of `A`
+//! (nalgebra's SVD can lose 8 digits on such matrices, dimforge/nalgebra
+//! issue 1172; QR keeps them).
 //!
 //! The rotation columns of `A` are divided by the layout's size `L` (RMS
 //! distance of the balls from their centroid) so that all six unknowns are
@@ -179,8 +181,11 @@ fn solve_angle(
             "least squares of the six errors at {angle_deg}°: {why}"
         ))
     };
-    let svd = a.clone().svd(true, true);
-    let scaled = svd.solve(b, 0.0).map_err(unsolvable)?;
+    let qr = a.clone().qr();
+    let scaled = qr
+        .r()
+        .solve_upper_triangular(&(qr.q().transpose() * b))
+        .ok_or_else(|| unsolvable("the design is singular"))?;
     let residual = b - a * &scaled;
     let m = residual.len();
     let ssr = residual.norm_squared();

@@ -148,9 +148,11 @@ pub fn axis_line(angles_deg: &[f64], errors: &[AngleErrors]) -> Result<AxisLine>
             limit: LOCATION_CONDITION_LIMIT,
         });
     }
-    let pinv = svd
-        .pseudo_inverse(0.0)
-        .map_err(|e| ProbeError::Unsolvable(format!("axis average line: {e}")))?;
+    // (DᵀD)⁻¹Dᵀ: D is orthogonal over a full turn and never worse than the limit.
+    let pinv = (d.transpose() * &d)
+        .try_inverse()
+        .ok_or_else(|| ProbeError::Unsolvable("axis average line: singular design".into()))?
+        * d.transpose();
     // (value, variance) of the constant `a` of the pair of errors at `first`, `first + 1`.
     let fit = |first: usize| -> (Vector2<f64>, Matrix2<f64>) {
         let y = DVector::from_iterator(
