@@ -285,6 +285,35 @@ pub struct Interpolated {
 
 /// Run the method (METHODS.md §2): validate, check the layout, the six
 /// errors per angle by least squares, then the axis average line.
+///
+/// # Example
+/// A table that turns about an axis 10 µm off in x:
+/// `P(θ) = c + Rz(θ)·(P0 − c)` — all of it location, X0C = 10 µm.
+/// ```
+/// use geom::nalgebra::Point3;
+/// use probe::rotary::{Measurement, rz, solve};
+///
+/// let c = Point3::new(0.010, 0.0, 0.0);
+/// let layout = [[150.0, 10.0, 60.0], [-70.0, 120.0, 95.0], [-55.0, -135.0, 30.0]];
+/// let angles: Vec<f64> = (0..12).map(|k| 30.0 * f64::from(k)).collect();
+/// let balls = layout
+///     .iter()
+///     .enumerate()
+///     .map(|(i, p)| {
+///         let p0 = Point3::from(*p);
+///         let centres = angles
+///             .iter()
+///             .map(|a| (c + rz(*a) * (p0 - c)).coords.into())
+///             .collect();
+///         (format!("{}", i + 1), centres)
+///     })
+///     .collect();
+/// let s = solve(&Measurement::from_centres(angles, balls))?;
+/// let l = s.axis.expect("a full turn").location;
+/// assert!((l.x0c_mm - 0.010).abs() < 1e-12 && l.y0c_mm.abs() < 1e-12);
+/// assert!(s.errors[6].errors[0] > 0.0199); // EXC at 180° = 2·X0C
+/// # Ok::<(), probe::ProbeError>(())
+/// ```
 pub fn solve(measurement: &Measurement) -> Result<Solution> {
     measurement.validate()?;
     let reference = measurement.reference();
