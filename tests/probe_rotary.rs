@@ -49,31 +49,47 @@ fn ok(out: &Output) -> String {
     String::from_utf8(out.stdout.clone()).unwrap()
 }
 
-/// The check data's centres file with `edit` applied to its text.
-fn edited(dir: &Path, name: &str, source: &str, edit: impl Fn(&str) -> String) -> PathBuf {
+/// Run the method (`flag`: `--centres` or `--points`) on the check data's
+/// `source` with `edit` applied to its text: it must fail with exit status
+/// 1, one line naming the file, and no output. Returns the line; each of
+/// `parts` must be in it.
+fn bad_input(flag: &str, source: &str, edit: impl Fn(&str) -> String, parts: &[&str]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("input.csv");
     let text = std::fs::read_to_string(testdata(source)).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, edit(&text)).unwrap();
-    path
-}
-
-/// Run the method on `input` (`--centres` or `--points`) and return the error line.
-fn bad(flag: &str, input: &Path, dir: &Path) -> String {
+    std::fs::write(&input, edit(&text)).unwrap();
+    let out = dir.path().join("out");
     let (code, err) = failure(&trinocular(&[
         "probe",
         "rotary",
         flag,
-        s(input),
+        s(&input),
         "--out",
-        s(&dir.join("out")),
+        s(&out),
     ]));
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains(s(input)), "the file is not named: {err}");
+    assert!(err.contains(s(&input)), "the file is not named: {err}");
     assert!(
-        !dir.join("out/rotary.csv").exists(),
+        !out.join("rotary.csv").exists(),
         "wrote output on bad input"
     );
+    for p in parts {
+        assert!(err.contains(p), "{p:?} not in: {err}");
+    }
     err
+}
+
+/// The header, then every data row through `f` (its fields).
+fn each_row(text: &str, f: impl Fn(&[&str]) -> Option<String>) -> String {
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for l in lines {
+        if let Some(row) = f(&l.split(',').collect::<Vec<_>>()) {
+            out.push_str(&row);
+            out.push('\n');
+        }
+    }
+    out
 }
 
 #[test]
@@ -259,30 +275,24 @@ fn usage_errors_exit_with_2() {
 
 #[test]
 fn a_missing_angle_for_one_ball() {
-    let dir = tempfile::tempdir().unwrap();
-    let f = edited(dir.path(), "c.csv", "centres.csv", |t| {
-        t.lines()
-            .filter(|l| !l.starts_with("2,120,"))
-            .map(|l| format!("{l}\n"))
-            .collect()
-    });
-    let err = bad("--centres", &f, dir.path());
-    assert!(
-        err.contains("column 'angle_deg'") && err.contains("ball 2 has no row at 120°"),
-        "{err}"
+    let drop = |v: &[&str]| (v[..2] != ["2", "120"]).then(|| v.join(","));
+    bad_input(
+        "--centres",
+        "centres.csv",
+        |t| each_row(t, drop),
+        &["line 14, column 'angle_deg'", "ball 2 has no row at 120°"],
     );
-    assert!(err.contains("line 14"), "{err}");
 }
 
 #[test]
 fn angles_not_shared_by_all_balls() {
-    let dir = tempfile::tempdir().unwrap();
     // Ball 3 measured at 45° instead of 30°.
-    let f = edited(dir.path(), "c.csv", "centres.csv", |t| {
-        t.replace("\n3,30,", "\n3,45,")
-    });
-    let err = bad("--centres", &f, dir.path());
-    assert!(err.contains("column 'angle_deg'"), "{err}");
+    let err = bad_input(
+        "--centres",
+        "centres.csv",
+        |t| t.replace("\n3,30,", "\n3,45,"),
+        &["column 'angle_deg'"],
+    );
     assert!(
         err.contains("ball 3 has no row at 30°")
             || err.contains("45° is measured for ball(s) 3 only"),
@@ -292,151 +302,121 @@ fn angles_not_shared_by_all_balls() {
 
 #[test]
 fn a_duplicate_ball_and_angle() {
-    let dir = tempfile::tempdir().unwrap();
-    let f = edited(dir.path(), "c.csv", "centres.csv", |t| {
-        format!("{t}1,90,-9.9966783,149.9747654,60.0090399\n")
-    });
-    let err = bad("--centres", &f, dir.path());
-    assert!(
-        err.contains("line 38, column 'angle_deg'")
-            && err.contains("twice")
-            && err.contains("line 11"),
-        "{err}"
+    bad_input(
+        "--centres",
+        "centres.csv",
+        |t| format!("{t}1,90,-9.9966783,149.9747654,60.0090399\n"),
+        &["line 38, column 'angle_deg'", "twice", "line 11"],
     );
 }
 
 #[test]
 fn a_ball_with_fewer_than_four_points() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(testdata("points.csv")).unwrap();
     // Drop two of the five points of ball 2 at 60°.
-    let mut dropped = 0;
-    let kept: String = text
-        .lines()
-        .filter(|l| {
-            if l.starts_with("2,60,") && dropped < 2 {
-                dropped += 1;
-                false
-            } else {
-                true
-            }
-        })
-        .map(|l| format!("{l}\n"))
-        .collect();
-    let f = dir.path().join("p.csv");
-    std::fs::write(&f, kept).unwrap();
-    let err = bad("--points", &f, dir.path());
-    assert!(
-        err.contains("column 'ball'") && err.contains("ball 2 at 60° has 3 probed point(s)"),
-        "{err}"
+    let n = std::cell::Cell::new(0);
+    let drop = |v: &[&str]| {
+        let hit = v[..2] == ["2", "60"] && n.get() < 2;
+        n.set(n.get() + usize::from(hit));
+        (!hit).then(|| v.join(","))
+    };
+    bad_input(
+        "--points",
+        "points.csv",
+        |t| each_row(t, drop),
+        &[
+            "column 'ball'",
+            "ball 2 at 60° has 3 probed point(s)",
+            "at least 4",
+        ],
     );
-    assert!(err.contains("at least 4"), "{err}");
 }
 
 #[test]
 fn a_nan() {
-    let dir = tempfile::tempdir().unwrap();
-    let f = edited(dir.path(), "c.csv", "centres.csv", |t| {
-        t.replace("95.0018199", "NaN")
-    });
-    let err = bad("--centres", &f, dir.path());
-    assert!(
-        err.contains("line 6, column 'z'") && err.contains("not a finite"),
-        "{err}"
+    bad_input(
+        "--centres",
+        "centres.csv",
+        |t| t.replace("95.0018199", "NaN"),
+        &["line 6, column 'z'", "not a finite"],
     );
 }
 
 #[test]
 fn values_in_micrometres() {
-    let dir = tempfile::tempdir().unwrap();
     // One centre 1000× too far for any table.
-    let f = edited(dir.path(), "c.csv", "centres.csv", |t| {
-        t.replace("66.3397038", "66339.7038")
-    });
-    let err = bad("--centres", &f, dir.path());
-    assert!(
-        err.contains("line 8, column 'x'") && err.contains("µm instead of mm"),
-        "{err}"
+    bad_input(
+        "--centres",
+        "centres.csv",
+        |t| t.replace("66.3397038", "66339.7038"),
+        &["line 8, column 'x'", "µm instead of mm"],
     );
     // A whole file in µm.
-    let f = edited(dir.path(), "um.csv", "centres.csv", |t| {
-        let mut lines = t.lines();
-        let mut out = format!("{}\n", lines.next().unwrap());
-        for l in lines {
-            let v: Vec<&str> = l.split(',').collect();
-            let um = |x: &str| x.parse::<f64>().unwrap() * 1000.0;
-            out.push_str(&format!(
-                "{},{},{},{},{}\n",
-                v[0],
-                v[1],
-                um(v[2]),
-                um(v[3]),
-                um(v[4])
-            ));
-        }
-        out
-    });
-    let err = bad("--centres", &f, dir.path());
-    assert!(
-        err.contains("line 2, column 'x'") && err.contains("µm"),
-        "{err}"
+    let um = |x: &str| x.parse::<f64>().unwrap() * 1000.0;
+    bad_input(
+        "--centres",
+        "centres.csv",
+        |t| {
+            each_row(t, |v| {
+                Some(format!(
+                    "{},{},{},{},{}",
+                    v[0],
+                    v[1],
+                    um(v[2]),
+                    um(v[3]),
+                    um(v[4])
+                ))
+            })
+        },
+        &["line 2, column 'x'", "µm"],
     );
     // A height in metres, within reach of any limit: the ball's other rows tell.
-    let f = edited(dir.path(), "z.csv", "centres.csv", |t| {
-        t.replace("29.9940384", "0.0299940384")
-    });
-    let err = bad("--centres", &f, dir.path());
-    assert!(
-        err.contains("line 10, column 'z'") && err.contains("in m:"),
-        "{err}"
+    bad_input(
+        "--centres",
+        "centres.csv",
+        |t| t.replace("29.9940384", "0.0299940384"),
+        &["line 10, column 'z'", "in m:"],
     );
 }
 
 #[test]
 fn a_degenerate_layout_names_the_condition_number() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut text = String::from("ball,angle_deg,x,y,z\n");
-    for a in [0.0_f64, 90.0, 180.0, 270.0] {
-        for (b, x, y) in [(1, -150.0, 0.0), (2, 0.0, 0.2), (3, 150.0, 0.0)] {
-            let (sn, c) = a.to_radians().sin_cos();
-            text.push_str(&format!(
-                "{b},{a},{},{},50\n",
-                c * x - sn * y,
-                sn * x + c * y
-            ));
+    // Ball 2 0.2 mm off the line through balls 1 and 3, turned every 90°.
+    let line = |_: &str| {
+        let mut text = String::from("ball,angle_deg,x,y,z\n");
+        for a in [0.0_f64, 90.0, 180.0, 270.0] {
+            for (b, x, y) in [(1, -150.0, 0.0), (2, 0.0, 0.2), (3, 150.0, 0.0)] {
+                let (sn, c) = a.to_radians().sin_cos();
+                text.push_str(&format!(
+                    "{b},{a},{},{},50\n",
+                    c * x - sn * y,
+                    sn * x + c * y
+                ));
+            }
         }
-    }
-    let f = dir.path().join("line.csv");
-    std::fs::write(&f, text).unwrap();
-    let err = bad("--centres", &f, dir.path());
-    assert!(
-        err.contains("condition number") && err.contains("exceeds"),
-        "{err}"
+        text
+    };
+    bad_input(
+        "--centres",
+        "centres.csv",
+        line,
+        &["condition number", "exceeds"],
     );
 }
 
 #[test]
 fn clockwise_angles_name_the_line() {
-    let dir = tempfile::tempdir().unwrap();
     // Angles counted the other way: θ → 360° − θ.
-    let f = edited(dir.path(), "c.csv", "centres.csv", |t| {
-        let mut lines = t.lines();
-        let mut out = format!("{}\n", lines.next().unwrap());
-        for l in lines {
-            let (b, rest) = l.split_once(',').unwrap();
-            let (a, xyz) = rest.split_once(',').unwrap();
-            let a: f64 = a.parse().unwrap();
-            let a = if a == 0.0 { 0.0 } else { 360.0 - a };
-            out.push_str(&format!("{b},{a},{xyz}\n"));
-        }
-        out
-    });
-    let err = bad("--centres", &f, dir.path());
-    assert!(
-        err.contains("column 'angle_deg'") && err.contains("clockwise"),
-        "{err}"
+    let clockwise = |v: &[&str]| {
+        let a: f64 = v[1].parse().unwrap();
+        let a = if a == 0.0 { 0.0 } else { 360.0 - a };
+        Some(format!("{},{a},{},{},{}", v[0], v[2], v[3], v[4]))
+    };
+    bad_input(
+        "--centres",
+        "centres.csv",
+        |t| each_row(t, clockwise),
+        &["line 35, column 'angle_deg'", "ball 1 at 30°", "clockwise"],
     );
-    assert!(err.contains("line "), "{err}");
 }
 
 #[test]

@@ -15,7 +15,7 @@ use geom::nalgebra::{DMatrix, Point3, Rotation3, Vector3};
 use geom::transform::SmallError;
 use probe::ProbeError;
 use probe::rotary::{Measurement, Solution, solve};
-use synth::probe::rotary::{BallConfig, LocationConfig, RotaryConfig, generate};
+use synth::probe::rotary::{BallConfig, LocationConfig, RotaryConfig, RotaryData, generate};
 
 fn testdata(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -202,14 +202,9 @@ fn check_data_location_within_the_noise() {
     }
 }
 
-/// What the first-order model of §2 leaves out at these errors (mm).
-const MODEL_FLOOR_MM: f64 = 1e-6;
-
-/// Generate, solve, compare with the generator's truth: errors per angle,
-/// location and component errors.
-fn round_trip(config: &RotaryConfig, what: &str) -> Solution {
-    let data = generate(config).unwrap();
-    let centres: Vec<(String, Vec<[f64; 3]>)> = config
+/// The generated centres as the method's input.
+fn measurement_of(config: &RotaryConfig, data: &RotaryData) -> Measurement {
+    let centres = config
         .balls
         .iter()
         .map(|b| {
@@ -222,7 +217,17 @@ fn round_trip(config: &RotaryConfig, what: &str) -> Solution {
             (b.name.clone(), c)
         })
         .collect();
-    let m = Measurement::from_centres(data.truth.angles_deg.clone(), centres);
+    Measurement::from_centres(data.truth.angles_deg.clone(), centres)
+}
+
+/// What the first-order model of §2 leaves out at these errors (mm).
+const MODEL_FLOOR_MM: f64 = 1e-6;
+
+/// Generate, solve, compare with the generator's truth: errors per angle,
+/// location and component errors.
+fn round_trip(config: &RotaryConfig, what: &str) -> Solution {
+    let data = generate(config).unwrap();
+    let m = measurement_of(config, &data);
     let s = solve(&m).unwrap();
     // Without noise the floor is the first-order model's neglected
     // ½|ε|²·|P| ≈ ½·(1e-4)²·170 mm ≈ 1e-6 mm.
@@ -458,20 +463,7 @@ fn degenerate_layouts_are_refused_with_the_condition_number() {
         (on_the_axis, "on the axis"),
     ] {
         let d = generate(&config).unwrap();
-        let centres = config
-            .balls
-            .iter()
-            .map(|b| {
-                let c = d
-                    .centres
-                    .iter()
-                    .filter(|r| r.ball == b.name)
-                    .map(|r| [r.x, r.y, r.z])
-                    .collect();
-                (b.name.clone(), c)
-            })
-            .collect();
-        let m = Measurement::from_centres(d.truth.angles_deg.clone(), centres);
+        let m = measurement_of(&config, &d);
         match solve(&m) {
             Err(ProbeError::IllConditioned {
                 condition, limit, ..

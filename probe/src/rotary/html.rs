@@ -225,36 +225,47 @@ pub fn render(report: &Report) -> Result<String> {
 fn summary(h: &mut Page, report: &Report) {
     h.h2("summary", "Sign-off figures");
     if let Some(l) = &report.location {
-        let rows = vec![
+        let rows: Vec<Vec<String>> = [
+            (
+                "X0C",
+                "position of the axis average line in x at Z = 0",
+                l.x0c_um,
+                l.u_x0c_um,
+                "µm",
+            ),
+            (
+                "Y0C",
+                "position of the axis average line in y at Z = 0",
+                l.y0c_um,
+                l.u_y0c_um,
+                "µm",
+            ),
+            (
+                "A0C",
+                "tilt of the axis average line about x",
+                l.a0c_urad,
+                l.u_a0c_urad,
+                "µrad",
+            ),
+            (
+                "B0C",
+                "tilt of the axis average line about y",
+                l.b0c_urad,
+                l.u_b0c_urad,
+                "µrad",
+            ),
+        ]
+        .iter()
+        .map(|(name, meaning, v, u, unit)| {
             vec![
-                "X0C".into(),
-                "position of the axis average line in x at Z = 0".into(),
-                format!("{:.3}", l.x0c_um),
-                format!("{:.3}", l.u_x0c_um),
-                "µm".into(),
-            ],
-            vec![
-                "Y0C".into(),
-                "position of the axis average line in y at Z = 0".into(),
-                format!("{:.3}", l.y0c_um),
-                format!("{:.3}", l.u_y0c_um),
-                "µm".into(),
-            ],
-            vec![
-                "A0C".into(),
-                "tilt of the axis average line about x".into(),
-                format!("{:.3}", l.a0c_urad),
-                format!("{:.3}", l.u_a0c_urad),
-                "µrad".into(),
-            ],
-            vec![
-                "B0C".into(),
-                "tilt of the axis average line about y".into(),
-                format!("{:.3}", l.b0c_urad),
-                format!("{:.3}", l.u_b0c_urad),
-                "µrad".into(),
-            ],
-        ];
+                (*name).to_string(),
+                (*meaning).to_string(),
+                format!("{v:.3}"),
+                format!("{u:.3}"),
+                (*unit).to_string(),
+            ]
+        })
+        .collect();
         table(
             h,
             "location",

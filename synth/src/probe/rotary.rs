@@ -269,20 +269,10 @@ fn bad(key: &str, message: impl std::fmt::Display) -> SynthError {
 }
 
 impl RotaryConfig {
-    /// Parse a TOML configuration; `path` names the source in errors.
+    /// Parse a TOML configuration; `path` names the source in errors
+    /// (unknown keys, bad values, with the line and column of a parse error).
     pub fn from_toml_str(text: &str, path: Option<&Path>) -> Result<Self> {
-        let config: RotaryConfig = toml::from_str(text).map_err(|e| SynthError::Config {
-            path: path.map(Path::to_path_buf),
-            message: e.message().trim_end().replace('\n', " "),
-        })?;
-        config.validate().map_err(|e| match e {
-            SynthError::Config { message, .. } => SynthError::Config {
-                path: path.map(Path::to_path_buf),
-                message,
-            },
-            other => other,
-        })?;
-        Ok(config)
+        crate::config::parse_toml(text, path, RotaryConfig::validate)
     }
 
     /// Read a TOML configuration file.
