@@ -172,30 +172,22 @@ fn check_data_location_within_the_noise() {
         let got = location(&s);
         // The mean of 12 angles: ≈ 0.3 µm/√12·√2 ≈ 0.12 µm and ≈ 1 µrad;
         // 0.5 µm and 4 µrad are about 4 of those.
-        assert!(
-            (got[0] - truth[0]).abs() < 0.5e-3,
-            "X0C {} vs {}",
-            got[0],
-            truth[0]
-        );
-        assert!(
-            (got[1] - truth[1]).abs() < 0.5e-3,
-            "Y0C {} vs {}",
-            got[1],
-            truth[1]
-        );
-        assert!(
-            (got[2] - truth[2]).abs() < 4e-6,
-            "A0C {} vs {}",
-            got[2],
-            truth[2]
-        );
-        assert!(
-            (got[3] - truth[3]).abs() < 4e-6,
-            "B0C {} vs {}",
-            got[3],
-            truth[3]
-        );
+        for (k, (name, tol)) in [
+            ("X0C", 0.5e-3),
+            ("Y0C", 0.5e-3),
+            ("A0C", 4e-6),
+            ("B0C", 4e-6),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            assert!(
+                (got[k] - truth[k]).abs() < tol,
+                "{name} {} vs {}",
+                got[k],
+                truth[k]
+            );
+        }
         let u = s.axis.as_ref().unwrap().location.uncertainty;
         assert!(u[0] > 0.05e-3 && u[0] < 0.3e-3, "u(X0C) {}", u[0]);
         assert!(u[2] > 0.3e-6 && u[2] < 3e-6, "u(A0C) {}", u[2]);

@@ -331,6 +331,17 @@ fn six_cells(r: &AngleReport) -> Vec<String> {
         .collect()
 }
 
+/// One table row per angle: the angle and the six cells.
+fn angle_rows(rows: &[AngleReport]) -> Vec<Vec<String>> {
+    rows.iter()
+        .map(|r| {
+            let mut row = vec![format!("{}", r.angle_deg)];
+            row.extend(six_cells(r));
+            row
+        })
+        .collect()
+}
+
 /// The tables: errors per angle, interpolated angles, balls, sphere fits.
 fn tables(h: &mut Page, report: &Report) {
     let header: Vec<String> = std::iter::once("angle (°)".to_string())
@@ -343,47 +354,30 @@ fn tables(h: &mut Page, report: &Report) {
     );
     let mut with_residual = header_refs.clone();
     with_residual.push("residual RMS (µm)");
-    let rows: Vec<Vec<String>> = report
-        .errors
-        .iter()
-        .map(|r| {
-            let mut row = vec![format!("{}", r.angle_deg)];
-            row.extend(six_cells(r));
-            row.push(
-                r.residual_rms_um
-                    .map_or_else(|| "—".into(), |v| format!("{v:.3}")),
-            );
-            row
-        })
-        .collect();
+    let mut rows = angle_rows(&report.errors);
+    for (row, r) in rows.iter_mut().zip(&report.errors) {
+        row.push(
+            r.residual_rms_um
+                .map_or_else(|| "—".into(), |v| format!("{v:.3}")),
+        );
+    }
     table(h, "errors", &with_residual, &rows, 0);
     if let Some(components) = &report.components {
         h.h2("table-components", "Component errors per angle");
-        let rows: Vec<Vec<String>> = components
-            .iter()
-            .map(|r| {
-                let mut row = vec![format!("{}", r.angle_deg)];
-                row.extend(six_cells(r));
-                row
-            })
-            .collect();
-        table(h, "components", &header_refs, &rows, 0);
+        table(h, "components", &header_refs, &angle_rows(components), 0);
     }
     if !report.interpolated.is_empty() {
         h.h2(
             "table-interpolated",
             "Errors at the angles asked for (interpolated)",
         );
-        let rows: Vec<Vec<String>> = report
-            .interpolated
-            .iter()
-            .map(|r| {
-                let mut row = vec![format!("{}", r.angle_deg)];
-                row.extend(six_cells(r));
-                row
-            })
-            .collect();
-        table(h, "interpolated", &header_refs, &rows, 0);
+        table(
+            h,
+            "interpolated",
+            &header_refs,
+            &angle_rows(&report.interpolated),
+            0,
+        );
     }
     h.h2("balls", "Ball layout (reference centres at 0°)");
     let rows: Vec<Vec<String>> = report
