@@ -194,6 +194,16 @@ fn check_data_location_within_the_noise() {
     }
 }
 
+/// Balls of a generator configuration from names and positions (mm).
+fn balls(list: &[(&str, [f64; 3])]) -> Vec<BallConfig> {
+    list.iter()
+        .map(|(name, position)| BallConfig {
+            name: (*name).into(),
+            position: *position,
+        })
+        .collect()
+}
+
 /// The generated centres as the method's input.
 fn measurement_of(config: &RotaryConfig, data: &RotaryData) -> Measurement {
     let centres = config
@@ -290,24 +300,12 @@ fn generator_round_trips_for_seeds_layouts_and_steps() {
     let four = RotaryConfig {
         seed: 11,
         step_deg: 20.0,
-        balls: vec![
-            BallConfig {
-                name: "A".into(),
-                position: [200.0, 0.0, 40.0],
-            },
-            BallConfig {
-                name: "B".into(),
-                position: [0.0, 180.0, 40.0],
-            },
-            BallConfig {
-                name: "C".into(),
-                position: [-190.0, -20.0, 40.0],
-            },
-            BallConfig {
-                name: "D".into(),
-                position: [10.0, -210.0, 40.0],
-            },
-        ],
+        balls: balls(&[
+            ("A", [200.0, 0.0, 40.0]),
+            ("B", [0.0, 180.0, 40.0]),
+            ("C", [-190.0, -20.0, 40.0]),
+            ("D", [10.0, -210.0, 40.0]),
+        ]),
         ..base.clone()
     };
     round_trip(&four, "four balls, 20° steps");
@@ -316,20 +314,11 @@ fn generator_round_trips_for_seeds_layouts_and_steps() {
         seed: 5,
         step_deg: 45.0,
         noise_um: 1.0,
-        balls: vec![
-            BallConfig {
-                name: "1".into(),
-                position: [60.0, 5.0, 20.0],
-            },
-            BallConfig {
-                name: "2".into(),
-                position: [-35.0, 50.0, 70.0],
-            },
-            BallConfig {
-                name: "3".into(),
-                position: [-20.0, -55.0, 45.0],
-            },
-        ],
+        balls: balls(&[
+            ("1", [60.0, 5.0, 20.0]),
+            ("2", [-35.0, 50.0, 70.0]),
+            ("3", [-20.0, -55.0, 45.0]),
+        ]),
         ..base.clone()
     };
     round_trip(&small, "small table, 45° steps");
@@ -417,37 +406,19 @@ fn a_pure_axis_tilt_is_all_location() {
 #[test]
 fn degenerate_layouts_are_refused_with_the_condition_number() {
     let on_a_line = RotaryConfig {
-        balls: vec![
-            BallConfig {
-                name: "1".into(),
-                position: [-150.0, 0.0, 50.0],
-            },
-            BallConfig {
-                name: "2".into(),
-                position: [0.0, 0.5, 50.0],
-            },
-            BallConfig {
-                name: "3".into(),
-                position: [150.0, 0.0, 50.0],
-            },
-        ],
+        balls: balls(&[
+            ("1", [-150.0, 0.0, 50.0]),
+            ("2", [0.0, 0.5, 50.0]),
+            ("3", [150.0, 0.0, 50.0]),
+        ]),
         ..RotaryConfig::default()
     };
     let on_the_axis = RotaryConfig {
-        balls: vec![
-            BallConfig {
-                name: "1".into(),
-                position: [0.0, 0.0, 20.0],
-            },
-            BallConfig {
-                name: "2".into(),
-                position: [0.2, 0.0, 60.0],
-            },
-            BallConfig {
-                name: "3".into(),
-                position: [0.0, 0.3, 100.0],
-            },
-        ],
+        balls: balls(&[
+            ("1", [0.0, 0.0, 20.0]),
+            ("2", [0.2, 0.0, 60.0]),
+            ("3", [0.0, 0.3, 100.0]),
+        ]),
         ..RotaryConfig::default()
     };
     for (config, what) in [
