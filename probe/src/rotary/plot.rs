@@ -24,6 +24,9 @@ pub(super) struct Series<'a> {
     pub colour: RGBColor,
 }
 
+/// Width over height of a path plot's drawing area (px), for equal scales.
+const PATH_AREA_ASPECT: f64 = 820.0 / 450.0;
+
 /// Steps of the fixed-axis circle drawn in a path plot.
 const CIRCLE_STEPS: u32 = 180;
 
@@ -121,8 +124,7 @@ pub(super) fn path(title: &str, p: &Path<'_>) -> Result<String> {
     let ys = p.measured.iter().chain(&circle).map(|q| q.1).chain([0.0]);
     let (x0, x1) = padded(xs, 0.5);
     let (y0, y1) = with_legend_room(padded(ys, 0.5));
-    // Equal scale on both axes (the plot area is about 820 × 450 px).
-    let aspect = 820.0 / 450.0;
+    let aspect = PATH_AREA_ASPECT;
     let (xc, yc) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
     let half_x = ((x1 - x0) / 2.0).max((y1 - y0) / 2.0 * aspect);
     let half_y = half_x / aspect;

@@ -42,6 +42,9 @@ const UM: f64 = 1e-3;
 const URAD: f64 = 1e-6;
 /// One turn (degrees).
 const FULL_TURN_DEG: f64 = 360.0;
+/// Angles within this of 360° (degrees) are the turn's end, not a new
+/// angle: a step that divides the turn must not add 360° by rounding.
+const TURN_END_TOLERANCE_DEG: f64 = 1e-9;
 /// Fewest probed points per sphere the method accepts.
 const MIN_POINTS: usize = 4;
 /// Names of the six errors, in the order of `truth_mm_rad`'s columns.
@@ -387,7 +390,7 @@ impl RotaryConfig {
     pub fn angles_deg(&self) -> Vec<f64> {
         (0..)
             .map(|k| f64::from(k) * self.step_deg)
-            .take_while(|a| *a < FULL_TURN_DEG - 1e-9)
+            .take_while(|a| *a < FULL_TURN_DEG - TURN_END_TOLERANCE_DEG)
             .collect()
     }
 
