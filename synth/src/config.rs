@@ -530,34 +530,45 @@ fn finite(key: &str, values: &[f64]) -> Result<()> {
     }
 }
 
+/// Parse a TOML configuration of type `T` and check it with `validate`;
+/// errors name `path` (when given) and, for a parse error, the line and
+/// column. Shared by every generator's configuration.
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    path: Option<&Path>,
+    validate: impl FnOnce(&T) -> Result<()>,
+) -> Result<T> {
+    let config: T = toml::from_str(text).map_err(|e| {
+        let at = e.span().map(|s| {
+            let before = &text[..s.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+            format!("line {line}, column {column}: ")
+        });
+        SynthError::Config {
+            path: path.map(Path::to_path_buf),
+            message: format!(
+                "{}{}",
+                at.unwrap_or_default(),
+                e.message().trim_end().replace('\n', " ")
+            ),
+        }
+    })?;
+    validate(&config).map_err(|e| match e {
+        SynthError::Config { message, .. } => SynthError::Config {
+            path: path.map(Path::to_path_buf),
+            message,
+        },
+        other => other,
+    })?;
+    Ok(config)
+}
+
 impl Config {
     /// Parse a TOML configuration; `path` names the source in errors. Unknown
     /// keys are errors naming the key.
     pub fn from_toml_str(text: &str, path: Option<&Path>) -> Result<Self> {
-        let config: Config = toml::from_str(text).map_err(|e| {
-            let at = e.span().map(|s| {
-                let before = &text[..s.start.min(text.len())];
-                let line = before.matches('\n').count() + 1;
-                let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-                format!("line {line}, column {column}: ")
-            });
-            SynthError::Config {
-                path: path.map(Path::to_path_buf),
-                message: format!(
-                    "{}{}",
-                    at.unwrap_or_default(),
-                    e.message().trim_end().replace('\n', " ")
-                ),
-            }
-        })?;
-        config.validate().map_err(|e| match e {
-            SynthError::Config { message, .. } => SynthError::Config {
-                path: path.map(Path::to_path_buf),
-                message,
-            },
-            other => other,
-        })?;
-        Ok(config)
+        parse_toml(text, path, Config::validate)
     }
 
     /// Read a TOML configuration file.

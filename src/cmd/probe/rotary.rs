@@ -1,21 +1,340 @@
-//! `trinocular probe rotary` and `trinocular synth probe rotary` (to be written).
+//! `trinocular probe rotary (--centres C.csv | --points P.csv) --out DIR
+//! [--at DEG …] [--force]`: rotary-table errors from a standard ball
+//! (METHODS.md §2); writes `DIR/rotary.csv`, `DIR/report.json`,
+//! `DIR/report.html`, with `--at` `DIR/rotary_at.csv`, with `--points`
+//! `DIR/spheres.csv`, and prints the sign-off figures.
+//!
+//! `trinocular synth probe rotary --out DIR [--config FILE] [--seed S]
+//! [--step-deg D] [--noise-um N] [--force]`: check data with known truth
+//! (`centres.csv`, `points.csv`, `truth.json`, `config.toml`);
+//! `--print-config` prints the documented default configuration.
 
-use anyhow::{Result, bail};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, anyhow, bail};
+use formats::probe::rotary::{
+    CentreRow, ErrorRow, RotaryInput, SphereFitRow, read_centres, read_points,
+};
+use probe::ProbeError;
+use probe::rotary::report::Report;
+use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
+use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
 
 /// Arguments of `trinocular probe rotary`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+#[command(group(clap::ArgGroup::new("input").required(true).args(["centres", "points"])))]
+pub struct Args {
+    /// Ball centres `ball,angle_deg,x,y,z` (mm, table frame; angles in degrees, counter-clockwise
+    /// seen from +Z): one row per ball and angle, every ball at the same angles, 0° among them.
+    #[arg(long)]
+    centres: Option<PathBuf>,
+    /// Probed points, same columns: at least 4 rows per ball and angle (e.g. the north pole and
+    /// four on the equator); a sphere is fitted to each.
+    #[arg(long)]
+    points: Option<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write rotary_at.csv: the errors at these angles (degrees, any value; linear between
+    /// the two nearest measured angles, wrapping at 360°).
+    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "DEG")]
+    at: Vec<f64>,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
 
 /// Arguments of `trinocular synth probe rotary`.
 #[derive(Debug, clap::Args)]
-pub struct SynthArgs {}
-
-/// Run the method.
-pub fn run(_args: &Args) -> Result<()> {
-    bail!("probe rotary is not written yet")
+pub struct SynthArgs {
+    /// Output directory (created if missing).
+    #[arg(long, required_unless_present = "print_config")]
+    out: Option<PathBuf>,
+    /// Configuration (TOML; see --print-config). Default: a C axis with offset, tilt, wobble,
+    /// run-out and angular errors, three balls, 30° steps, 0.3 µm noise.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Random seed of the noise.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Angular step (degrees): angles 0, step, … below 360.
+    #[arg(long)]
+    step_deg: Option<f64>,
+    /// Noise of centres and probed points, per coordinate (µm, standard deviation).
+    #[arg(long)]
+    noise_um: Option<f64>,
+    /// Print the documented default configuration and exit.
+    #[arg(long)]
+    print_config: bool,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
 }
 
-/// Run the generator.
-pub fn synth(_args: &SynthArgs) -> Result<()> {
-    bail!("synth probe rotary is not written yet")
+/// mm → µm and rad → µrad, for printing.
+const UM: f64 = 1e3;
+const URAD: f64 = 1e6;
+
+/// Create `dir` and return the paths of `names` in it, refusing any that
+/// exists (unless `force`) or that is one of `inputs` (always).
+fn outputs(dir: &Path, names: &[&str], inputs: &[&Path], force: bool) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    let inputs: Vec<PathBuf> = inputs
+        .iter()
+        .filter_map(|p| std::fs::canonicalize(p).ok())
+        .collect();
+    let mut paths = Vec::new();
+    for name in names {
+        let path = dir.join(name);
+        if let Ok(canonical) = std::fs::canonicalize(&path) {
+            if inputs.contains(&canonical) {
+                bail!(
+                    "{}: is an input of this run; choose another --out",
+                    path.display()
+                );
+            }
+            if !force {
+                bail!(
+                    "{}: already exists; give --force to replace it",
+                    path.display()
+                );
+            }
+        }
+        paths.push(path);
+    }
+    Ok(paths)
+}
+
+/// `12–16` or `12` for the lines of one ball and angle.
+fn line_span(lines: &[u64]) -> String {
+    match (lines.iter().min(), lines.iter().max()) {
+        (Some(a), Some(b)) if a != b => format!("lines {a}–{b}"),
+        (Some(a), _) => format!("line {a}"),
+        _ => "line ?".into(),
+    }
+}
+
+/// A method error with the file, and the line where it is about one centre.
+fn located(e: ProbeError, input: &RotaryInput) -> anyhow::Error {
+    let path = input.path.display();
+    if let ProbeError::Input { what, message } = &e {
+        for b in &input.balls {
+            for a in &input.angles_deg {
+                if *what == probe::rotary::centre_label(&b.name, *a) {
+                    let lines = input.lines(&b.name, *a);
+                    // A sphere fit fails on the points' values; anything else on the angle.
+                    let column = if message.starts_with("sphere fit") {
+                        "x"
+                    } else {
+                        "angle_deg"
+                    };
+                    return anyhow!(
+                        "{path}: {}, column '{column}': {what}: {message}",
+                        line_span(&lines)
+                    );
+                }
+            }
+        }
+    }
+    anyhow!("{path}: {e}")
+}
+
+fn error_row(
+    angle_deg: f64,
+    errors: &probe::rotary::SixErrors,
+    u: &probe::rotary::SixErrors,
+) -> ErrorRow {
+    ErrorRow::new(
+        angle_deg,
+        std::array::from_fn(|k| errors[k]),
+        std::array::from_fn(|k| u[k]),
+    )
+}
+
+/// The sign-off figures on stdout.
+fn print_summary(solution: &Solution, report: &Report) {
+    println!(
+        "{} balls at {} angles; layout condition number {:.2}; residual RMS {:.3} µm",
+        solution.balls.len(),
+        solution.angles_deg.len(),
+        report.condition,
+        report.residual_rms_um
+    );
+    if let Some(l) = &report.location {
+        println!(
+            "location: X0C {:.3} µm, Y0C {:.3} µm, A0C {:.3} µrad, B0C {:.3} µrad (u {:.3} µm, {:.3} µrad)",
+            l.x0c_um,
+            l.y0c_um,
+            l.a0c_urad,
+            l.b0c_urad,
+            l.u_x0c_um.max(l.u_y0c_um),
+            l.u_a0c_urad.max(l.u_b0c_urad)
+        );
+    }
+    let ranges = |label: &str, v: [f64; 6]| {
+        let parts: Vec<String> = (0..6)
+            .map(|k| {
+                let unit = if k < 3 { "µm" } else { "µrad" };
+                format!("{} {:.3} {unit}", NAMES[k], v[k])
+            })
+            .collect();
+        println!("{label}: {}", parts.join(", "));
+    };
+    ranges("ranges of the errors", report.ranges.errors.values());
+    if let Some(c) = &report.ranges.components {
+        ranges("ranges of the component errors", c.values());
+    }
+    for w in &report.warnings {
+        eprintln!("trinocular: warning: {w}");
+    }
+}
+
+/// Run the method and write its outputs.
+pub fn run(args: &Args) -> Result<()> {
+    let (path, points) = match (&args.centres, &args.points) {
+        (Some(c), None) => (c, false),
+        (None, Some(p)) => (p, true),
+        _ => bail!("give exactly one of --centres and --points"),
+    };
+    let input = if points {
+        read_points(path)?
+    } else {
+        read_centres(path)?
+    };
+    let m = if points {
+        Measurement::from_points(input.angles_deg.clone(), input.points())
+    } else {
+        Ok(Measurement::from_centres(
+            input.angles_deg.clone(),
+            input.centres(),
+        ))
+    }
+    .map_err(|e| located(e, &input))?;
+    let solution = probe::rotary::solve(&m).map_err(|e| located(e, &input))?;
+    let at: Vec<Interpolated> = args
+        .at
+        .iter()
+        .map(|a| solution.at(*a))
+        .collect::<probe::Result<_>>()
+        .map_err(|e| anyhow!("--at: {e}"))?;
+    let source = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let report = Report::new(&solution, &source, &at);
+    let html = probe::rotary::html::render(&report)?;
+
+    let mut names = vec!["rotary.csv", "report.json", "report.html"];
+    if !at.is_empty() {
+        names.push("rotary_at.csv");
+    }
+    if points {
+        names.push("spheres.csv");
+    }
+    let files = outputs(&args.out, &names, &[path.as_path()], args.force)?;
+    let rows: Vec<ErrorRow> = solution
+        .errors
+        .iter()
+        .map(|e| error_row(e.angle_deg, &e.errors, &e.uncertainty))
+        .collect();
+    formats::write_records(&files[0], &rows)?;
+    formats::write_json(&files[1], &report)?;
+    formats::write_atomic(&files[2], html.as_bytes())?;
+    let mut next = 3;
+    if !at.is_empty() {
+        let rows: Vec<ErrorRow> = at
+            .iter()
+            .map(|i| error_row(i.angle_deg, &i.errors, &i.uncertainty))
+            .collect();
+        formats::write_records(&files[next], &rows)?;
+        next += 1;
+    }
+    if points {
+        let rows: Vec<SphereFitRow> = m
+            .balls
+            .iter()
+            .flat_map(|b| {
+                m.angles_deg.iter().zip(&b.fits).map(|(a, f)| SphereFitRow {
+                    ball: b.name.clone(),
+                    angle_deg: *a,
+                    x: f.centre.x,
+                    y: f.centre.y,
+                    z: f.centre.z,
+                    radius: f.radius,
+                    rms_residual: f.rms_residual,
+                    max_residual: f.max_residual,
+                    points: f.points,
+                })
+            })
+            .collect();
+        formats::write_records(&files[next], &rows)?;
+    }
+    print_summary(&solution, &report);
+    for i in &at {
+        let parts: Vec<String> = (0..6)
+            .map(|k| {
+                let (scale, unit) = if k < 3 { (UM, "µm") } else { (URAD, "µrad") };
+                format!("{} {:.3} {unit}", NAMES[k], i.errors[k] * scale)
+            })
+            .collect();
+        println!("at {}°: {}", i.angle_deg, parts.join(", "));
+    }
+    println!("wrote {} files into {}", files.len(), args.out.display());
+    Ok(())
+}
+
+/// Run the generator and write its files.
+pub fn synth(args: &SynthArgs) -> Result<()> {
+    if args.print_config {
+        print!("{DEFAULT_TOML}");
+        return Ok(());
+    }
+    let Some(out) = &args.out else {
+        bail!("--out is required");
+    };
+    let mut config = match &args.config {
+        Some(path) => RotaryConfig::from_file(path)?,
+        None => RotaryConfig::default(),
+    };
+    if let Some(s) = args.seed {
+        config.seed = s;
+    }
+    if let Some(s) = args.step_deg {
+        config.step_deg = s;
+    }
+    if let Some(n) = args.noise_um {
+        config.noise_um = n;
+        config.probe_noise_um = n;
+    }
+    config.validate()?;
+    let data = synth::probe::rotary::generate(&config)?;
+    let inputs: Vec<&Path> = args.config.iter().map(PathBuf::as_path).collect();
+    let files = outputs(
+        out,
+        &["centres.csv", "points.csv", "truth.json", "config.toml"],
+        &inputs,
+        args.force,
+    )?;
+    formats::write_records::<CentreRow>(&files[0], &data.centres)?;
+    formats::write_records::<CentreRow>(&files[1], &data.points)?;
+    formats::write_json(&files[2], &data.truth)?;
+    formats::write_atomic(&files[3], config.to_toml()?.as_bytes())?;
+    let l = config.location;
+    println!(
+        "{} balls at {} angles ({}° steps): {} centres, {} probed points; noise {} µm (centres), {} µm (points)",
+        config.balls.len(),
+        data.truth.angles_deg.len(),
+        config.step_deg,
+        data.centres.len(),
+        data.points.len(),
+        config.noise_um,
+        config.probe_noise_um
+    );
+    println!(
+        "true location: X0C {} µm, Y0C {} µm, A0C {} µrad, B0C {} µrad",
+        l.x0c_um, l.y0c_um, l.a0c_urad, l.b0c_urad
+    );
+    println!("wrote {} files into {}", files.len(), out.display());
+    Ok(())
 }

@@ -1,0 +1,112 @@
+//! The rotary `report.html` in a real browser (`report::browser`: headless
+//! Chromium over the DevTools protocol): a report of the check data's
+//! probed points, with interpolated angles, logs no console errors,
+//! exceptions or failed loads, and every plot it should have is laid out at
+//! its full size and drawn — enough drawn pixels, enough distinct colours,
+//! and the series colours of that plot.
+//!
+//! Without `chromium` on the PATH (or `TRINOCULAR_CHROMIUM`) the test prints
+//! a notice that it is SKIPPED and passes, unless
+//! `TRINOCULAR_REQUIRE_BROWSER=1`, when it fails.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+
+use formats::probe::rotary::read_points;
+use probe::rotary::report::Report;
+use probe::rotary::{Measurement, html, solve};
+use report::browser::{self, PAGE_WIDTH, check_region, rgb};
+use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, SIX, WIDTH, ZONE};
+
+/// The series colours a plot of this id must show.
+fn colours_of(id: &str) -> Vec<[u8; 3]> {
+    if id.ends_with("translations") {
+        SIX[..3].iter().map(|c| rgb(*c)).collect()
+    } else if id.ends_with("rotations") {
+        SIX[3..].iter().map(|c| rgb(*c)).collect()
+    } else {
+        // Paths of a pair of errors: measured path, fixed-axis circle, location.
+        vec![rgb(MEAN), rgb(ZONE), rgb(DOWN)]
+    }
+}
+
+#[test]
+fn rotary_report_html_renders_in_chromium() {
+    let Some(chromium) = browser::browser_or_skip("rotary report.html in Chromium").unwrap() else {
+        return;
+    };
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/probe/rotary/points.csv");
+    let input = read_points(&path).unwrap();
+    let m = Measurement::from_points(input.angles_deg.clone(), input.points()).unwrap();
+    let s = solve(&m).unwrap();
+    let at = [s.at(15.0).unwrap(), s.at(345.0).unwrap()];
+    let page = html::render(&Report::new(&s, "points.csv", &at)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("report.html");
+    std::fs::write(&file, &page).unwrap();
+    // Self-contained: no scripts, no external resources (the SVG namespace is a name, not a load).
+    for bad in ["<script", "<link", "src=\"", "href=\"http", "url("] {
+        assert!(!page.contains(bad), "page has {bad}");
+    }
+
+    let shown = browser::render(&chromium, &file).unwrap();
+    if let Ok(keep) = std::env::var("TRINOCULAR_KEEP_SCREENSHOT") {
+        shown.screenshot.save(&keep).unwrap();
+        eprintln!("screenshot saved to {keep}");
+    }
+    assert!(
+        shown.errors.is_empty(),
+        "console errors: {:#?}",
+        shown.errors
+    );
+    let ids: Vec<&str> = shown.plots.iter().map(|p| p.id.as_str()).collect();
+    assert_eq!(
+        ids,
+        [
+            "plot-errors-translations",
+            "plot-errors-rotations",
+            "plot-location-offset",
+            "plot-location-tilt",
+            "plot-components-translations",
+            "plot-components-rotations",
+        ],
+        "plots on the page"
+    );
+    assert!(
+        shown.width <= PAGE_WIDTH,
+        "page {} px wider than the window",
+        shown.width
+    );
+    for p in &shown.plots {
+        let full = if p.id.starts_with("plot-location") {
+            MAP_HEIGHT
+        } else {
+            HEIGHT
+        };
+        assert_eq!(
+            (p.w, p.h),
+            (WIDTH, full),
+            "{} laid out at {}×{}",
+            p.id,
+            p.w,
+            p.h
+        );
+        check_region(&shown.screenshot, p, &colours_of(&p.id)).unwrap();
+    }
+    for table in [
+        "location",
+        "ranges",
+        "errors",
+        "components",
+        "interpolated",
+        "layout",
+        "sphere-fits",
+    ] {
+        assert!(
+            page.contains(&format!("<table id=\"{table}\">")),
+            "table {table} missing"
+        );
+    }
+}
