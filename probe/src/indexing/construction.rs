@@ -1,0 +1,254 @@
+//! The construction of METHODS.md §3 and its first-order uncertainty.
+//!
+//! O: geometric least-squares sphere through all centres; Q: mean of the
+//! A = 0° centres; z = unit(Q − O); y = unit(z × Σ unit(Oᵢ − O)) over the
+//! B = 0°, A > 0° centres; x = y × z; (l, m, n) = the components of
+//! unit(Oᵢ − O) on (x, y, z); θA = arccos n, θB = atan2(m, l).
+//!
+//! Uncertainty: every angle is a smooth function of all the centres, so its
+//! standard uncertainty follows from the gradient (chain rule through the
+//! sphere fit's normal equations, Q, z, the sweep sum and y) and the noise of
+//! a centre, estimated from the sphere fit's radial residuals (isotropic
+//! noise σ per coordinate gives radial residuals of standard deviation σ).
+
+use geom::nalgebra::{DMatrix, Matrix3, Matrix4, Point3, Vector3, Vector4};
+
+use super::layout::Layout;
+use crate::{ProbeError, Result};
+
+/// Largest accepted condition number of the sphere fit's normal matrix JᵀJ:
+/// beyond it the centres lie too near a plane or a small cap (noise in the
+/// centres would move O by more than a thousand times as much).
+pub const SPHERE_CONDITION_LIMIT: f64 = 1e6;
+
+/// Smallest |z × Σ unit(Oᵢ − O)| (the sweep's lever about the B axis): below
+/// it the B = 0° sweep lies along the B axis and gives no A axis.
+const SWEEP_LEVER_MIN: f64 = 1e-9;
+
+/// The fitted sphere, the frame and each position's direction cosines.
+#[derive(Debug, Clone)]
+pub(crate) struct Construction {
+    pub(crate) centre: Point3<f64>,
+    pub(crate) radius: f64,
+    pub(crate) residuals: Vec<f64>,
+    /// `σ²·(JᵀJ)⁻¹` of (centre, radius).
+    pub(crate) covariance: Matrix4<f64>,
+    pub(crate) condition: f64,
+    pub(crate) sigma: f64,
+    pub(crate) q: Point3<f64>,
+    pub(crate) x: Vector3<f64>,
+    pub(crate) y: Vector3<f64>,
+    pub(crate) z: Vector3<f64>,
+    /// `(l, m, n)` per position.
+    pub(crate) cosines: Vec<Vector3<f64>>,
+    /// Standard uncertainties of θA and θB (rad) per position; at A = 0°, the
+    /// first is that of the tilt √(l² + m²) per component and the second is
+    /// not defined (NaN).
+    pub(crate) u_theta: Vec<(f64, f64)>,
+}
+
+/// Run the construction on the centres (their roles from `layout`).
+pub(crate) fn construct(centres: &[Point3<f64>], layout: &Layout) -> Result<Construction> {
+    let fit = geom::fit::sphere(centres)?;
+    let o = fit.centre;
+    let n = centres.len();
+    // Jacobian rows of the radial residuals at the solution: [−nᵢᵀ, −1].
+    let radial: Vec<Vector3<f64>> = centres
+        .iter()
+        .map(|p| (p - o).try_normalize(0.0).unwrap_or_else(Vector3::zeros))
+        .collect();
+    let jtj = radial.iter().fold(Matrix4::zeros(), |acc, r| {
+        let row = Vector4::new(-r.x, -r.y, -r.z, -1.0);
+        acc + row * row.transpose()
+    });
+    let eigen = jtj.symmetric_eigenvalues();
+    let (lo, hi) = (eigen.min(), eigen.max());
+    let condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
+    if condition > SPHERE_CONDITION_LIMIT {
+        return Err(ProbeError::IllConditioned {
+            what: "sphere through the centres (the positions lie too near a plane or a small cap: \
+                   measure B turns at several A)"
+                .into(),
+            condition,
+            limit: SPHERE_CONDITION_LIMIT,
+        });
+    }
+    let inverse = jtj.try_inverse().ok_or_else(|| {
+        ProbeError::Unsolvable("sphere through the centres: singular normal matrix".into())
+    })?;
+    let ssr: f64 = fit.residuals.iter().map(|r| r * r).sum();
+    let sigma = (ssr / (n - 4) as f64).sqrt();
+
+    let turn: Vec<Point3<f64>> = layout.b_turn.iter().map(|&k| centres[k]).collect();
+    let q = Point3::from(
+        turn.iter().fold(Vector3::zeros(), |acc, p| acc + p.coords) / turn.len() as f64,
+    );
+    let w = q - o;
+    let z = w.try_normalize(0.0).ok_or_else(|| {
+        ProbeError::Unsolvable(
+            "the mean of the A = 0° centres coincides with the rotation centre: no B axis".into(),
+        )
+    })?;
+    let s: Vector3<f64> = layout
+        .a_sweep
+        .iter()
+        .map(|&k| radial[k])
+        .fold(Vector3::zeros(), |acc, u| acc + u);
+    let c = z.cross(&s);
+    if c.norm() < SWEEP_LEVER_MIN * layout.a_sweep.len() as f64 {
+        return Err(ProbeError::Unsolvable(
+            "the B = 0° sweep lies along the B axis: no A axis".into(),
+        ));
+    }
+    let y = c.normalize();
+    let x = y.cross(&z);
+    let cosines: Vec<Vector3<f64>> = radial
+        .iter()
+        .map(|u| Vector3::new(u.dot(&x), u.dot(&y), u.dot(&z)))
+        .collect();
+
+    let gradients = Gradients::new(centres, &radial, o, &inverse, layout, (w, z), (s, c, y));
+    let u_theta = (0..n)
+        .map(|i| {
+            let zero = layout.b_turn.binary_search(&i).is_ok();
+            gradients.theta_uncertainty(i, centres[i] - o, (x, y, z), zero, sigma)
+        })
+        .collect();
+    Ok(Construction {
+        centre: o,
+        radius: fit.radius,
+        residuals: fit.residuals,
+        covariance: inverse * sigma * sigma,
+        condition,
+        sigma,
+        q,
+        x,
+        y,
+        z,
+        cosines,
+        u_theta,
+    })
+}
+
+/// `[v]×`: the matrix of `w ↦ v × w`.
+fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    v.cross_matrix()
+}
+
+/// `(I − uuᵀ)/ρ`: the derivative of `v/|v|` at `v = ρu`.
+fn unit_derivative(u: &Vector3<f64>, rho: f64) -> Matrix3<f64> {
+    (Matrix3::identity() - u * u.transpose()) / rho
+}
+
+/// Derivatives of the global quantities Γ = (O, z, y) with respect to every
+/// centre coordinate: `d` is 9 × 3n, `dd` = d·dᵀ.
+struct Gradients {
+    d: DMatrix<f64>,
+    dd: DMatrix<f64>,
+}
+
+impl Gradients {
+    fn new(
+        centres: &[Point3<f64>],
+        radial: &[Vector3<f64>],
+        o: Point3<f64>,
+        inverse: &Matrix4<f64>,
+        layout: &Layout,
+        (w, z): (Vector3<f64>, Vector3<f64>),
+        (s, c, y): (Vector3<f64>, Vector3<f64>, Vector3<f64>),
+    ) -> Gradients {
+        let n = centres.len();
+        let mut d = DMatrix::zeros(9, 3 * n);
+        // dβ = −(JᵀJ)⁻¹ Σ Jⱼᵀ nⱼᵀ dpⱼ with Jⱼ = [−nⱼᵀ, −1]: dO/dpⱼ = [(JᵀJ)⁻¹(nⱼ; 1)]₀..₃ nⱼᵀ.
+        for (j, r) in radial.iter().enumerate() {
+            let k = inverse * Vector4::new(r.x, r.y, r.z, 1.0);
+            let block = Vector3::new(k[0], k[1], k[2]) * r.transpose();
+            d.view_mut((0, 3 * j), (3, 3)).copy_from(&block);
+        }
+        let d_o = d.rows(0, 3).into_owned();
+        // dz = P_z/|w| (dQ − dO), dQ = Σ dpⱼ / N over the A = 0° centres.
+        let pz = unit_derivative(&z, w.norm());
+        let mut dz = -(pz * &d_o);
+        let share = pz / layout.b_turn.len() as f64;
+        for &j in &layout.b_turn {
+            let mut block = dz.view_mut((0, 3 * j), (3, 3));
+            block += share;
+        }
+        // ds = Σ P_k/ρ_k (dp_k − dO) over the sweep; dc = −[s]× dz + [z]× ds; dy = P_y/|c| dc.
+        let mut ds = DMatrix::zeros(3, 3 * n);
+        let mut sum = Matrix3::zeros();
+        for &k in &layout.a_sweep {
+            let pk = unit_derivative(&radial[k], (centres[k] - o).norm());
+            sum += pk;
+            let mut block = ds.view_mut((0, 3 * k), (3, 3));
+            block += pk;
+        }
+        ds -= sum * &d_o;
+        let dy = unit_derivative(&y, c.norm()) * (-(skew(&s) * &dz) + skew(&z) * ds);
+        d.rows_mut(3, 3).copy_from(&dz);
+        d.rows_mut(6, 3).copy_from(&dy);
+        let dd = &d * d.transpose();
+        Gradients { d, dd }
+    }
+
+    /// `σ²·|∂f/∂p|²` of `f = gᵀ dpᵢ + hᵀ dΓ`.
+    fn variance(&self, i: usize, g: &Vector3<f64>, h: &[f64; 9], sigma: f64) -> f64 {
+        let h = geom::nalgebra::DVector::from_row_slice(h);
+        let di = self.d.columns(3 * i, 3);
+        let cross = g.dot(&(di.transpose() * &h));
+        let global = (h.transpose() * &self.dd * &h)[0];
+        sigma * sigma * (g.norm_squared() + 2.0 * cross + global)
+    }
+
+    /// Standard uncertainties of θA and θB at position `i` (`v = Oᵢ − O`).
+    fn theta_uncertainty(
+        &self,
+        i: usize,
+        v: Vector3<f64>,
+        (x, y, z): (Vector3<f64>, Vector3<f64>, Vector3<f64>),
+        a_zero: bool,
+        sigma: f64,
+    ) -> (f64, f64) {
+        let rho = v.norm();
+        let u = v / rho;
+        let pu = unit_derivative(&u, rho);
+        let (ax, ay, az) = (pu * x, pu * y, pu * z);
+        // dl = a_xᵀ(dpᵢ − dO) + (z × u)ᵀ dy + (u × y)ᵀ dz;
+        // dm = a_yᵀ(dpᵢ − dO) + uᵀ dy;  dn = a_zᵀ(dpᵢ − dO) + uᵀ dz.
+        let stack = |a: Vector3<f64>, dz: Vector3<f64>, dy: Vector3<f64>| {
+            [-a.x, -a.y, -a.z, dz.x, dz.y, dz.z, dy.x, dy.y, dy.z]
+        };
+        let zero = Vector3::zeros();
+        let dl = (ax, stack(ax, u.cross(&y), z.cross(&u)));
+        let dm = (ay, stack(ay, zero, u));
+        let dn = (az, stack(az, u, zero));
+        let combine = |terms: &[(f64, &(Vector3<f64>, [f64; 9]))]| {
+            let mut g = Vector3::zeros();
+            let mut h = [0.0; 9];
+            for (k, (gk, hk)) in terms {
+                g += gk * *k;
+                for (h, hk) in h.iter_mut().zip(hk) {
+                    *h += k * hk;
+                }
+            }
+            (g, h)
+        };
+        let (l, m) = (u.dot(&x), u.dot(&y));
+        if a_zero {
+            let (gl, hl) = combine(&[(1.0, &dl)]);
+            let (gm, hm) = combine(&[(1.0, &dm)]);
+            let tilt = ((self.variance(i, &gl, &hl, sigma) + self.variance(i, &gm, &hm, sigma))
+                / 2.0)
+                .sqrt();
+            return (tilt, f64::NAN);
+        }
+        // θA = arccos n: dθA = −dn / sin θA, sin θA = √(l² + m²);  θB = atan2(m, l): dθB = (l dm − m dl)/(l² + m²).
+        let lm2 = l * l + m * m;
+        let (ga, ha) = combine(&[(-1.0 / lm2.sqrt(), &dn)]);
+        let (gb, hb) = combine(&[(l / lm2, &dm), (-m / lm2, &dl)]);
+        (
+            self.variance(i, &ga, &ha, sigma).sqrt(),
+            self.variance(i, &gb, &hb, sigma).sqrt(),
+        )
+    }
+}
