@@ -36,19 +36,19 @@
 //!   whole construction, frame included.
 
 mod construction;
-//mod html;
+mod html;
 pub mod layout;
-//mod plot;
+mod plot;
 mod summary;
 
 use geom::nalgebra::{Point3, Vector3};
 
 pub use construction::SPHERE_CONDITION_LIMIT;
-//pub use html::render as html;
+pub use html::render as html;
 pub use layout::{Fault, Layout};
 pub use summary::{
-    ADetent, AxesReport, BDetent, Exceedance, Extreme, GridReport, Options, Report,
-    SphereReport, ToleranceReport, report,
+    ADetent, AxesReport, BDetent, Exceedance, Extreme, GridReport, Options, Report, SphereReport,
+    ToleranceReport, report,
 };
 
 use crate::{ProbeError, Result};

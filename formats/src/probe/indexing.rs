@@ -66,7 +66,11 @@ pub fn read_centres(path: &Path) -> Result<Vec<Row<CentreRow>>> {
     }
     let n = rows.len() as f64;
     let mean = rows.iter().fold([0.0; 3], |m, r| {
-        [m[0] + r.record.x / n, m[1] + r.record.y / n, m[2] + r.record.z / n]
+        [
+            m[0] + r.record.x / n,
+            m[1] + r.record.y / n,
+            m[2] + r.record.z / n,
+        ]
     });
     let offset = |r: &CentreRow| [r.x - mean[0], r.y - mean[1], r.z - mean[2]];
     let distance = |r: &CentreRow| offset(r).iter().map(|d| d * d).sum::<f64>().sqrt();

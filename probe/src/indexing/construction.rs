@@ -252,3 +252,126 @@ impl Gradients {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::layout;
+    use super::*;
+
+    /// A small head grid with centres off the sphere by a deterministic
+    /// pseudo-noise of about 1 µm.
+    fn grid() -> (Vec<Point3<f64>>, Layout) {
+        let mut angles = Vec::new();
+        let mut centres = Vec::new();
+        let o = Vector3::new(10.0, -20.0, 30.0);
+        for (i, a) in [0.0_f64, 30.0, 60.0, 90.0].into_iter().enumerate() {
+            for j in 0..8 {
+                let b = -180.0 + 45.0 * j as f64;
+                let (ar, br) = (a.to_radians(), b.to_radians());
+                let u = Vector3::new(ar.sin() * br.cos(), ar.sin() * br.sin(), ar.cos());
+                let k = (i * 8 + j) as f64;
+                let noise =
+                    Vector3::new((1.3 * k).sin(), (2.1 * k + 0.4).cos(), (0.7 * k).sin()) * 1e-3;
+                angles.push((a, b));
+                centres.push(Point3::from(o + u * 100.0 + noise));
+            }
+        }
+        let xyz: Vec<[f64; 3]> = centres.iter().map(|p| [p.x, p.y, p.z]).collect();
+        let layout = layout::check(&angles, &xyz).unwrap();
+        (centres, layout)
+    }
+
+    /// θA, θB (rad) per position, or (l, m) at A = 0°.
+    fn angles(c: &Construction, layout: &Layout) -> Vec<(f64, f64)> {
+        c.cosines
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                if layout.b_turn.contains(&i) {
+                    (v.x, v.y)
+                } else {
+                    (v.x.hypot(v.y).atan2(v.z), v.y.atan2(v.x))
+                }
+            })
+            .collect()
+    }
+
+    /// The first-order uncertainties equal σ̂·|∇θ| with the gradient taken
+    /// by central differences through the whole construction (sphere fit,
+    /// Q, frame, angles).
+    #[test]
+    fn uncertainty_is_the_propagated_noise() {
+        let (centres, layout) = grid();
+        let c = construct(&centres, &layout).unwrap();
+        let n = centres.len();
+        let h = 1e-5;
+        let mut grad = vec![(0.0, 0.0, 0.0, 0.0); n];
+        for j in 0..n {
+            for k in 0..3 {
+                let mut plus = centres.clone();
+                let mut minus = centres.clone();
+                plus[j][k] += h;
+                minus[j][k] -= h;
+                let fp = angles(&construct(&plus, &layout).unwrap(), &layout);
+                let fm = angles(&construct(&minus, &layout).unwrap(), &layout);
+                for i in 0..n {
+                    let d0 = (fp[i].0 - fm[i].0) / (2.0 * h);
+                    let d1 = (fp[i].1 - fm[i].1) / (2.0 * h);
+                    grad[i].0 += d0 * d0;
+                    grad[i].1 += d1 * d1;
+                }
+            }
+        }
+        for (i, (g0, g1)) in grad.iter().map(|g| (g.0, g.1)).enumerate() {
+            let (u_a, u_b) = c.u_theta[i];
+            if layout.b_turn.contains(&i) {
+                let tilt = c.sigma * ((g0 + g1) / 2.0).sqrt();
+                assert!(
+                    (u_a / tilt - 1.0).abs() < 1e-4,
+                    "position {i}: {u_a} vs {tilt}"
+                );
+                assert!(u_b.is_nan());
+            } else {
+                let (num_a, num_b) = (c.sigma * g0.sqrt(), c.sigma * g1.sqrt());
+                assert!(
+                    (u_a / num_a - 1.0).abs() < 1e-4,
+                    "θA at {i}: {u_a} vs {num_a}"
+                );
+                assert!(
+                    (u_b / num_b - 1.0).abs() < 1e-4,
+                    "θB at {i}: {u_b} vs {num_b}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn centres_in_one_plane_are_ill_conditioned() {
+        // A = 0° turn (all at one point but for µm noise) and sweeps at B = 0° and 180° only.
+        let mut angles = Vec::new();
+        let mut xyz = Vec::new();
+        for j in 0..4 {
+            let t = f64::from(j);
+            angles.push((0.0, -180.0 + 90.0 * t));
+            xyz.push([1e-4 * t.cos(), 1e-4 * t.sin(), 100.0]);
+        }
+        for a in [30.0_f64, 60.0, 90.0] {
+            for b in [0.0_f64, 180.0] {
+                let s = if b == 0.0 { 1.0 } else { -1.0 };
+                angles.push((a, b));
+                xyz.push([
+                    s * 100.0 * a.to_radians().sin(),
+                    0.0,
+                    100.0 * a.to_radians().cos(),
+                ]);
+            }
+        }
+        let centres: Vec<Point3<f64>> = xyz.iter().map(|p| Point3::from(*p)).collect();
+        let layout = layout::check(&angles, &xyz).unwrap();
+        let e = construct(&centres, &layout).unwrap_err();
+        assert!(
+            matches!(e, ProbeError::IllConditioned { .. } | ProbeError::Geom(_)),
+            "{e:?}"
+        );
+    }
+}

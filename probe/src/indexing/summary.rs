@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use super::{ARCSEC_PER_DEG, Angles, Indexing, UM_PER_MM, layout};
+use super::{Angles, Indexing, UM_PER_MM, layout};
 use crate::{ProbeError, Result};
 
 /// What the user adds to the measurement.
@@ -299,7 +299,11 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
             x: xyz(&f.x),
             y_a_axis: xyz(&f.y),
             z_b_axis: xyz(&f.z),
-            b_circle_centre: [f.b_circle_centre.x, f.b_circle_centre.y, f.b_circle_centre.z],
+            b_circle_centre: [
+                f.b_circle_centre.x,
+                f.b_circle_centre.y,
+                f.b_circle_centre.z,
+            ],
             b_turn_positions: ind.layout.b_turn.len(),
             b_turn_step_deg: ind.layout.b_step_deg,
             a_sweep_positions: ind.layout.a_sweep.len(),
@@ -431,6 +435,7 @@ fn conventions() -> Vec<String> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::ARCSEC_PER_DEG;
     use super::*;
 
     fn angle(a_deg: f64, b_deg: f64, d_a: f64, d_b: Option<f64>) -> Angles {

@@ -225,7 +225,9 @@ impl IndexingConfig {
             "mount_x_deg, mount_y_deg, mount_z_deg",
             &[self.mount_x_deg, self.mount_y_deg, self.mount_z_deg],
         )?;
-        if !(self.a_max_deg.is_finite() && self.a_max_deg >= self.a_step_deg && self.a_max_deg < 180.0)
+        if !(self.a_max_deg.is_finite()
+            && self.a_max_deg >= self.a_step_deg
+            && self.a_max_deg < 180.0)
         {
             return Err(bad(
                 "a_max_deg",
@@ -257,8 +259,16 @@ impl IndexingConfig {
         )?;
         finite("b_errors.values_arcsec", &b.values_arcsec)?;
         for (key, values, detents) in [
-            ("a_errors.values_arcsec", &a.values_arcsec, self.a_detents().len()),
-            ("b_errors.values_arcsec", &b.values_arcsec, self.b_detents().len()),
+            (
+                "a_errors.values_arcsec",
+                &a.values_arcsec,
+                self.a_detents().len(),
+            ),
+            (
+                "b_errors.values_arcsec",
+                &b.values_arcsec,
+                self.b_detents().len(),
+            ),
         ] {
             if !values.is_empty() && values.len() != detents {
                 return Err(bad(
@@ -338,8 +348,8 @@ pub fn generate(config: &IndexingConfig) -> Result<Generated> {
                     (a_deg + e_a / ARCSEC_PER_DEG).to_radians(),
                 )
                 * Vector3::z();
-            let p = o + u * config.stylus_mm
-                + Vector3::new(normal(), normal(), normal()) * noise_mm;
+            let p =
+                o + u * config.stylus_mm + Vector3::new(normal(), normal(), normal()) * noise_mm;
             centres.push(CentreRow {
                 a_deg,
                 b_deg,
@@ -439,7 +449,10 @@ mod tests {
             ("b_step_deg = 7.0", "b_step_deg"),
             ("a_max_deg = 200.0", "a_max_deg"),
             ("noise_um = -1.0", "noise_um"),
-            ("[a_errors]\nvalues_arcsec = [1.0, 2.0]", "a_errors.values_arcsec"),
+            (
+                "[a_errors]\nvalues_arcsec = [1.0, 2.0]",
+                "a_errors.values_arcsec",
+            ),
             ("stylus = 3", "stylus"),
         ] {
             let e = IndexingConfig::from_toml_str(text, None)
