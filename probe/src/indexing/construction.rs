@@ -191,13 +191,13 @@ impl Gradients {
         Gradients { d, dd }
     }
 
-    /// `σ²·|∂f/∂p|²` of `f = gᵀ dpᵢ + hᵀ dΓ`.
-    fn variance(&self, i: usize, g: &Vector3<f64>, h: &[f64; 9], sigma: f64) -> f64 {
-        let h = geom::nalgebra::DVector::from_row_slice(h);
+    /// `σ²·|∂f/∂p|²` of a linearised `f` at position `i`.
+    fn variance(&self, i: usize, f: &Linear, sigma: f64) -> f64 {
+        let h = geom::nalgebra::SVector::<f64, 9>::from(f.global);
         let di = self.d.columns(3 * i, 3);
-        let cross = g.dot(&(di.transpose() * &h));
-        let global = (h.transpose() * &self.dd * &h)[0];
-        sigma * sigma * (g.norm_squared() + 2.0 * cross + global)
+        let cross = f.local.dot(&(di.transpose() * h));
+        let global = (h.transpose() * &self.dd * h)[0];
+        sigma * sigma * (f.local.norm_squared() + 2.0 * cross + global)
     }
 
     /// Standard uncertainties of θA and θB at position `i` (`v = Oᵢ − O`).
@@ -212,44 +212,60 @@ impl Gradients {
         let rho = v.norm();
         let u = v / rho;
         let pu = unit_derivative(&u, rho);
-        let (ax, ay, az) = (pu * x, pu * y, pu * z);
-        // dl = a_xᵀ(dpᵢ − dO) + (z × u)ᵀ dy + (u × y)ᵀ dz;
-        // dm = a_yᵀ(dpᵢ − dO) + uᵀ dy;  dn = a_zᵀ(dpᵢ − dO) + uᵀ dz.
-        let stack = |a: Vector3<f64>, dz: Vector3<f64>, dy: Vector3<f64>| {
-            [-a.x, -a.y, -a.z, dz.x, dz.y, dz.z, dy.x, dy.y, dy.z]
-        };
         let zero = Vector3::zeros();
-        let dl = (ax, stack(ax, u.cross(&y), z.cross(&u)));
-        let dm = (ay, stack(ay, zero, u));
-        let dn = (az, stack(az, u, zero));
-        let combine = |terms: &[(f64, &(Vector3<f64>, [f64; 9]))]| {
-            let mut g = Vector3::zeros();
-            let mut h = [0.0; 9];
-            for (k, (gk, hk)) in terms {
-                g += gk * *k;
-                for (h, hk) in h.iter_mut().zip(hk) {
-                    *h += k * hk;
-                }
-            }
-            (g, h)
-        };
+        // dl = a_xᵀ(dpᵢ − dO) + (u × y)ᵀ dz + (z × u)ᵀ dy, a_v = P_u v / ρ;
+        // dm = a_yᵀ(dpᵢ − dO) + uᵀ dy;  dn = a_zᵀ(dpᵢ − dO) + uᵀ dz.
+        let dl = Linear::new(pu * x, u.cross(&y), z.cross(&u));
+        let dm = Linear::new(pu * y, zero, u);
+        let dn = Linear::new(pu * z, u, zero);
         let (l, m) = (u.dot(&x), u.dot(&y));
         if a_zero {
-            let (gl, hl) = combine(&[(1.0, &dl)]);
-            let (gm, hm) = combine(&[(1.0, &dm)]);
-            let tilt = ((self.variance(i, &gl, &hl, sigma) + self.variance(i, &gm, &hm, sigma))
-                / 2.0)
-                .sqrt();
+            let tilt = ((self.variance(i, &dl, sigma) + self.variance(i, &dm, sigma)) / 2.0).sqrt();
             return (tilt, f64::NAN);
         }
-        // θA = arccos n: dθA = −dn / sin θA, sin θA = √(l² + m²);  θB = atan2(m, l): dθB = (l dm − m dl)/(l² + m²).
+        // θA = arccos n: dθA = −dn / sin θA, sin θA = √(l² + m²);
+        // θB = atan2(m, l): dθB = (l dm − m dl)/(l² + m²).
         let lm2 = l * l + m * m;
-        let (ga, ha) = combine(&[(-1.0 / lm2.sqrt(), &dn)]);
-        let (gb, hb) = combine(&[(l / lm2, &dm), (-m / lm2, &dl)]);
+        let d_a = dn.scaled(-1.0 / lm2.sqrt());
+        let d_b = dm.scaled(l / lm2).plus(&dl.scaled(-m / lm2));
         (
-            self.variance(i, &ga, &ha, sigma).sqrt(),
-            self.variance(i, &gb, &hb, sigma).sqrt(),
+            self.variance(i, &d_a, sigma).sqrt(),
+            self.variance(i, &d_b, sigma).sqrt(),
         )
+    }
+}
+
+/// A linearised quantity at position i: `localᵀ dpᵢ + globalᵀ dΓ`, Γ = (O, z, y).
+struct Linear {
+    local: Vector3<f64>,
+    global: [f64; 9],
+}
+
+impl Linear {
+    /// `aᵀ(dpᵢ − dO) + b_zᵀ dz + b_yᵀ dy`.
+    fn new(a: Vector3<f64>, b_z: Vector3<f64>, b_y: Vector3<f64>) -> Linear {
+        Linear {
+            local: a,
+            global: [-a.x, -a.y, -a.z, b_z.x, b_z.y, b_z.z, b_y.x, b_y.y, b_y.z],
+        }
+    }
+
+    fn scaled(&self, k: f64) -> Linear {
+        Linear {
+            local: self.local * k,
+            global: self.global.map(|g| g * k),
+        }
+    }
+
+    fn plus(&self, other: &Linear) -> Linear {
+        let mut global = self.global;
+        for (g, o) in global.iter_mut().zip(other.global) {
+            *g += o;
+        }
+        Linear {
+            local: self.local + other.local,
+            global,
+        }
     }
 }
 

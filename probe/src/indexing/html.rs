@@ -158,10 +158,7 @@ fn maps(h: &mut Page, r: &Report) -> Result<()> {
             tolerance,
             ["ΔθA", "(arc-seconds)"],
         )?,
-        &format!(
-            "Each cell one position, coloured by ΔθA on a diverging scale (±max |ΔθA|). \
-             At A = 0° ΔθA is the stylus's tilt from the B axis.{outlined}"
-        ),
+        &format!("One cell per position, scale ±max |ΔθA|; at A = 0° the stylus's tilt from the B axis.{outlined}"),
     );
     h.figure(
         "plot-map-dB",
@@ -173,10 +170,7 @@ fn maps(h: &mut Page, r: &Report) -> Result<()> {
             tolerance,
             ["ΔθB", "(arc-seconds)"],
         )?,
-        &format!(
-            "Each cell one position, coloured by ΔθB (±max |ΔθB|); grey: undefined at A = 0°. \
-             The lever of ΔθB is the radius × sin A, so small A is noisier.{outlined}"
-        ),
+        &format!("One cell per position, scale ±max |ΔθB|; grey: undefined at A = 0°; noisier at small A.{outlined}"),
     );
     Ok(())
 }
@@ -225,8 +219,7 @@ fn curves(h: &mut Page, r: &Report) -> Result<()> {
             ],
             tolerance,
         )?,
-        "Dots: ΔθB of every position at that B with A > 0°; line: the mean over A per B detent, \
-         weighted by 1/u² (small A carries little weight).",
+        "Dots: ΔθB of every position with A > 0°; line: per B detent, the mean over A weighted by 1/u².",
     );
     Ok(())
 }
@@ -265,7 +258,12 @@ fn detents(h: &mut Page, r: &Report) {
         .collect();
     h.table(
         Some("b-detents"),
-        &["B (°)", "positions (A > 0°)", "mean ΔθB (″)", "u (″)"],
+        &[
+            "B (°)",
+            "positions (A > 0°)",
+            "mean ΔθB (″)",
+            "u if independent (″)",
+        ],
         &rows,
     );
 }

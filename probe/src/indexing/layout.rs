@@ -16,6 +16,9 @@ pub const MIN_POSITIONS: usize = 5;
 /// How far (degrees) a B of the turn at A = 0° may be from its even step.
 pub const TURN_TOLERANCE_DEG: f64 = 1e-5;
 
+/// Most B values of the turn at A = 0° an error message lists.
+const TURN_LISTED: usize = 8;
+
 /// Fewest A = 0° positions that make a circle of the B turn.
 pub const MIN_TURN: usize = 3;
 
@@ -148,11 +151,11 @@ impl Fault {
             Fault::UnevenBTurn { row, b_deg } => {
                 let mut list = String::new();
                 for (k, b) in b_deg.iter().enumerate() {
-                    if k == 8 {
+                    if k == TURN_LISTED {
                         let _ = write!(list, ", … ({} in all)", b_deg.len());
                         break;
                     }
-                    let _ = write!(list, "{}{b}", if k == 0 { "" } else { ", " });
+                    let _ = write!(list, "{}{b}°", if k == 0 { "" } else { ", " });
                 }
                 let radians = if b_deg.iter().all(|b| b.abs() <= std::f64::consts::TAU) {
                     " (are the angles in radians? the file wants degrees)"
@@ -163,7 +166,7 @@ impl Fault {
                     *row,
                     "b_deg",
                     format!(
-                        "the A = 0° positions (B = {list}°) are not a full B turn at even steps \
+                        "the A = 0° positions (B = {list}) are not a full B turn at even steps \
                          (at least {MIN_TURN}, 360°/n apart): the mean of their centres would not \
                          be the centre of their circle, so the B axis would be wrong{radians}"
                     ),
