@@ -243,7 +243,7 @@ fn bad_input_names_file_line_and_column() {
         ),
         (
             edited(d, "no_sweep.csv", |l| {
-                l.retain(|r| r.starts_with("0,") || !r.split(',').nth(1).is_some_and(|b| b == "0"))
+                l.retain(|r| r.starts_with("0,") || r.split(',').nth(1).is_none_or(|b| b != "0"))
             }),
             vec!["no_sweep.csv", "column 'b_deg'", "B = 0° sweep"],
         ),

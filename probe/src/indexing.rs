@@ -16,9 +16,9 @@
 //! 4. Per position: direction cosines (l, m, n) of O→Oᵢ in (x, y, z);
 //!    θA = arccos n, θB = atan2(m, l); ΔθA = θA − A, ΔθB = wrap(θB − B).
 //!
-//! [`report`] adds what a user signs off (maxima, RMS, the radius against a
+//! [`report()`] adds what a user signs off (maxima, RMS, the radius against a
 //! nominal, per-detent means, the positions beyond a tolerance) and
-//! [`html`] draws the page.
+//! [`html()`] draws the page.
 //!
 //! # Conventions
 //! - Centres in millimetres in the machine frame; commanded A and B in
