@@ -16,6 +16,27 @@ fn trinocular(args: &[&str]) -> Output {
         .expect("run trinocular")
 }
 
+/// `trinocular probe indexing --centres CENTRES --out OUT EXTRA…`.
+fn probe(centres: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "probe",
+        "indexing",
+        "--centres",
+        s(centres),
+        "--out",
+        s(out),
+    ];
+    args.extend(extra);
+    trinocular(&args)
+}
+
+/// `trinocular synth probe indexing ARGS…`.
+fn synth(args: &[&str]) -> Output {
+    let mut all = vec!["synth", "probe", "indexing"];
+    all.extend(args);
+    trinocular(&all)
+}
+
 fn testdata(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("testdata/probe/indexing")
@@ -59,33 +80,18 @@ fn edited(dir: &Path, name: &str, edit: impl Fn(&mut Vec<String>)) -> PathBuf {
 fn synth_then_probe_follows_the_contract() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("d");
-    let out = ok(&trinocular(&[
-        "synth",
-        "probe",
-        "indexing",
-        "--out",
-        s(&data),
-        "--seed",
-        "5",
-    ]));
+    let out = ok(&synth(&["--out", s(&data), "--seed", "5"]));
     assert!(out.contains("720 positions"), "{out}");
     for f in ["centres.csv", "truth.json"] {
         assert!(data.join(f).is_file(), "{f}");
     }
     let report = dir.path().join("r");
     let centres = data.join("centres.csv");
-    let out = ok(&trinocular(&[
-        "probe",
-        "indexing",
-        "--centres",
-        s(&centres),
-        "--out",
-        s(&report),
-        "--nominal-radius",
-        "117",
-        "--tolerance",
-        "3",
-    ]));
+    let out = ok(&probe(
+        &centres,
+        &report,
+        &["--nominal-radius", "117", "--tolerance", "3"],
+    ));
     for figure in [
         "rotation centre",
         "radius",
@@ -137,14 +143,7 @@ fn synth_then_probe_follows_the_contract() {
 fn check_data_through_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    ok(&trinocular(&[
-        "probe",
-        "indexing",
-        "--centres",
-        s(&testdata("centres.csv")),
-        "--out",
-        s(&out),
-    ]));
+    ok(&probe(&testdata("centres.csv"), &out, &[]));
     let mut got = csv::Reader::from_path(out.join("indexing.csv")).unwrap();
     let mut want = csv::Reader::from_path(testdata("expected_indexing.csv")).unwrap();
     for (g, w) in got.records().zip(want.records()) {
@@ -186,20 +185,8 @@ fn outputs_are_kept_unless_forced() {
     );
 
     let data = dir.path().join("d");
-    ok(&trinocular(&[
-        "synth",
-        "probe",
-        "indexing",
-        "--out",
-        s(&data),
-    ]));
-    let e = refused(&trinocular(&[
-        "synth",
-        "probe",
-        "indexing",
-        "--out",
-        s(&data),
-    ]));
+    ok(&synth(&["--out", s(&data)]));
+    let e = refused(&synth(&["--out", s(&data)]));
     assert!(e.contains("already exists"), "{e}");
 }
 
@@ -208,15 +195,7 @@ fn an_input_is_never_overwritten() {
     let dir = tempfile::tempdir().unwrap();
     let centres = dir.path().join("indexing.csv");
     std::fs::copy(testdata("centres.csv"), &centres).unwrap();
-    let e = refused(&trinocular(&[
-        "probe",
-        "indexing",
-        "--centres",
-        s(&centres),
-        "--out",
-        s(dir.path()),
-        "--force",
-    ]));
+    let e = refused(&probe(&centres, dir.path(), &["--force"]));
     assert!(e.contains("overwrite an input"), "{e}");
     assert_eq!(
         std::fs::read(&centres).unwrap(),
@@ -316,14 +295,7 @@ fn bad_input_names_file_line_and_column() {
             "out-{}",
             file.file_stem().unwrap().to_str().unwrap()
         ));
-        let e = refused(&trinocular(&[
-            "probe",
-            "indexing",
-            "--centres",
-            s(&file),
-            "--out",
-            s(&out),
-        ]));
+        let e = refused(&probe(&file, &out, &[]));
         for w in wants {
             assert!(e.contains(w), "{}: '{w}' missing from {e}", file.display());
         }
@@ -337,26 +309,17 @@ fn usage_errors_exit_2_and_options_are_checked() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--centres"));
     let dir = tempfile::tempdir().unwrap();
-    let e = refused(&trinocular(&[
-        "probe",
-        "indexing",
-        "--centres",
-        s(&testdata("centres.csv")),
-        "--out",
-        s(&dir.path().join("r")),
-        "--tolerance=-2",
-    ]));
+    let e = refused(&probe(
+        &testdata("centres.csv"),
+        &dir.path().join("r"),
+        &["--tolerance=-2"],
+    ));
     assert!(e.contains("--tolerance"), "{e}");
 }
 
 #[test]
 fn synth_config_is_printed_read_and_checked() {
-    let text = ok(&trinocular(&[
-        "synth",
-        "probe",
-        "indexing",
-        "--print-config",
-    ]));
+    let text = ok(&synth(&["--print-config"]));
     assert!(text.contains("b_step_deg = 7.5") && text.contains("[a_errors]"));
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("head.toml");
@@ -366,29 +329,15 @@ fn synth_config_is_printed_read_and_checked() {
     )
     .unwrap();
     let data = dir.path().join("d");
-    let out = ok(&trinocular(&[
-        "synth",
-        "probe",
-        "indexing",
-        "--config",
-        s(&config),
-        "--out",
-        s(&data),
-    ]));
+    let out = ok(&synth(&["--config", s(&config), "--out", s(&data)]));
     assert!(out.contains("120 positions"), "{out}");
-    ok(&trinocular(&[
-        "probe",
-        "indexing",
-        "--centres",
-        s(&data.join("centres.csv")),
-        "--out",
-        s(&dir.path().join("r")),
-    ]));
+    ok(&probe(
+        &data.join("centres.csv"),
+        &dir.path().join("r"),
+        &[],
+    ));
     std::fs::write(&config, "b_step_deg = 7\n").unwrap();
-    let e = refused(&trinocular(&[
-        "synth",
-        "probe",
-        "indexing",
+    let e = refused(&synth(&[
         "--config",
         s(&config),
         "--out",

@@ -70,6 +70,17 @@ pub struct Position {
     pub centre: Point3<f64>,
 }
 
+impl Position {
+    /// The position at commanded (A, B) with the centre `xyz` (mm).
+    pub fn new(a_deg: f64, b_deg: f64, xyz: [f64; 3]) -> Position {
+        Position {
+            a_deg,
+            b_deg,
+            centre: Point3::from(xyz),
+        }
+    }
+}
+
 /// The head's frame (§3 steps 1–3), in machine coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {

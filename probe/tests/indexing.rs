@@ -23,10 +23,12 @@ fn check_positions() -> Vec<Position> {
     read_centres(&data("centres.csv"))
         .unwrap()
         .into_iter()
-        .map(|r| Position {
-            a_deg: r.record.a_deg,
-            b_deg: r.record.b_deg,
-            centre: Point3::new(r.record.x, r.record.y, r.record.z),
+        .map(|r| {
+            Position::new(
+                r.record.a_deg,
+                r.record.b_deg,
+                [r.record.x, r.record.y, r.record.z],
+            )
         })
         .collect()
 }
@@ -36,11 +38,7 @@ fn positions_of(config: &IndexingConfig) -> (Vec<Position>, IndexingTruth) {
     let p = g
         .centres
         .iter()
-        .map(|r| Position {
-            a_deg: r.a_deg,
-            b_deg: r.b_deg,
-            centre: Point3::new(r.x, r.y, r.z),
-        })
+        .map(|r| Position::new(r.a_deg, r.b_deg, [r.x, r.y, r.z]))
         .collect();
     (p, g.truth)
 }

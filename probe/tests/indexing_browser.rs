@@ -11,7 +11,6 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use geom::nalgebra::Point3;
 use probe::indexing::{Options, Position, html, report, solve};
 use report::browser::{self, PAGE_WIDTH, check_region, rgb};
 use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, diverging};
@@ -28,11 +27,7 @@ fn indexing_report_renders_in_chromium() {
     let positions: Vec<Position> = generated
         .centres
         .iter()
-        .map(|r| Position {
-            a_deg: r.a_deg,
-            b_deg: r.b_deg,
-            centre: Point3::new(r.x, r.y, r.z),
-        })
+        .map(|r| Position::new(r.a_deg, r.b_deg, [r.x, r.y, r.z]))
         .collect();
     let solved = solve(&positions).unwrap();
     let r = report(

@@ -5,7 +5,7 @@
 use report::{Page, escape};
 
 use super::layout::wrap_deg;
-use super::{Report, plot};
+use super::{Extreme, Report, plot};
 use crate::Result;
 
 /// Most positions beyond the tolerance listed on the page (all are in
@@ -43,26 +43,19 @@ fn triple(v: [f64; 3], digits: usize) -> String {
 
 fn summary(h: &mut Page, r: &Report) {
     h.h2("summary", "Summary");
-    let at = |a: f64, b: f64| format!("A = {a}°, B = {b}°");
+    let extreme = |label: &str, e: &Extreme| {
+        [
+            label.to_string(),
+            format!("{:.3}″", e.value_arcsec.abs()),
+            format!(
+                "{:+.3}″ at A = {}°, B = {}°",
+                e.value_arcsec, e.a_deg, e.b_deg
+            ),
+        ]
+    };
     let mut rows: Vec<[String; 3]> = vec![
-        [
-            "max |ΔθA|".into(),
-            format!("{:.3}″", r.max_d_a_arcsec),
-            format!(
-                "{:+.3}″ at {}",
-                r.max_d_a_at.value_arcsec,
-                at(r.max_d_a_at.a_deg, r.max_d_a_at.b_deg)
-            ),
-        ],
-        [
-            "max |ΔθB| (A > 0°)".into(),
-            format!("{:.3}″", r.max_d_b_arcsec),
-            format!(
-                "{:+.3}″ at {}",
-                r.max_d_b_at.value_arcsec,
-                at(r.max_d_b_at.a_deg, r.max_d_b_at.b_deg)
-            ),
-        ],
+        extreme("max |ΔθA|", &r.max_d_a_at),
+        extreme("max |ΔθB| (A > 0°)", &r.max_d_b_at),
         [
             "RMS ΔθA".into(),
             format!("{:.3}″", r.rms_d_a_arcsec),

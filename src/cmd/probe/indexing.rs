@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use formats::FormatError;
 use formats::probe::indexing::{CentreRow, IndexingRow, read_centres};
-use geom::nalgebra::Point3;
 use probe::indexing::{self as method, Position, layout};
 use synth::probe::indexing::{DEFAULT_TOML, IndexingConfig, generate};
 
@@ -126,13 +125,10 @@ fn positions(path: &Path) -> Result<Vec<Position>> {
         }
         .into());
     }
-    Ok(rows
+    Ok(angles
         .iter()
-        .map(|r| Position {
-            a_deg: r.record.a_deg,
-            b_deg: r.record.b_deg,
-            centre: Point3::new(r.record.x, r.record.y, r.record.z),
-        })
+        .zip(&xyz)
+        .map(|(&(a, b), p)| Position::new(a, b, *p))
         .collect())
 }
 
