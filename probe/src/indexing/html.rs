@@ -67,6 +67,14 @@ fn summary(h: &mut Page, r: &Report) {
             String::new(),
         ],
         [
+            "max |mean ΔθA| per A detent (A > 0°) / |mean ΔθB| per B detent".into(),
+            format!(
+                "{:.3}″ / {:.3}″",
+                r.max_detent_d_a_arcsec, r.max_detent_d_b_arcsec
+            ),
+            "the detents' own errors, noise averaged down".into(),
+        ],
+        [
             "standard uncertainty of one ΔθA / ΔθB (median)".into(),
             format!(
                 "{:.3}″ / {:.3}″",

@@ -69,6 +69,14 @@ pub struct Report {
     /// Median standard uncertainty of ΔθB (arc-seconds).
     #[serde(rename = "median_u_dB_arcsec")]
     pub median_u_d_b_arcsec: f64,
+    /// max |mean ΔθA| over the A detents with A > 0° (arc-seconds): the
+    /// detents' own errors with the noise averaged down (at A = 0° the
+    /// mean tilt magnitude is biased by the noise, so it is left out).
+    #[serde(rename = "max_detent_dA_arcsec")]
+    pub max_detent_d_a_arcsec: f64,
+    /// max |weighted mean ΔθB| over the B detents (arc-seconds).
+    #[serde(rename = "max_detent_dB_arcsec")]
+    pub max_detent_d_b_arcsec: f64,
     /// ΔθA per A detent: mean over its B positions.
     pub a_detents: Vec<ADetent>,
     /// ΔθB per B detent: mean over its A > 0° positions, weighted by 1/u².
@@ -279,6 +287,8 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
             }
         ));
     }
+    let a_detents = a_detents(ind);
+    let b_detents = b_detents(ind);
     Ok(Report {
         method: "probe-head indexing errors (METHODS.md §3)".into(),
         source: options.source.clone(),
@@ -291,7 +301,7 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
         radius_deviation_um: nominal_deviation,
         sphere_fit: SphereReport {
             residual_rms_um: geom::stats::rms(&residuals)?,
-            residual_max_um: residuals.iter().fold(0.0, |m, r| m.max(r.abs())),
+            residual_max_um: max_abs(residuals.iter().copied()),
             noise_um: ind.noise_mm * UM_PER_MM,
             condition: ind.condition,
         },
@@ -316,8 +326,15 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
         rms_d_b_arcsec: geom::stats::rms(&d_b)?,
         median_u_d_a_arcsec: median(a.iter().map(|p| p.u_d_a_arcsec).collect()),
         median_u_d_b_arcsec: median(with_b.iter().filter_map(|p| p.u_d_b_arcsec).collect()),
-        a_detents: a_detents(ind),
-        b_detents: b_detents(ind),
+        max_detent_d_a_arcsec: max_abs(
+            a_detents
+                .iter()
+                .filter(|d| layout::detent_key(d.a_deg) != 0)
+                .map(|d| d.mean_d_a_arcsec),
+        ),
+        max_detent_d_b_arcsec: max_abs(b_detents.iter().map(|d| d.mean_d_b_arcsec)),
+        a_detents,
+        b_detents,
         tolerance: options.tolerance_arcsec.map(|t| tolerance(a, t)),
         grid: GridReport {
             a_deg: ind.layout.a_levels.clone(),
@@ -328,6 +345,11 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
         conventions: conventions(),
         angles: a.clone(),
     })
+}
+
+/// Largest magnitude of the values (0 when there are none).
+fn max_abs(values: impl Iterator<Item = f64>) -> f64 {
+    values.fold(0.0, |m, v| m.max(v.abs()))
 }
 
 /// Mean, smallest and largest ΔθA per A detent.

@@ -192,6 +192,10 @@ pub fn run(args: &Args) -> Result<()> {
         report.rms_d_b_arcsec
     );
     println!(
+        "per detent (noise averaged): max |mean ΔθA| {:.3}″ (A > 0°), max |mean ΔθB| {:.3}″",
+        report.max_detent_d_a_arcsec, report.max_detent_d_b_arcsec
+    );
+    println!(
         "standard uncertainty of one ΔθA / ΔθB (median): {:.3}″ / {:.3}″",
         report.median_u_d_a_arcsec, report.median_u_d_b_arcsec
     );
