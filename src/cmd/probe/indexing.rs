@@ -67,16 +67,14 @@ pub struct SynthArgs {
     force: bool,
 }
 
-/// The output directory, created if missing, and the paths of `names` in it;
-/// refuses when one of them is an input, or exists and `force` is not given.
+/// The paths of `names` in the output directory; refuses when one of them
+/// is an input, or exists and `force` is not given.
 fn outputs<const N: usize>(
     dir: &Path,
     names: [&str; N],
     inputs: &[&Path],
     force: bool,
 ) -> Result<[PathBuf; N]> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("creating the output directory {}", dir.display()))?;
     let paths = names.map(|n| dir.join(n));
     for path in &paths {
         let same = |input: &&Path| {
@@ -98,6 +96,12 @@ fn outputs<const N: usize>(
         }
     }
     Ok(paths)
+}
+
+/// Create the output directory if it is missing.
+fn create(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("creating the output directory {}", dir.display()))
 }
 
 /// The positions of `centres.csv`, checked for the construction; a fault
@@ -165,6 +169,7 @@ pub fn run(args: &Args) -> Result<()> {
             residual_um: p.residual_um,
         })
         .collect();
+    create(&args.out)?;
     formats::write_records(&csv, &rows)?;
     formats::write_json(&json, &report)?;
     formats::write_atomic(&html, page.as_bytes())?;
@@ -243,6 +248,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     let inputs: Vec<&Path> = args.config.iter().map(PathBuf::as_path).collect();
     let [centres, truth] = outputs(out, ["centres.csv", "truth.json"], &inputs, args.force)?;
     let generated = generate(&config)?;
+    create(out)?;
     formats::write_records::<CentreRow>(&centres, &generated.centres)?;
     formats::write_json(&truth, &generated.truth)?;
     let largest =
