@@ -503,11 +503,44 @@ pub struct Overrides {
     pub seed: Option<u64>,
 }
 
-fn bad(key: &str, message: impl std::fmt::Display) -> SynthError {
+/// Parse TOML into `T` and validate it; errors name `path` (when given), the
+/// line and column of a syntax or type error, or the key `validate` names.
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    path: Option<&Path>,
+    validate: impl FnOnce(&T) -> Result<()>,
+) -> Result<T> {
+    let value: T = toml::from_str(text).map_err(|e| {
+        let at = e.span().map(|s| {
+            let before = &text[..s.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+            format!("line {line}, column {column}: ")
+        });
+        SynthError::Config {
+            path: path.map(Path::to_path_buf),
+            message: format!(
+                "{}{}",
+                at.unwrap_or_default(),
+                e.message().trim_end().replace('\n', " ")
+            ),
+        }
+    })?;
+    validate(&value).map_err(|e| match e {
+        SynthError::Config { message, .. } => SynthError::Config {
+            path: path.map(Path::to_path_buf),
+            message,
+        },
+        other => other,
+    })?;
+    Ok(value)
+}
+
+pub(crate) fn bad(key: &str, message: impl std::fmt::Display) -> SynthError {
     SynthError::config(format!("{key}: {message}"))
 }
 
-fn positive(key: &str, v: f64) -> Result<()> {
+pub(crate) fn positive(key: &str, v: f64) -> Result<()> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
@@ -515,7 +548,7 @@ fn positive(key: &str, v: f64) -> Result<()> {
     }
 }
 
-fn non_negative(key: &str, v: f64) -> Result<()> {
+pub(crate) fn non_negative(key: &str, v: f64) -> Result<()> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
@@ -523,7 +556,7 @@ fn non_negative(key: &str, v: f64) -> Result<()> {
     }
 }
 
-fn finite(key: &str, values: &[f64]) -> Result<()> {
+pub(crate) fn finite(key: &str, values: &[f64]) -> Result<()> {
     match values.iter().find(|v| !v.is_finite()) {
         Some(v) => Err(bad(key, format!("{v} is not a finite number"))),
         None => Ok(()),

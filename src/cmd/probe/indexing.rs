@@ -1,21 +1,272 @@
-//! `trinocular probe indexing` and `trinocular synth probe indexing` (to be written).
+//! `trinocular probe indexing --centres C.csv --out DIR`: probe-head indexing
+//! errors ΔθA, ΔθB by the construction of METHODS.md §3 (the `probe` crate),
+//! writing `DIR/indexing.csv`, `DIR/report.json` and `DIR/report.html`; and
+//! `trinocular synth probe indexing --out DIR`: centres of a head with known
+//! indexing errors (the `synth` crate), `DIR/centres.csv` and `DIR/truth.json`.
 
-use anyhow::{Result, bail};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use formats::FormatError;
+use formats::probe::indexing::{CentreRow, IndexingRow, read_centres};
+use probe::indexing::{self as method, Position, layout};
+use synth::probe::indexing::{DEFAULT_TOML, IndexingConfig, generate};
 
 /// Arguments of `trinocular probe indexing`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Measured reference-sphere centre per head position: `a_deg,b_deg,x,y,z` (degrees, mm).
+    #[arg(long, value_name = "FILE")]
+    centres: PathBuf,
+    /// Output directory (created if missing): indexing.csv, report.json, report.html.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Nominal head-centre-to-stylus-ball length, to compare the fitted radius with.
+    #[arg(long, value_name = "MM")]
+    nominal_radius: Option<f64>,
+    /// List the positions whose |ΔθA| or |ΔθB| exceed this many arc-seconds.
+    #[arg(long, value_name = "ARCSEC")]
+    tolerance: Option<f64>,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
 
 /// Arguments of `trinocular synth probe indexing`.
 #[derive(Debug, clap::Args)]
-pub struct SynthArgs {}
+pub struct SynthArgs {
+    /// Output directory (created if missing): centres.csv, truth.json.
+    #[arg(long, value_name = "DIR", required_unless_present = "print_config")]
+    out: Option<PathBuf>,
+    /// Configuration (TOML; see --print-config). Default: a PH10 with a 117 mm stylus, 720 positions.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Random seed (detent errors, noise); same seed, same files.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Largest A (degrees).
+    #[arg(long, value_name = "DEG")]
+    a_max: Option<f64>,
+    /// A step (degrees).
+    #[arg(long, value_name = "DEG")]
+    a_step: Option<f64>,
+    /// B step (degrees; must divide 360).
+    #[arg(long, value_name = "DEG")]
+    b_step: Option<f64>,
+    /// Head-centre-to-stylus-ball length (mm).
+    #[arg(long, value_name = "MM")]
+    stylus: Option<f64>,
+    /// Noise of every reported coordinate (µm, standard deviation).
+    #[arg(long, value_name = "UM")]
+    noise_um: Option<f64>,
+    /// Print the documented default configuration and exit.
+    #[arg(long)]
+    print_config: bool,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
+
+/// The paths of `names` in the output directory; refuses when one of them
+/// is an input, or exists and `force` is not given.
+fn outputs<const N: usize>(
+    dir: &Path,
+    names: [&str; N],
+    inputs: &[&Path],
+    force: bool,
+) -> Result<[PathBuf; N]> {
+    let paths = names.map(|n| dir.join(n));
+    for path in &paths {
+        let same = |input: &&Path| {
+            std::fs::canonicalize(input)
+                .ok()
+                .is_some_and(|i| std::fs::canonicalize(path).ok() == Some(i))
+        };
+        if inputs.iter().any(same) {
+            bail!(
+                "{}: this output would overwrite an input; choose another --out",
+                path.display()
+            );
+        }
+        if !force && path.exists() {
+            bail!(
+                "{}: already exists; give --force to replace it or choose another --out",
+                path.display()
+            );
+        }
+    }
+    Ok(paths)
+}
+
+/// Create the output directory if it is missing.
+fn create(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("creating the output directory {}", dir.display()))
+}
+
+/// The positions of `centres.csv`, checked for the construction; a fault
+/// names the file, the line and the column.
+fn positions(path: &Path) -> Result<Vec<Position>> {
+    let rows = read_centres(path)?;
+    let angles: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|r| (r.record.a_deg, r.record.b_deg))
+        .collect();
+    let xyz: Vec<[f64; 3]> = rows
+        .iter()
+        .map(|r| [r.record.x, r.record.y, r.record.z])
+        .collect();
+    if let Err(fault) = layout::check(&angles, &xyz) {
+        let (row, column, message) = fault.describe(|k| format!("line {}", rows[k].line));
+        return Err(match row {
+            Some(k) => FormatError::Row {
+                path: path.to_path_buf(),
+                line: rows[k].line,
+                column: Some(column.into()),
+                message,
+            },
+            None => FormatError::file(path, format!("column '{column}': {message}")),
+        }
+        .into());
+    }
+    Ok(angles
+        .iter()
+        .zip(&xyz)
+        .map(|(&(a, b), p)| Position::new(a, b, *p))
+        .collect())
+}
 
 /// Run the method.
-pub fn run(_args: &Args) -> Result<()> {
-    bail!("probe indexing is not written yet")
+pub fn run(args: &Args) -> Result<()> {
+    let [csv, json, html] = outputs(
+        &args.out,
+        ["indexing.csv", "report.json", "report.html"],
+        &[&args.centres],
+        args.force,
+    )?;
+    let positions = positions(&args.centres)?;
+    let solved = method::solve(&positions)
+        .with_context(|| format!("{}: the construction failed", args.centres.display()))?;
+    let options = method::Options {
+        nominal_radius_mm: args.nominal_radius,
+        tolerance_arcsec: args.tolerance,
+        source: args.centres.display().to_string(),
+    };
+    let report = method::report(&solved, &options)?;
+    let page = method::html(&report)?;
+    let rows: Vec<IndexingRow> = solved
+        .angles
+        .iter()
+        .map(|p| IndexingRow {
+            a_deg: p.a_deg,
+            b_deg: p.b_deg,
+            theta_a_deg: p.theta_a_deg,
+            theta_b_deg: p.theta_b_deg,
+            d_a_arcsec: p.d_a_arcsec,
+            d_b_arcsec: p.d_b_arcsec,
+            u_d_a_arcsec: p.u_d_a_arcsec,
+            u_d_b_arcsec: p.u_d_b_arcsec,
+            residual_um: p.residual_um,
+        })
+        .collect();
+    create(&args.out)?;
+    formats::write_records(&csv, &rows)?;
+    formats::write_json(&json, &report)?;
+    formats::write_atomic(&html, page.as_bytes())?;
+
+    let c = report.rotation_centre;
+    println!(
+        "rotation centre O ({:.4}, {:.4}, {:.4}) mm, radius {:.4} mm (u {:.3} µm); sphere fit residual RMS {:.3} µm",
+        c[0], c[1], c[2], report.radius_mm, report.u_radius_um, report.sphere_fit.residual_rms_um
+    );
+    if let (Some(n), Some(d)) = (report.nominal_radius_mm, report.radius_deviation_um) {
+        println!("radius − nominal {n} mm: {d:+.1} µm");
+    }
+    println!(
+        "ΔθA: max |ΔθA| {:.3}″ (A = {}°, B = {}°), RMS {:.3}″",
+        report.max_d_a_arcsec,
+        report.max_d_a_at.a_deg,
+        report.max_d_a_at.b_deg,
+        report.rms_d_a_arcsec
+    );
+    println!(
+        "ΔθB: max |ΔθB| {:.3}″ (A = {}°, B = {}°), RMS {:.3}″",
+        report.max_d_b_arcsec,
+        report.max_d_b_at.a_deg,
+        report.max_d_b_at.b_deg,
+        report.rms_d_b_arcsec
+    );
+    println!(
+        "per detent (noise averaged): max |mean ΔθA| {:.3}″ (A > 0°), max |mean ΔθB| {:.3}″",
+        report.max_detent_d_a_arcsec, report.max_detent_d_b_arcsec
+    );
+    println!(
+        "standard uncertainty of one ΔθA / ΔθB (median): {:.3}″ / {:.3}″",
+        report.median_u_d_a_arcsec, report.median_u_d_b_arcsec
+    );
+    if let Some(t) = &report.tolerance {
+        println!(
+            "beyond ±{}″: {} positions ({} in ΔθA, {} in ΔθB)",
+            t.tolerance_arcsec,
+            t.exceeding.len(),
+            t.count_d_a,
+            t.count_d_b
+        );
+    }
+    for w in &report.warnings {
+        eprintln!("trinocular: warning: {w}");
+    }
+    println!(
+        "wrote {} positions to {}, {} and {}",
+        rows.len(),
+        csv.display(),
+        json.display(),
+        html.display()
+    );
+    Ok(())
 }
 
 /// Run the generator.
-pub fn synth(_args: &SynthArgs) -> Result<()> {
-    bail!("synth probe indexing is not written yet")
+pub fn synth(args: &SynthArgs) -> Result<()> {
+    if args.print_config {
+        print!("{DEFAULT_TOML}");
+        return Ok(());
+    }
+    let Some(out) = &args.out else {
+        bail!("--out DIR is required");
+    };
+    let mut config = match &args.config {
+        Some(path) => IndexingConfig::from_file(path)?,
+        None => IndexingConfig::default(),
+    };
+    config.seed = args.seed.unwrap_or(config.seed);
+    config.a_max_deg = args.a_max.unwrap_or(config.a_max_deg);
+    config.a_step_deg = args.a_step.unwrap_or(config.a_step_deg);
+    config.b_step_deg = args.b_step.unwrap_or(config.b_step_deg);
+    config.stylus_mm = args.stylus.unwrap_or(config.stylus_mm);
+    config.noise_um = args.noise_um.unwrap_or(config.noise_um);
+    let inputs: Vec<&Path> = args.config.iter().map(PathBuf::as_path).collect();
+    let [centres, truth] = outputs(out, ["centres.csv", "truth.json"], &inputs, args.force)?;
+    let generated = generate(&config)?;
+    create(out)?;
+    formats::write_records::<CentreRow>(&centres, &generated.centres)?;
+    formats::write_json(&truth, &generated.truth)?;
+    let largest =
+        |values: &mut dyn Iterator<Item = f64>| values.fold(0.0_f64, |m, v| m.max(v.abs()));
+    let t = &generated.truth.truth;
+    println!(
+        "{} positions (A 0…{}° every {}°, B every {}°), stylus {} mm, noise {} µm, seed {}; \
+         injected max |ΔθA| {:.3}″, max |ΔθB| {:.3}″",
+        generated.centres.len(),
+        config.a_detents().last().copied().unwrap_or(0.0),
+        config.a_step_deg,
+        config.b_step_deg,
+        config.stylus_mm,
+        config.noise_um,
+        config.seed,
+        largest(&mut t.iter().map(|r| r.2)),
+        largest(&mut t.iter().filter_map(|r| r.3)),
+    );
+    println!("wrote {} and {}", centres.display(), truth.display());
+    Ok(())
 }

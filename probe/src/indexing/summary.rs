@@ -1,0 +1,495 @@
+//! `report.json` of the indexing method: the construction's figures, the
+//! maxima and RMS of ΔθA and ΔθB, the radius against a nominal, per-detent
+//! means and the positions beyond a tolerance.
+
+use serde::Serialize;
+
+use super::{Angles, Indexing, UM_PER_MM, layout};
+use crate::{ProbeError, Result};
+
+/// What the user adds to the measurement.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Options {
+    /// Nominal head-centre-to-stylus-ball length (mm), to compare the radius with.
+    pub nominal_radius_mm: Option<f64>,
+    /// Tolerance on |ΔθA| and |ΔθB| (arc-seconds): positions beyond it are listed.
+    pub tolerance_arcsec: Option<f64>,
+    /// Where the centres came from (a file name), for the page.
+    pub source: String,
+}
+
+/// `report.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// The method.
+    pub method: String,
+    /// Where the centres came from.
+    pub source: String,
+    /// Number of positions.
+    pub positions: usize,
+    /// O, the rotation centre (mm, machine frame).
+    pub rotation_centre: [f64; 3],
+    /// Standard uncertainties of O (µm).
+    pub u_rotation_centre_um: [f64; 3],
+    /// Radius of the sphere through the centres (mm).
+    pub radius_mm: f64,
+    /// Standard uncertainty of the radius (µm).
+    pub u_radius_um: f64,
+    /// Nominal radius, when given (mm).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nominal_radius_mm: Option<f64>,
+    /// Radius − nominal (µm), when a nominal is given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radius_deviation_um: Option<f64>,
+    /// The sphere fit.
+    pub sphere_fit: SphereReport,
+    /// The frame of §3.
+    pub axes: AxesReport,
+    /// max |ΔθA| over all positions (arc-seconds).
+    #[serde(rename = "max_dA_arcsec")]
+    pub max_d_a_arcsec: f64,
+    /// Where max |ΔθA| is, with its sign.
+    #[serde(rename = "max_dA_at")]
+    pub max_d_a_at: Extreme,
+    /// max |ΔθB| over the positions with A > 0° (arc-seconds).
+    #[serde(rename = "max_dB_arcsec")]
+    pub max_d_b_arcsec: f64,
+    /// Where max |ΔθB| is, with its sign.
+    #[serde(rename = "max_dB_at")]
+    pub max_d_b_at: Extreme,
+    /// RMS of ΔθA over all positions (arc-seconds).
+    #[serde(rename = "rms_dA_arcsec")]
+    pub rms_d_a_arcsec: f64,
+    /// RMS of ΔθB over the positions with A > 0° (arc-seconds).
+    #[serde(rename = "rms_dB_arcsec")]
+    pub rms_d_b_arcsec: f64,
+    /// Median standard uncertainty of ΔθA (arc-seconds).
+    #[serde(rename = "median_u_dA_arcsec")]
+    pub median_u_d_a_arcsec: f64,
+    /// Median standard uncertainty of ΔθB (arc-seconds).
+    #[serde(rename = "median_u_dB_arcsec")]
+    pub median_u_d_b_arcsec: f64,
+    /// max |mean ΔθA| over the A detents with A > 0° (arc-seconds): the
+    /// detents' own errors with the noise averaged down (at A = 0° the
+    /// mean tilt magnitude is biased by the noise, so it is left out).
+    #[serde(rename = "max_detent_dA_arcsec")]
+    pub max_detent_d_a_arcsec: f64,
+    /// max |weighted mean ΔθB| over the B detents (arc-seconds).
+    #[serde(rename = "max_detent_dB_arcsec")]
+    pub max_detent_d_b_arcsec: f64,
+    /// ΔθA per A detent: mean over its B positions.
+    pub a_detents: Vec<ADetent>,
+    /// ΔθB per B detent: mean over its A > 0° positions, weighted by 1/u².
+    pub b_detents: Vec<BDetent>,
+    /// The positions beyond the tolerance, when one is given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<ToleranceReport>,
+    /// The measured grid.
+    pub grid: GridReport,
+    /// Things worth knowing that did not stop the evaluation.
+    pub warnings: Vec<String>,
+    /// The conventions of the figures.
+    pub conventions: Vec<String>,
+    /// Per position (in `indexing.csv`, not in `report.json`).
+    #[serde(skip)]
+    pub angles: Vec<Angles>,
+}
+
+/// The sphere through the centres.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SphereReport {
+    /// RMS of the radial residuals (µm).
+    pub residual_rms_um: f64,
+    /// Largest |radial residual| (µm).
+    pub residual_max_um: f64,
+    /// Noise of a centre, `√(Σr²/(n − 4))` (µm).
+    pub noise_um: f64,
+    /// Condition number of JᵀJ.
+    pub condition: f64,
+}
+
+/// The frame's axes and Q.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AxesReport {
+    /// x = y × z.
+    pub x: [f64; 3],
+    /// y, the A axis.
+    pub y_a_axis: [f64; 3],
+    /// z, the B axis.
+    pub z_b_axis: [f64; 3],
+    /// Q, the centre of the A = 0° circle (mm).
+    pub b_circle_centre: [f64; 3],
+    /// Positions in the B turn at A = 0°.
+    pub b_turn_positions: usize,
+    /// Step of that turn (degrees).
+    pub b_turn_step_deg: f64,
+    /// Positions in the B = 0° sweep (A > 0°).
+    pub a_sweep_positions: usize,
+}
+
+/// A signed extreme value and its position.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Extreme {
+    /// Commanded A (degrees).
+    pub a_deg: f64,
+    /// Commanded B (degrees).
+    pub b_deg: f64,
+    /// The value (arc-seconds).
+    pub value_arcsec: f64,
+}
+
+/// ΔθA of one A detent.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ADetent {
+    /// Commanded A (degrees).
+    pub a_deg: f64,
+    /// Positions at this A.
+    pub positions: usize,
+    /// Mean ΔθA (arc-seconds).
+    #[serde(rename = "mean_dA_arcsec")]
+    pub mean_d_a_arcsec: f64,
+    /// Smallest ΔθA (arc-seconds).
+    #[serde(rename = "min_dA_arcsec")]
+    pub min_d_a_arcsec: f64,
+    /// Largest ΔθA (arc-seconds).
+    #[serde(rename = "max_dA_arcsec")]
+    pub max_d_a_arcsec: f64,
+}
+
+/// ΔθB of one B detent.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BDetent {
+    /// Commanded B (degrees, wrapped to (−180°, 180°]).
+    pub b_deg: f64,
+    /// Positions at this B with A > 0°.
+    pub positions: usize,
+    /// Mean ΔθB weighted by 1/u² (arc-seconds).
+    #[serde(rename = "mean_dB_arcsec")]
+    pub mean_d_b_arcsec: f64,
+    /// Its standard uncertainty if the positions were independent (arc-seconds).
+    #[serde(rename = "u_mean_dB_arcsec")]
+    pub u_mean_d_b_arcsec: f64,
+}
+
+/// The positions beyond a tolerance.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ToleranceReport {
+    /// The tolerance on |ΔθA| and |ΔθB| (arc-seconds).
+    pub tolerance_arcsec: f64,
+    /// How many positions exceed it in ΔθA.
+    #[serde(rename = "count_dA")]
+    pub count_d_a: usize,
+    /// How many positions exceed it in ΔθB.
+    #[serde(rename = "count_dB")]
+    pub count_d_b: usize,
+    /// The positions, worst first.
+    pub exceeding: Vec<Exceedance>,
+}
+
+/// A position beyond the tolerance.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Exceedance {
+    /// Commanded A (degrees).
+    pub a_deg: f64,
+    /// Commanded B (degrees).
+    pub b_deg: f64,
+    /// ΔθA (arc-seconds).
+    #[serde(rename = "dA_arcsec")]
+    pub d_a_arcsec: f64,
+    /// ΔθB (arc-seconds), absent at A = 0°.
+    #[serde(rename = "dB_arcsec")]
+    pub d_b_arcsec: Option<f64>,
+    /// Which errors exceed: `A`, `B` or `A+B`.
+    pub exceeds: String,
+}
+
+/// The measured grid.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GridReport {
+    /// Commanded A values (degrees, ascending).
+    pub a_deg: Vec<f64>,
+    /// Commanded B values (degrees, wrapped, ascending).
+    pub b_deg: Vec<f64>,
+    /// (A, B) of the grid that were not measured.
+    pub missing: Vec<[f64; 2]>,
+}
+
+/// Most missing positions a warning lists by name.
+const MISSING_NAMED: usize = 6;
+
+/// The figures of `report.json` from the construction and the user's options.
+pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
+    for (name, value) in [
+        ("--nominal-radius", options.nominal_radius_mm),
+        ("--tolerance", options.tolerance_arcsec),
+    ] {
+        if let Some(v) = value
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(ProbeError::Input {
+                what: name.into(),
+                message: format!("{v} must be a positive number"),
+            });
+        }
+    }
+    let a = &ind.angles;
+    let d_a: Vec<f64> = a.iter().map(|p| p.d_a_arcsec).collect();
+    let with_b: Vec<&Angles> = a.iter().filter(|p| p.d_b_arcsec.is_some()).collect();
+    let d_b: Vec<f64> = with_b.iter().filter_map(|p| p.d_b_arcsec).collect();
+    let extreme = |values: &[(f64, &Angles)]| {
+        values
+            .iter()
+            .max_by(|p, q| p.0.abs().total_cmp(&q.0.abs()))
+            .map(|(v, p)| Extreme {
+                a_deg: p.a_deg,
+                b_deg: p.b_deg,
+                value_arcsec: *v,
+            })
+    };
+    let max_a = extreme(&a.iter().map(|p| (p.d_a_arcsec, p)).collect::<Vec<_>>())
+        .ok_or_else(|| ProbeError::Unsolvable("no positions".into()))?;
+    let max_b = extreme(
+        &with_b
+            .iter()
+            .filter_map(|p| p.d_b_arcsec.map(|v| (v, *p)))
+            .collect::<Vec<_>>(),
+    )
+    .ok_or_else(|| ProbeError::Unsolvable("no position with A > 0°".into()))?;
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    let residuals: Vec<f64> = a.iter().map(|p| p.residual_um).collect();
+    let f = &ind.frame;
+    let xyz = |v: &geom::nalgebra::Vector3<f64>| [v.x, v.y, v.z];
+    let nominal_deviation = options
+        .nominal_radius_mm
+        .map(|n| (ind.radius_mm - n) * UM_PER_MM);
+    let mut warnings = Vec::new();
+    if !ind.layout.missing.is_empty() {
+        let named: Vec<String> = ind
+            .layout
+            .missing
+            .iter()
+            .take(MISSING_NAMED)
+            .map(|(a, b)| format!("({a}°, {b}°)"))
+            .collect();
+        warnings.push(format!(
+            "{} positions of the {} × {} grid of measured A and B values were not measured: {}{}",
+            ind.layout.missing.len(),
+            ind.layout.a_levels.len(),
+            ind.layout.b_levels.len(),
+            named.join(", "),
+            if ind.layout.missing.len() > MISSING_NAMED {
+                ", …"
+            } else {
+                ""
+            }
+        ));
+    }
+    let a_detents = a_detents(ind);
+    let b_detents = b_detents(ind);
+    Ok(Report {
+        method: "probe-head indexing errors (METHODS.md §3)".into(),
+        source: options.source.clone(),
+        positions: a.len(),
+        rotation_centre: [f.origin.x, f.origin.y, f.origin.z],
+        u_rotation_centre_um: ind.u_origin_mm.map(|u| u * UM_PER_MM),
+        radius_mm: ind.radius_mm,
+        u_radius_um: ind.u_radius_mm * UM_PER_MM,
+        nominal_radius_mm: options.nominal_radius_mm,
+        radius_deviation_um: nominal_deviation,
+        sphere_fit: SphereReport {
+            residual_rms_um: geom::stats::rms(&residuals)?,
+            residual_max_um: max_abs(residuals.iter().copied()),
+            noise_um: ind.noise_mm * UM_PER_MM,
+            condition: ind.condition,
+        },
+        axes: AxesReport {
+            x: xyz(&f.x),
+            y_a_axis: xyz(&f.y),
+            z_b_axis: xyz(&f.z),
+            b_circle_centre: [
+                f.b_circle_centre.x,
+                f.b_circle_centre.y,
+                f.b_circle_centre.z,
+            ],
+            b_turn_positions: ind.layout.b_turn.len(),
+            b_turn_step_deg: ind.layout.b_step_deg,
+            a_sweep_positions: ind.layout.a_sweep.len(),
+        },
+        max_d_a_arcsec: max_a.value_arcsec.abs(),
+        max_d_a_at: max_a,
+        max_d_b_arcsec: max_b.value_arcsec.abs(),
+        max_d_b_at: max_b,
+        rms_d_a_arcsec: geom::stats::rms(&d_a)?,
+        rms_d_b_arcsec: geom::stats::rms(&d_b)?,
+        median_u_d_a_arcsec: median(a.iter().map(|p| p.u_d_a_arcsec).collect()),
+        median_u_d_b_arcsec: median(with_b.iter().filter_map(|p| p.u_d_b_arcsec).collect()),
+        max_detent_d_a_arcsec: max_abs(
+            a_detents
+                .iter()
+                .filter(|d| layout::detent_key(d.a_deg) != 0)
+                .map(|d| d.mean_d_a_arcsec),
+        ),
+        max_detent_d_b_arcsec: max_abs(b_detents.iter().map(|d| d.mean_d_b_arcsec)),
+        a_detents,
+        b_detents,
+        tolerance: options.tolerance_arcsec.map(|t| tolerance(a, t)),
+        grid: GridReport {
+            a_deg: ind.layout.a_levels.clone(),
+            b_deg: ind.layout.b_levels.clone(),
+            missing: ind.layout.missing.iter().map(|&(a, b)| [a, b]).collect(),
+        },
+        warnings,
+        conventions: conventions(),
+        angles: a.clone(),
+    })
+}
+
+/// Largest magnitude of the values (0 when there are none).
+fn max_abs(values: impl Iterator<Item = f64>) -> f64 {
+    values.fold(0.0, |m, v| m.max(v.abs()))
+}
+
+/// Mean, smallest and largest ΔθA per A detent.
+fn a_detents(ind: &Indexing) -> Vec<ADetent> {
+    ind.layout
+        .a_levels
+        .iter()
+        .map(|&level| {
+            let values: Vec<f64> = ind
+                .angles
+                .iter()
+                .filter(|p| layout::detent_key(p.a_deg) == layout::detent_key(level))
+                .map(|p| p.d_a_arcsec)
+                .collect();
+            let n = values.len().max(1) as f64;
+            ADetent {
+                a_deg: level,
+                positions: values.len(),
+                mean_d_a_arcsec: values.iter().sum::<f64>() / n,
+                min_d_a_arcsec: values.iter().copied().fold(f64::INFINITY, f64::min),
+                max_d_a_arcsec: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            }
+        })
+        .collect()
+}
+
+/// Inverse-variance weighted mean ΔθB per B detent over A > 0°.
+fn b_detents(ind: &Indexing) -> Vec<BDetent> {
+    ind.layout
+        .b_levels
+        .iter()
+        .filter_map(|&level| {
+            let (mut sw, mut swx, mut count) = (0.0, 0.0, 0);
+            for p in &ind.angles {
+                if let (Some(d), Some(u)) = (p.d_b_arcsec, p.u_d_b_arcsec)
+                    && layout::detent_key(layout::wrap_deg(p.b_deg)) == layout::detent_key(level)
+                {
+                    let w = 1.0 / (u * u).max(f64::MIN_POSITIVE);
+                    sw += w;
+                    swx += w * d;
+                    count += 1;
+                }
+            }
+            (count > 0).then(|| BDetent {
+                b_deg: level,
+                positions: count,
+                mean_d_b_arcsec: swx / sw,
+                u_mean_d_b_arcsec: sw.recip().sqrt(),
+            })
+        })
+        .collect()
+}
+
+/// The positions whose |ΔθA| or |ΔθB| exceed `t`, worst first.
+fn tolerance(angles: &[Angles], t: f64) -> ToleranceReport {
+    let mut exceeding: Vec<(f64, Exceedance)> = angles
+        .iter()
+        .filter_map(|p| {
+            let over_a = p.d_a_arcsec.abs() > t;
+            let over_b = p.d_b_arcsec.is_some_and(|d| d.abs() > t);
+            let exceeds = match (over_a, over_b) {
+                (true, true) => "A+B",
+                (true, false) => "A",
+                (false, true) => "B",
+                (false, false) => return None,
+            };
+            let worst = p.d_a_arcsec.abs().max(p.d_b_arcsec.map_or(0.0, f64::abs));
+            Some((
+                worst,
+                Exceedance {
+                    a_deg: p.a_deg,
+                    b_deg: p.b_deg,
+                    d_a_arcsec: p.d_a_arcsec,
+                    d_b_arcsec: p.d_b_arcsec,
+                    exceeds: exceeds.into(),
+                },
+            ))
+        })
+        .collect();
+    exceeding.sort_by(|p, q| q.0.total_cmp(&p.0));
+    ToleranceReport {
+        tolerance_arcsec: t,
+        count_d_a: angles.iter().filter(|p| p.d_a_arcsec.abs() > t).count(),
+        count_d_b: angles
+            .iter()
+            .filter(|p| p.d_b_arcsec.is_some_and(|d| d.abs() > t))
+            .count(),
+        exceeding: exceeding.into_iter().map(|(_, e)| e).collect(),
+    }
+}
+
+fn conventions() -> Vec<String> {
+    [
+        "O: geometric least-squares sphere through all centres; Q: mean of the A = 0° centres; \
+         z = unit(Q − O) (B axis); y = unit(z × Σ unit(Oᵢ − O)) over the B = 0°, A > 0° centres \
+         (A axis); x = y × z (METHODS.md §3).",
+        "θA = arccos n, θB = atan2(m, l) from the direction cosines (l, m, n) of O→Oᵢ; \
+         ΔθA = θA − A; ΔθB = θB − B wrapped to (−180°, 180°], undefined at A = 0°.",
+        "Centres and radius in mm (machine frame); angles in degrees; ΔθA, ΔθB in arc-seconds; \
+         uncertainties are standard (k = 1), first order, from the sphere fit's residual noise.",
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::ARCSEC_PER_DEG;
+    use super::*;
+
+    fn angle(a_deg: f64, b_deg: f64, d_a: f64, d_b: Option<f64>) -> Angles {
+        Angles {
+            a_deg,
+            b_deg,
+            cosines: geom::nalgebra::Vector3::z(),
+            theta_a_deg: a_deg + d_a / ARCSEC_PER_DEG,
+            theta_b_deg: b_deg,
+            d_a_arcsec: d_a,
+            d_b_arcsec: d_b,
+            u_d_a_arcsec: 0.5,
+            u_d_b_arcsec: d_b.map(|_| 0.5),
+            residual_um: 0.0,
+        }
+    }
+
+    #[test]
+    fn tolerance_lists_the_worst_first() {
+        let angles = [
+            angle(0.0, 0.0, 2.5, None),
+            angle(15.0, 0.0, 0.1, Some(-3.0)),
+            angle(15.0, 90.0, 2.2, Some(2.1)),
+            angle(30.0, 90.0, 1.0, Some(1.0)),
+        ];
+        let t = tolerance(&angles, 2.0);
+        assert_eq!((t.count_d_a, t.count_d_b), (2, 2));
+        let order: Vec<(f64, &str)> = t
+            .exceeding
+            .iter()
+            .map(|e| (e.a_deg, e.exceeds.as_str()))
+            .collect();
+        assert_eq!(order, vec![(15.0, "B"), (0.0, "A"), (15.0, "A+B")]);
+    }
+}

@@ -1,0 +1,83 @@
+//! The indexing `report.html` in a real browser (`report::browser`, headless
+//! Chromium): a report of the generator's PH10 with a tolerance logs no
+//! console errors, exceptions or failed loads, and its four plots — the
+//! ΔθA and ΔθB maps and curves — are laid out at full size and drawn, with
+//! the colours of their series (both ends of the diverging scale on a map;
+//! the positions, the detent means and the tolerance on a curve).
+//!
+//! Without `chromium` on the PATH (or `TRINOCULAR_CHROMIUM`) the test prints
+//! a notice that it is SKIPPED and passes, unless
+//! `TRINOCULAR_REQUIRE_BROWSER=1`, when it fails.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use probe::indexing::{Options, Position, html, report, solve};
+use report::browser::{self, PAGE_WIDTH, check_region, rgb};
+use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, diverging};
+use synth::probe::indexing::{IndexingConfig, generate};
+
+#[test]
+fn indexing_report_renders_in_chromium() {
+    let Some(chromium) =
+        browser::browser_or_skip("probe indexing report.html in Chromium").unwrap()
+    else {
+        return;
+    };
+    let generated = generate(&IndexingConfig::default()).unwrap();
+    let positions: Vec<Position> = generated
+        .centres
+        .iter()
+        .map(|r| Position::new(r.a_deg, r.b_deg, [r.x, r.y, r.z]))
+        .collect();
+    let solved = solve(&positions).unwrap();
+    let r = report(
+        &solved,
+        &Options {
+            nominal_radius_mm: Some(117.0),
+            tolerance_arcsec: Some(2.5),
+            source: "centres.csv".into(),
+        },
+    )
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("report.html");
+    std::fs::write(&page, html(&r).unwrap()).unwrap();
+    let shown = browser::render(&chromium, &page).unwrap();
+    assert!(
+        shown.errors.is_empty(),
+        "console errors: {:#?}",
+        shown.errors
+    );
+    let ids: Vec<&str> = shown.plots.iter().map(|p| p.id.as_str()).collect();
+    assert_eq!(
+        ids,
+        [
+            "plot-map-dA",
+            "plot-map-dB",
+            "plot-curve-dA",
+            "plot-curve-dB"
+        ],
+        "plots on the page"
+    );
+    assert!(shown.width <= PAGE_WIDTH, "page {} px wide", shown.width);
+    for p in &shown.plots {
+        let (height, colours) = if p.id.starts_with("plot-map") {
+            (MAP_HEIGHT, vec![rgb(diverging(-1.0)), rgb(diverging(1.0))])
+        } else {
+            (HEIGHT, vec![rgb(UP), rgb(MEAN), rgb(DOWN)])
+        };
+        assert_eq!(
+            (p.w, p.h),
+            (WIDTH, height),
+            "{} laid out at {}×{}",
+            p.id,
+            p.w,
+            p.h
+        );
+        check_region(&shown.screenshot, p, &colours).unwrap();
+    }
+    if let Ok(keep) = std::env::var("TRINOCULAR_KEEP_SCREENSHOT") {
+        shown.screenshot.save(&keep).unwrap();
+        eprintln!("screenshot saved to {keep}");
+    }
+}
