@@ -343,7 +343,10 @@ impl Grid {
 
     /// Distance between the nominal positions of rows `a` and `b` (mm).
     fn distance(&self, a: usize, b: usize) -> f64 {
-        let (p, q) = (self.rows[a].record.position(), self.rows[b].record.position());
+        let (p, q) = (
+            self.rows[a].record.position(),
+            self.rows[b].record.position(),
+        );
         ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
     }
 }
@@ -401,10 +404,12 @@ pub fn read_grid(path: &Path) -> Result<Grid> {
         positions.insert(key, k);
     }
     for (a, column) in ["x", "y", "z"].into_iter().enumerate() {
-        let (lo, hi) = rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-            let v = r.record.position()[a];
-            (lo.min(v), hi.max(v))
-        });
+        let (lo, hi) = rows
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                let v = r.record.position()[a];
+                (lo.min(v), hi.max(v))
+            });
         if hi - lo > MAX_GRID_EXTENT_MM {
             let far = rows
                 .iter()
@@ -581,9 +586,15 @@ mod tests {
     #[test]
     fn grid_errors_name_line_and_column() {
         let e = grid_error("point,x,y,z\n1,0,0,0\n1,1,0,0\n");
-        assert!(e.contains("line 3, column 'point'") && e.contains("line 2"), "{e}");
+        assert!(
+            e.contains("line 3, column 'point'") && e.contains("line 2"),
+            "{e}"
+        );
         let e = grid_error("point,x,y,z\n1,0,0,0\n2,0,-0,0\n");
-        assert!(e.contains("line 3, column 'x'") && e.contains("same coordinates"), "{e}");
+        assert!(
+            e.contains("line 3, column 'x'") && e.contains("same coordinates"),
+            "{e}"
+        );
         let e = grid_error("point,x,y,z\n1,0,0,0\n2,0,NaN,0\n");
         assert!(e.contains("line 3, column 'y'"), "{e}");
         let e = grid_error("point,x,y,z\n1,0,0,0\n2,0,0,400000\n");
@@ -595,9 +606,15 @@ mod tests {
     #[test]
     fn reading_errors_name_line_and_column() {
         let e = readings_error("station,point,l\nA,1,0\nA,1,0.5\n");
-        assert!(e.contains("line 3, column 'point'") && e.contains("line 2"), "{e}");
+        assert!(
+            e.contains("line 3, column 'point'") && e.contains("line 2"),
+            "{e}"
+        );
         let e = readings_error("station,point,l\nA,1,0\nA,9,0.5\n");
-        assert!(e.contains("line 3, column 'point'") && e.contains("'9'"), "{e}");
+        assert!(
+            e.contains("line 3, column 'point'") && e.contains("'9'"),
+            "{e}"
+        );
         let e = readings_error("station,point,l\nA,1,0\nA,2,nan\n");
         assert!(e.contains("line 3, column 'l'"), "{e}");
         // 100 mm apart, read as 50000 (µm): the spread breaks the triangle inequality.
