@@ -163,7 +163,7 @@ macro_rules! grid_chart {
         chart.with_projection(|mut pb| {
             pb.yaw = 0.6;
             pb.pitch = 0.35;
-            pb.scale = 0.8;
+            pb.scale = 0.95;
             pb.into_matrix()
         });
         chart
@@ -337,7 +337,7 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
         "plot-corrections",
         &corrections_plot(net, s)?,
         "Corrections (true − nominal, no rigid motion) as magnified arrows from the nominal \
-         grid points; vertical axis z.",
+         grid points; x along the left edge, y along the right edge, z up.",
     );
     page.figure(
         "plot-uncertainty",

@@ -23,9 +23,10 @@ pub struct CorrectionGrid {
     hi: [f64; 3],
 }
 
-fn not_lattice(message: String) -> ProbeError {
-    ProbeError::Input {
-        what: "grid (trilinear interpolation needs a lattice)".into(),
+fn not_lattice(point: Option<usize>, axis: Option<usize>, message: String) -> ProbeError {
+    ProbeError::NotLattice {
+        point,
+        axis,
         message,
     }
 }
@@ -53,12 +54,16 @@ impl CorrectionGrid {
         corrections: &[Vector3<f64>],
     ) -> Result<CorrectionGrid> {
         if nominal.len() != corrections.len() || nominal.len() != names.len() {
-            return Err(not_lattice(format!(
-                "{} points, {} names, {} corrections",
-                nominal.len(),
-                names.len(),
-                corrections.len()
-            )));
+            return Err(not_lattice(
+                None,
+                None,
+                format!(
+                    "{} points, {} names, {} corrections",
+                    nominal.len(),
+                    names.len(),
+                    corrections.len()
+                ),
+            ));
         }
         let mut origin = [0.0; 3];
         let mut step = [0.0; 3];
@@ -66,19 +71,29 @@ impl CorrectionGrid {
         for a in 0..3 {
             let lv = levels(nominal.iter().map(|p| p[a]));
             if lv.len() < 2 {
-                return Err(not_lattice(format!(
-                    "all points share one {} value: a lattice needs at least two per axis",
-                    AXES[a]
-                )));
+                return Err(not_lattice(
+                    None,
+                    Some(a),
+                    format!(
+                        "all points share one {} value: a lattice needs at least two per axis",
+                        AXES[a]
+                    ),
+                ));
             }
             let s = (lv[lv.len() - 1] - lv[0]) / (lv.len() - 1) as f64;
             for (k, v) in lv.iter().enumerate() {
                 let expected = lv[0] + k as f64 * s;
                 if (v - expected).abs() > LATTICE_TOLERANCE_MM {
-                    return Err(not_lattice(format!(
-                        "the {} values are not equally spaced: {v} where a step of {s} puts {expected}",
-                        AXES[a]
-                    )));
+                    return Err(not_lattice(
+                        nominal
+                            .iter()
+                            .position(|p| (p[a] - v).abs() <= LATTICE_TOLERANCE_MM),
+                        Some(a),
+                        format!(
+                            "the {} values are not equally spaced: {v} where a step of {s} puts {expected}",
+                            AXES[a]
+                        ),
+                    ));
                 }
             }
             origin[a] = lv[0];
@@ -93,19 +108,24 @@ impl CorrectionGrid {
                 let g = (p[a] - origin[a]) / step[a];
                 let k = g.round();
                 if (p[a] - (origin[a] + k * step[a])).abs() > LATTICE_TOLERANCE_MM {
-                    return Err(not_lattice(format!(
-                        "point '{}' has {} = {} between the lattice values",
-                        names[i], AXES[a], p[a]
-                    )));
+                    return Err(not_lattice(
+                        Some(i),
+                        Some(a),
+                        format!(
+                            "point '{}' has {} = {} between the lattice values",
+                            names[i], AXES[a], p[a]
+                        ),
+                    ));
                 }
                 index[a] = k as usize;
             }
             let slot = index[0] + dims[0] * (index[1] + dims[1] * index[2]);
             if values[slot].replace(corrections[i]).is_some() {
-                return Err(not_lattice(format!(
-                    "point '{}' falls on a lattice node already taken",
-                    names[i]
-                )));
+                return Err(not_lattice(
+                    Some(i),
+                    None,
+                    format!("point '{}' falls on a lattice node already taken", names[i]),
+                ));
             }
         }
         if let Some(slot) = values.iter().position(Option::is_none) {
@@ -114,16 +134,20 @@ impl CorrectionGrid {
                 (slot / dims[0]) % dims[1],
                 slot / (dims[0] * dims[1]),
             );
-            return Err(not_lattice(format!(
-                "{} points where the {}×{}×{} lattice has {cells}: no point at ({}, {}, {})",
-                nominal.len(),
-                dims[0],
-                dims[1],
-                dims[2],
-                origin[0] + i as f64 * step[0],
-                origin[1] + j as f64 * step[1],
-                origin[2] + k as f64 * step[2]
-            )));
+            return Err(not_lattice(
+                None,
+                None,
+                format!(
+                    "{} points where the {}×{}×{} lattice has {cells}: no point at ({}, {}, {})",
+                    nominal.len(),
+                    dims[0],
+                    dims[1],
+                    dims[2],
+                    origin[0] + i as f64 * step[0],
+                    origin[1] + j as f64 * step[1],
+                    origin[2] + k as f64 * step[2]
+                ),
+            ));
         }
         let values: Vec<Vector3<f64>> = values.into_iter().flatten().collect();
         let hi = [0, 1, 2].map(|a| origin[a] + (dims[a] - 1) as f64 * step[a]);
@@ -226,7 +250,7 @@ mod tests {
         );
         let mut uneven = pts.clone();
         for p in &mut uneven {
-            if p.x > 0.0 {
+            if p.x > -45.0 {
                 p.x += 5.0;
             }
         }

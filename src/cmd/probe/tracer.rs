@@ -1,21 +1,437 @@
-//! `trinocular probe tracer` and `trinocular synth probe tracer` (to be written).
+//! `trinocular probe tracer` (CMM volumetric correction by laser-tracer
+//! multilateration, METHODS.md §4) and `trinocular synth probe tracer` (its
+//! check data with truth). Thin: flags, files through `formats`, the work in
+//! `probe::tracer` and `synth::probe::tracer`.
 
-use anyhow::{Result, bail};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use formats::FormatError;
+use formats::probe::tracer::{
+    CorrectedRow, CorrectionRow, Grid, QueryRow, Readings, ResidualRow, StationRow, read_grid,
+    read_query, read_readings,
+};
+use formats::{Row, write_atomic, write_json, write_records};
+use geom::nalgebra::Point3;
+use probe::ProbeError;
+use probe::tracer::{self, CorrectionGrid, Network, Options, Reading};
+use synth::probe::tracer::{TracerConfig, generate};
+
+const UM: f64 = 1e3;
+const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// Arguments of `trinocular probe tracer`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Nominal grid `point,x,y,z` (CMM coordinates, mm).
+    #[arg(long, value_name = "GRID.csv")]
+    nominal: PathBuf,
+    /// Interferometric readings `station,point,l` (mm, relative to each station's first point).
+    #[arg(long, value_name = "READINGS.csv")]
+    readings: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Points `x,y,z` (mm) to correct by trilinear interpolation in the grid's cells (the grid
+    /// must be a lattice): writes DIR/corrected.csv.
+    #[arg(long, value_name = "Q.csv")]
+    query: Option<PathBuf>,
+    /// Flag a reading when its normalised residual exceeds k.
+    #[arg(long, default_value_t = tracer::OUTLIER_K)]
+    k: f64,
+    /// Standard deviation of a reading (µm) to use for the uncertainties, instead of the one
+    /// estimated from the residuals.
+    #[arg(long, value_name = "UM")]
+    sigma_um: Option<f64>,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
 
-/// Arguments of `trinocular synth probe tracer`.
+/// Arguments of `trinocular synth probe tracer`. Unset settings keep the
+/// defaults of `synth::probe::tracer::TracerConfig` (the check data's layout).
 #[derive(Debug, clap::Args)]
-pub struct SynthArgs {}
+pub struct SynthArgs {
+    /// Output directory (created if missing): grid.csv, readings.csv, truth.json.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Grid points along x, y, z [default: 5,5,4].
+    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "NX,NY,NZ")]
+    counts: Option<Vec<usize>>,
+    /// Size of the grid along x, y, z (mm) [default: 400,400,300].
+    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "X,Y,Z")]
+    size: Option<Vec<f64>>,
+    /// Corner of the grid with the smallest coordinates (mm) [default: 0,0,0].
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 1,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true
+    )]
+    origin: Option<Vec<f64>>,
+    /// Number of tracer stations [default: 6].
+    #[arg(long)]
+    stations: Option<usize>,
+    /// Distance of the stations from the grid centre, in half-diagonals of the grid [default: 1.6].
+    #[arg(long)]
+    station_distance: Option<f64>,
+    /// RMS of the CMM's error field (µm) [default: 5].
+    #[arg(long)]
+    error_um: Option<f64>,
+    /// Standard deviation of a reading (µm) [default: 0.2].
+    #[arg(long)]
+    noise_um: Option<f64>,
+    /// Resolution the readings are rounded to (µm; 0: none) [default: 0.0001].
+    #[arg(long)]
+    resolution_um: Option<f64>,
+    /// Share of readings left out at random [default: 0].
+    #[arg(long)]
+    missing: Option<f64>,
+    /// Seed of the error field and the station layout [default: 1].
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Seed of the reading noise [default: 1].
+    #[arg(long)]
+    noise_seed: Option<u64>,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
+
+/// The network of a checked grid and readings (stations in order of first appearance).
+pub fn network(grid: &Grid, readings: &Readings) -> Network {
+    Network {
+        points: grid
+            .rows
+            .iter()
+            .map(|r| Point3::from(r.record.position()))
+            .collect(),
+        point_names: grid.rows.iter().map(|r| r.record.point.clone()).collect(),
+        station_names: readings.stations.clone(),
+        readings: readings
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(k, r)| Reading {
+                station: readings.station_of[k],
+                point: readings.point_of[k],
+                l: r.record.l,
+            })
+            .collect(),
+    }
+}
+
+/// Create `dir` and refuse, before anything is written, an output that
+/// already exists (unless `force`) or that is one of the `inputs` (always).
+fn prepare_outputs(dir: &Path, names: &[&str], inputs: &[&Path], force: bool) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    for name in names {
+        let path = dir.join(name);
+        if !path.exists() {
+            continue;
+        }
+        let target = path
+            .canonicalize()
+            .with_context(|| path.display().to_string())?;
+        for input in inputs {
+            if input.canonicalize().is_ok_and(|i| i == target) {
+                bail!(
+                    "{}: output {name} would overwrite this input; choose another --out",
+                    input.display()
+                );
+            }
+        }
+        if !force {
+            bail!(
+                "{}: already exists; use --force to replace the outputs in {}",
+                path.display(),
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The lattice of the grid and the query points inside it, checked before
+/// solving so that a refused query leaves nothing written.
+fn check_query(
+    net: &Network,
+    grid: &Grid,
+    grid_path: &Path,
+    query: &[Row<QueryRow>],
+    query_path: &Path,
+) -> Result<()> {
+    let zeros = vec![geom::Vector3::zeros(); net.points.len()];
+    let lattice =
+        CorrectionGrid::new(&net.points, &net.point_names, &zeros).map_err(|e| match e {
+            ProbeError::NotLattice {
+                point: Some(i),
+                axis,
+                ref message,
+            } => anyhow::Error::new(FormatError::Row {
+                path: grid_path.to_path_buf(),
+                line: grid.rows[i].line,
+                column: axis.map(|a| AXES[a].to_string()),
+                message: format!("--query needs a lattice grid: {message}"),
+            }),
+            other => anyhow::anyhow!(
+                "{}: --query needs a lattice grid: {other}",
+                grid_path.display()
+            ),
+        })?;
+    for row in query {
+        let p = Point3::from(row.record.position());
+        if let Some(a) = lattice.outside(&p) {
+            let (lo, hi) = lattice.range(a);
+            return Err(FormatError::Row {
+                path: query_path.to_path_buf(),
+                line: row.line,
+                column: Some(AXES[a].to_string()),
+                message: format!(
+                    "{} = {} is outside the grid ({} from {lo} to {hi} mm in {})",
+                    AXES[a],
+                    p[a],
+                    AXES[a],
+                    grid_path.display()
+                ),
+            }
+            .into());
+        }
+    }
+    Ok(())
+}
 
 /// Run the method.
-pub fn run(_args: &Args) -> Result<()> {
-    bail!("probe tracer is not written yet")
+pub fn run(args: &Args) -> Result<()> {
+    let grid = read_grid(&args.nominal)?;
+    let readings = read_readings(&args.readings, &grid, &args.nominal)?;
+    let query = args.query.as_deref().map(read_query).transpose()?;
+    let net = network(&grid, &readings);
+    if let (Some(q), Some(path)) = (&query, &args.query) {
+        check_query(&net, &grid, &args.nominal, q, path)?;
+    }
+    let mut names = vec![
+        "report.json",
+        "report.html",
+        "corrections.csv",
+        "stations.csv",
+        "residuals.csv",
+    ];
+    if query.is_some() {
+        names.push("corrected.csv");
+    }
+    let mut inputs = vec![args.nominal.as_path(), args.readings.as_path()];
+    inputs.extend(args.query.as_deref());
+    prepare_outputs(&args.out, &names, &inputs, args.force)?;
+
+    let options = Options {
+        outlier_k: args.k,
+        sigma_mm: args.sigma_um.map(|s| s / UM),
+        ..Options::default()
+    };
+    let solution = tracer::solve(&net, &options).with_context(|| {
+        format!(
+            "{} with {}",
+            args.readings.display(),
+            args.nominal.display()
+        )
+    })?;
+    let report = tracer::report(&net, &solution);
+    let page = tracer::html(&net, &solution, &report)?;
+
+    let corrections: Vec<CorrectionRow> = net
+        .points
+        .iter()
+        .zip(&net.point_names)
+        .zip(&solution.corrections)
+        .map(|((p, name), c)| CorrectionRow {
+            point: name.clone(),
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            dx: c.vector.x,
+            dy: c.vector.y,
+            dz: c.vector.z,
+            u_dx: c.u.x,
+            u_dy: c.u.y,
+            u_dz: c.u.z,
+        })
+        .collect();
+    let stations: Vec<StationRow> = solution
+        .stations
+        .iter()
+        .zip(&net.station_names)
+        .map(|(s, name)| StationRow {
+            station: name.clone(),
+            x: s.position.x,
+            y: s.position.y,
+            z: s.position.z,
+            dead_path: s.dead_path,
+            u_x: s.u_position.x,
+            u_y: s.u_position.y,
+            u_z: s.u_position.z,
+            u_dead_path: s.u_dead_path,
+            readings: s.readings,
+            residual_rms_um: s.residual_rms * UM,
+        })
+        .collect();
+    let residuals: Vec<ResidualRow> = readings
+        .rows
+        .iter()
+        .zip(&solution.residuals)
+        .map(|(r, v)| ResidualRow {
+            station: r.record.station.clone(),
+            point: r.record.point.clone(),
+            l: r.record.l,
+            residual_um: v.value * UM,
+            normalized: v.normalized,
+            outlier: v.outlier,
+        })
+        .collect();
+    let corrected: Option<Vec<CorrectedRow>> = match &query {
+        Some(q) => {
+            let vectors: Vec<_> = solution.corrections.iter().map(|c| c.vector).collect();
+            let lattice = CorrectionGrid::new(&net.points, &net.point_names, &vectors)?;
+            Some(
+                q.iter()
+                    .map(|row| {
+                        let p = Point3::from(row.record.position());
+                        let c = lattice.at(&p)?;
+                        Ok(CorrectedRow {
+                            x: p.x,
+                            y: p.y,
+                            z: p.z,
+                            dx: c.x,
+                            dy: c.y,
+                            dz: c.z,
+                        })
+                    })
+                    .collect::<Result<_>>()?,
+            )
+        }
+        None => None,
+    };
+
+    let out = &args.out;
+    write_records(&out.join("corrections.csv"), &corrections)?;
+    write_records(&out.join("stations.csv"), &stations)?;
+    write_records(&out.join("residuals.csv"), &residuals)?;
+    if let Some(c) = &corrected {
+        write_records(&out.join("corrected.csv"), c)?;
+    }
+    write_json(&out.join("report.json"), &report)?;
+    write_atomic(out.join("report.html"), page.as_bytes())?;
+
+    println!(
+        "tracer: {} points, {} stations, {} readings, {} unknowns (redundancy {})",
+        report.points, report.stations, report.equations, report.unknowns, report.redundancy
+    );
+    println!(
+        "converged in {} iterations; residual RMS {:.4} µm, σ of a reading {:.4} µm{}; condition {:.3e}",
+        report.iterations,
+        report.residual_rms_um,
+        report.sigma_um,
+        if report.sigma_a_priori {
+            " (a priori)"
+        } else {
+            ""
+        },
+        report.condition
+    );
+    println!(
+        "corrections: largest {:.3} µm at point {}, RMS {:.3} µm; standard uncertainty median {:.4} µm, largest {:.4} µm",
+        report.max_correction_um,
+        report.max_correction_point,
+        report.rms_correction_um,
+        report.median_u_um,
+        report.max_u_um
+    );
+    println!(
+        "outliers: {} readings with |w| > {} (flagged in residuals.csv, kept in the solution)",
+        report.outliers.count, report.outliers.k
+    );
+    for w in &report.weak.stations {
+        eprintln!(
+            "trinocular: warning: station {} weakly determined: {}",
+            w.name, w.reason
+        );
+    }
+    for w in &report.weak.points {
+        eprintln!(
+            "trinocular: warning: point {} weakly determined: {}",
+            w.name, w.reason
+        );
+    }
+    if let Some(c) = &corrected {
+        println!(
+            "corrected {} query points by trilinear interpolation",
+            c.len()
+        );
+    }
+    println!("wrote {} files into {}", names.len(), out.display());
+    Ok(())
+}
+
+fn triple<T: Copy>(v: &Option<Vec<T>>, default: [T; 3]) -> [T; 3] {
+    match v.as_deref() {
+        Some([a, b, c]) => [*a, *b, *c],
+        _ => default,
+    }
 }
 
 /// Run the generator.
-pub fn synth(_args: &SynthArgs) -> Result<()> {
-    bail!("synth probe tracer is not written yet")
+pub fn synth(args: &SynthArgs) -> Result<()> {
+    for (flag, v) in [
+        ("--counts", args.counts.as_ref().map(Vec::len)),
+        ("--size", args.size.as_ref().map(Vec::len)),
+        ("--origin", args.origin.as_ref().map(Vec::len)),
+    ] {
+        if let Some(n) = v
+            && n != 3
+        {
+            bail!("{flag}: {n} values where x, y, z take 3");
+        }
+    }
+    let d = TracerConfig::default();
+    let config = TracerConfig {
+        counts: triple(&args.counts, d.counts),
+        size: triple(&args.size, d.size),
+        origin: triple(&args.origin, d.origin),
+        stations: args.stations.unwrap_or(d.stations),
+        station_distance: args.station_distance.unwrap_or(d.station_distance),
+        error_um: args.error_um.unwrap_or(d.error_um),
+        noise_um: args.noise_um.unwrap_or(d.noise_um),
+        resolution_um: args.resolution_um.unwrap_or(d.resolution_um),
+        missing: args.missing.unwrap_or(d.missing),
+        seed: args.seed.unwrap_or(d.seed),
+        noise_seed: args.noise_seed.unwrap_or(d.noise_seed),
+    };
+    let data = generate(&config)?;
+    let names = ["grid.csv", "readings.csv", "truth.json"];
+    prepare_outputs(&args.out, &names, &[], args.force)?;
+    write_records(&args.out.join("grid.csv"), &data.grid)?;
+    write_records(&args.out.join("readings.csv"), &data.readings)?;
+    write_json(&args.out.join("truth.json"), &data.truth)?;
+    println!(
+        "tracer: {} grid points ({}×{}×{} over {}×{}×{} mm), {} stations, {} readings (noise {} µm), \
+         error field {} µm RMS",
+        data.grid.len(),
+        config.counts[0],
+        config.counts[1],
+        config.counts[2],
+        config.size[0],
+        config.size[1],
+        config.size[2],
+        config.stations,
+        data.readings.len(),
+        config.noise_um,
+        config.error_um
+    );
+    println!(
+        "wrote grid.csv, readings.csv, truth.json into {}",
+        args.out.display()
+    );
+    Ok(())
 }

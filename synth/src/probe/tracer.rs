@@ -266,11 +266,18 @@ fn stations(config: &TracerConfig) -> Vec<Point3<f64>> {
         .collect()
 }
 
+/// `v` rounded to a multiple of `step`; a step that is 1/N (N whole) divides
+/// by N, so that the result is the double nearest the decimal and prints short.
 fn round_to(v: f64, step: f64) -> f64 {
-    if step > 0.0 {
-        (v / step).round() * step
+    if !(step > 0.0) {
+        return v;
+    }
+    let per = 1.0 / step;
+    let whole = per.round();
+    if whole >= 1.0 && (per - whole).abs() < 1e-9 * whole {
+        (v * whole).round() / whole
     } else {
-        v
+        (v / step).round() * step
     }
 }
 
