@@ -31,16 +31,22 @@ fn not_lattice(point: Option<usize>, axis: Option<usize>, message: String) -> Pr
     }
 }
 
-/// The lattice values of one axis: sorted values grouped within the
-/// tolerance; each group's first value stands for it.
-fn levels(values: impl Iterator<Item = f64>) -> Vec<f64> {
-    let mut v: Vec<f64> = values.collect();
-    v.sort_by(f64::total_cmp);
-    let mut out: Vec<f64> = Vec::new();
-    for x in v {
-        if out.last().is_none_or(|l| x - l > LATTICE_TOLERANCE_MM) {
-            out.push(x);
+/// The lattice values of one axis: the points sorted by their coordinate,
+/// grouped within the tolerance; each group's first value stands for it.
+/// Returns (value, members) per level.
+fn levels(nominal: &[Point3<f64>], a: usize) -> Vec<(f64, Vec<usize>)> {
+    let mut order: Vec<usize> = (0..nominal.len()).collect();
+    order.sort_by(|&i, &j| nominal[i][a].total_cmp(&nominal[j][a]).then(i.cmp(&j)));
+    let mut out: Vec<(f64, Vec<usize>)> = Vec::new();
+    for i in order {
+        let x = nominal[i][a];
+        match out.last_mut() {
+            Some((l, members)) if x - *l <= LATTICE_TOLERANCE_MM => members.push(i),
+            _ => out.push((x, vec![i])),
         }
+    }
+    for (_, members) in &mut out {
+        members.sort_unstable();
     }
     out
 }
@@ -69,7 +75,7 @@ impl CorrectionGrid {
         let mut step = [0.0; 3];
         let mut dims = [0usize; 3];
         for a in 0..3 {
-            let lv = levels(nominal.iter().map(|p| p[a]));
+            let lv = levels(nominal, a);
             if lv.len() < 2 {
                 return Err(not_lattice(
                     None,
@@ -80,23 +86,41 @@ impl CorrectionGrid {
                     ),
                 ));
             }
-            let s = (lv[lv.len() - 1] - lv[0]) / (lv.len() - 1) as f64;
-            for (k, v) in lv.iter().enumerate() {
-                let expected = lv[0] + k as f64 * s;
+            // Every level of a lattice holds the same number of points (one
+            // fewer where a node is missing); a point off the lattice makes a
+            // sparse level of its own.
+            let most = lv.iter().map(|(_, m)| m.len()).max().unwrap_or(0);
+            if let Some((v, members)) = lv.iter().find(|(_, m)| 2 * m.len() < most) {
+                return Err(not_lattice(
+                    Some(members[0]),
+                    Some(a),
+                    format!(
+                        "point '{}' has {} = {v}, a value {} point(s) share where the grid's \
+                         other {} levels hold up to {most}",
+                        names[members[0]],
+                        AXES[a],
+                        members.len(),
+                        AXES[a]
+                    ),
+                ));
+            }
+            let (first, last) = (lv[0].0, lv[lv.len() - 1].0);
+            let s = (last - first) / (lv.len() - 1) as f64;
+            for (k, (v, members)) in lv.iter().enumerate() {
+                let expected = first + k as f64 * s;
                 if (v - expected).abs() > LATTICE_TOLERANCE_MM {
                     return Err(not_lattice(
-                        nominal
-                            .iter()
-                            .position(|p| (p[a] - v).abs() <= LATTICE_TOLERANCE_MM),
+                        Some(members[0]),
                         Some(a),
                         format!(
-                            "the {} values are not equally spaced: {v} where a step of {s} puts {expected}",
-                            AXES[a]
+                            "the {} values are not equally spaced: point '{}' has {v} where a \
+                             step of {s} puts {expected}",
+                            AXES[a], names[members[0]]
                         ),
                     ));
                 }
             }
-            origin[a] = lv[0];
+            origin[a] = first;
             step[a] = s;
             dims[a] = lv.len();
         }

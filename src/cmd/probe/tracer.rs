@@ -56,20 +56,14 @@ pub struct SynthArgs {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Grid points along x, y, z [default: 5,5,4].
-    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "NX,NY,NZ")]
-    counts: Option<Vec<usize>>,
+    #[arg(long, value_parser = triple::<usize>, value_name = "NX,NY,NZ")]
+    counts: Option<[usize; 3]>,
     /// Size of the grid along x, y, z (mm) [default: 400,400,300].
-    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "X,Y,Z")]
-    size: Option<Vec<f64>>,
+    #[arg(long, value_parser = triple::<f64>, value_name = "X,Y,Z")]
+    size: Option<[f64; 3]>,
     /// Corner of the grid with the smallest coordinates (mm) [default: 0,0,0].
-    #[arg(
-        long,
-        value_delimiter = ',',
-        num_args = 1,
-        value_name = "X,Y,Z",
-        allow_hyphen_values = true
-    )]
-    origin: Option<Vec<f64>>,
+    #[arg(long, value_parser = triple::<f64>, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    origin: Option<[f64; 3]>,
     /// Number of tracer stations [default: 6].
     #[arg(long)]
     stations: Option<usize>,
@@ -374,31 +368,23 @@ pub fn run(args: &Args) -> Result<()> {
     Ok(())
 }
 
-fn triple<T: Copy>(v: &Option<Vec<T>>, default: [T; 3]) -> [T; 3] {
-    match v.as_deref() {
-        Some([a, b, c]) => [*a, *b, *c],
-        _ => default,
-    }
+/// Parse `a,b,c` (x, y, z) for a flag.
+fn triple<T: std::str::FromStr>(text: &str) -> std::result::Result<[T; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [a, b, c] = parts.as_slice() else {
+        return Err(format!("{} values where x, y, z take 3", parts.len()));
+    };
+    let parse = |v: &str| v.parse::<T>().map_err(|_| format!("'{v}' is not a number"));
+    Ok([parse(a)?, parse(b)?, parse(c)?])
 }
 
 /// Run the generator.
 pub fn synth(args: &SynthArgs) -> Result<()> {
-    for (flag, v) in [
-        ("--counts", args.counts.as_ref().map(Vec::len)),
-        ("--size", args.size.as_ref().map(Vec::len)),
-        ("--origin", args.origin.as_ref().map(Vec::len)),
-    ] {
-        if let Some(n) = v
-            && n != 3
-        {
-            bail!("{flag}: {n} values where x, y, z take 3");
-        }
-    }
     let d = TracerConfig::default();
     let config = TracerConfig {
-        counts: triple(&args.counts, d.counts),
-        size: triple(&args.size, d.size),
-        origin: triple(&args.origin, d.origin),
+        counts: args.counts.unwrap_or(d.counts),
+        size: args.size.unwrap_or(d.size),
+        origin: args.origin.unwrap_or(d.origin),
         stations: args.stations.unwrap_or(d.stations),
         station_distance: args.station_distance.unwrap_or(d.station_distance),
         error_um: args.error_um.unwrap_or(d.error_um),
