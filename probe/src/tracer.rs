@@ -228,6 +228,9 @@ pub struct Solution {
     pub sigma_outliers: f64,
     /// k of the outlier flag.
     pub outlier_k: f64,
+    /// Readings expected beyond k by chance alone: testable readings ×
+    /// P(|z| > k) for normal errors, `erfc(k/√2)`.
+    pub outliers_by_chance: f64,
     /// Readings minus unknowns.
     pub redundancy: usize,
     /// Unknowns after the datum, `3n + 4m − 6`.

@@ -304,6 +304,14 @@ fn round_trips_over_layouts() {
             }
         }
         assert_eq!(s.unknowns, 3 * n + 4 * m - 6);
+        // Clean data: the flags are those a 3σ test raises by chance
+        // (binomial, within 5 of its standard deviations).
+        let flagged = s.residuals.iter().filter(|r| r.outlier).count() as f64;
+        let chance = s.outliers_by_chance;
+        assert!(
+            (flagged - chance).abs() <= 5.0 * chance.sqrt() + 1.0,
+            "m = {m}, n = {n}: {flagged} flagged, {chance:.1} by chance"
+        );
     }
 }
 

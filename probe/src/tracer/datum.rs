@@ -273,6 +273,8 @@ pub(super) fn finish(
         .filter(|(_, r)| **r > MIN_REDUNDANCY)
         .map(|(v, r)| (v / r.sqrt()).abs())
         .collect();
+    let outliers_by_chance =
+        scaled.len() as f64 * libm::erfc(options.outlier_k / std::f64::consts::SQRT_2);
     let sigma_outliers = MAD_TO_SIGMA * median(&mut scaled);
     let scale = sigma_outliers.max(RESIDUAL_FLOOR_MM);
     let mut residuals = vec![
@@ -362,6 +364,7 @@ pub(super) fn finish(
         sigma_a_priori: options.sigma_mm.is_some(),
         sigma_outliers,
         outlier_k: options.outlier_k,
+        outliers_by_chance,
         redundancy,
         unknowns,
         equations,

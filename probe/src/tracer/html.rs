@@ -320,8 +320,8 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
         vec![
             "outliers".into(),
             format!(
-                "{} at |w| > {} (σ_w {:.4} µm)",
-                r.outliers.count, r.outliers.k, r.outliers.sigma_um
+                "{} at |w| > {} (≈ {:.1} expected by chance; σ_w {:.4} µm)",
+                r.outliers.count, r.outliers.k, r.outliers.expected_by_chance, r.outliers.sigma_um
             ),
         ],
     ];

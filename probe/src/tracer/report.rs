@@ -51,6 +51,8 @@ pub struct Outliers {
     pub sigma_um: f64,
     /// Number of flagged readings.
     pub count: usize,
+    /// Readings expected beyond k by chance alone (normal errors).
+    pub expected_by_chance: f64,
     /// The flagged readings, largest |w| first.
     pub readings: Vec<OutlierReading>,
 }
@@ -197,6 +199,7 @@ pub fn report(network: &Network, s: &Solution) -> TracerReport {
             k: s.outlier_k,
             sigma_um: s.sigma_outliers * UM,
             count: flagged.len(),
+            expected_by_chance: s.outliers_by_chance,
             readings: flagged,
         },
         weak: Weakness {
