@@ -110,19 +110,21 @@ def main():
             (vals[keep], (rows[keep], cols.ravel()[keep])), shape=(k, len(x0))
         )
 
-    begin = time.perf_counter()
+    # Default tolerances (1e-8) with Jacobian scaling: three evaluations reach
+    # our solution to < 0.001 µm; much tighter tolerances make LSMR crawl.
+    begin, cpu = time.perf_counter(), time.process_time()
     result = least_squares(
-        residuals, x0, jac=jacobian, method="trf", tr_solver="lsmr",
-        ftol=1e-15, xtol=1e-15, gtol=1e-15, max_nfev=200,
+        residuals, x0, jac=jacobian, method="trf", tr_solver="lsmr", x_scale="jac"
     )
-    elapsed = time.perf_counter() - begin
+    elapsed, cpu = time.perf_counter() - begin, time.process_time() - cpu
     pts, _ = unpack(result.x)
     r, t = kabsch(pts, nominal)
     corrections = pts @ r.T + t - nominal
     rms = np.sqrt(np.mean(result.fun**2))
     print(
         f"scipy {__import__('scipy').__version__} least_squares (trf, lsmr, sparse Jacobian): "
-        f"n = {n}, m = {m}, {k} readings: {elapsed * 1e3:.0f} ms, {result.nfev} evaluations, "
+        f"n = {n}, m = {m}, {k} readings: {elapsed * 1e3:.0f} ms ({cpu * 1e3:.0f} ms CPU), "
+        f"{result.nfev} evaluations, "
         f"residual RMS {rms * 1e3:.4f} µm ({result.message})"
     )
     if len(sys.argv) > 2:

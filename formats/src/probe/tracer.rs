@@ -512,7 +512,8 @@ pub fn read_readings(path: &Path, grid: &Grid, grid_path: &Path) -> Result<Readi
                 "l",
                 format!(
                     "station '{}' reads {} here and {} on line {}, {spread:.3} apart, but points '{}' \
-                     and '{}' are only {apart:.3} mm apart: readings must be in mm (are they in µm?)",
+                     and '{}' are only {apart:.3} mm apart: readings must be in mm (are they in µm?), \
+                     and the grid's nominal points within {UNIT_SLACK_MM} mm of the true ones",
                     stations[s],
                     rows[hi].record.l,
                     rows[lo].record.l,

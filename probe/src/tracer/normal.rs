@@ -552,3 +552,100 @@ pub(super) fn gauss_newton(
 fn mean_point_diagonal(st: &Structure) -> f64 {
     st.l.len() as f64 / (3 * st.n) as f64
 }
+
+#[cfg(test)]
+mod tests {
+    use geom::nalgebra::Point3;
+
+    use super::*;
+    use crate::tracer::Reading;
+
+    /// A 3×3×3 grid, five stations, exact readings.
+    fn network() -> (Network, Vec<Vector4<f64>>) {
+        let points: Vec<Point3<f64>> = (0..27)
+            .map(|k| {
+                Point3::new(
+                    200.0 * (k / 9) as f64,
+                    200.0 * ((k / 3) % 3) as f64,
+                    150.0 * (k % 3) as f64,
+                )
+            })
+            .collect();
+        let stations: Vec<Vector3<f64>> = (0..5)
+            .map(|j| {
+                let a = std::f64::consts::TAU * j as f64 / 5.0;
+                let z = if j % 2 == 0 { -100.0 } else { 450.0 };
+                Vector3::new(200.0 + 800.0 * a.cos(), 200.0 + 700.0 * a.sin(), z)
+            })
+            .collect();
+        let mut readings = Vec::new();
+        let mut truth = Vec::new();
+        for (j, s) in stations.iter().enumerate() {
+            let zero = (points[0].coords - s).norm();
+            truth.push(Vector4::new(s.x, s.y, s.z, zero));
+            for (i, p) in points.iter().enumerate() {
+                readings.push(Reading {
+                    station: j,
+                    point: i,
+                    l: (p.coords - s).norm() - zero,
+                });
+            }
+        }
+        let net = Network {
+            points,
+            point_names: (1..=27).map(|i| i.to_string()).collect(),
+            station_names: (1..=5).map(|j| j.to_string()).collect(),
+            readings,
+        };
+        (net, truth)
+    }
+
+    #[test]
+    fn a_far_start_converges_through_damping() {
+        let (net, truth) = network();
+        let st = Structure::new(&net).unwrap();
+        // Stations 150 mm and dead paths 40 mm off, points 5 mm off: far
+        // beyond what the seed's start leaves; the damped iteration still
+        // reaches the exact solution.
+        let mut state = State {
+            points: net
+                .points
+                .iter()
+                .enumerate()
+                .map(|(i, p)| p.coords + Vector3::new(5.0, -3.0, 4.0) * ((i % 3) as f64 - 1.0))
+                .collect(),
+            stations: truth
+                .iter()
+                .map(|s| s + Vector4::new(150.0, -120.0, 90.0, 40.0))
+                .collect(),
+        };
+        let (iterations, _) = gauss_newton(&net, &st, &mut state, 100).unwrap();
+        assert!(iterations > 3, "{iterations}");
+        assert!(cost(&st, &state) < 1e-20, "{}", cost(&st, &state));
+        // The shape is the truth's: distances between points are exact.
+        let d = |s: &State, a: usize, b: usize| (s.points[a] - s.points[b]).norm();
+        for (a, b) in [(0, 26), (4, 13), (8, 18)] {
+            let nominal = (net.points[a] - net.points[b]).norm();
+            assert!((d(&state, a, b) - nominal).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn the_reduced_matrix_has_the_six_rigid_motions_as_null_space() {
+        let (net, truth) = network();
+        let st = Structure::new(&net).unwrap();
+        let state = State {
+            points: net.points.iter().map(|p| p.coords).collect(),
+            stations: truth,
+        };
+        let lin = linearise(&net, &st, &state, 0.0, false).unwrap();
+        let basis = station_rigid_basis(&state);
+        let scale = lin.schur.amax();
+        assert!((&lin.schur * &basis).amax() < 1e-10 * scale);
+        let e = SymmetricEigen::new(lin.schur.clone()).eigenvalues;
+        let mut e: Vec<f64> = e.iter().copied().collect();
+        e.sort_by(f64::total_cmp);
+        // Six zeros to rounding, then a gap of ten orders of magnitude.
+        assert!(e[5].abs() < 1e-12 * scale && e[6] > 1e-6 * scale, "{e:?}");
+    }
+}
