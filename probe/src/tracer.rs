@@ -14,7 +14,7 @@
 //!    directions to its stations are (nearly) coplanar — stations in a plane
 //!    with the point — and no weak station geometry: condition numbers above
 //!    [`CONDITION_LIMIT`] are refused with their value.
-//! 2. **Stations** (the seed's step 1, [`start`]): squaring the model with
+//! 2. **Stations** (the seed's step 1): squaring the model with
 //!    `k = Xⱼ² + Yⱼ² + Zⱼ² − dⱼ²` makes it linear in (Xⱼ, Yⱼ, Zⱼ, dⱼ, k);
 //!    linear least squares per station from the nominal points.
 //! 3. **Everything** (the seed's step 2): Gauss–Newton (with Levenberg–
@@ -30,7 +30,7 @@
 //!    constraints). Converged when the largest step is below
 //!    [`STEP_TOLERANCE_MM`] or the cost falls by less than
 //!    [`COST_TOLERANCE`] of itself.
-//! 4. **Datum** ([`datum`]): the estimated points are rigidly aligned (least
+//! 4. **Datum**: the estimated points are rigidly aligned (least
 //!    squares, `geom::transform::rigid_fit`) to the nominal grid; corrections
 //!    = aligned − nominal carry no rigid motion, and the length scale is the
 //!    interferometer's. Stations are reported in the same frame. The

@@ -461,9 +461,9 @@ fn uncertainties_agree_with_monte_carlo() {
     let mut sum = vec![Vector3::zeros(); n];
     let mut sum2 = vec![Vector3::zeros(); n];
     let mut predicted = vec![Vector3::zeros(); n];
-    let mut st_sum = vec![Vector3::zeros(); 5];
-    let mut st_sum2 = vec![Vector3::zeros(); 5];
-    let mut st_pred = vec![Vector3::zeros(); 5];
+    let mut st_sum = [Vector3::zeros(); 5];
+    let mut st_sum2 = [Vector3::zeros(); 5];
+    let mut st_pred = [Vector3::zeros(); 5];
     for run in 0..RUNS {
         let d = generate(&TracerConfig {
             noise_seed: 1000 + run,

@@ -216,7 +216,7 @@ pub(super) fn finish(
 ) -> Result<Solution> {
     let lin = normal::linearise(net, st, state, 0.0, true)?;
     let worst_point = lin.worst_point;
-    if !(worst_point.1 <= CONDITION_LIMIT) {
+    if worst_point.1.is_nan() || worst_point.1 > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
             what: format!(
                 "point '{}' at the solution: the directions to its stations",

@@ -273,7 +273,7 @@ pub(super) fn linearise(
                 }
                 if conditions {
                     let c = condition3(&u);
-                    if !(c <= out.worst_point.1) {
+                    if c.is_nan() || c > out.worst_point.1 {
                         out.worst_point = (i, c);
                     }
                     if !c.is_finite() {
@@ -341,7 +341,7 @@ pub(super) fn linearise(
             *s += v;
         }
         lin.cost += c.cost;
-        if !(c.worst_point.1 <= lin.worst_point.1) {
+        if c.worst_point.1.is_nan() || c.worst_point.1 > lin.worst_point.1 {
             lin.worst_point = c.worst_point;
         }
     }
@@ -471,7 +471,7 @@ pub(super) fn cost(st: &Structure, state: &State) -> f64 {
 pub(super) fn check_conditioning(net: &Network, st: &Structure, state: &State) -> Result<()> {
     let lin = linearise(net, st, state, 0.0, true)?;
     let (i, c) = lin.worst_point;
-    if !(c <= CONDITION_LIMIT) {
+    if c.is_nan() || c > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
             what: format!(
                 "point '{}': the directions to its {} stations are nearly coplanar \
@@ -484,7 +484,7 @@ pub(super) fn check_conditioning(net: &Network, st: &Structure, state: &State) -
         });
     }
     let c = condition(&regularised(&lin, &station_rigid_basis(state)));
-    if !(c <= CONDITION_LIMIT) {
+    if c.is_nan() || c > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
             what: REDUCED.to_string(),
             condition: c,

@@ -52,7 +52,7 @@ fn station(net: &Network, j: usize, readings: &[(usize, f64)]) -> Result<Vector4
         rhs[row] = a.norm_squared() - l * l;
     }
     let s = spread.singular_values();
-    if !(s.min() > COPLANAR_RATIO * s.max()) {
+    if s.min().is_nan() || s.min() <= COPLANAR_RATIO * s.max() {
         return Err(ProbeError::Unsolvable(format!(
             "station '{name}' reads {count} points that lie in one plane (principal spreads \
              {:.3e} and {:.3e} mm): the grid must be three-dimensional, or the station and its \
@@ -62,7 +62,7 @@ fn station(net: &Network, j: usize, readings: &[(usize, f64)]) -> Result<Vector4
         )));
     }
     let norms: Vec<f64> = (0..5).map(|c| design.column(c).norm()).collect();
-    if norms.iter().any(|v| !(*v > 0.0)) {
+    if norms.iter().any(|v| v.is_nan() || *v <= 0.0) {
         return Err(ProbeError::Unsolvable(format!(
             "station '{name}': all its readings are zero"
         )));
@@ -73,7 +73,7 @@ fn station(net: &Network, j: usize, readings: &[(usize, f64)]) -> Result<Vector4
     let svd = design.svd(true, true);
     let (lo, hi) = (svd.singular_values.min(), svd.singular_values.max());
     let condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
-    if !(condition <= CONDITION_LIMIT) {
+    if condition.is_nan() || condition > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
             what: format!(
                 "station '{name}': the seed's linearised start from its {count} points \

@@ -49,8 +49,8 @@ pub struct Args {
     force: bool,
 }
 
-/// Arguments of `trinocular synth probe tracer`. Unset settings keep the
-/// defaults of `synth::probe::tracer::TracerConfig` (the check data's layout).
+/// Arguments of `trinocular synth probe tracer`. Defaults are those of
+/// `synth::probe::tracer::TracerConfig` (the check data's layout).
 #[derive(Debug, clap::Args)]
 pub struct SynthArgs {
     /// Output directory (created if missing): grid.csv, readings.csv, truth.json.
@@ -65,30 +65,30 @@ pub struct SynthArgs {
     /// Corner of the grid with the smallest coordinates (mm) [default: 0,0,0].
     #[arg(long, value_parser = triple::<f64>, value_name = "X,Y,Z", allow_hyphen_values = true)]
     origin: Option<[f64; 3]>,
-    /// Number of tracer stations [default: 6].
-    #[arg(long)]
-    stations: Option<usize>,
-    /// Distance of the stations from the grid centre, in half-diagonals of the grid [default: 1.6].
-    #[arg(long)]
-    station_distance: Option<f64>,
-    /// RMS of the CMM's error field (µm) [default: 5].
-    #[arg(long)]
-    error_um: Option<f64>,
-    /// Standard deviation of a reading (µm) [default: 0.2].
-    #[arg(long)]
-    noise_um: Option<f64>,
-    /// Resolution the readings are rounded to (µm; 0: none) [default: 0.0001].
-    #[arg(long)]
-    resolution_um: Option<f64>,
-    /// Share of readings left out at random [default: 0].
-    #[arg(long)]
-    missing: Option<f64>,
-    /// Seed of the error field and the station layout [default: 1].
-    #[arg(long)]
-    seed: Option<u64>,
-    /// Seed of the reading noise [default: 1].
-    #[arg(long)]
-    noise_seed: Option<u64>,
+    /// Number of tracer stations.
+    #[arg(long, default_value_t = TracerConfig::default().stations)]
+    stations: usize,
+    /// Distance of the stations from the grid centre, in half-diagonals of the grid.
+    #[arg(long, default_value_t = TracerConfig::default().station_distance)]
+    station_distance: f64,
+    /// RMS of the CMM's error field (µm).
+    #[arg(long, default_value_t = TracerConfig::default().error_um)]
+    error_um: f64,
+    /// Standard deviation of a reading (µm).
+    #[arg(long, default_value_t = TracerConfig::default().noise_um)]
+    noise_um: f64,
+    /// Resolution the readings are rounded to (µm; 0: none).
+    #[arg(long, default_value_t = TracerConfig::default().resolution_um)]
+    resolution_um: f64,
+    /// Share of readings left out at random.
+    #[arg(long, default_value_t = TracerConfig::default().missing)]
+    missing: f64,
+    /// Seed of the error field and the station layout.
+    #[arg(long, default_value_t = TracerConfig::default().seed)]
+    seed: u64,
+    /// Seed of the reading noise.
+    #[arg(long, default_value_t = TracerConfig::default().noise_seed)]
+    noise_seed: u64,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
@@ -387,14 +387,14 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         counts: args.counts.unwrap_or(d.counts),
         size: args.size.unwrap_or(d.size),
         origin: args.origin.unwrap_or(d.origin),
-        stations: args.stations.unwrap_or(d.stations),
-        station_distance: args.station_distance.unwrap_or(d.station_distance),
-        error_um: args.error_um.unwrap_or(d.error_um),
-        noise_um: args.noise_um.unwrap_or(d.noise_um),
-        resolution_um: args.resolution_um.unwrap_or(d.resolution_um),
-        missing: args.missing.unwrap_or(d.missing),
-        seed: args.seed.unwrap_or(d.seed),
-        noise_seed: args.noise_seed.unwrap_or(d.noise_seed),
+        stations: args.stations,
+        station_distance: args.station_distance,
+        error_um: args.error_um,
+        noise_um: args.noise_um,
+        resolution_um: args.resolution_um,
+        missing: args.missing,
+        seed: args.seed,
+        noise_seed: args.noise_seed,
     };
     let data = generate(&config)?;
     let names = ["grid.csv", "readings.csv", "truth.json"];

@@ -269,7 +269,7 @@ fn stations(config: &TracerConfig) -> Vec<Point3<f64>> {
 /// `v` rounded to a multiple of `step`; a step that is 1/N (N whole) divides
 /// by N, so that the result is the double nearest the decimal and prints short.
 fn round_to(v: f64, step: f64) -> f64 {
-    if !(step > 0.0) {
+    if step.is_nan() || step <= 0.0 {
         return v;
     }
     let per = 1.0 / step;
