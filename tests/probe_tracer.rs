@@ -259,62 +259,52 @@ fn bad_readings_name_file_line_and_column() {
     assert!(e.contains("station '6' reads 4 points"), "{e}");
 }
 
+/// Run `probe tracer --query` with the query `text` on `grid` and the
+/// check data's readings; the one-line error.
+fn query_error(dir: &Path, grid: &Path, text: &str) -> String {
+    let q = dir.join("q.csv");
+    std::fs::write(&q, text).unwrap();
+    let out = dir.join("r");
+    let run = tracer(grid, &testdata("readings.csv"), &out, &["--query", s(&q)]);
+    let e = one_line_error(&run, 1);
+    assert!(!out.join("report.json").exists(), "outputs written: {e}");
+    e
+}
+
 #[test]
 fn query_needs_a_lattice_and_points_inside_it() {
     let dir = tempfile::tempdir().unwrap();
-    let q = dir.path().join("q.csv");
-    std::fs::write(&q, "x,y,z\n10,20,30\n100,401,0\n").unwrap();
-    let run = tracer(
-        &testdata("grid.csv"),
-        &testdata("readings.csv"),
-        &dir.path().join("r"),
-        &["--query", s(&q)],
-    );
-    let e = one_line_error(&run, 1);
+    let grid = testdata("grid.csv");
+    let e = query_error(dir.path(), &grid, "x,y,z\n10,20,30\n100,401,0\n");
     assert!(
         e.contains("q.csv: line 3, column 'y'") && e.contains("outside"),
         "{e}"
     );
-    std::fs::write(&q, "x,y,z\n10,nan,30\n").unwrap();
-    let run = tracer(
-        &testdata("grid.csv"),
-        &testdata("readings.csv"),
-        &dir.path().join("r"),
-        &["--query", s(&q)],
-    );
-    let e = one_line_error(&run, 1);
+    let e = query_error(dir.path(), &grid, "x,y,z\n10,nan,30\n");
     assert!(e.contains("q.csv: line 2, column 'y'"), "{e}");
 
     // Point 7 moved off the lattice: the solve works, the query refuses.
-    let grid = dir.path().join("grid.csv");
-    let text = std::fs::read_to_string(testdata("grid.csv")).unwrap();
-    let moved = text.replacen(
+    let moved = dir.path().join("grid.csv");
+    let text = std::fs::read_to_string(&grid).unwrap();
+    let edited = text.replacen(
         "7,0.000000,100.000000,200.000000",
         "7,0.000000,100.000000,203.000000",
         1,
     );
-    assert_ne!(moved, text);
-    std::fs::write(&grid, moved).unwrap();
+    assert_ne!(edited, text);
+    std::fs::write(&moved, edited).unwrap();
     let plain = tracer(
-        &grid,
+        &moved,
         &testdata("readings.csv"),
         &dir.path().join("plain"),
         &[],
     );
     assert!(plain.status.success(), "{plain:?}");
-    std::fs::write(&q, "x,y,z\n10,20,30\n").unwrap();
-    let run = tracer(
-        &grid,
-        &testdata("readings.csv"),
-        &dir.path().join("r"),
-        &["--query", s(&q)],
-    );
-    let e = one_line_error(&run, 1);
+    let e = query_error(dir.path(), &moved, "x,y,z\n10,20,30\n");
     assert!(
         e.contains("grid.csv: line 8, column 'z'") && e.contains("lattice"),
         "{e}"
     );
-    assert!(!dir.path().join("r/report.json").exists());
 }
 
 #[test]

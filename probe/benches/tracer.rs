@@ -8,8 +8,10 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use geom::nalgebra::Point3;
-use probe::tracer::{self, Network, Options, Reading};
+#[path = "../tests/tracer_common/mod.rs"]
+mod tracer_common;
+
+use probe::tracer::{self, Network, Options};
 use synth::probe::tracer::{TracerConfig, generate};
 
 fn main() {
@@ -17,27 +19,14 @@ fn main() {
 }
 
 fn network(counts: [usize; 3], stations: usize) -> Network {
-    let d = generate(&TracerConfig {
-        counts,
-        stations,
-        ..TracerConfig::default()
-    })
-    .unwrap();
-    Network {
-        points: d.grid.iter().map(|g| Point3::from(g.position())).collect(),
-        point_names: d.grid.iter().map(|g| g.point.clone()).collect(),
-        station_names: (1..=stations).map(|j| j.to_string()).collect(),
-        // The generator writes station j's readings as "j", points as "i" (1-based).
-        readings: d
-            .readings
-            .iter()
-            .map(|r| Reading {
-                station: r.station.parse::<usize>().unwrap() - 1,
-                point: r.point.parse::<usize>().unwrap() - 1,
-                l: r.l,
-            })
-            .collect(),
-    }
+    tracer_common::network(
+        &generate(&TracerConfig {
+            counts,
+            stations,
+            ..TracerConfig::default()
+        })
+        .unwrap(),
+    )
 }
 
 /// n points × 8 stations, n = 10³ … 10⁴.

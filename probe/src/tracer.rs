@@ -125,6 +125,33 @@ pub struct Network {
 }
 
 impl Network {
+    /// The network of a checked `grid.csv` and `readings.csv` (stations in
+    /// order of first appearance, points in grid order).
+    pub fn from_records(
+        grid: &formats::probe::tracer::Grid,
+        readings: &formats::probe::tracer::Readings,
+    ) -> Network {
+        Network {
+            points: grid
+                .rows
+                .iter()
+                .map(|r| Point3::from(r.record.position()))
+                .collect(),
+            point_names: grid.rows.iter().map(|r| r.record.point.clone()).collect(),
+            station_names: readings.stations.clone(),
+            readings: readings
+                .rows
+                .iter()
+                .enumerate()
+                .map(|(k, r)| Reading {
+                    station: readings.station_of[k],
+                    point: readings.point_of[k],
+                    l: r.record.l,
+                })
+                .collect(),
+        }
+    }
+
     /// Unknowns after the datum: `3n + 4m − 6` (METHODS.md §4).
     pub fn unknowns(&self) -> usize {
         (3 * self.points.len() + 4 * self.station_names.len()).saturating_sub(6)

@@ -10,36 +10,12 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use geom::nalgebra::Point3;
-use probe::tracer::{self, Network, Options, Reading};
+mod tracer_common;
+
+use probe::tracer::{self, Options};
 use report::browser::{self, PAGE_WIDTH, check_region, rgb};
 use report::plot::{HEIGHT, MAP_HEIGHT, MEAN, SIX, UP, WIDTH, ZONE, diverging};
 use synth::probe::tracer::{TracerConfig, generate};
-
-fn network() -> Network {
-    let d = generate(&TracerConfig::default()).unwrap();
-    let mut stations: Vec<String> = Vec::new();
-    let readings = d
-        .readings
-        .iter()
-        .map(|r| {
-            if !stations.contains(&r.station) {
-                stations.push(r.station.clone());
-            }
-            Reading {
-                station: stations.iter().position(|s| *s == r.station).unwrap(),
-                point: r.point.parse::<usize>().unwrap() - 1,
-                l: r.l,
-            }
-        })
-        .collect();
-    Network {
-        points: d.grid.iter().map(|g| Point3::from(g.position())).collect(),
-        point_names: d.grid.iter().map(|g| g.point.clone()).collect(),
-        station_names: stations,
-        readings,
-    }
-}
 
 #[test]
 fn report_html_renders_in_chromium() {
@@ -47,7 +23,7 @@ fn report_html_renders_in_chromium() {
     else {
         return;
     };
-    let mut net = network();
+    let mut net = tracer_common::network(&generate(&TracerConfig::default()).unwrap());
     // One gross error, so that the flagged-reading marks are on the page too.
     net.readings[123].l += 0.004;
     let solution = tracer::solve(&net, &Options::default()).unwrap();

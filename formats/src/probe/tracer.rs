@@ -30,6 +30,11 @@ pub const UNIT_SLACK_MM: f64 = 1.0;
 /// beyond any CMM or machine tool; a grid written in µm exceeds it.
 pub const MAX_GRID_EXTENT_MM: f64 = 50_000.0;
 
+/// Fails unless every value is finite, naming the first column that is not.
+fn finite_all(values: &[(&'static str, f64)]) -> std::result::Result<(), Invalid> {
+    values.iter().try_for_each(|&(c, v)| finite(c, v))
+}
+
 fn name(column: &'static str, value: &str) -> std::result::Result<(), Invalid> {
     if value.trim().is_empty() {
         Err(Invalid::new(column, "empty name"))
@@ -152,7 +157,7 @@ impl Record for CorrectionRow {
 
     fn validate(&self) -> std::result::Result<(), Invalid> {
         name("point", &self.point)?;
-        for (c, v) in [
+        finite_all(&[
             ("x", self.x),
             ("y", self.y),
             ("z", self.z),
@@ -162,10 +167,7 @@ impl Record for CorrectionRow {
             ("u_dx", self.u_dx),
             ("u_dy", self.u_dy),
             ("u_dz", self.u_dz),
-        ] {
-            finite(c, v)?;
-        }
-        Ok(())
+        ])
     }
 }
 
@@ -215,7 +217,7 @@ impl Record for StationRow {
 
     fn validate(&self) -> std::result::Result<(), Invalid> {
         name("station", &self.station)?;
-        for (c, v) in [
+        finite_all(&[
             ("x", self.x),
             ("y", self.y),
             ("z", self.z),
@@ -225,10 +227,7 @@ impl Record for StationRow {
             ("u_z", self.u_z),
             ("u_dead_path", self.u_dead_path),
             ("residual_rms_um", self.residual_rms_um),
-        ] {
-            finite(c, v)?;
-        }
-        Ok(())
+        ])
     }
 }
 
@@ -292,17 +291,14 @@ impl Record for CorrectedRow {
     const COLUMNS: &'static [&'static str] = &["x", "y", "z", "dx", "dy", "dz"];
 
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        for (c, v) in [
+        finite_all(&[
             ("x", self.x),
             ("y", self.y),
             ("z", self.z),
             ("dx", self.dx),
             ("dy", self.dy),
             ("dz", self.dz),
-        ] {
-            finite(c, v)?;
-        }
-        Ok(())
+        ])
     }
 }
 
@@ -364,7 +360,12 @@ fn row_error(path: &Path, line: u64, column: &str, message: String) -> FormatErr
 /// names, two points at the same position, and a span beyond
 /// [`MAX_GRID_EXTENT_MM`] (coordinates in µm) are errors.
 pub fn read_grid(path: &Path) -> Result<Grid> {
-    let rows = read_csv::<GridRow>(path)?;
+    check_grid(read_csv::<GridRow>(path)?, path)
+}
+
+/// The checks of [`read_grid`] on rows already read (or made in memory);
+/// `path` names their source in errors.
+pub fn check_grid(rows: Vec<Row<GridRow>>, path: &Path) -> Result<Grid> {
     if rows.is_empty() {
         return Err(FormatError::file(path, "no grid points after the header"));
     }
@@ -449,7 +450,17 @@ pub struct Readings {
 /// distance between their points by more than [`UNIT_SLACK_MM`] (readings
 /// not in mm) are errors naming the line and column.
 pub fn read_readings(path: &Path, grid: &Grid, grid_path: &Path) -> Result<Readings> {
-    let rows = read_csv::<ReadingRow>(path)?;
+    check_readings(read_csv::<ReadingRow>(path)?, path, grid, grid_path)
+}
+
+/// The checks of [`read_readings`] on rows already read (or made in
+/// memory); `path` names their source in errors.
+pub fn check_readings(
+    rows: Vec<Row<ReadingRow>>,
+    path: &Path,
+    grid: &Grid,
+    grid_path: &Path,
+) -> Result<Readings> {
     if rows.is_empty() {
         return Err(FormatError::file(path, "no readings after the header"));
     }

@@ -132,6 +132,15 @@ pub const DATUM: &str = "corrections = estimated − nominal after the least-squ
                          alignment of the estimated points to the nominal grid (no rigid motion); \
                          length scale from the interferometer";
 
+fn items(weak: &[super::Weak], names: &[String]) -> Vec<WeakItem> {
+    weak.iter()
+        .map(|w| WeakItem {
+            name: names[w.index].clone(),
+            reason: w.reason.clone(),
+        })
+        .collect()
+}
+
 /// Build `report.json` from a solution of `network`.
 pub fn report(network: &Network, s: &Solution) -> TracerReport {
     let lengths: Vec<f64> = s.corrections.iter().map(|c| c.vector.norm()).collect();
@@ -203,22 +212,8 @@ pub fn report(network: &Network, s: &Solution) -> TracerReport {
             readings: flagged,
         },
         weak: Weakness {
-            points: s
-                .weak_points
-                .iter()
-                .map(|w| WeakItem {
-                    name: network.point_names[w.index].clone(),
-                    reason: w.reason.clone(),
-                })
-                .collect(),
-            stations: s
-                .weak_stations
-                .iter()
-                .map(|w| WeakItem {
-                    name: network.station_names[w.index].clone(),
-                    reason: w.reason.clone(),
-                })
-                .collect(),
+            points: items(&s.weak_points, &network.point_names),
+            stations: items(&s.weak_stations, &network.station_names),
         },
     }
 }

@@ -9,13 +9,13 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use formats::FormatError;
 use formats::probe::tracer::{
-    CorrectedRow, CorrectionRow, Grid, QueryRow, Readings, ResidualRow, StationRow, read_grid,
-    read_query, read_readings,
+    CorrectedRow, CorrectionRow, Grid, QueryRow, ResidualRow, StationRow, read_grid, read_query,
+    read_readings,
 };
 use formats::{Row, write_atomic, write_json, write_records};
 use geom::nalgebra::Point3;
 use probe::ProbeError;
-use probe::tracer::{self, CorrectionGrid, Network, Options, Reading};
+use probe::tracer::{self, CorrectionGrid, Network, Options};
 use synth::probe::tracer::{TracerConfig, generate};
 
 const UM: f64 = 1e3;
@@ -92,29 +92,6 @@ pub struct SynthArgs {
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
-}
-
-/// The network of a checked grid and readings (stations in order of first appearance).
-pub fn network(grid: &Grid, readings: &Readings) -> Network {
-    Network {
-        points: grid
-            .rows
-            .iter()
-            .map(|r| Point3::from(r.record.position()))
-            .collect(),
-        point_names: grid.rows.iter().map(|r| r.record.point.clone()).collect(),
-        station_names: readings.stations.clone(),
-        readings: readings
-            .rows
-            .iter()
-            .enumerate()
-            .map(|(k, r)| Reading {
-                station: readings.station_of[k],
-                point: readings.point_of[k],
-                l: r.record.l,
-            })
-            .collect(),
-    }
 }
 
 /// Create `dir` and refuse, before anything is written, an output that
@@ -203,7 +180,7 @@ pub fn run(args: &Args) -> Result<()> {
     let grid = read_grid(&args.nominal)?;
     let readings = read_readings(&args.readings, &grid, &args.nominal)?;
     let query = args.query.as_deref().map(read_query).transpose()?;
-    let net = network(&grid, &readings);
+    let net = Network::from_records(&grid, &readings);
     if let (Some(q), Some(path)) = (&query, &args.query) {
         check_query(&net, &grid, &args.nominal, q, path)?;
     }
@@ -468,7 +445,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     let grid = read_grid(&grid_path)?;
     let readings = read_readings(&readings_path, &grid, &grid_path)?;
     let read = start.elapsed();
-    let net = network(&grid, &readings);
+    let net = Network::from_records(&grid, &readings);
     let options = Options::default();
     let threads = rayon::current_num_threads();
     let (all, solution) = median_time(args.repeat, || Ok(tracer::solve(&net, &options)?))?;
