@@ -17,6 +17,8 @@ use crate::Result;
 const UM: f64 = 1e3;
 /// The longest correction arrow, as a fraction of the grid's largest extent.
 const ARROW_FRACTION: f64 = 0.08;
+/// Grids with more points than this get smaller marks in the uncertainty map.
+const DENSE_GRID: usize = 2000;
 /// Rows of the largest-corrections and outliers tables.
 const TABLE_ROWS: usize = 20;
 
@@ -242,14 +244,16 @@ fn uncertainty_plot(net: &Network, s: &Solution) -> Result<String> {
         .fold(0.0, f64::max)
         .max(1e-6);
     let title = format!("Standard uncertainty of the corrections (median {median:.3} µm)");
+    // Smaller marks where the grid is dense.
+    let radius = if u.len() > DENSE_GRID { 3 } else { 5 };
     Ok(svg(&title, (WIDTH, MAP_HEIGHT), |root| {
         let (plot, bar) = root.split_horizontally(WIDTH - 130);
         let mut chart = grid_chart!(&plot, title.as_str(), r);
         chart
             .draw_series(net.points.iter().zip(&u).map(|(p, v)| {
                 EmptyElement::at((p.x, p.z, p.y))
-                    + Circle::new((0, 0), 5, diverging((v - median) / spread).filled())
-                    + Circle::new((0, 0), 5, RGBColor(90, 90, 90).stroke_width(1))
+                    + Circle::new((0, 0), radius, diverging((v - median) / spread).filled())
+                    + Circle::new((0, 0), radius, RGBColor(90, 90, 90).stroke_width(1))
             }))
             .map_err(|e| e.to_string())?;
         colour_bar(&bar, MAP_HEIGHT, spread, "µm", ["largest u", "− median"])
