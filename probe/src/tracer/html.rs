@@ -205,28 +205,15 @@ fn corrections_plot(net: &Network, s: &Solution) -> Result<String> {
             let q = p + c.vector * gain;
             PathElement::new(vec![(p.x, p.z, p.y), (q.x, q.z, q.y)], UP.stroke_width(2))
         });
-        chart
-            .draw_series(arrows)
-            .map_err(|e| e.to_string())?
-            .label("correction (magnified)")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], UP.stroke_width(2)));
+        chart.draw_series(arrows).map_err(|e| e.to_string())?;
         chart
             .draw_series(
                 net.points
                     .iter()
                     .map(|p| Circle::new((p.x, p.z, p.y), 2, MEAN.filled())),
             )
-            .map_err(|e| e.to_string())?
-            .label("nominal grid point")
-            .legend(|(x, y)| Circle::new((x + 10, y), 3, MEAN.filled()));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(180, 180, 180))
-            .label_font((FONT, 13))
-            .draw()
-            .map_err(|e| e.to_string())
+            .map_err(|e| e.to_string())?;
+        Ok(())
     })?)
 }
 
@@ -340,8 +327,8 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
     page.figure(
         "plot-corrections",
         &corrections_plot(net, s)?,
-        "Corrections (true − nominal, no rigid motion) as magnified arrows from the nominal \
-         grid points; x along the left edge, y along the right edge, z up.",
+        "Corrections (true − nominal, no rigid motion) as magnified blue arrows from the nominal \
+         grid points (black dots); x along the left edge, y along the right edge, z up.",
     );
     page.figure(
         "plot-uncertainty",
