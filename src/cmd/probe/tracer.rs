@@ -198,6 +198,13 @@ pub fn run(args: &Args) -> Result<()> {
     inputs.extend(args.query.as_deref());
     prepare_outputs(&args.out, &names, &inputs, args.force)?;
 
+    if let Some(v) = args.sigma_um
+        && (v.is_nan() || v <= 0.0)
+    {
+        bail!(
+            "--sigma-um {v}: the standard deviation of a reading must be a positive number of µm"
+        );
+    }
     let options = Options {
         outlier_k: args.k,
         sigma_mm: args.sigma_um.map(|s| s / UM),
