@@ -28,6 +28,16 @@ pub enum ProbeError {
         /// The largest accepted.
         limit: f64,
     },
+    /// The nominal grid is not a lattice, which trilinear interpolation needs.
+    #[error("the grid is not a lattice: {message}")]
+    NotLattice {
+        /// The point at fault (its position among the points), when one is.
+        point: Option<usize>,
+        /// Its coordinate at fault (0, 1, 2 = x, y, z), when one is.
+        axis: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
     /// An iteration did not converge.
     #[error("{what} did not converge after {iterations} iterations")]
     NotConverged {

@@ -31,6 +31,8 @@ pub struct Args {
 enum What {
     /// Extraction throughput: in memory against a plain sum, and decode + extract over TIFF files.
     Extract(ExtractArgs),
+    /// Laser-tracer multilateration: solve time of 10⁴ grid points × 8 stations.
+    Tracer(crate::cmd::probe::tracer::BenchArgs),
 }
 
 /// Arguments of `trinocular bench extract`.
@@ -252,5 +254,6 @@ fn bench_extract(args: &ExtractArgs) -> Result<()> {
 pub fn run(args: &Args) -> Result<()> {
     match &args.what {
         What::Extract(a) => bench_extract(a),
+        What::Tracer(a) => crate::cmd::probe::tracer::bench(a),
     }
 }

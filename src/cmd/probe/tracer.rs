@@ -1,21 +1,495 @@
-//! `trinocular probe tracer` and `trinocular synth probe tracer` (to be written).
+//! `trinocular probe tracer` (CMM volumetric correction by laser-tracer
+//! multilateration, METHODS.md §4) and `trinocular synth probe tracer` (its
+//! check data with truth). Thin: flags, files through `formats`, the work in
+//! `probe::tracer` and `synth::probe::tracer`.
 
-use anyhow::{Result, bail};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use formats::FormatError;
+use formats::probe::tracer::{
+    CorrectedRow, CorrectionRow, Grid, QueryRow, ResidualRow, StationRow, read_grid, read_query,
+    read_readings,
+};
+use formats::{Row, write_atomic, write_json, write_records};
+use geom::nalgebra::Point3;
+use probe::ProbeError;
+use probe::tracer::{self, CorrectionGrid, Network, Options};
+use synth::probe::tracer::{TracerConfig, generate};
+
+const UM: f64 = 1e3;
+const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// Arguments of `trinocular probe tracer`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Nominal grid `point,x,y,z` (CMM coordinates, mm).
+    #[arg(long, value_name = "GRID.csv")]
+    nominal: PathBuf,
+    /// Interferometric readings `station,point,l` (mm, relative to each station's first point).
+    #[arg(long, value_name = "READINGS.csv")]
+    readings: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Points `x,y,z` (mm) to correct by trilinear interpolation in the grid's cells (the grid
+    /// must be a lattice): writes DIR/corrected.csv.
+    #[arg(long, value_name = "Q.csv")]
+    query: Option<PathBuf>,
+    /// Flag a reading when its normalised residual exceeds k.
+    #[arg(long, default_value_t = tracer::OUTLIER_K)]
+    k: f64,
+    /// Standard deviation of a reading (µm) to use for the uncertainties, instead of the one
+    /// estimated from the residuals.
+    #[arg(long, value_name = "UM")]
+    sigma_um: Option<f64>,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
 
-/// Arguments of `trinocular synth probe tracer`.
+/// Arguments of `trinocular synth probe tracer`. Defaults are those of
+/// `synth::probe::tracer::TracerConfig` (the check data's layout).
 #[derive(Debug, clap::Args)]
-pub struct SynthArgs {}
+pub struct SynthArgs {
+    /// Output directory (created if missing): grid.csv, readings.csv, truth.json.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Grid points along x, y, z [default: 5,5,4].
+    #[arg(long, value_parser = triple::<usize>, value_name = "NX,NY,NZ")]
+    counts: Option<[usize; 3]>,
+    /// Size of the grid along x, y, z (mm) [default: 400,400,300].
+    #[arg(long, value_parser = triple::<f64>, value_name = "X,Y,Z")]
+    size: Option<[f64; 3]>,
+    /// Corner of the grid with the smallest coordinates (mm) [default: 0,0,0].
+    #[arg(long, value_parser = triple::<f64>, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    origin: Option<[f64; 3]>,
+    /// Number of tracer stations.
+    #[arg(long, default_value_t = TracerConfig::default().stations)]
+    stations: usize,
+    /// Distance of the stations from the grid centre, in half-diagonals of the grid.
+    #[arg(long, default_value_t = TracerConfig::default().station_distance)]
+    station_distance: f64,
+    /// RMS of the CMM's error field (µm).
+    #[arg(long, default_value_t = TracerConfig::default().error_um)]
+    error_um: f64,
+    /// Standard deviation of a reading (µm).
+    #[arg(long, default_value_t = TracerConfig::default().noise_um)]
+    noise_um: f64,
+    /// Resolution the readings are rounded to (µm; 0: none).
+    #[arg(long, default_value_t = TracerConfig::default().resolution_um)]
+    resolution_um: f64,
+    /// Share of readings left out at random.
+    #[arg(long, default_value_t = TracerConfig::default().missing)]
+    missing: f64,
+    /// Seed of the error field and the station layout.
+    #[arg(long, default_value_t = TracerConfig::default().seed)]
+    seed: u64,
+    /// Seed of the reading noise.
+    #[arg(long, default_value_t = TracerConfig::default().noise_seed)]
+    noise_seed: u64,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Create `dir` and refuse, before anything is written, an output that
+/// already exists (unless `force`) or that is one of the `inputs` (always).
+fn prepare_outputs(dir: &Path, names: &[&str], inputs: &[&Path], force: bool) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    for name in names {
+        let path = dir.join(name);
+        if !path.exists() {
+            continue;
+        }
+        let target = path
+            .canonicalize()
+            .with_context(|| path.display().to_string())?;
+        for input in inputs {
+            if input.canonicalize().is_ok_and(|i| i == target) {
+                bail!(
+                    "{}: output {name} would overwrite this input; choose another --out",
+                    input.display()
+                );
+            }
+        }
+        if !force {
+            bail!(
+                "{}: already exists; use --force to replace the outputs in {}",
+                path.display(),
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The lattice of the grid and the query points inside it, checked before
+/// solving so that a refused query leaves nothing written.
+fn check_query(
+    net: &Network,
+    grid: &Grid,
+    grid_path: &Path,
+    query: &[Row<QueryRow>],
+    query_path: &Path,
+) -> Result<()> {
+    let zeros = vec![geom::Vector3::zeros(); net.points.len()];
+    let lattice =
+        CorrectionGrid::new(&net.points, &net.point_names, &zeros).map_err(|e| match e {
+            ProbeError::NotLattice {
+                point: Some(i),
+                axis,
+                ref message,
+            } => anyhow::Error::new(FormatError::Row {
+                path: grid_path.to_path_buf(),
+                line: grid.rows[i].line,
+                column: axis.map(|a| AXES[a].to_string()),
+                message: format!("--query needs a lattice grid: {message}"),
+            }),
+            other => anyhow::anyhow!(
+                "{}: --query needs a lattice grid: {other}",
+                grid_path.display()
+            ),
+        })?;
+    for row in query {
+        let p = Point3::from(row.record.position());
+        if let Some(a) = lattice.outside(&p) {
+            let (lo, hi) = lattice.range(a);
+            return Err(FormatError::Row {
+                path: query_path.to_path_buf(),
+                line: row.line,
+                column: Some(AXES[a].to_string()),
+                message: format!(
+                    "{} = {} is outside the grid ({} from {lo} to {hi} mm in {})",
+                    AXES[a],
+                    p[a],
+                    AXES[a],
+                    grid_path.display()
+                ),
+            }
+            .into());
+        }
+    }
+    Ok(())
+}
 
 /// Run the method.
-pub fn run(_args: &Args) -> Result<()> {
-    bail!("probe tracer is not written yet")
+pub fn run(args: &Args) -> Result<()> {
+    let grid = read_grid(&args.nominal)?;
+    let readings = read_readings(&args.readings, &grid, &args.nominal)?;
+    let query = args.query.as_deref().map(read_query).transpose()?;
+    let net = Network::from_records(&grid, &readings);
+    if let (Some(q), Some(path)) = (&query, &args.query) {
+        check_query(&net, &grid, &args.nominal, q, path)?;
+    }
+    let mut names = vec![
+        "report.json",
+        "report.html",
+        "corrections.csv",
+        "stations.csv",
+        "residuals.csv",
+    ];
+    if query.is_some() {
+        names.push("corrected.csv");
+    }
+    let mut inputs = vec![args.nominal.as_path(), args.readings.as_path()];
+    inputs.extend(args.query.as_deref());
+    prepare_outputs(&args.out, &names, &inputs, args.force)?;
+
+    if let Some(v) = args.sigma_um
+        && (v.is_nan() || v <= 0.0)
+    {
+        bail!(
+            "--sigma-um {v}: the standard deviation of a reading must be a positive number of µm"
+        );
+    }
+    let options = Options {
+        outlier_k: args.k,
+        sigma_mm: args.sigma_um.map(|s| s / UM),
+        ..Options::default()
+    };
+    let solution = tracer::solve(&net, &options).with_context(|| {
+        format!(
+            "{} with {}",
+            args.readings.display(),
+            args.nominal.display()
+        )
+    })?;
+    let report = tracer::report(&net, &solution);
+    let page = tracer::html(&net, &solution, &report)?;
+
+    let corrections: Vec<CorrectionRow> = net
+        .points
+        .iter()
+        .zip(&net.point_names)
+        .zip(&solution.corrections)
+        .map(|((p, name), c)| CorrectionRow {
+            point: name.clone(),
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            dx: c.vector.x,
+            dy: c.vector.y,
+            dz: c.vector.z,
+            u_dx: c.u.x,
+            u_dy: c.u.y,
+            u_dz: c.u.z,
+        })
+        .collect();
+    let stations: Vec<StationRow> = solution
+        .stations
+        .iter()
+        .zip(&net.station_names)
+        .map(|(s, name)| StationRow {
+            station: name.clone(),
+            x: s.position.x,
+            y: s.position.y,
+            z: s.position.z,
+            dead_path: s.dead_path,
+            u_x: s.u_position.x,
+            u_y: s.u_position.y,
+            u_z: s.u_position.z,
+            u_dead_path: s.u_dead_path,
+            readings: s.readings,
+            residual_rms_um: s.residual_rms * UM,
+        })
+        .collect();
+    let residuals: Vec<ResidualRow> = readings
+        .rows
+        .iter()
+        .zip(&solution.residuals)
+        .map(|(r, v)| ResidualRow {
+            station: r.record.station.clone(),
+            point: r.record.point.clone(),
+            l: r.record.l,
+            residual_um: v.value * UM,
+            normalized: v.normalized,
+            outlier: v.outlier,
+        })
+        .collect();
+    let corrected: Option<Vec<CorrectedRow>> = match &query {
+        Some(q) => {
+            let vectors: Vec<_> = solution.corrections.iter().map(|c| c.vector).collect();
+            let lattice = CorrectionGrid::new(&net.points, &net.point_names, &vectors)?;
+            Some(
+                q.iter()
+                    .map(|row| {
+                        let p = Point3::from(row.record.position());
+                        let c = lattice.at(&p)?;
+                        Ok(CorrectedRow {
+                            x: p.x,
+                            y: p.y,
+                            z: p.z,
+                            dx: c.x,
+                            dy: c.y,
+                            dz: c.z,
+                        })
+                    })
+                    .collect::<Result<_>>()?,
+            )
+        }
+        None => None,
+    };
+
+    let out = &args.out;
+    write_records(&out.join("corrections.csv"), &corrections)?;
+    write_records(&out.join("stations.csv"), &stations)?;
+    write_records(&out.join("residuals.csv"), &residuals)?;
+    if let Some(c) = &corrected {
+        write_records(&out.join("corrected.csv"), c)?;
+    }
+    write_json(&out.join("report.json"), &report)?;
+    write_atomic(out.join("report.html"), page.as_bytes())?;
+
+    println!(
+        "tracer: {} points, {} stations, {} readings, {} unknowns (redundancy {})",
+        report.points, report.stations, report.equations, report.unknowns, report.redundancy
+    );
+    println!(
+        "converged in {} iterations; residual RMS {:.4} µm, σ of a reading {:.4} µm{}; condition {:.3e}",
+        report.iterations,
+        report.residual_rms_um,
+        report.sigma_um,
+        if report.sigma_a_priori {
+            " (a priori)"
+        } else {
+            ""
+        },
+        report.condition
+    );
+    println!(
+        "corrections: largest {:.3} µm at point {}, RMS {:.3} µm; standard uncertainty median {:.4} µm, largest {:.4} µm",
+        report.max_correction_um,
+        report.max_correction_point,
+        report.rms_correction_um,
+        report.median_u_um,
+        report.max_u_um
+    );
+    println!(
+        "outliers: {} readings with |w| > {} (≈ {:.1} expected by chance; flagged in residuals.csv, \
+         kept in the solution)",
+        report.outliers.count, report.outliers.k, report.outliers.expected_by_chance
+    );
+    for w in &report.weak.stations {
+        eprintln!(
+            "trinocular: warning: station {} weakly determined: {}",
+            w.name, w.reason
+        );
+    }
+    for w in &report.weak.points {
+        eprintln!(
+            "trinocular: warning: point {} weakly determined: {}",
+            w.name, w.reason
+        );
+    }
+    if let Some(c) = &corrected {
+        println!(
+            "corrected {} query points by trilinear interpolation",
+            c.len()
+        );
+    }
+    println!("wrote {} files into {}", names.len(), out.display());
+    Ok(())
+}
+
+/// Parse `a,b,c` (x, y, z) for a flag.
+fn triple<T: std::str::FromStr>(text: &str) -> std::result::Result<[T; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [a, b, c] = parts.as_slice() else {
+        return Err(format!("{} values where x, y, z take 3", parts.len()));
+    };
+    let parse = |v: &str| v.parse::<T>().map_err(|_| format!("'{v}' is not a number"));
+    Ok([parse(a)?, parse(b)?, parse(c)?])
 }
 
 /// Run the generator.
-pub fn synth(_args: &SynthArgs) -> Result<()> {
-    bail!("synth probe tracer is not written yet")
+pub fn synth(args: &SynthArgs) -> Result<()> {
+    let d = TracerConfig::default();
+    let config = TracerConfig {
+        counts: args.counts.unwrap_or(d.counts),
+        size: args.size.unwrap_or(d.size),
+        origin: args.origin.unwrap_or(d.origin),
+        stations: args.stations,
+        station_distance: args.station_distance,
+        error_um: args.error_um,
+        noise_um: args.noise_um,
+        resolution_um: args.resolution_um,
+        missing: args.missing,
+        seed: args.seed,
+        noise_seed: args.noise_seed,
+    };
+    let data = generate(&config)?;
+    let names = ["grid.csv", "readings.csv", "truth.json"];
+    prepare_outputs(&args.out, &names, &[], args.force)?;
+    write_records(&args.out.join("grid.csv"), &data.grid)?;
+    write_records(&args.out.join("readings.csv"), &data.readings)?;
+    write_json(&args.out.join("truth.json"), &data.truth)?;
+    println!(
+        "tracer: {} grid points ({}×{}×{} over {}×{}×{} mm), {} stations, {} readings (noise {} µm), \
+         error field {} µm RMS",
+        data.grid.len(),
+        config.counts[0],
+        config.counts[1],
+        config.counts[2],
+        config.size[0],
+        config.size[1],
+        config.size[2],
+        config.stations,
+        data.readings.len(),
+        config.noise_um,
+        config.error_um
+    );
+    println!(
+        "wrote grid.csv, readings.csv, truth.json into {}",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Arguments of `trinocular bench tracer`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Grid points along x, y, z (10⁴ by default).
+    #[arg(long, value_parser = triple::<usize>, default_value = "25,20,20", value_name = "NX,NY,NZ")]
+    counts: [usize; 3],
+    /// Tracer stations.
+    #[arg(long, default_value_t = 8)]
+    stations: usize,
+    /// Timed solves (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    repeat: usize,
+}
+
+/// Median wall time of `repeat` calls of `f` (after one untimed call).
+fn median_time<T>(repeat: usize, mut f: impl FnMut() -> Result<T>) -> Result<(Duration, T)> {
+    let mut last = f()?;
+    let mut times = Vec::with_capacity(repeat.max(1));
+    for _ in 0..repeat.max(1) {
+        let start = Instant::now();
+        last = f()?;
+        times.push(start.elapsed());
+    }
+    times.sort();
+    Ok((times[times.len() / 2], last))
+}
+
+/// `trinocular bench tracer`: the generator's data written and read back
+/// through the file readers, then the solve timed on all threads and on one.
+pub fn bench(args: &BenchArgs) -> Result<()> {
+    let config = TracerConfig {
+        counts: args.counts,
+        stations: args.stations,
+        ..TracerConfig::default()
+    };
+    let data = generate(&config)?;
+    let dir = tempfile::tempdir()?;
+    let (grid_path, readings_path) = (dir.path().join("grid.csv"), dir.path().join("readings.csv"));
+    write_records(&grid_path, &data.grid)?;
+    write_records(&readings_path, &data.readings)?;
+    let start = Instant::now();
+    let grid = read_grid(&grid_path)?;
+    let readings = read_readings(&readings_path, &grid, &grid_path)?;
+    let read = start.elapsed();
+    let net = Network::from_records(&grid, &readings);
+    let options = Options::default();
+    let threads = rayon::current_num_threads();
+    let (all, solution) = median_time(args.repeat, || Ok(tracer::solve(&net, &options)?))?;
+    let one_pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let (one, _) = median_time(args.repeat, || {
+        Ok(one_pool.install(|| tracer::solve(&net, &options))?)
+    })?;
+    let start = Instant::now();
+    let report = tracer::report(&net, &solution);
+    let page = tracer::html(&net, &solution, &report)?;
+    let html = start.elapsed();
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    println!(
+        "tracer: n = {} points, m = {} stations, {} readings, {} unknowns",
+        net.points.len(),
+        net.station_names.len(),
+        net.readings.len(),
+        3 * net.points.len() + 4 * net.station_names.len()
+    );
+    println!("read grid.csv + readings.csv:   {:8.1} ms", ms(read));
+    println!(
+        "solve, {threads} threads:              {:8.1} ms  (median of {}; {} iterations, residual RMS {:.3} µm)",
+        ms(all),
+        args.repeat.max(1),
+        solution.iterations,
+        solution.residual_rms * UM
+    );
+    println!("solve, 1 thread:                {:8.1} ms", ms(one));
+    println!(
+        "report.json + report.html:      {:8.1} ms  ({:.1} MB of HTML)",
+        ms(html),
+        page.len() as f64 / 1e6
+    );
+    println!(
+        "the solve includes the seed's station start, the Gauss–Newton iterations (Schur complement \
+         onto the {} station unknowns) and the covariance of every correction",
+        4 * net.station_names.len()
+    );
+    Ok(())
 }

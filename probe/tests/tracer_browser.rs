@@ -1,0 +1,76 @@
+//! `report.html` of `probe tracer` in a real browser (`report::browser`:
+//! headless Chromium over the DevTools protocol): the page of the check
+//! data's solution logs no console errors, exceptions or failed loads, and
+//! its three plots are laid out at full size and drawn — enough drawn
+//! pixels, enough colours, and the series colours of each plot.
+//!
+//! Without `chromium` on the PATH (or `TRINOCULAR_CHROMIUM`) the test prints
+//! a notice that it is SKIPPED and passes, unless
+//! `TRINOCULAR_REQUIRE_BROWSER=1`, when it fails.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod tracer_common;
+
+use probe::tracer::{self, Options};
+use report::browser::{self, PAGE_WIDTH, check_region, rgb};
+use report::plot::{HEIGHT, MAP_HEIGHT, MEAN, SIX, UP, WIDTH, ZONE, diverging};
+use synth::probe::tracer::{TracerConfig, generate};
+
+#[test]
+fn report_html_renders_in_chromium() {
+    let Some(chromium) = browser::browser_or_skip("probe tracer report.html in Chromium").unwrap()
+    else {
+        return;
+    };
+    let mut net = tracer_common::network(&generate(&TracerConfig::default()).unwrap());
+    // One gross error, so that the flagged-reading marks are on the page too.
+    net.readings[123].l += 0.004;
+    let solution = tracer::solve(&net, &Options::default()).unwrap();
+    let report = tracer::report(&net, &solution);
+    assert!(report.outliers.count >= 1);
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("report.html");
+    std::fs::write(&page, tracer::html(&net, &solution, &report).unwrap()).unwrap();
+    let shown = browser::render(&chromium, &page).unwrap();
+    assert!(
+        shown.errors.is_empty(),
+        "console errors: {:#?}",
+        shown.errors
+    );
+    let ids: Vec<&str> = shown.plots.iter().map(|p| p.id.as_str()).collect();
+    assert_eq!(
+        ids,
+        ["plot-residuals", "plot-corrections", "plot-uncertainty"],
+        "plots on the page"
+    );
+    assert!(
+        shown.width <= PAGE_WIDTH,
+        "page {} px wider than the window",
+        shown.width
+    );
+    for p in &shown.plots {
+        let (height, colours) = match p.id.as_str() {
+            // Six stations, each in its own colour, and the flag limit.
+            "plot-residuals" => (
+                HEIGHT,
+                SIX.iter().map(|c| rgb(*c)).chain([rgb(ZONE)]).collect(),
+            ),
+            "plot-corrections" => (MAP_HEIGHT, vec![rgb(UP), rgb(MEAN)]),
+            _ => (MAP_HEIGHT, vec![rgb(diverging(-1.0)), rgb(diverging(1.0))]),
+        };
+        assert_eq!(
+            (p.w, p.h),
+            (WIDTH, height),
+            "{} laid out at {}×{}",
+            p.id,
+            p.w,
+            p.h
+        );
+        check_region(&shown.screenshot, p, &colours).unwrap();
+    }
+    if let Ok(keep) = std::env::var("TRINOCULAR_KEEP_SCREENSHOT") {
+        shown.screenshot.save(&keep).unwrap();
+        eprintln!("screenshot saved to {keep}");
+    }
+}
