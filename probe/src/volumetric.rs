@@ -16,7 +16,8 @@
 //! - [`circle`]: the predicted circular test.
 //! - [`compensation`]: pitch-error compensation tables (LinuxCNC `COMP_FILE`).
 //! - [`campaign`]: a vision campaign's error motions in the conventions here.
-//! - [`report`]: the whole analysis and its `report.json`; [`html`]: `report.html`.
+//! - [`report`]: the whole analysis and its `report.json`; [`plot`] and
+//!   [`html`]: `report.html`.
 //!
 //! # Conventions
 //! - Carriage displacement `q` (mm) along its axis; an error curve gives, at
@@ -42,19 +43,20 @@
 //!   error, never an extrapolation.
 //! - Lengths mm and angles rad in files; µm and µrad in reports.
 
-// TEMP pub mod campaign;
+pub mod campaign;
 pub mod chain;
 pub mod circle;
-// TEMP pub mod compensation;
+pub mod compensation;
 pub mod curves;
-// TEMP pub mod html;
+pub mod html;
 pub mod model;
-// TEMP pub mod report;
+pub mod plot;
+pub mod report;
 pub mod series;
 
 pub use chain::{Chain, DEFAULT_CHAIN, Machine, Side, Squareness};
 pub use circle::{CirclePrediction, CircleSpec};
 pub use curves::{AxisCurves, MeasuredAxis, Motion};
 pub use model::{DEFAULT_ORDER, ErrorModel, Evaluation, Model, Order};
-// TEMP pub use report::{Analysis, Setup, analyse};
+pub use report::{Analysis, Setup, analyse};
 pub use series::{Figures, Series, SeriesFit};

@@ -183,7 +183,10 @@ impl Machine<'_> {
             if model.axis(a).is_none() {
                 return Err(ProbeError::Input {
                     what: format!("axis {a}"),
-                    message: format!("in the chain {} but without error curves", chain.text),
+                    message: format!(
+                        "in the chain {} but without error curves (give its curves, or leave it out of --chain)",
+                        chain.text
+                    ),
                 });
             }
         }
@@ -191,7 +194,10 @@ impl Machine<'_> {
             if chain.side(a.axis()).is_none() {
                 return Err(ProbeError::Input {
                     what: format!("axis {}", a.axis()),
-                    message: format!("has error curves but is not in the chain {}", chain.text),
+                    message: format!(
+                        "has error curves but is not in the chain {} (add it to --chain)",
+                        chain.text
+                    ),
                 });
             }
         }
