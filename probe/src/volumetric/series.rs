@@ -19,6 +19,10 @@ pub const MAX_AUTO_ORDER: usize = 10;
 /// A leave-one-out hat value this close to 1 means the point is fitted
 /// exactly whatever its value: the order leaves nothing to cross-validate.
 const HAT_LIMIT: f64 = 1.0 - 1e-9;
+/// A basis column smaller than this times √n is numerically zero (every
+/// basis function is of order 1): e.g. `sin(3ωp)` at positions where it
+/// vanishes holds only rounding, which unit-norm scaling would blow up.
+const ZERO_COLUMN: f64 = 1e-9;
 /// Iteration limit of the SVD.
 const SVD_ITERATIONS: usize = 1000;
 
@@ -135,13 +139,20 @@ struct Solution {
 fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
     let (n, k) = design.shape();
     let scales: Vec<f64> = (0..k).map(|j| design.column(j).norm()).collect();
+    if scales.iter().any(|s| !(*s > ZERO_COLUMN * (n as f64).sqrt())) {
+        return Err(ProbeError::IllConditioned {
+            what: format!("{what} (a basis function vanishes at every position)"),
+            condition: f64::INFINITY,
+            limit: MAX_CONDITION,
+        });
+    }
     let mut scaled = design.clone();
     for (j, s) in scales.iter().enumerate() {
-        if *s > 0.0 {
-            scaled.column_mut(j).scale_mut(1.0 / s);
-        }
+        scaled.column_mut(j).scale_mut(1.0 / s);
     }
-    let svd = SVD::try_new(scaled, true, true, 5.0 * f64::EPSILON, SVD_ITERATIONS).ok_or(
+    // Condition number from the singular values; the solution and the hat
+    // values from the (backward-stable) Householder QR of the same matrix.
+    let svd = SVD::try_new(scaled.clone(), false, false, 5.0 * f64::EPSILON, SVD_ITERATIONS).ok_or(
         ProbeError::NotConverged {
             what: "singular value decomposition of a curve fit",
             iterations: SVD_ITERATIONS,
@@ -161,17 +172,17 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
             limit: MAX_CONDITION,
         });
     }
+    let qr = scaled.qr();
+    let (q, r) = (qr.q(), qr.r());
     let b = DVector::from_column_slice(values);
-    let x = svd
-        .solve(&b, 0.0)
-        .map_err(|e| ProbeError::Unsolvable(format!("{what}: {e}")))?;
-    let u = svd.u.ok_or_else(|| ProbeError::Unsolvable(format!("{what}: no SVD vectors")))?;
-    // Columns of zero norm make the condition infinite, so every scale is > 0 here.
+    let x = r
+        .solve_upper_triangular(&(q.transpose() * &b))
+        .ok_or_else(|| ProbeError::Unsolvable(format!("{what}: singular triangular factor")))?;
     let coefficients = DVector::from_iterator(k, (0..k).map(|j| x[j] / scales[j]));
     let fitted = &design * &coefficients;
     let residuals = (0..n).map(|i| values[i] - fitted[i]).collect();
     let coefficients = coefficients.iter().copied().collect();
-    let hat = (0..n).map(|i| u.row(i).norm_squared()).collect();
+    let hat = (0..n).map(|i| q.row(i).norm_squared()).collect();
     Ok(Solution {
         coefficients,
         residuals,
@@ -362,20 +373,45 @@ mod tests {
     }
 
     #[test]
-    fn cross_validation_finds_the_generating_order() {
-        // Order-2 Fourier content plus small deterministic "noise": the
-        // leave-one-out error is smallest at N = 2.
+    fn leave_one_out_scores_are_refits_without_the_point() {
+        // PRESS from the hat values equals refitting n times with each point
+        // left out; cross-validation rejects the underfitting order 1.
         let p = grid(31, 0.0, 10.0);
         let w = std::f64::consts::TAU / 300.0;
+        // Pseudo-random noise from a linear congruential generator.
+        let mut state = 12345u64;
+        let mut noise = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
         let v: Vec<f64> = p
             .iter()
-            .enumerate()
-            .map(|(k, &q)| {
-                (w * q).sin() + 0.5 * (2.0 * w * q).cos() + 0.01 * ((k * 7919 % 13) as f64 - 6.0) / 6.0
-            })
+            .map(|&q| (w * q).sin() + 0.5 * (2.0 * w * q).cos() + 0.02 * noise())
             .collect();
         let (order, scores) = choose_order(Series::Fourier, &p, &v, "t").unwrap();
-        assert_eq!(order, 2, "{scores:?}");
-        assert!(scores.len() >= 5);
+        for s in &scores {
+            let mut press = 0.0;
+            for leave in 0..p.len() {
+                let (pk, vk): (Vec<f64>, Vec<f64>) = p
+                    .iter()
+                    .zip(&v)
+                    .enumerate()
+                    .filter(|(i, _)| *i != leave)
+                    .map(|(_, (a, b))| (*a, *b))
+                    .unzip();
+                // The left-out fit keeps the full travel's ω and origin.
+                let a = design(Series::Fourier, s.order, 0.0, 300.0, &pk);
+                let c = solve(a, &vk, "t").unwrap().coefficients;
+                let row = basis(Series::Fourier, s.order, 0.0, 300.0, p[leave]);
+                let predicted: f64 = row.iter().zip(&c).map(|(b, c)| b * c).sum();
+                press += (v[leave] - predicted).powi(2);
+            }
+            let brute = (press / p.len() as f64).sqrt();
+            assert!((brute - s.loo_rmse).abs() < 1e-12 * brute.max(1.0), "{s:?} vs {brute}");
+        }
+        assert!(order >= 2, "{scores:?}");
+        let best = scores.iter().find(|s| s.order == order).unwrap().loo_rmse;
+        assert!(scores[0].loo_rmse > 10.0 * best, "{scores:?}");
+        assert!(best < 0.02, "{scores:?}");
     }
 }
