@@ -120,8 +120,8 @@ pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
         let mut chart = ChartBuilder::on(&plot)
             .caption(title, (FONT, 20))
             .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(36)
+            .x_label_area_size(44)
+            .y_label_area_size(44)
             .build_cartesian_2d(-reach..reach, -reach..reach)
             .map_err(|e| e.to_string())?;
         chart
@@ -130,6 +130,8 @@ pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
             .max_light_lines(1)
             .x_labels(5)
             .y_labels(5)
+            .x_desc("x − centre (mm)")
+            .y_desc("y − centre (mm)")
             .draw()
             .map_err(|e| e.to_string())?;
         let ring = |radius: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
