@@ -71,7 +71,10 @@ fn check_flags() -> Vec<String> {
         "--tool".into(),
         format!("{},{},{}", t[0], t[1], t[2]),
         "--circle".into(),
-        format!("{},{},{},{}", c[0], c[1], c[2], setup["circle"]["radius_mm"]),
+        format!(
+            "{},{},{},{}",
+            c[0], c[1], c[2], setup["circle"]["radius_mm"]
+        ),
     ]
 }
 
@@ -122,7 +125,10 @@ fn check_data_through_the_binary_keeps_the_contract() {
     }
     // fits.csv: axis,error,model,r2,sse,rmse,emax; both models for every curve.
     let (h, rows) = csv_rows(&out.join("fits.csv"));
-    assert_eq!(h[..7], ["axis", "error", "model", "r2", "sse", "rmse", "emax"]);
+    assert_eq!(
+        h[..7],
+        ["axis", "error", "model", "r2", "sse", "rmse", "emax"]
+    );
     assert_eq!(rows.len(), 3 * 6 * 2);
     let (_, want) = csv_rows(&check_data("expected_fits.csv"));
     for w in &want {
@@ -196,14 +202,20 @@ fn check_comp_file(path: &Path) -> Vec<[f64; 3]> {
         .map(|l| {
             let v: Vec<f64> = l
                 .split_whitespace()
-                .map(|x| x.parse().unwrap_or_else(|_| panic!("{path:?}: '{l}' is not numbers")))
+                .map(|x| {
+                    x.parse()
+                        .unwrap_or_else(|_| panic!("{path:?}: '{l}' is not numbers"))
+                })
                 .collect();
             assert_eq!(v.len(), 3, "{path:?}: '{l}'");
             [v[0], v[1], v[2]]
         })
         .collect();
     assert!(!lines.is_empty() && lines.len() <= 256);
-    assert!(lines.windows(2).all(|w| w[1][0] > w[0][0]), "{path:?}: not ascending");
+    assert!(
+        lines.windows(2).all(|w| w[1][0] > w[0][0]),
+        "{path:?}: not ascending"
+    );
     lines
 }
 
@@ -211,7 +223,13 @@ fn check_comp_file(path: &Path) -> Vec<[f64; 3]> {
 fn compensation_files_follow_the_linuxcnc_format() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("d");
-    ok(&trinocular(&["synth", "probe", "volumetric", "--out", s(&data)]));
+    ok(&trinocular(&[
+        "synth",
+        "probe",
+        "volumetric",
+        "--out",
+        s(&data),
+    ]));
     let out = dir.path().join("r");
     ok(&trinocular(&[
         "probe",
@@ -228,8 +246,11 @@ fn compensation_files_follow_the_linuxcnc_format() {
         assert_eq!(lines.len(), of_axis.len());
         for (l, r) in lines.iter().zip(of_axis) {
             let q: f64 = r[1].parse().unwrap();
-            let (pos, up, down): (f64, f64, f64) =
-                (r[col].parse().unwrap(), r[8].parse().unwrap(), r[9].parse().unwrap());
+            let (pos, up, down): (f64, f64, f64) = (
+                r[col].parse().unwrap(),
+                r[8].parse().unwrap(),
+                r[9].parse().unwrap(),
+            );
             // Written to 7 decimals (0.1 nm): actual = nominal + error per direction.
             assert!((l[0] - q).abs() < 1e-7);
             assert!((l[1] - (q + up)).abs() < 1e-7 && (l[2] - (q + down)).abs() < 1e-7);
@@ -237,7 +258,10 @@ fn compensation_files_follow_the_linuxcnc_format() {
         }
     }
     let report = read_json(&out.join("report.json"));
-    assert_eq!(report["axes"][0]["compensation_bidirectional"], Value::Bool(true));
+    assert_eq!(
+        report["axes"][0]["compensation_bidirectional"],
+        Value::Bool(true)
+    );
 }
 
 #[test]
@@ -280,20 +304,35 @@ fn bad_input_is_one_clear_line() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
     let probe = |errors: &Path, extra: &[&str]| {
-        let mut a = vec!["probe", "volumetric", "--errors", s(errors), "--out", s(&out)];
+        let mut a = vec![
+            "probe",
+            "volumetric",
+            "--errors",
+            s(errors),
+            "--out",
+            s(&out),
+        ];
         a.extend_from_slice(extra);
         trinocular(&a)
     };
     let full = check_data("errors.csv");
     // An axis missing from the file (chain has Z, the file does not).
-    let no_z = edited_errors(dir.path(), |l| l.into_iter().filter(|x| !x.starts_with("Z,")).collect());
+    let no_z = edited_errors(dir.path(), |l| {
+        l.into_iter().filter(|x| !x.starts_with("Z,")).collect()
+    });
     let (code, err) = fails(&probe(&no_z, &[]));
     assert_eq!(code, 1);
-    assert!(err.contains("E.csv") && err.contains("axis Z") && err.contains("without error curves"), "{err}");
+    assert!(
+        err.contains("E.csv") && err.contains("axis Z") && err.contains("without error curves"),
+        "{err}"
+    );
     // An axis missing from the chain.
     let (code, err) = fails(&probe(&full, &["--chain", "WXYFT"]));
     assert_eq!(code, 1);
-    assert!(err.contains("axis Z") && err.contains("not in the chain WXYFT"), "{err}");
+    assert!(
+        err.contains("axis Z") && err.contains("not in the chain WXYFT"),
+        "{err}"
+    );
     // Positions not increasing: line 4 (X at 50 mm) moved before line 3.
     let swapped = edited_errors(dir.path(), |mut l| {
         l.swap(2, 3);
@@ -301,7 +340,10 @@ fn bad_input_is_one_clear_line() {
     });
     let (code, err) = fails(&probe(&swapped, &[]));
     assert_eq!(code, 1);
-    assert!(err.contains("E.csv: line 4, column 'position'") && err.contains("increase"), "{err}");
+    assert!(
+        err.contains("E.csv: line 4, column 'position'") && err.contains("increase"),
+        "{err}"
+    );
     // A curve with fewer points than coefficients: Z with 5 points, order 3.
     let short_z = edited_errors(dir.path(), |l| {
         let mut z = 0;
@@ -319,7 +361,8 @@ fn bad_input_is_one_clear_line() {
     let (code, err) = fails(&probe(&short_z, &[]));
     assert_eq!(code, 1);
     assert!(
-        err.contains("E.csv: lines 48–52, axis Z: 5 points, fewer than the 7 coefficients") && err.contains("--order 3"),
+        err.contains("E.csv: lines 48–52, axis Z: 5 points, fewer than the 7 coefficients")
+            && err.contains("--order 3"),
         "{err}"
     );
     // Chain strings without W, F or T, or with a repeated axis.
@@ -331,22 +374,39 @@ fn bad_input_is_one_clear_line() {
     ] {
         let (code, err) = fails(&probe(&full, &["--chain", chain]));
         assert_eq!(code, 1);
-        assert!(err.contains(&format!("--chain '{chain}'")) && err.contains(says), "{err}");
+        assert!(
+            err.contains(&format!("--chain '{chain}'")) && err.contains(says),
+            "{err}"
+        );
     }
     // Squareness not three numbers: a usage error.
     let (code, err) = fails(&probe(&full, &["--squareness", "1e-5,2e-5"]));
     assert_eq!(code, 2);
-    assert!(err.contains("--squareness") && err.contains("three numbers"), "{err}");
+    assert!(
+        err.contains("--squareness") && err.contains("three numbers"),
+        "{err}"
+    );
     // A circle leaving the measured travel (X would need −100 … 100 mm).
-    let (code, err) = fails(&probe(&full, &["--tool", "0,0,-100", "--circle", "0,-200,40,100"]));
+    let (code, err) = fails(&probe(
+        &full,
+        &["--tool", "0,0,-100", "--circle", "0,-200,40,100"],
+    ));
     assert_eq!(code, 1);
-    assert!(err.contains("--circle") && err.contains("axis X") && err.contains("measured from 0 to 600"), "{err}");
+    assert!(
+        err.contains("--circle")
+            && err.contains("axis X")
+            && err.contains("measured from 0 to 600"),
+        "{err}"
+    );
     // A position of --at outside the travel names the file and line.
     let at = dir.path().join("A.csv");
     std::fs::write(&at, "x,y,z\n10,10,10\n700,10,10\n").unwrap();
     let (code, err) = fails(&probe(&full, &["--at", s(&at)]));
     assert_eq!(code, 1);
-    assert!(err.contains("A.csv: line 3") && err.contains("outside the measured travel"), "{err}");
+    assert!(
+        err.contains("A.csv: line 3") && err.contains("outside the measured travel"),
+        "{err}"
+    );
     // Values in µm instead of mm.
     let in_um = edited_errors(dir.path(), |mut l| {
         // Line 6: X at 100 mm with ex = −0.000487859382 mm written as µm.
@@ -355,7 +415,10 @@ fn bad_input_is_one_clear_line() {
     });
     let (code, err) = fails(&probe(&in_um, &[]));
     assert_eq!(code, 1);
-    assert!(err.contains("E.csv: line 6, column 'ex'") && err.contains("µm"), "{err}");
+    assert!(
+        err.contains("E.csv: line 6, column 'ex'") && err.contains("µm"),
+        "{err}"
+    );
     assert!(!out.exists(), "nothing written on bad input");
 }
 
@@ -409,7 +472,11 @@ fn true_error(errors: &Value, axis: &str, k: usize) -> (Vector3<f64>, Vector3<f6
     let line = &errors[axis]["lines"][0];
     let v = |key: &str| {
         let a = line[key].as_array().unwrap();
-        Vector3::new(a[0].as_f64().unwrap(), a[1].as_f64().unwrap(), a[2].as_f64().unwrap())
+        Vector3::new(
+            a[0].as_f64().unwrap(),
+            a[1].as_f64().unwrap(),
+            a[2].as_f64().unwrap(),
+        )
     };
     (
         (delta + v("other_axes_delta_um")) * 1e-3,
@@ -421,16 +488,20 @@ fn true_error(errors: &Value, axis: &str, k: usize) -> (Vector3<f64>, Vector3<f6
 /// spheres, so that every rotation acts with a lever of 50–150 mm.
 const TOOL: [f64; 3] = [20.0, -10.0, 100.0];
 
+/// A measured position n with the predicted and the true volumetric error (mm).
+type Compared = (Vector3<f64>, Vector3<f64>, Vector3<f64>);
+
 /// Run `--from-report report_dir` with chain WXYFT at the targets of the
 /// main X and Y lines; return (n, predicted Δ, true Δ) per target, both in mm.
-fn from_report(
-    report_dir: &Path,
-    errors: &Value,
-    out: &Path,
-) -> (Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)>, Value) {
+fn from_report(report_dir: &Path, errors: &Value, out: &Path) -> (Vec<Compared>, Value) {
     let mut targets = Vec::new();
     for axis in ["X", "Y"] {
-        for (k, t) in errors[axis]["targets"].as_array().unwrap().iter().enumerate() {
+        for (k, t) in errors[axis]["targets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .enumerate()
+        {
             let q = t["position_mm"].as_f64().unwrap();
             let n = if axis == "X" {
                 Vector3::new(q, 0.0, 0.0)
@@ -483,9 +554,16 @@ fn from_report(
 fn without_line(q: &[f64], v: &[f64]) -> Vec<f64> {
     let n = q.len() as f64;
     let (mq, mv) = (q.iter().sum::<f64>() / n, v.iter().sum::<f64>() / n);
-    let k = q.iter().zip(v).map(|(a, b)| (a - mq) * (b - mv)).sum::<f64>()
+    let k = q
+        .iter()
+        .zip(v)
+        .map(|(a, b)| (a - mq) * (b - mv))
+        .sum::<f64>()
         / q.iter().map(|a| (a - mq) * (a - mq)).sum::<f64>();
-    q.iter().zip(v).map(|(a, b)| b - mv - k * (a - mq)).collect()
+    q.iter()
+        .zip(v)
+        .map(|(a, b)| b - mv - k * (a - mq))
+        .collect()
 }
 
 #[test]
@@ -515,7 +593,8 @@ fn from_report_on_exact_positions_follows_the_conventions() {
     // table reference are gone from the translations.
     for (i, axis) in ["X", "Y"].into_iter().enumerate() {
         let targets = errors[axis]["targets"].as_array().unwrap();
-        let f = |key: &str| -> Vec<f64> { targets.iter().map(|t| t[key].as_f64().unwrap()).collect() };
+        let f =
+            |key: &str| -> Vec<f64> { targets.iter().map(|t| t[key].as_f64().unwrap()).collect() };
         let q = f("position_mm");
         let zero = q.iter().position(|v| *v == 0.0).unwrap();
         let at_zero = |v: Vec<f64>| -> Vec<f64> { v.iter().map(|x| x - v[zero]).collect() };
@@ -524,14 +603,22 @@ fn from_report_on_exact_positions_follows_the_conventions() {
             .zip(f("positioning_down_um"))
             .map(|(u, d)| (u + d) / 2.0)
             .collect();
-        let (along, across) = if axis == "X" { (0, ["Y", "Z"]) } else { (1, ["X", "Z"]) };
+        let (along, across) = if axis == "X" {
+            (0, ["Y", "Z"])
+        } else {
+            (1, ["X", "Z"])
+        };
         let mut want: [Vec<f64>; 6] = Default::default();
         want[along] = at_zero(pos);
         for o in across {
             let k = ["X", "Y", "Z"].iter().position(|a| *a == o).unwrap();
             want[k] = without_line(&q, &f(&format!("straightness_{o}_um")));
         }
-        let (roll, pitch, yaw) = (at_zero(f("roll_urad")), at_zero(f("pitch_urad")), at_zero(f("yaw_urad")));
+        let (roll, pitch, yaw) = (
+            at_zero(f("roll_urad")),
+            at_zero(f("pitch_urad")),
+            at_zero(f("yaw_urad")),
+        );
         // X: ea = roll, eb = pitch, ec = yaw; Y: ea = pitch, eb = roll, ec = yaw.
         if axis == "X" {
             (want[3], want[4], want[5]) = (roll, pitch, yaw);
@@ -546,10 +633,18 @@ fn from_report_on_exact_positions_follows_the_conventions() {
                 .iter()
                 .map(|v| v.as_f64().unwrap())
                 .collect();
-            let worst = got.iter().zip(w).map(|(g, w)| (g - w).abs()).fold(0.0, f64::max);
+            let worst = got
+                .iter()
+                .zip(w)
+                .map(|(g, w)| (g - w).abs())
+                .fold(0.0, f64::max);
             // Exact but for the first-order motion of the renderer against
             // Kabsch's rotations: far below 1 nm and 0.001 µrad.
-            assert!(worst < 1e-3, "{axis} {}: {worst} off\n{got:?}\n{w:?}", curves[m]["error"]);
+            assert!(
+                worst < 1e-3,
+                "{axis} {}: {worst} off\n{got:?}\n{w:?}",
+                curves[m]["error"]
+            );
         }
     }
     // Squareness: the synthetic machine's X and Y least-squares directions.
@@ -558,7 +653,8 @@ fn from_report_on_exact_positions_follows_the_conventions() {
 
     // Volumetric errors at the measured positions against the truth, after
     // the frame convention (c + ω × n) is taken out.
-    let diffs: Vec<(Vector3<f64>, Vector3<f64>)> = rows.iter().map(|(n, p, t)| (*n, p - t)).collect();
+    let diffs: Vec<(Vector3<f64>, Vector3<f64>)> =
+        rows.iter().map(|(n, p, t)| (*n, p - t)).collect();
     let residual = remove_frame(&diffs);
     let worst = residual.iter().map(|r| r.norm()).fold(0.0, f64::max) * 1e3;
     let size = rows.iter().map(|(_, _, t)| t.norm()).fold(0.0, f64::max) * 1e3;
@@ -573,10 +669,17 @@ fn from_report_on_a_demo_campaign_agrees_within_its_accuracy() {
     let demo = dir.path().join("demo");
     ok(&trinocular(&["demo", "--out", s(&demo)]));
     let truth = read_json(&demo.join("campaign/truth.json"));
-    let (rows, out) = from_report(&demo.join("report"), &truth["errors"], &dir.path().join("r"));
-    let diffs: Vec<(Vector3<f64>, Vector3<f64>)> = rows.iter().map(|(n, p, t)| (*n, p - t)).collect();
+    let (rows, out) = from_report(
+        &demo.join("report"),
+        &truth["errors"],
+        &dir.path().join("r"),
+    );
+    let diffs: Vec<(Vector3<f64>, Vector3<f64>)> =
+        rows.iter().map(|(n, p, t)| (*n, p - t)).collect();
     let residual = remove_frame(&diffs);
-    let rms = (residual.iter().map(|r| r.norm_squared()).sum::<f64>() / residual.len() as f64).sqrt() * 1e3;
+    let rms = (residual.iter().map(|r| r.norm_squared()).sum::<f64>() / residual.len() as f64)
+        .sqrt()
+        * 1e3;
     let worst = residual.iter().map(|r| r.norm()).fold(0.0, f64::max) * 1e3;
     println!(
         "demo campaign: volumetric residual {rms:.2} µm RMS, {worst:.2} µm worst over {} positions; EC0Y {:.1} µrad",

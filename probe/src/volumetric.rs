@@ -56,7 +56,7 @@ pub mod series;
 
 pub use chain::{Chain, DEFAULT_CHAIN, Machine, Side, Squareness};
 pub use circle::{CirclePrediction, CircleSpec};
-pub use curves::{AxisCurves, MeasuredAxis, Motion};
+pub use curves::{AxisCurves, MeasuredAxis, Motion, measured_axes};
 pub use model::{DEFAULT_ORDER, ErrorModel, Evaluation, Model, Order};
 pub use report::{Analysis, Setup, analyse};
 pub use series::{Figures, Series, SeriesFit};

@@ -16,7 +16,7 @@ use formats::probe::volumetric::read_errors;
 use geom::Vector3;
 use probe::volumetric::{
     AxisCurves, Chain, CircleSpec, ErrorModel, Evaluation, Machine, MeasuredAxis, Model, Motion,
-    Order, Series, Setup, Squareness, analyse, circle,
+    Order, Series, Setup, Squareness, analyse, circle, measured_axes,
 };
 
 fn data(name: &str) -> PathBuf {
@@ -37,31 +37,13 @@ fn num(r: &csv::StringRecord, k: usize) -> f64 {
     r[k].parse().unwrap()
 }
 
-/// The curves of rows of `E.csv`, per axis.
-fn measured(rows: &[formats::probe::volumetric::ErrorRow]) -> Vec<MeasuredAxis> {
-    [Axis::X, Axis::Y, Axis::Z]
-        .into_iter()
-        .filter_map(|axis| {
-            let table: Vec<[f64; 7]> = rows
-                .iter()
-                .filter(|r| r.axis() == axis)
-                .map(|r| {
-                    let m = r.motions();
-                    [r.position, m[0], m[1], m[2], m[3], m[4], m[5]]
-                })
-                .collect();
-            (!table.is_empty()).then(|| MeasuredAxis::from_rows(axis, &table))
-        })
-        .collect()
-}
-
 fn check_curves() -> Vec<MeasuredAxis> {
     let rows: Vec<_> = read_errors(&data("errors.csv"))
         .unwrap()
         .into_iter()
         .map(|r| r.record)
         .collect();
-    measured(&rows)
+    measured_axes(&rows)
 }
 
 fn check_setup() -> (Chain, Squareness, Vector3<f64>, CircleSpec) {
@@ -82,7 +64,10 @@ fn check_setup() -> (Chain, Squareness, Vector3<f64>, CircleSpec) {
 }
 
 fn model_of(curves: Vec<MeasuredAxis>, order: Order) -> ErrorModel {
-    let checked = curves.into_iter().map(|c| AxisCurves::new(c).unwrap()).collect();
+    let checked = curves
+        .into_iter()
+        .map(|c| AxisCurves::new(c).unwrap())
+        .collect();
     ErrorModel::new(checked, order).unwrap()
 }
 
@@ -120,7 +105,9 @@ fn check_vector_fits_volumetric_errors_and_circle() {
             _ => Model::Polynomial,
         };
         let q = [num(&r, 1), num(&r, 2), num(&r, 3)];
-        let d = machine.volumetric_error(&q, Evaluation::Model(how)).unwrap();
+        let d = machine
+            .volumetric_error(&q, Evaluation::Model(how))
+            .unwrap();
         for k in 0..3 {
             worst = worst.max((d[k] - num(&r, 4 + k)).abs() * 1e3);
         }
@@ -142,9 +129,10 @@ fn check_vector_fits_volumetric_errors_and_circle() {
     }
     println!("circle: worst difference {worst:.1e} µm");
     assert!(worst < 1e-6);
-    let figures: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(data("expected_circle_figures.json")).unwrap())
-            .unwrap();
+    let figures: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(data("expected_circle_figures.json")).unwrap(),
+    )
+    .unwrap();
     for (name, how) in [("raw", Model::Raw), ("fourier", Model::Fourier)] {
         let c = circle::predict(&machine, &spec, Evaluation::Model(how)).unwrap();
         let f = &figures[name];
@@ -170,7 +158,11 @@ fn first_order(model: &ErrorModel, sq: &Squareness, t: Vector3<f64>, q: [f64; 3]
     let ((dx, ex), (dy, ey), (dz, ez)) = (e(Axis::X, q[0]), e(Axis::Y, q[1]), e(Axis::Z, q[2]));
     let (x, y, z) = (q[0], q[1], q[2]);
     let a_y = Vector3::new(-sq.ec0y.sin(), sq.ec0y.cos(), 0.0);
-    let a_z = Vector3::new(sq.eb0z.sin() * sq.ea0z.cos(), -sq.ea0z.sin(), sq.eb0z.cos() * sq.ea0z.cos());
+    let a_z = Vector3::new(
+        sq.eb0z.sin() * sq.ea0z.cos(),
+        -sq.ea0z.sin(),
+        sq.eb0z.cos() * sq.ea0z.cos(),
+    );
     let p = Vector3::z() * z + t;
     (a_z - Vector3::z()) * z - (a_y - Vector3::y()) * y + dz + ez.cross(&t)
         - dy
@@ -209,12 +201,18 @@ fn exact_chain_agrees_with_the_first_order_formula_to_second_order() {
         let machine = Machine::new(&chain, scaled, tool, &model).unwrap();
         let (mut diff, mut size) = (0.0f64, 0.0f64);
         for q in &at {
-            let exact = machine.volumetric_error(q, Evaluation::Model(Model::Raw)).unwrap();
+            let exact = machine
+                .volumetric_error(q, Evaluation::Model(Model::Raw))
+                .unwrap();
             let linear = first_order(&model, &scaled, tool, *q);
             diff = diff.max((exact - linear).norm());
             size = size.max(exact.norm());
         }
-        println!("errors ×{s}: largest |Δ| {:.3} µm, exact − first order {:.3e} µm", size * 1e3, diff * 1e3);
+        println!(
+            "errors ×{s}: largest |Δ| {:.3} µm, exact − first order {:.3e} µm",
+            size * 1e3,
+            diff * 1e3
+        );
         assert!(diff < 1e-2 * size, "not first order: {diff} of {size}");
         if let Some(p) = previous {
             // Halving the errors quarters the difference (second order).
@@ -305,7 +303,10 @@ impl TrueMachine {
         let k = p.partition_point(|x| *x <= q).clamp(1, p.len() - 1);
         let w = (q - p[k - 1]) / (p[k] - p[k - 1]);
         let at = |m: usize| v[m][k - 1] * (1.0 - w) + v[m][k] * w;
-        (Vector3::new(at(0), at(1), at(2)), Vector3::new(at(3), at(4), at(5)))
+        (
+            Vector3::new(at(0), at(1), at(2)),
+            Vector3::new(at(3), at(4), at(5)),
+        )
     }
 
     fn direction(&self, axis: usize) -> Vector3<f64> {
@@ -403,14 +404,18 @@ fn generator_round_trip_for_two_chains() {
             tool: s.tool_mm,
             model: Model::Raw,
             order: Order::Fixed(3),
-            at: d.at.iter().map(|r| ("at".to_string(), [r.x, r.y, r.z])).collect(),
+            at: d
+                .at
+                .iter()
+                .map(|r| ("at".to_string(), [r.x, r.y, r.z]))
+                .collect(),
             circle: Some(CircleSpec {
                 centre: s.circle.centre_mm,
                 radius: s.circle.radius_mm,
             }),
             source: "generator".into(),
         };
-        let a = analyse(measured(&d.errors), &setup, None).unwrap();
+        let a = analyse(measured_axes(&d.errors), &setup, None).unwrap();
 
         // The removed straightness lines are the truth's, to the noise: the
         // slope of a least-squares line through values with noise σ has the
@@ -439,7 +444,12 @@ fn generator_round_trip_for_two_chains() {
         for (q, got) in &a.volumetric {
             worst = worst.max((got - truth.error(*q)).norm() * 1e3);
         }
-        let size = a.volumetric.iter().map(|(_, d)| d.norm()).fold(0.0, f64::max) * 1e3;
+        let size = a
+            .volumetric
+            .iter()
+            .map(|(_, d)| d.norm())
+            .fold(0.0, f64::max)
+            * 1e3;
         println!("{chain}: volumetric errors up to {size:.2} µm, worst difference {worst:.3} µm");
         assert!(size > 5.0 && worst < 0.5, "{worst}");
         // The circle and its circular deviation.
@@ -484,7 +494,8 @@ fn compensation_with_a_series_that_fits_exactly_leaves_nothing() {
                     for m in Motion::ALL.into_iter().filter(|m| !m.is_straightness(axis)) {
                         let a = if m.is_rotation() { 5e-6 } else { 2e-3 };
                         let ph = (i * 6 + m.index()) as f64;
-                        r[m.index() + 1] = a * ((w * q + ph).sin() + 0.5 * (2.0 * w * q + 0.3 * ph).cos());
+                        r[m.index() + 1] =
+                            a * ((w * q + ph).sin() + 0.5 * (2.0 * w * q + 0.3 * ph).cos());
                     }
                     r
                 })
@@ -514,11 +525,23 @@ fn compensation_with_a_series_that_fits_exactly_leaves_nothing() {
     // which the series holds exactly: nothing is left but rounding (the
     // curves are ~1e-3 mm, the fit exact to ~1e-16 relative).
     let chain = Chain::parse("WXYFZT").unwrap();
-    let machine = Machine::new(&chain, setup.squareness, Vector3::from(setup.tool), &a.model).unwrap();
+    let machine = Machine::new(
+        &chain,
+        setup.squareness,
+        Vector3::from(setup.tool),
+        &a.model,
+    )
+    .unwrap();
     let mut left = 0.0f64;
     for k in 0..=24 {
-        let q = [25.0 * f64::from(k), 400.0 * f64::from(24 - k) / 24.0, 12.5 * f64::from(k)];
-        let e = machine.volumetric_error(&q, Evaluation::Residual(Series::Fourier)).unwrap();
+        let q = [
+            25.0 * f64::from(k),
+            400.0 * f64::from(24 - k) / 24.0,
+            12.5 * f64::from(k),
+        ];
+        let e = machine
+            .volumetric_error(&q, Evaluation::Residual(Series::Fourier))
+            .unwrap();
         left = left.max(e.norm());
     }
     // Between them the raw curves are linear, the waves are not: the circle
@@ -546,7 +569,10 @@ fn positions_outside_the_travel_are_errors() {
         .volumetric_error(&[600.5, 10.0, 10.0], Evaluation::Model(Model::Fourier))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("axis X at 600.5 mm") && e.contains("does not extrapolate"), "{e}");
+    assert!(
+        e.contains("axis X at 600.5 mm") && e.contains("does not extrapolate"),
+        "{e}"
+    );
     let spec = CircleSpec {
         centre: [-300.0, -350.0, 40.0],
         radius: 100.0,
@@ -554,13 +580,16 @@ fn positions_outside_the_travel_are_errors() {
     let e = circle::predict(&machine, &spec, Evaluation::Model(Model::Raw))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("--circle") && e.contains("axis Y would run from 250 to 450 mm"), "{e}");
+    assert!(
+        e.contains("--circle") && e.contains("axis Y would run from 250 to 450 mm"),
+        "{e}"
+    );
 }
 
 #[test]
 fn order_auto_chooses_per_curve_and_reports_the_scores() {
     let d = synth::probe::volumetric::generate(&Default::default()).unwrap();
-    let model = model_of(measured(&d.errors), Order::Auto);
+    let model = model_of(measured_axes(&d.errors), Order::Auto);
     for axis in &model.axes {
         for f in &axis.fits {
             let [fs, ps] = f.scores.as_ref().unwrap();

@@ -12,10 +12,9 @@
 
 use std::path::Path;
 
-use formats::Axis;
 use formats::probe::volumetric::{SetupJson, read_errors};
 use probe::volumetric::{
-    Chain, CircleSpec, MeasuredAxis, Model, Motion, Order, Setup, Squareness, analyse, html,
+    Chain, CircleSpec, Model, Motion, Order, Setup, Squareness, analyse, html, measured_axes,
 };
 use report::browser::{self, PAGE_WIDTH, check_region, rgb};
 use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, ZONE};
@@ -37,20 +36,7 @@ fn report_html_renders_in_chromium() {
         .into_iter()
         .map(|r| r.record)
         .collect();
-    let curves: Vec<MeasuredAxis> = [Axis::X, Axis::Y, Axis::Z]
-        .into_iter()
-        .map(|axis| {
-            let table: Vec<[f64; 7]> = rows
-                .iter()
-                .filter(|r| r.axis() == axis)
-                .map(|r| {
-                    let m = r.motions();
-                    [r.position, m[0], m[1], m[2], m[3], m[4], m[5]]
-                })
-                .collect();
-            MeasuredAxis::from_rows(axis, &table)
-        })
-        .collect();
+    let curves = measured_axes(&rows);
     let s: SetupJson = formats::read_json(&data("setup.json")).unwrap();
     let setup = Setup {
         chain: Chain::parse(&s.chain).unwrap(),
@@ -74,21 +60,43 @@ fn report_html_renders_in_chromium() {
     let page = dir.path().join("report.html");
     std::fs::write(&page, html::render(&analysis).unwrap()).unwrap();
     let shown = browser::render(&chromium, &page).unwrap();
-    assert!(shown.errors.is_empty(), "console errors: {:#?}", shown.errors);
+    assert!(
+        shown.errors.is_empty(),
+        "console errors: {:#?}",
+        shown.errors
+    );
     let ids: Vec<&str> = shown.plots.iter().map(|p| p.id.as_str()).collect();
-    let mut expected = vec!["plot-circle-polar".to_string(), "plot-circle-radial".to_string()];
+    let mut expected = vec![
+        "plot-circle-polar".to_string(),
+        "plot-circle-radial".to_string(),
+    ];
     for axis in ["X", "Y", "Z"] {
-        expected.extend(Motion::ALL.iter().map(|m| format!("plot-{axis}-{}", m.name())));
+        expected.extend(
+            Motion::ALL
+                .iter()
+                .map(|m| format!("plot-{axis}-{}", m.name())),
+        );
     }
     assert_eq!(ids, expected, "plots on the page");
-    assert!(shown.width <= PAGE_WIDTH, "page {} px wider than the window", shown.width);
+    assert!(
+        shown.width <= PAGE_WIDTH,
+        "page {} px wider than the window",
+        shown.width
+    );
     for p in &shown.plots {
         let (height, colours) = match p.id.as_str() {
             "plot-circle-polar" => (MAP_HEIGHT, vec![rgb(UP), rgb(ZONE), rgb(DOWN)]),
             "plot-circle-radial" => (HEIGHT, vec![rgb(UP), rgb(ZONE), rgb(DOWN)]),
             _ => (HEIGHT, vec![rgb(MEAN), rgb(UP), rgb(DOWN)]),
         };
-        assert_eq!((p.w, p.h), (WIDTH, height), "{} laid out at {}×{}", p.id, p.w, p.h);
+        assert_eq!(
+            (p.w, p.h),
+            (WIDTH, height),
+            "{} laid out at {}×{}",
+            p.id,
+            p.w,
+            p.h
+        );
         check_region(&shown.screenshot, p, &colours).unwrap();
     }
     if let Ok(keep) = std::env::var("TRINOCULAR_KEEP_SCREENSHOT") {

@@ -171,7 +171,10 @@ pub fn read_errors(path: &Path) -> Result<Vec<Row<ErrorRow>>> {
         last.insert(r.record.axis(), (r.record.position, r.line));
     }
     for (column, get) in [
-        ("positioning_up", (|r: &ErrorRow| r.positioning_up) as fn(&ErrorRow) -> Option<f64>),
+        (
+            "positioning_up",
+            (|r: &ErrorRow| r.positioning_up) as fn(&ErrorRow) -> Option<f64>,
+        ),
         ("positioning_down", |r: &ErrorRow| r.positioning_down),
     ] {
         for axis in last.keys() {
@@ -367,7 +370,10 @@ pub fn comp_file_text(lines: &[CompLine]) -> std::result::Result<String, String>
     }
     let mut text = String::new();
     for (k, l) in lines.iter().enumerate() {
-        if ![l.nominal, l.forward, l.reverse].iter().all(|v| v.is_finite()) {
+        if ![l.nominal, l.forward, l.reverse]
+            .iter()
+            .all(|v| v.is_finite())
+        {
             return Err(format!("entry {} is not finite", k + 1));
         }
         if k > 0 && l.nominal <= lines[k - 1].nominal {
@@ -393,7 +399,7 @@ pub fn write_comp_file(path: &Path, lines: &[CompLine]) -> Result<()> {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SetupJson {
     /// `EC0Y`, `EB0Z`, `EA0Z` (rad).
-    pub squareness_rad: SquarenessJson,
+    pub squareness_rad: Squareness,
     /// Chain string, e.g. `WXYFZT`.
     pub chain: String,
     /// Tool offset t (mm).
@@ -402,16 +408,18 @@ pub struct SetupJson {
     pub circle: CircleJson,
 }
 
-/// The three squareness errors (rad).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct SquarenessJson {
-    /// Y against X.
+/// The three squareness errors of METHODS.md §5 (rad in files and in the
+/// model; µrad where a report says so): Y against X in the XY plane, Z
+/// against X, Z against Y.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Squareness {
+    /// Y against X: `a_Y = (−sin EC0Y, cos EC0Y, 0)`.
     #[serde(rename = "EC0Y")]
     pub ec0y: f64,
-    /// Z against X.
+    /// Z against X: rotation of `a_Z` about Y.
     #[serde(rename = "EB0Z")]
     pub eb0z: f64,
-    /// Z against Y.
+    /// Z against Y: rotation of `a_Z` about X.
     #[serde(rename = "EA0Z")]
     pub ea0z: f64,
 }
@@ -547,7 +555,10 @@ pub fn read_evaluate_report(dir: &Path) -> Result<EvaluateReport> {
     let report: EvaluateReport = crate::read_json(&path)?;
     for (name, line) in &report.axes {
         if !matches!(name.as_str(), "X" | "Y" | "Z") {
-            return Err(FormatError::file(&path, format!("axes.{name}: unknown axis")));
+            return Err(FormatError::file(
+                &path,
+                format!("axes.{name}: unknown axis"),
+            ));
         }
         let finite = line.positioning.targets.iter().all(|t| {
             t.nominal.is_finite()
@@ -581,8 +592,10 @@ mod tests {
 
     #[test]
     fn good_curves_read() {
-        let rows = read(&format!("{HEADER}X,0,0.001,0,0,1e-6,0,0\nX,10,0.002,0,0,0,0,0\nY,0,0,0,0,0,0,0\n"))
-            .unwrap_or_default();
+        let rows = read(&format!(
+            "{HEADER}X,0,0.001,0,0,1e-6,0,0\nX,10,0.002,0,0,0,0,0\nY,0,0,0,0,0,0,0\n"
+        ))
+        .unwrap_or_default();
         assert_eq!(rows.len(), 3);
         assert_eq!(rows[1].line, 3);
         assert_eq!(rows[0].record.positioning_up, None);
@@ -591,15 +604,26 @@ mod tests {
     #[test]
     fn bad_curves_name_line_and_column() {
         let cases = [
-            ("X,0,0,0,0,0,0,0\nX,0,0,0,0,0,0,0\n", "line 3, column 'position'", "duplicate"),
-            ("X,10,0,0,0,0,0,0\nX,5,0,0,0,0,0,0\n", "line 3, column 'position'", "increase"),
+            (
+                "X,0,0,0,0,0,0,0\nX,0,0,0,0,0,0,0\n",
+                "line 3, column 'position'",
+                "duplicate",
+            ),
+            (
+                "X,10,0,0,0,0,0,0\nX,5,0,0,0,0,0,0\n",
+                "line 3, column 'position'",
+                "increase",
+            ),
             ("X,0,3.05,0,0,0,0,0\n", "line 2, column 'ex'", "µm"),
             ("X,0,0,0,0,0,0,6.2\n", "line 2, column 'ec'", "µrad"),
             ("X,0,0,NaN,0,0,0,0\n", "line 2, column 'ey'", "finite"),
             ("W,0,0,0,0,0,0,0\n", "line 2, column 'axis'", "not an axis"),
         ];
         for (body, place, says) in cases {
-            let e = read(&format!("{HEADER}{body}")).map(|_| ()).unwrap_err().to_string();
+            let e = read(&format!("{HEADER}{body}"))
+                .map(|_| ())
+                .unwrap_err()
+                .to_string();
             assert!(e.contains(place) && e.contains(says), "{body}: {e}");
         }
         let e = read("axis,position,ex,ey,ez,ea,eb,ec,positioning_up\nX,0,0,0,0,0,0,0,0.001\nX,1,0,0,0,0,0,0,\n")
@@ -607,7 +631,10 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("line 3, column 'positioning_up'"), "{e}");
-        let e = read("axis,position,ex,ey,ez,ea,eb\nX,0,0,0,0,0,0\n").map(|_| ()).unwrap_err().to_string();
+        let e = read("axis,position,ex,ey,ez,ea,eb\nX,0,0,0,0,0,0\n")
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("column 'ec'") && e.contains("missing"), "{e}");
     }
 
@@ -619,7 +646,10 @@ mod tests {
             reverse: n - 0.001,
         };
         let text = comp_file_text(&[l(0.0), l(10.0)]).unwrap_or_default();
-        assert_eq!(text, "0.0000000 0.0010000 -0.0010000\n10.0000000 10.0010000 9.9990000\n");
+        assert_eq!(
+            text,
+            "0.0000000 0.0010000 -0.0010000\n10.0000000 10.0010000 9.9990000\n"
+        );
         assert!(comp_file_text(&[l(1.0), l(1.0)]).is_err());
         assert!(comp_file_text(&[]).is_err());
         let many: Vec<CompLine> = (0..257).map(|k| l(k as f64)).collect();

@@ -161,9 +161,18 @@ fn targets(
         .map(|o| {
             line.straightness
                 .get(o.name())
-                .map(|s| s.targets.iter().map(|t| (t.target, t.deviation_um)).collect())
+                .map(|s| {
+                    s.targets
+                        .iter()
+                        .map(|t| (t.target, t.deviation_um))
+                        .collect()
+                })
                 .ok_or_else(|| {
-                    input(source, format!("axes.{name}.straightness.{}", o.name()), "missing")
+                    input(
+                        source,
+                        format!("axes.{name}.straightness.{}", o.name()),
+                        "missing",
+                    )
                 })
         })
         .collect::<Result<_>>()?;
@@ -193,13 +202,17 @@ fn targets(
                 format!("no value for target {k}"),
             )
         };
-        let positioning = t.mean_um.or(t.mean_up_um).or(t.mean_down_um).ok_or_else(|| {
-            input(
-                source,
-                format!("axes.{name}.positioning.targets"),
-                format!("target {k} has no mean deviation"),
-            )
-        })?;
+        let positioning = t
+            .mean_um
+            .or(t.mean_up_um)
+            .or(t.mean_down_um)
+            .ok_or_else(|| {
+                input(
+                    source,
+                    format!("axes.{name}.positioning.targets"),
+                    format!("target {k} has no mean deviation"),
+                )
+            })?;
         out.push(Target {
             nominal: t.nominal,
             positioning: positioning * UM,
@@ -209,7 +222,9 @@ fn targets(
                 *straight[0].get(&k).ok_or_else(|| missing("straightness"))? * UM,
                 *straight[1].get(&k).ok_or_else(|| missing("straightness"))? * UM,
             ],
-            rotation: *rotations.get(&k).ok_or_else(|| missing("angular.targets"))?,
+            rotation: *rotations
+                .get(&k)
+                .ok_or_else(|| missing("angular.targets"))?,
             sphere: *spheres.get(&k).ok_or_else(|| missing("flatness points"))?,
         });
     }
@@ -218,7 +233,10 @@ fn targets(
         return Err(input(
             source,
             format!("axes.{name}.positioning.targets"),
-            format!("two targets at {} mm: positions must increase", w[0].nominal),
+            format!(
+                "two targets at {} mm: positions must increase",
+                w[0].nominal
+            ),
         ));
     }
     if out.len() < 2 {
@@ -245,7 +263,11 @@ fn off_axis(line: &EvaluateLine) -> [f64; 3] {
 /// Convert the main line of every axis in `report` (read from `source`) to
 /// §5 curves for `chain`; every swept axis must be on the workpiece side
 /// (the spheres ride on the table).
-pub fn from_evaluate(report: &EvaluateReport, chain: &Chain, source: &str) -> Result<CampaignCurves> {
+pub fn from_evaluate(
+    report: &EvaluateReport,
+    chain: &Chain,
+    source: &str,
+) -> Result<CampaignCurves> {
     let mut lines: Vec<(Axis, &EvaluateLine)> = Vec::new();
     for (name, line) in &report.axes {
         let axis = axis_of(name)
@@ -349,7 +371,11 @@ pub fn from_evaluate(report: &EvaluateReport, chain: &Chain, source: &str) -> Re
         let fitted = if fitted.norm() > 0.0 {
             fitted.normalize()
         } else {
-            return Err(input(source, format!("axes.{}.direction", axis.name()), "zero vector"));
+            return Err(input(
+                source,
+                format!("axes.{}.direction", axis.name()),
+                "zero vector",
+            ));
         };
         let mut direction = fitted;
         for o in others {
@@ -364,10 +390,14 @@ pub fn from_evaluate(report: &EvaluateReport, chain: &Chain, source: &str) -> Re
         }
         let direction = direction.normalize();
         directions.insert(axis, direction);
-        let shifted = |v: Option<f64>, abbe: &Vector3<f64>| v.map(|v| v - abbe[axis.index()] - offset);
+        let shifted =
+            |v: Option<f64>, abbe: &Vector3<f64>| v.map(|v| v - abbe[axis.index()] - offset);
         let (up, down): (Option<Vec<f64>>, Option<Vec<f64>>) = (
             t.iter().zip(&abbe).map(|(t, a)| shifted(t.up, a)).collect(),
-            t.iter().zip(&abbe).map(|(t, a)| shifted(t.down, a)).collect(),
+            t.iter()
+                .zip(&abbe)
+                .map(|(t, a)| shifted(t.down, a))
+                .collect(),
         );
         axes.push(MeasuredAxis {
             axis,
@@ -427,7 +457,7 @@ pub fn squareness(directions: &BTreeMap<Axis, Vector3<f64>>) -> MeasuredSquarene
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::volumetric::chain::Squareness;
+    use crate::volumetric::chain::{Squareness, direction};
 
     #[test]
     fn squareness_comes_back_from_directions_in_a_turned_frame() {
@@ -440,7 +470,7 @@ mod tests {
         let turn = geom::Rotation3::new(Vector3::new(3e-3, -2e-3, 5e-3));
         let d: BTreeMap<Axis, Vector3<f64>> = [Axis::X, Axis::Y, Axis::Z]
             .into_iter()
-            .map(|a| (a, turn * s.direction(a)))
+            .map(|a| (a, turn * direction(&s, a)))
             .collect();
         let m = squareness(&d);
         assert!((m.ec0y.unwrap_or(0.0) - s.ec0y).abs() < 1e-15);
@@ -451,8 +481,17 @@ mod tests {
     #[test]
     fn roll_pitch_yaw_map_to_world_axes() {
         // evaluate: X roll εx pitch εy yaw εz; Y roll εy pitch εx yaw εz; Z roll εz pitch εx yaw εy.
-        assert_eq!(rotation_vector(Axis::X, 1.0, 2.0, 3.0), Vector3::new(1.0, 2.0, 3.0));
-        assert_eq!(rotation_vector(Axis::Y, 1.0, 2.0, 3.0), Vector3::new(2.0, 1.0, 3.0));
-        assert_eq!(rotation_vector(Axis::Z, 1.0, 2.0, 3.0), Vector3::new(2.0, 3.0, 1.0));
+        assert_eq!(
+            rotation_vector(Axis::X, 1.0, 2.0, 3.0),
+            Vector3::new(1.0, 2.0, 3.0)
+        );
+        assert_eq!(
+            rotation_vector(Axis::Y, 1.0, 2.0, 3.0),
+            Vector3::new(2.0, 1.0, 3.0)
+        );
+        assert_eq!(
+            rotation_vector(Axis::Z, 1.0, 2.0, 3.0),
+            Vector3::new(2.0, 3.0, 1.0)
+        );
     }
 }

@@ -11,6 +11,8 @@ use formats::Axis;
 use geom::{Isometry3, Point3, Rotation3, Vector3};
 use serde::Serialize;
 
+pub use formats::probe::volumetric::Squareness;
+
 use super::model::{ErrorModel, Evaluation};
 use crate::{ProbeError, Result};
 
@@ -78,7 +80,10 @@ impl Chain {
             }
         }
         if letters.first() != Some(&'W') {
-            return Err(chain_error(text, "the chain must start with W (the workpiece)"));
+            return Err(chain_error(
+                text,
+                "the chain must start with W (the workpiece)",
+            ));
         }
         if letters.last() != Some(&'T') {
             return Err(chain_error(text, "the chain must end with T (the tool)"));
@@ -125,31 +130,17 @@ impl Chain {
     }
 }
 
-/// The three squareness errors (rad) of §5.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
-pub struct Squareness {
-    /// Y against X, in the XY plane: `a_Y = (−sin EC0Y, cos EC0Y, 0)`.
-    #[serde(rename = "EC0Y")]
-    pub ec0y: f64,
-    /// Z against X: rotation of `a_Z` about Y.
-    #[serde(rename = "EB0Z")]
-    pub eb0z: f64,
-    /// Z against Y: rotation of `a_Z` about X.
-    #[serde(rename = "EA0Z")]
-    pub ea0z: f64,
-}
-
-impl Squareness {
-    /// The direction `a_j` of axis `j` (unit vector).
-    pub fn direction(&self, axis: Axis) -> Vector3<f64> {
-        match axis {
-            Axis::X => Vector3::x(),
-            Axis::Y => Vector3::new(-self.ec0y.sin(), self.ec0y.cos(), 0.0),
-            Axis::Z => {
-                Rotation3::from_axis_angle(&Vector3::y_axis(), self.eb0z)
-                    * Rotation3::from_axis_angle(&Vector3::x_axis(), self.ea0z)
-                    * Vector3::z()
-            }
+/// The direction `a_j` of axis `j` (unit vector) under `squareness` (§5):
+/// `a_X = (1, 0, 0)`, `a_Y = (−sin EC0Y, cos EC0Y, 0)`,
+/// `a_Z = Ry(EB0Z)·Rx(EA0Z)·(0, 0, 1)`.
+pub fn direction(squareness: &Squareness, axis: Axis) -> Vector3<f64> {
+    match axis {
+        Axis::X => Vector3::x(),
+        Axis::Y => Vector3::new(-squareness.ec0y.sin(), squareness.ec0y.cos(), 0.0),
+        Axis::Z => {
+            Rotation3::from_axis_angle(&Vector3::y_axis(), squareness.eb0z)
+                * Rotation3::from_axis_angle(&Vector3::x_axis(), squareness.ea0z)
+                * Vector3::z()
         }
     }
 }
@@ -242,7 +233,10 @@ impl Machine<'_> {
     /// nominal `Trans(q·e_j)`.
     fn carriage(&self, axis: Axis, q: f64, how: Option<Evaluation>) -> Result<Isometry3<f64>> {
         let Some(how) = how else {
-            return Ok(geom::transform::rigid(Vector3::zeros(), Vector3::ith(axis.index(), q)));
+            return Ok(geom::transform::rigid(
+                Vector3::zeros(),
+                Vector3::ith(axis.index(), q),
+            ));
         };
         let model = self.model.axis(axis).ok_or_else(|| ProbeError::Input {
             what: format!("axis {axis}"),
@@ -257,7 +251,7 @@ impl Machine<'_> {
         // Trans(q·a_j + δ)·Rot(ε), Rot(ε) = exp([ε]×) (Rodrigues).
         Ok(geom::transform::rigid(
             epsilon,
-            squareness.direction(axis) * q + delta,
+            direction(&squareness, axis) * q + delta,
         ))
     }
 
@@ -329,7 +323,10 @@ mod tests {
         assert_eq!(c.tool, vec![Axis::Z]);
         assert_eq!(c.side(Axis::Z), Some(Side::Tool));
         let c = Chain::parse("wyfxzt").unwrap();
-        assert_eq!((c.workpiece.clone(), c.tool.clone()), (vec![Axis::Y], vec![Axis::X, Axis::Z]));
+        assert_eq!(
+            (c.workpiece.clone(), c.tool.clone()),
+            (vec![Axis::Y], vec![Axis::X, Axis::Z])
+        );
         assert_eq!(Chain::parse("WFT").unwrap().axes().count(), 0);
         for (bad, says) in [
             ("XYFZT", "no W"),
@@ -353,11 +350,11 @@ mod tests {
             eb0z: 2e-3,
             ea0z: -3e-3,
         };
-        let y = s.direction(Axis::Y);
+        let y = direction(&s, Axis::Y);
         assert!((y - Vector3::new(-(1e-3f64).sin(), (1e-3f64).cos(), 0.0)).norm() < 1e-16);
         // Ry(b)·Rx(a)·ẑ = (sin b·cos a, −sin a, cos b·cos a).
         let (a, b) = (-3e-3f64, 2e-3f64);
-        let z = s.direction(Axis::Z);
+        let z = direction(&s, Axis::Z);
         assert!((z - Vector3::new(b.sin() * a.cos(), -a.sin(), b.cos() * a.cos())).norm() < 1e-16);
     }
 }

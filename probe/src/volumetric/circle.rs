@@ -66,7 +66,8 @@ fn nominal(spec: &CircleSpec, angle_deg: f64) -> Vector3<f64> {
 /// travel of every axis before anything is predicted: a circle that leaves
 /// it is an error naming `--circle`, the axis and the span it needs.
 pub fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<Positions>> {
-    if !(spec.radius > 0.0 && spec.radius.is_finite() && spec.centre.iter().all(|c| c.is_finite())) {
+    if !(spec.radius > 0.0 && spec.radius.is_finite() && spec.centre.iter().all(|c| c.is_finite()))
+    {
         return Err(ProbeError::Input {
             what: "--circle".into(),
             message: format!("radius {} must be a positive finite number", spec.radius),
@@ -93,9 +94,11 @@ pub fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<Positio
         })?;
     for a in machine.chain.axes() {
         let i = a.index();
-        let (lo, hi) = q.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p[i]), hi.max(p[i]))
-        });
+        let (lo, hi) = q
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p[i]), hi.max(p[i]))
+            });
         if let Some(model) = machine.model.axis(a) {
             let (t0, t1) = model.curves.travel();
             if lo < t0 || hi > t1 {
@@ -113,7 +116,11 @@ pub fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<Positio
 }
 
 /// Predict the circular test under `how`.
-pub fn predict(machine: &Machine<'_>, spec: &CircleSpec, how: Evaluation) -> Result<CirclePrediction> {
+pub fn predict(
+    machine: &Machine<'_>,
+    spec: &CircleSpec,
+    how: Evaluation,
+) -> Result<CirclePrediction> {
     let q = positions(machine, spec)?;
     let mut points = Vec::with_capacity(q.len());
     let mut path = Vec::with_capacity(q.len());

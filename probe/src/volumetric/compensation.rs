@@ -61,14 +61,18 @@ mod tests {
                 [q, 1e-6 * q, 0.0, 0.0, 0.0, 0.0, 0.0]
             })
             .collect();
-        let c = AxisCurves::new(MeasuredAxis::from_rows(Axis::X, &rows)).unwrap_or_else(|e| panic!("{e}"));
+        let c = AxisCurves::new(MeasuredAxis::from_rows(Axis::X, &rows))
+            .unwrap_or_else(|e| panic!("{e}"));
         let t = table(&c);
         assert_eq!(t.len(), COMP_FILE_MAX_LINES);
         assert_eq!(t[0].nominal, 0.0);
         assert_eq!(t[t.len() - 1].nominal, 499.5);
         assert!(t.windows(2).all(|w| w[1].nominal > w[0].nominal));
         // (q + e) − q loses the last bits of q ≈ 500 mm: 1e-12 mm.
-        assert!(t.iter().all(|l| (l.forward - l.nominal - 1e-6 * l.nominal).abs() < 1e-12));
+        assert!(
+            t.iter()
+                .all(|l| (l.forward - l.nominal - 1e-6 * l.nominal).abs() < 1e-12)
+        );
         assert!(!bidirectional(&c));
     }
 }

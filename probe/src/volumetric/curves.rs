@@ -3,6 +3,7 @@
 //! least-squares line removed from the two straightness curves.
 
 use formats::Axis;
+use formats::probe::volumetric::ErrorRow;
 use serde::Serialize;
 
 use crate::{ProbeError, Result};
@@ -126,6 +127,31 @@ impl MeasuredAxis {
             positioning_down: None,
         }
     }
+}
+
+/// The curves of `E.csv` rows: one per axis present (X, Y, Z order), the
+/// rows of each in the order given, with the direction columns when given.
+pub fn measured_axes(rows: &[ErrorRow]) -> Vec<MeasuredAxis> {
+    [Axis::X, Axis::Y, Axis::Z]
+        .into_iter()
+        .filter_map(|axis| {
+            let of_axis: Vec<&ErrorRow> = rows.iter().filter(|r| r.axis() == axis).collect();
+            if of_axis.is_empty() {
+                return None;
+            }
+            let table: Vec<[f64; 7]> = of_axis
+                .iter()
+                .map(|r| {
+                    let m = r.motions();
+                    [r.position, m[0], m[1], m[2], m[3], m[4], m[5]]
+                })
+                .collect();
+            let mut m = MeasuredAxis::from_rows(axis, &table);
+            m.positioning_up = of_axis.iter().map(|r| r.positioning_up).collect();
+            m.positioning_down = of_axis.iter().map(|r| r.positioning_down).collect();
+            Some(m)
+        })
+        .collect()
 }
 
 /// The slope removed from a straightness curve with its least-squares line

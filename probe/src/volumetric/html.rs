@@ -38,9 +38,18 @@ pub fn render(a: &Analysis) -> Result<String> {
         Some("squareness"),
         &["squareness", "µrad"],
         &[
-            vec!["EC0Y (Y against X)".to_string(), format!("{:.3}", r.squareness_urad.ec0y)],
-            vec!["EB0Z (Z against X)".to_string(), format!("{:.3}", r.squareness_urad.eb0z)],
-            vec!["EA0Z (Z against Y)".to_string(), format!("{:.3}", r.squareness_urad.ea0z)],
+            vec![
+                "EC0Y (Y against X)".to_string(),
+                format!("{:.3}", r.squareness_urad.ec0y),
+            ],
+            vec![
+                "EB0Z (Z against X)".to_string(),
+                format!("{:.3}", r.squareness_urad.eb0z),
+            ],
+            vec![
+                "EA0Z (Z against Y)".to_string(),
+                format!("{:.3}", r.squareness_urad.ea0z),
+            ],
         ],
     );
 
@@ -88,7 +97,11 @@ pub fn render(a: &Analysis) -> Result<String> {
     let mut rows = Vec::new();
     for ax in &r.axes {
         for c in &ax.curves {
-            let better = if c.fourier.rmse <= c.polynomial.rmse { "Fourier" } else { "polynomial" };
+            let better = if c.fourier.rmse <= c.polynomial.rmse {
+                "Fourier"
+            } else {
+                "polynomial"
+            };
             let u = if c.unit == "um" { "µm" } else { "µrad" };
             for (name, s) in [("Fourier", &c.fourier), ("polynomial", &c.polynomial)] {
                 rows.push(vec![
@@ -98,7 +111,11 @@ pub fn render(a: &Analysis) -> Result<String> {
                     format!("{:.4e} {u}²", s.sse),
                     format!("{:.4} {u}", s.rmse),
                     format!("{:.4} {u}", s.emax),
-                    if name == better { "✓".into() } else { String::new() },
+                    if name == better {
+                        "✓".into()
+                    } else {
+                        String::new()
+                    },
                 ]);
             }
         }
@@ -144,12 +161,19 @@ pub fn render(a: &Analysis) -> Result<String> {
             })
             .collect();
         h.h3("Least-squares lines removed from the straightness curves");
-        h.table(None, &["curve", "slope (µrad)", "intercept at q = 0 (µm)"], &slopes);
+        h.table(
+            None,
+            &["curve", "slope (µrad)", "intercept at q = 0 (µm)"],
+            &slopes,
+        );
         if ar.curves.iter().any(|c| c.fourier.order_scores.is_some()) {
             h.h3("Order chosen by leave-one-out cross-validation");
             let mut rows = Vec::new();
             for c in &ar.curves {
-                for (s, sr) in [(Series::Fourier, &c.fourier), (Series::Polynomial, &c.polynomial)] {
+                for (s, sr) in [
+                    (Series::Fourier, &c.fourier),
+                    (Series::Polynomial, &c.polynomial),
+                ] {
                     let list = sr
                         .order_scores
                         .as_ref()
@@ -167,7 +191,11 @@ pub fn render(a: &Analysis) -> Result<String> {
                     ]);
                 }
             }
-            h.table(None, &["curve", "chosen N", "leave-one-out RMSE per N"], &rows);
+            h.table(
+                None,
+                &["curve", "chosen N", "leave-one-out RMSE per N"],
+                &rows,
+            );
         }
     }
 
@@ -208,7 +236,9 @@ pub fn render(a: &Analysis) -> Result<String> {
         .map(|ax| {
             vec![
                 format!("comp_{}.txt", ax.axis.name()),
-                ax.points.min(formats::probe::volumetric::COMP_FILE_MAX_LINES).to_string(),
+                ax.points
+                    .min(formats::probe::volumetric::COMP_FILE_MAX_LINES)
+                    .to_string(),
                 if ax.compensation_bidirectional {
                     "forward and reverse measured".into()
                 } else {
@@ -228,7 +258,10 @@ pub fn render(a: &Analysis) -> Result<String> {
                 vec![
                     format!("{} (line {})", s.axis.name(), s.line),
                     format!("{}", s.reference_mm),
-                    format!("({:.3}, {:.3}, {:.3})", s.lever_mm[0], s.lever_mm[1], s.lever_mm[2]),
+                    format!(
+                        "({:.3}, {:.3}, {:.3})",
+                        s.lever_mm[0], s.lever_mm[1], s.lever_mm[2]
+                    ),
                 ]
             })
             .collect();

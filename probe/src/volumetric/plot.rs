@@ -8,16 +8,17 @@ use report::plot::{
     with_legend_room,
 };
 
+use super::circle::CirclePrediction;
+use super::curves::Motion;
 use super::model::AxisModel;
 use super::report::{Circles, unit};
-use super::curves::Motion;
 use super::series::Series;
 use crate::Result;
 
 /// Samples drawn along a fitted series.
 const SAMPLES: usize = 240;
 /// The magnified deviation of the polar plot reaches at most this fraction of the radius.
-const POLAR_REACH: f64 = 0.2;
+pub const POLAR_REACH: f64 = 0.2;
 
 /// The plotted unit's label.
 fn unit_label(motion: Motion) -> &'static str {
@@ -57,7 +58,14 @@ pub fn curve(title: &str, axis: &AxisModel, motion: Motion) -> Result<String> {
     let p = axis.fits[motion.index()].get(Series::Polynomial);
     let y_desc = format!("{} ({})", motion.symbol(axis.axis()), unit_label(motion));
     Ok(svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), "carriage position q (mm)", &y_desc)?;
+        let mut chart = line_chart(
+            root,
+            title,
+            (x0, x1),
+            (y0, y1),
+            "carriage position q (mm)",
+            &y_desc,
+        )?;
         chart
             .draw_series(LineSeries::new(measured.clone(), MEAN.stroke_width(1)))
             .map_err(|e| e.to_string())?
@@ -69,7 +77,11 @@ pub fn curve(title: &str, axis: &AxisModel, motion: Motion) -> Result<String> {
         chart
             .draw_series(LineSeries::new(fourier, UP.stroke_width(2)))
             .map_err(|e| e.to_string())?
-            .label(format!("Fourier N = {} (RMSE {:.3})", f.order, f.figures.rmse * scale))
+            .label(format!(
+                "Fourier N = {} (RMSE {:.3})",
+                f.order,
+                f.figures.rmse * scale
+            ))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], UP.stroke_width(2)));
         chart
             .draw_series(LineSeries::new(polynomial, DOWN.stroke_width(2)))
@@ -87,7 +99,7 @@ pub fn curve(title: &str, axis: &AxisModel, motion: Motion) -> Result<String> {
 /// The magnification of the polar plot: a 1-2-5 step such that the largest
 /// |radial deviation| reaches about [`POLAR_REACH`] of the radius.
 pub fn magnification(radius_mm: f64, largest_mm: f64) -> f64 {
-    if !(largest_mm > 0.0) {
+    if largest_mm.is_nan() || largest_mm <= 0.0 {
         return 1.0;
     }
     let raw = POLAR_REACH * radius_mm / largest_mm;
@@ -99,16 +111,25 @@ pub fn magnification(radius_mm: f64, largest_mm: f64) -> f64 {
         .unwrap_or(decade)
 }
 
+/// The three predictions of a circle with their colours and names.
+fn circle_series(c: &Circles) -> [(&CirclePrediction, RGBColor, &'static str); 3] {
+    [
+        (&c.predicted, UP, "predicted"),
+        (&c.compensated_fourier, ZONE, "after Fourier compensation"),
+        (
+            &c.compensated_polynomial,
+            DOWN,
+            "after polynomial compensation",
+        ),
+    ]
+}
+
 /// The predicted circle as a polar plot: radius R + M·radial deviation, with
 /// the nominal circle; predicted (blue), after Fourier (green) and polynomial
 /// (red) compensation. Returns the SVG and the magnification M.
 pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
     let r = c.spec.radius;
-    let paths = [
-        (&c.predicted, UP, "predicted"),
-        (&c.compensated_fourier, ZONE, "after Fourier compensation"),
-        (&c.compensated_polynomial, DOWN, "after polynomial compensation"),
-    ];
+    let paths = circle_series(c);
     let largest = paths
         .iter()
         .flat_map(|(p, _, _)| p.points.iter().map(|q| q.radial.abs()))
@@ -144,7 +165,12 @@ pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
                 .collect()
         };
         chart
-            .draw_series(DashedLineSeries::new(ring(&|_| r), 6, 4, MEAN.stroke_width(1)))
+            .draw_series(DashedLineSeries::new(
+                ring(&|_| r),
+                6,
+                4,
+                MEAN.stroke_width(1),
+            ))
             .map_err(|e| e.to_string())?;
         for (p, colour, _) in paths {
             let path = ring(&|d| r + m * p.points.get(d).map_or(0.0, |q| q.radial));
@@ -165,9 +191,13 @@ pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
         }
         let mut y = 40 + 22 * lines.len() as i32;
         for (p, colour, name) in paths {
-            side.draw(&PathElement::new(vec![(10, y + 8), (34, y + 8)], colour.stroke_width(3)))
+            side.draw(&PathElement::new(
+                vec![(10, y + 8), (34, y + 8)],
+                colour.stroke_width(3),
+            ))
+            .map_err(|e| e.to_string())?;
+            side.draw_text(name, &style, (42, y))
                 .map_err(|e| e.to_string())?;
-            side.draw_text(name, &style, (42, y)).map_err(|e| e.to_string())?;
             side.draw_text(
                 &format!(
                     "circular deviation {:.2} µm, radial range {:.2} µm",
@@ -180,9 +210,13 @@ pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
             .map_err(|e| e.to_string())?;
             y += 52;
         }
-        side.draw(&PathElement::new(vec![(10, y + 8), (34, y + 8)], MEAN.stroke_width(1)))
+        side.draw(&PathElement::new(
+            vec![(10, y + 8), (34, y + 8)],
+            MEAN.stroke_width(1),
+        ))
+        .map_err(|e| e.to_string())?;
+        side.draw_text("nominal circle", &style, (42, y))
             .map_err(|e| e.to_string())?;
-        side.draw_text("nominal circle", &style, (42, y)).map_err(|e| e.to_string())?;
         Ok(())
     })?;
     Ok((svg_text, m))
@@ -190,24 +224,33 @@ pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
 
 /// Radial deviation against the angle: predicted and after each compensation.
 pub fn radial(title: &str, c: &Circles) -> Result<String> {
-    let series = [
-        (&c.predicted, UP, "predicted"),
-        (&c.compensated_fourier, ZONE, "after Fourier compensation"),
-        (&c.compensated_polynomial, DOWN, "after polynomial compensation"),
-    ];
+    let series = circle_series(c);
     let ys = series
         .iter()
         .flat_map(|(p, _, _)| p.points.iter().map(|q| q.radial * 1e3));
     let (y0, y1) = with_legend_room(padded(ys, 0.05));
     Ok(svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(root, title, (0.0, 360.0), (y0, y1), "angle θ (°)", "radial deviation (µm)")?;
+        let mut chart = line_chart(
+            root,
+            title,
+            (0.0, 360.0),
+            (y0, y1),
+            "angle θ (°)",
+            "radial deviation (µm)",
+        )?;
         for (p, colour, name) in series {
-            let pts: Vec<(f64, f64)> = p.points.iter().map(|q| (q.angle_deg, q.radial * 1e3)).collect();
+            let pts: Vec<(f64, f64)> = p
+                .points
+                .iter()
+                .map(|q| (q.angle_deg, q.radial * 1e3))
+                .collect();
             chart
                 .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
                 .map_err(|e| e.to_string())?
                 .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                });
         }
         legend(&mut chart)
     })?)

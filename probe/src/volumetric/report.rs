@@ -103,7 +103,11 @@ pub fn analyse(
         Some(spec) => Some(Circles {
             spec,
             predicted: circle::predict(&machine, &spec, how)?,
-            compensated_fourier: circle::predict(&machine, &spec, Evaluation::Residual(Series::Fourier))?,
+            compensated_fourier: circle::predict(
+                &machine,
+                &spec,
+                Evaluation::Residual(Series::Fourier),
+            )?,
             compensated_polynomial: circle::predict(
                 &machine,
                 &spec,
@@ -143,7 +147,7 @@ pub struct Report {
     /// Tool offset t (mm).
     pub tool_mm: [f64; 3],
     /// Squareness (µrad).
-    pub squareness_urad: SquarenessUrad,
+    pub squareness_urad: Squareness,
     /// Model of the predictions: `raw`, `fourier` or `polynomial`.
     pub model: Model,
     /// Order setting: a number or `auto`.
@@ -163,20 +167,6 @@ pub struct Report {
     pub campaign: Option<CampaignReport>,
     /// Conventions of the figures.
     pub conventions: Vec<String>,
-}
-
-/// Squareness (µrad).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct SquarenessUrad {
-    /// Y against X.
-    #[serde(rename = "EC0Y")]
-    pub ec0y: f64,
-    /// Z against X.
-    #[serde(rename = "EB0Z")]
-    pub eb0z: f64,
-    /// Z against Y.
-    #[serde(rename = "EA0Z")]
-    pub ea0z: f64,
 }
 
 /// One axis: its curves.
@@ -348,7 +338,12 @@ pub fn unit(motion: Motion) -> (&'static str, f64) {
     }
 }
 
-fn series_report(fit: &SeriesFit, values: &[f64], scale: f64, scores: Option<&Vec<OrderScore>>) -> SeriesReport {
+fn series_report(
+    fit: &SeriesFit,
+    values: &[f64],
+    scale: f64,
+    scores: Option<&Vec<OrderScore>>,
+) -> SeriesReport {
     let f: Figures = fit.figures;
     SeriesReport {
         order: fit.order,
@@ -418,7 +413,12 @@ impl Report {
                             symbol: m.symbol(a.axis()),
                             unit,
                             values: values.iter().map(|v| v * scale).collect(),
-                            fourier: series_report(&f.fourier, values, scale, f.scores.as_ref().map(|s| &s[0])),
+                            fourier: series_report(
+                                &f.fourier,
+                                values,
+                                scale,
+                                f.scores.as_ref().map(|s| &s[0]),
+                            ),
                             polynomial: series_report(
                                 &f.polynomial,
                                 values,
@@ -494,7 +494,7 @@ impl Report {
             workpiece_side: setup.chain.workpiece.clone(),
             tool_side: setup.chain.tool.clone(),
             tool_mm: setup.tool,
-            squareness_urad: SquarenessUrad {
+            squareness_urad: Squareness {
                 ec0y: setup.squareness.ec0y * URAD,
                 eb0z: setup.squareness.eb0z * URAD,
                 ea0z: setup.squareness.ea0z * URAD,

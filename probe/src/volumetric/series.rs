@@ -139,7 +139,10 @@ struct Solution {
 fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
     let (n, k) = design.shape();
     let scales: Vec<f64> = (0..k).map(|j| design.column(j).norm()).collect();
-    if scales.iter().any(|s| !(*s > ZERO_COLUMN * (n as f64).sqrt())) {
+    if scales
+        .iter()
+        .any(|s| s.is_nan() || *s <= ZERO_COLUMN * (n as f64).sqrt())
+    {
         return Err(ProbeError::IllConditioned {
             what: format!("{what} (a basis function vanishes at every position)"),
             condition: f64::INFINITY,
@@ -152,12 +155,17 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
     }
     // Condition number from the singular values; the solution and the hat
     // values from the (backward-stable) Householder QR of the same matrix.
-    let svd = SVD::try_new(scaled.clone(), false, false, 5.0 * f64::EPSILON, SVD_ITERATIONS).ok_or(
-        ProbeError::NotConverged {
-            what: "singular value decomposition of a curve fit",
-            iterations: SVD_ITERATIONS,
-        },
-    )?;
+    let svd = SVD::try_new(
+        scaled.clone(),
+        false,
+        false,
+        5.0 * f64::EPSILON,
+        SVD_ITERATIONS,
+    )
+    .ok_or(ProbeError::NotConverged {
+        what: "singular value decomposition of a curve fit",
+        iterations: SVD_ITERATIONS,
+    })?;
     let largest = svd.singular_values.max();
     let smallest = svd.singular_values.min();
     let condition = if smallest > 0.0 {
@@ -165,7 +173,7 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
     } else {
         f64::INFINITY
     };
-    if !(condition <= MAX_CONDITION) {
+    if condition.is_nan() || condition > MAX_CONDITION {
         return Err(ProbeError::IllConditioned {
             what: what.to_string(),
             condition,
@@ -191,11 +199,20 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
 }
 
 /// Design matrix of `series` of order N at `positions`.
-fn design(series: Series, order: usize, start: f64, length: f64, positions: &[f64]) -> DMatrix<f64> {
+fn design(
+    series: Series,
+    order: usize,
+    start: f64,
+    length: f64,
+    positions: &[f64],
+) -> DMatrix<f64> {
     let count = 2 * order + 1;
     let mut a = DMatrix::zeros(positions.len(), count);
     for (i, &p) in positions.iter().enumerate() {
-        for (j, v) in basis(series, order, start, length, p).into_iter().enumerate() {
+        for (j, v) in basis(series, order, start, length, p)
+            .into_iter()
+            .enumerate()
+        {
             a[(i, j)] = v;
         }
     }
@@ -234,7 +251,11 @@ impl SeriesFit {
         let start = positions[0];
         let length = positions[positions.len() - 1] - start;
         let label = format!("{} fit of order {order} to {what}", series.name());
-        let s = solve(design(series, order, start, length, positions), values, &label)?;
+        let s = solve(
+            design(series, order, start, length, positions),
+            values,
+            &label,
+        )?;
         Ok(SeriesFit {
             series,
             order,
@@ -287,7 +308,11 @@ pub fn choose_order(
             break;
         }
         let label = format!("{} fit of order {order} to {what}", series.name());
-        let Ok(s) = solve(design(series, order, start, length, positions), values, &label) else {
+        let Ok(s) = solve(
+            design(series, order, start, length, positions),
+            values,
+            &label,
+        ) else {
             continue;
         };
         if s.hat.iter().any(|h| *h >= HAT_LIMIT) {
@@ -381,7 +406,9 @@ mod tests {
         // Pseudo-random noise from a linear congruential generator.
         let mut state = 12345u64;
         let mut noise = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
         let v: Vec<f64> = p
@@ -407,7 +434,10 @@ mod tests {
                 press += (v[leave] - predicted).powi(2);
             }
             let brute = (press / p.len() as f64).sqrt();
-            assert!((brute - s.loo_rmse).abs() < 1e-12 * brute.max(1.0), "{s:?} vs {brute}");
+            assert!(
+                (brute - s.loo_rmse).abs() < 1e-12 * brute.max(1.0),
+                "{s:?} vs {brute}"
+            );
         }
         assert!(order >= 2, "{scores:?}");
         let best = scores.iter().find(|s| s.order == order).unwrap().loo_rmse;

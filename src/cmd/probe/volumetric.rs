@@ -7,7 +7,6 @@
 //! `trinocular synth probe volumetric`: error curves of a machine with known
 //! error motions, `setup.json`, `at.csv`, `truth.json`.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -18,6 +17,7 @@ use formats::probe::volumetric::{
 };
 use probe::volumetric::{
     Chain, CircleSpec, MeasuredAxis, Model, Order, Setup, Squareness, analyse, campaign, html,
+    measured_axes,
 };
 
 /// Arguments of `trinocular probe volumetric`.
@@ -76,7 +76,10 @@ enum ModelArg {
 fn numbers<const N: usize>(text: &str, what: &str) -> std::result::Result<[f64; N], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
-        return Err(format!("expected {what}, got {} value(s) in '{text}'", parts.len()));
+        return Err(format!(
+            "expected {what}, got {} value(s) in '{text}'",
+            parts.len()
+        ));
     }
     let mut out = [0.0; N];
     for (o, p) in out.iter_mut().zip(&parts) {
@@ -107,35 +110,26 @@ fn order(text: &str) -> std::result::Result<Order, String> {
     }
     match text.parse::<usize>() {
         Ok(n) if n >= 1 => Ok(Order::Fixed(n)),
-        _ => Err(format!("expected a whole number N ≥ 1 or 'auto', got '{text}'")),
+        _ => Err(format!(
+            "expected a whole number N ≥ 1 or 'auto', got '{text}'"
+        )),
     }
 }
 
-/// Curves of `E.csv`, per axis in file order, with the file lines of each axis.
+/// Curves of `E.csv` per axis, with the first and last file line of each axis.
 fn curves_from_file(path: &Path) -> Result<Vec<(MeasuredAxis, (u64, u64))>> {
     let rows = files::read_errors(path)?;
-    let mut by_axis: BTreeMap<Axis, Vec<&formats::Row<ErrorRow>>> = BTreeMap::new();
-    for r in &rows {
-        by_axis.entry(r.record.axis()).or_default().push(r);
-    }
-    Ok(by_axis
+    let records: Vec<ErrorRow> = rows.iter().map(|r| r.record.clone()).collect();
+    Ok(measured_axes(&records)
         .into_iter()
-        .map(|(axis, rs)| {
-            let table: Vec<[f64; 7]> = rs
+        .map(|m| {
+            let mut lines = rows
                 .iter()
-                .map(|r| {
-                    let m = r.record.motions();
-                    [r.record.position, m[0], m[1], m[2], m[3], m[4], m[5]]
-                })
-                .collect();
-            let mut m = MeasuredAxis::from_rows(axis, &table);
-            m.positioning_up = rs.iter().map(|r| r.record.positioning_up).collect();
-            m.positioning_down = rs.iter().map(|r| r.record.positioning_down).collect();
-            let lines = (
-                rs.first().map_or(0, |r| r.line),
-                rs.last().map_or(0, |r| r.line),
-            );
-            (m, lines)
+                .filter(|r| r.record.axis() == m.axis)
+                .map(|r| r.line);
+            let first = lines.next().unwrap_or(0);
+            let last = lines.last().unwrap_or(first);
+            (m, (first, last))
         })
         .collect())
 }
@@ -232,7 +226,11 @@ pub fn run(args: &Args) -> Result<()> {
     let at_label = |line: u64| {
         format!(
             "{}: line {line}",
-            args.at.as_deref().map(Path::display).map(|d| d.to_string()).unwrap_or_default()
+            args.at
+                .as_deref()
+                .map(Path::display)
+                .map(|d| d.to_string())
+                .unwrap_or_default()
         )
     };
     let setup = Setup {
@@ -261,7 +259,11 @@ pub fn run(args: &Args) -> Result<()> {
 
     // Outputs: refuse before writing anything.
     let out = &args.out;
-    let mut names: Vec<String> = vec!["report.json".into(), "report.html".into(), "fits.csv".into()];
+    let mut names: Vec<String> = vec![
+        "report.json".into(),
+        "report.html".into(),
+        "fits.csv".into(),
+    ];
     if args.at.is_some() {
         names.push("volumetric.csv".into());
     }
@@ -388,7 +390,8 @@ fn print_summary(a: &probe::volumetric::Analysis, setup: &Setup) {
         );
         println!(
             "after compensation: Fourier {:.3} µm, polynomial {:.3} µm (circular deviation)",
-            c.compensated.fourier.circular_deviation_um, c.compensated.polynomial.circular_deviation_um
+            c.compensated.fourier.circular_deviation_um,
+            c.compensated.polynomial.circular_deviation_um
         );
     }
     if let Some(c) = &r.campaign {

@@ -18,7 +18,7 @@
 //! call the volumetric solver.
 
 use formats::Axis;
-use formats::probe::volumetric::{AtRow, CircleJson, ErrorRow, SetupJson, SquarenessJson};
+use formats::probe::volumetric::{AtRow, CircleJson, ErrorRow, SetupJson, Squareness};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use rand_distr::{Distribution, StandardNormal, StandardUniform};
@@ -185,7 +185,9 @@ fn sides(chain: &str) -> Result<[f64; 3]> {
         && c.ends_with('T')
         && f.is_some()
         && c.chars().all(|l| "WXYZFT".contains(l))
-        && ["W", "F", "T", "X", "Y", "Z"].iter().all(|l| c.matches(l).count() <= 1);
+        && ["W", "F", "T", "X", "Y", "Z"]
+            .iter()
+            .all(|l| c.matches(l).count() <= 1);
     let Some(f) = f.filter(|_| ok) else {
         return Err(SynthError::config(format!(
             "chain '{chain}': expected W, the workpiece-side axes, F, the tool-side axes, T"
@@ -253,9 +255,15 @@ pub fn generate(config: &VolumetricConfig) -> Result<VolumetricData> {
                     config.translation_um * UM
                 },
                 bow: 0.5 * normal(&mut shape_rng),
-                waves: (1..=WAVES).map(|k| 0.5 * normal(&mut shape_rng) / k as f64).collect(),
-                cycles: (1..=WAVES).map(|k| k as f64 + 0.3 + 0.8 * uniform(&mut shape_rng)).collect(),
-                phases: (0..WAVES).map(|_| std::f64::consts::TAU * uniform(&mut shape_rng)).collect(),
+                waves: (1..=WAVES)
+                    .map(|k| 0.5 * normal(&mut shape_rng) / k as f64)
+                    .collect(),
+                cycles: (1..=WAVES)
+                    .map(|k| k as f64 + 0.3 + 0.8 * uniform(&mut shape_rng))
+                    .collect(),
+                phases: (0..WAVES)
+                    .map(|_| std::f64::consts::TAU * uniform(&mut shape_rng))
+                    .collect(),
             };
             let truth: Vec<f64> = q.iter().map(|&x| shape.value(x, travel)).collect();
             let straightness = !rotation && m != i;
@@ -264,7 +272,11 @@ pub fn generate(config: &VolumetricConfig) -> Result<VolumetricData> {
                 let tilted: Vec<f64> = q.iter().zip(&truth).map(|(x, v)| v + tilt * x).collect();
                 let (k, b) = line(&q, &tilted);
                 slopes.insert(name.to_string(), k);
-                let curve: Vec<f64> = q.iter().zip(&tilted).map(|(x, v)| v - (k * x + b)).collect();
+                let curve: Vec<f64> = q
+                    .iter()
+                    .zip(&tilted)
+                    .map(|(x, v)| v - (k * x + b))
+                    .collect();
                 (curve, tilted)
             } else {
                 (truth.clone(), truth)
@@ -274,7 +286,12 @@ pub fn generate(config: &VolumetricConfig) -> Result<VolumetricData> {
             } else {
                 config.noise_um * UM
             };
-            reported.push(values.iter().map(|v| v + sigma * normal(&mut noise_rng)).collect());
+            reported.push(
+                values
+                    .iter()
+                    .map(|v| v + sigma * normal(&mut noise_rng))
+                    .collect(),
+            );
             curves.insert(name.to_string(), curve);
             shapes.insert(name.to_string(), shape);
         }
@@ -303,8 +320,7 @@ pub fn generate(config: &VolumetricConfig) -> Result<VolumetricData> {
     }
     // The circle: every carriage in the chain at mid-travel at its centre.
     let t = config.tool_mm;
-    let centre: [f64; 3] =
-        std::array::from_fn(|i| t[i] + side[i] * config.travel_mm[i] / 2.0);
+    let centre: [f64; 3] = std::array::from_fn(|i| t[i] + side[i] * config.travel_mm[i] / 2.0);
     let mut at_rng = rng(config.seed, AT_PURPOSE, &[]);
     let at = (0..config.at_points)
         .map(|_| {
@@ -327,7 +343,7 @@ pub fn generate(config: &VolumetricConfig) -> Result<VolumetricData> {
         errors,
         at,
         setup: SetupJson {
-            squareness_rad: SquarenessJson {
+            squareness_rad: Squareness {
                 ec0y: s[0],
                 eb0z: s[1],
                 ea0z: s[2],
@@ -376,10 +392,12 @@ mod tests {
         })
         .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(other.setup.circle.centre_mm, [300.0, -200.0, 50.0]);
-        assert!(generate(&VolumetricConfig {
-            chain: "WXYZ".into(),
-            ..c
-        })
-        .is_err());
+        assert!(
+            generate(&VolumetricConfig {
+                chain: "WXYZ".into(),
+                ..c
+            })
+            .is_err()
+        );
     }
 }
