@@ -50,11 +50,7 @@ fn check_setup() -> (Chain, Squareness, Vector3<f64>, CircleSpec) {
     let s: formats::probe::volumetric::SetupJson = formats::read_json(&data("setup.json")).unwrap();
     (
         Chain::parse(&s.chain).unwrap(),
-        Squareness {
-            ec0y: s.squareness_rad.ec0y,
-            eb0z: s.squareness_rad.eb0z,
-            ea0z: s.squareness_rad.ea0z,
-        },
+        s.squareness_rad,
         Vector3::from(s.tool_mm),
         CircleSpec {
             centre: s.circle.centre_mm,
@@ -396,11 +392,7 @@ fn generator_round_trip_for_two_chains() {
         let s = &d.setup;
         let setup = Setup {
             chain: Chain::parse(&s.chain).unwrap(),
-            squareness: Squareness {
-                ec0y: s.squareness_rad.ec0y,
-                eb0z: s.squareness_rad.eb0z,
-                ea0z: s.squareness_rad.ea0z,
-            },
+            squareness: s.squareness_rad,
             tool: s.tool_mm,
             model: Model::Raw,
             order: Order::Fixed(3),

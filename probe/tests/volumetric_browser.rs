@@ -14,7 +14,7 @@ use std::path::Path;
 
 use formats::probe::volumetric::{SetupJson, read_errors};
 use probe::volumetric::{
-    Chain, CircleSpec, Model, Motion, Order, Setup, Squareness, analyse, html, measured_axes,
+    Chain, CircleSpec, Model, Motion, Order, Setup, analyse, html, measured_axes,
 };
 use report::browser::{self, PAGE_WIDTH, check_region, rgb};
 use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, ZONE};
@@ -40,11 +40,7 @@ fn report_html_renders_in_chromium() {
     let s: SetupJson = formats::read_json(&data("setup.json")).unwrap();
     let setup = Setup {
         chain: Chain::parse(&s.chain).unwrap(),
-        squareness: Squareness {
-            ec0y: s.squareness_rad.ec0y,
-            eb0z: s.squareness_rad.eb0z,
-            ea0z: s.squareness_rad.ea0z,
-        },
+        squareness: s.squareness_rad,
         tool: s.tool_mm,
         model: Model::Raw,
         order: Order::Fixed(3),

@@ -123,13 +123,13 @@ fn curves_from_file(path: &Path) -> Result<Vec<(MeasuredAxis, (u64, u64))>> {
     Ok(measured_axes(&records)
         .into_iter()
         .map(|m| {
-            let mut lines = rows
+            let lines: Vec<u64> = rows
                 .iter()
                 .filter(|r| r.record.axis() == m.axis)
-                .map(|r| r.line);
-            let first = lines.next().unwrap_or(0);
-            let last = lines.last().unwrap_or(first);
-            (m, (first, last))
+                .map(|r| r.line)
+                .collect();
+            let first = lines.first().copied().unwrap_or(0);
+            (m, (first, lines.last().copied().unwrap_or(first)))
         })
         .collect())
 }
