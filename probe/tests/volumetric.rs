@@ -591,7 +591,8 @@ fn order_auto_chooses_per_curve_and_reports_the_scores() {
                     .min_by(|a, b| a.loo_rmse.total_cmp(&b.loo_rmse))
                     .unwrap();
                 assert_eq!(fit.order, best.order);
-                assert!(scores.len() >= 5);
+                // 21 points or more: orders 1 to 4 at 2 points per coefficient.
+                assert!(scores.len() >= 4);
             }
         }
     }

@@ -16,6 +16,10 @@ use crate::{ProbeError, Result};
 pub const MAX_CONDITION: f64 = 1e10;
 /// Largest order N tried by `--order auto`.
 pub const MAX_AUTO_ORDER: usize = 10;
+/// `--order auto` tries an order only with at least this many points per
+/// coefficient: a fit that nearly interpolates leaves cross-validation a
+/// handful of points of its own and picks noise.
+pub const POINTS_PER_COEFFICIENT: usize = 2;
 /// A leave-one-out hat value this close to 1 means the point is fitted
 /// exactly whatever its value: the order leaves nothing to cross-validate.
 const HAT_LIMIT: f64 = 1.0 - 1e-9;
@@ -290,9 +294,10 @@ pub struct OrderScore {
     pub loo_rmse: f64,
 }
 
-/// Leave-one-out scores of orders 1 ..= [`MAX_AUTO_ORDER`] (those the points
-/// determine with one to spare) and the best order: the smallest RMSE, the
-/// lower order on a tie. Fails when no order can be cross-validated.
+/// Leave-one-out scores of orders 1 ..= [`MAX_AUTO_ORDER`] (those with at
+/// least [`POINTS_PER_COEFFICIENT`] points per coefficient that the points
+/// determine) and the best order: the smallest RMSE, the lower order on a
+/// tie. Fails when no order can be cross-validated.
 pub fn choose_order(
     series: Series,
     positions: &[f64],
@@ -304,7 +309,7 @@ pub fn choose_order(
     let length = positions.last().copied().unwrap_or(0.0) - start;
     let mut scores = Vec::new();
     for order in 1..=MAX_AUTO_ORDER {
-        if 2 * order + 2 > n {
+        if POINTS_PER_COEFFICIENT * (2 * order + 1) > n {
             break;
         }
         let label = format!("{} fit of order {order} to {what}", series.name());
@@ -338,7 +343,7 @@ pub fn choose_order(
         .ok_or_else(|| ProbeError::Input {
             what: what.to_string(),
             message: format!(
-                "{n} points leave no {} order to cross-validate (order 1 needs 4)",
+                "{n} points leave no {} order to cross-validate (order 1 needs 6)",
                 series.name()
             ),
         })?;

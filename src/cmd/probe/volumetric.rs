@@ -185,7 +185,10 @@ pub fn run(args: &Args) -> Result<()> {
                     m.axis
                 );
             }
-            let coefficients = order_n.map_or(4, |n| 2 * n + 1);
+            let coefficients = order_n
+                .map_or(probe::volumetric::series::POINTS_PER_COEFFICIENT * 3, |n| {
+                    2 * n + 1
+                });
             if m.positions.len() < coefficients {
                 bail!(
                     "{}: lines {first}–{last}, axis {}: {} points, fewer than the {coefficients} coefficients {}",
@@ -394,6 +397,27 @@ fn print_summary(a: &probe::volumetric::Analysis, setup: &Setup) {
             c.compensated.polynomial.circular_deviation_um
         );
     }
+    if r.order == "auto" {
+        for ax in &r.axes {
+            let orders = |f: fn(&probe::volumetric::report::CurveReport) -> usize| {
+                ax.curves
+                    .iter()
+                    .map(|c| format!("{}={}", c.error.name(), f(c)))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            println!(
+                "{}: orders by leave-one-out: Fourier {}; polynomial {}",
+                ax.axis,
+                orders(|c| c.fourier.order),
+                orders(|c| c.polynomial.order)
+            );
+        }
+    }
+    println!(
+        "compensation tables comp_<axis>.txt for LinuxCNC: COMP_FILE_TYPE = {} (nominal, actual forward, actual reverse; mm)",
+        files::COMP_FILE_TYPE
+    );
     if let Some(c) = &r.campaign {
         for (k, v) in &c.measured_squareness_urad {
             println!("campaign: measured {k} {v:.2} µrad");
