@@ -10,7 +10,7 @@ use geom::{Point2, Vector3};
 use serde::Serialize;
 
 use super::chain::{Machine, Positions};
-use super::model::Evaluation;
+use super::model::{Evaluation, TRAVEL_TOLERANCE_MM};
 use crate::{ProbeError, Result};
 
 /// Angular step of the predicted path (degrees).
@@ -101,7 +101,7 @@ pub fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<Positio
             });
         if let Some(model) = machine.model.axis(a) {
             let (t0, t1) = model.curves.travel();
-            if lo < t0 || hi > t1 {
+            if lo < t0 - TRAVEL_TOLERANCE_MM || hi > t1 + TRAVEL_TOLERANCE_MM {
                 return Err(ProbeError::Input {
                     what: "--circle".into(),
                     message: format!(

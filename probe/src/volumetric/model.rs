@@ -13,6 +13,9 @@ use crate::{ProbeError, Result};
 
 /// Default Fourier order N (§5; the polynomial then has degree 6).
 pub const DEFAULT_ORDER: usize = 3;
+/// A position this close outside the measured travel (mm) is its end: the
+/// rounding of positions computed from a circle or a frame, not an extrapolation.
+pub const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
 
 /// How a curve is evaluated between measured positions (`--model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
@@ -131,7 +134,7 @@ impl AxisModel {
     /// measured travel (no extrapolation).
     pub fn value(&self, motion: Motion, q: f64, how: Evaluation) -> Result<f64> {
         let (lo, hi) = self.curves.travel();
-        if !(q >= lo && q <= hi) {
+        if !(q >= lo - TRAVEL_TOLERANCE_MM && q <= hi + TRAVEL_TOLERANCE_MM) {
             return Err(ProbeError::Input {
                 what: format!("axis {} at {q} mm", self.axis()),
                 message: format!(
@@ -139,6 +142,7 @@ impl AxisModel {
                 ),
             });
         }
+        let q = q.clamp(lo, hi);
         let raw = || geom::interp::linear(&self.curves.positions, self.curves.curve(motion), q);
         let series = |s: Series| {
             self.fits[motion.index()]
