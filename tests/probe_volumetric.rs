@@ -568,22 +568,63 @@ fn without_line(q: &[f64], v: &[f64]) -> Vec<f64> {
 
 #[test]
 fn from_report_on_exact_positions_follows_the_conventions() {
-    // The renderer's exact sphere positions (no repeatability or capture
-    // noise), evaluated as `trinocular evaluate` does.
-    let mut config = synth::Config::default();
-    for e in [&mut config.machine.x, &mut config.machine.y] {
-        e.repeatability_um = 0.0;
-        e.repeatability_perp_um = 0.0;
-        e.capture_noise_um = 0.0;
-    }
-    config.procedure.runs = 2;
-    config.procedure.captures = 1;
-    let points = synth::procedure::Plan::new(&config).unwrap().truth_points();
-    let report = evaluate::evaluate(&points, &evaluate::Options::default()).unwrap();
+    // The renderer's exact sphere positions (truth_points.csv of `synth
+    // campaign`) of a machine without repeatability or capture noise (the
+    // default configuration with those three keys zeroed), evaluated by
+    // `trinocular evaluate`. 11 targets: x = 0 and y = 0 are targets.
     let dir = tempfile::tempdir().unwrap();
+    let config = ok(&trinocular(&["synth", "config"]))
+        .lines()
+        .map(|l| {
+            let key = l.split('=').next().unwrap_or("").trim();
+            if [
+                "repeatability_um",
+                "repeatability_perp_um",
+                "capture_noise_um",
+            ]
+            .contains(&key)
+            {
+                format!("{key} = 0.0")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        config.matches(" = 0.0").count() >= 6,
+        "three keys per axis zeroed"
+    );
+    let toml = dir.path().join("exact.toml");
+    std::fs::write(&toml, config).unwrap();
+    let campaign = dir.path().join("campaign");
+    ok(&trinocular(&[
+        "synth",
+        "campaign",
+        "--config",
+        s(&toml),
+        "--width",
+        "320",
+        "--height",
+        "240",
+        "--targets",
+        "11",
+        "--runs",
+        "2",
+        "--captures",
+        "1",
+        "--out",
+        s(&campaign),
+    ]));
     let eval = dir.path().join("eval");
-    evaluate::write_outputs(&report, &eval).unwrap();
-    let errors = synth::truth::injected_errors(&config);
+    ok(&trinocular(&[
+        "evaluate",
+        "--points",
+        s(&campaign.join("truth_points.csv")),
+        "--out",
+        s(&eval),
+    ]));
+    let errors = read_json(&campaign.join("truth.json"))["errors"].clone();
 
     let (rows, out) = from_report(&eval, &errors, &dir.path().join("r"));
     // The curves, sign by sign (µm, µrad): positioning and rotations are zero
