@@ -1,21 +1,498 @@
-//! `trinocular probe volumetric` and `trinocular synth probe volumetric` (to be written).
+//! `trinocular probe volumetric`: the 21-error volumetric model (METHODS.md
+//! §5) from error curves (`--errors E.csv`) or from a vision campaign
+//! evaluated by `trinocular evaluate` (`--from-report DIR`); writes
+//! `fits.csv`, `volumetric.csv` (with `--at`), `circle.csv` (with
+//! `--circle`), `comp_<axis>.txt` (LinuxCNC), `report.json`, `report.html`.
+//!
+//! `trinocular synth probe volumetric`: error curves of a machine with known
+//! error motions, `setup.json`, `at.csv`, `truth.json`.
 
-use anyhow::{Result, bail};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use formats::Axis;
+use formats::probe::volumetric::{
+    self as files, AtRow, CircleRow, ErrorRow, FitRow, VolumetricRow,
+};
+use probe::volumetric::{
+    Chain, CircleSpec, MeasuredAxis, Model, Order, Setup, Squareness, analyse, campaign, html,
+    measured_axes,
+};
 
 /// Arguments of `trinocular probe volumetric`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Error curves `axis,position,ex,ey,ez,ea,eb,ec` (mm, rad; optional
+    /// `positioning_up,positioning_down` for the compensation tables).
+    #[arg(long, value_name = "E.csv", required_unless_present = "from_report")]
+    errors: Option<PathBuf>,
+    /// Take the curves of the swept axes from `trinocular evaluate`'s output
+    /// folder (report.json); `--errors` may add the other axes (e.g. Z).
+    #[arg(long, value_name = "DIR")]
+    from_report: Option<PathBuf>,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Squareness EC0Y,EB0Z,EA0Z (rad). Default 0,0,0; with --from-report, EC0Y
+    /// as the campaign measured it and 0 for the others.
+    #[arg(long, value_name = "EC0Y,EB0Z,EA0Z", allow_hyphen_values = true, value_parser = three_numbers)]
+    squareness: Option<[f64; 3]>,
+    /// Kinematic chain `W a1 … ak F b1 … bl T`: the workpiece rides on a1, …,
+    /// ak on the frame; the tool rides on bl, …, b1 on the frame.
+    #[arg(long, default_value = probe::volumetric::DEFAULT_CHAIN)]
+    chain: String,
+    /// Tool offset t (mm) in the tool frame.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = three_numbers, default_value = "0,0,0")]
+    tool: [f64; 3],
+    /// Curves used for the predictions: raw (linear between measured
+    /// positions), fourier or polynomial.
+    #[arg(long, value_enum, default_value_t = ModelArg::Raw)]
+    model: ModelArg,
+    /// Order N of the series (Fourier order N, polynomial degree 2N), or
+    /// `auto` (leave-one-out cross-validation per curve).
+    #[arg(long, default_value = "3", value_parser = order)]
+    order: Order,
+    /// Carriage positions `x,y,z` (mm): writes volumetric.csv.
+    #[arg(long, value_name = "A.csv")]
+    at: Option<PathBuf>,
+    /// Circular test in the workpiece frame, plane XY, 1° steps: centre and
+    /// radius (mm). Writes circle.csv.
+    #[arg(long, value_name = "CX,CY,CZ,R", allow_hyphen_values = true, value_parser = circle)]
+    circle: Option<[f64; 4]>,
+    /// Overwrite output files that exist.
+    #[arg(long)]
+    force: bool,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum ModelArg {
+    Raw,
+    Fourier,
+    Polynomial,
+}
+
+/// `a,b,c` → three finite numbers.
+fn numbers<const N: usize>(text: &str, what: &str) -> std::result::Result<[f64; N], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(format!(
+            "expected {what}, got {} value(s) in '{text}'",
+            parts.len()
+        ));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        *o = p
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("expected {what}: '{p}' is not a finite number"))?;
+    }
+    Ok(out)
+}
+
+fn three_numbers(text: &str) -> std::result::Result<[f64; 3], String> {
+    numbers::<3>(text, "three numbers separated by commas")
+}
+
+fn circle(text: &str) -> std::result::Result<[f64; 4], String> {
+    let c = numbers::<4>(text, "four numbers CX,CY,CZ,R")?;
+    if c[3] <= 0.0 {
+        return Err(format!("the radius {} must be positive", c[3]));
+    }
+    Ok(c)
+}
+
+fn order(text: &str) -> std::result::Result<Order, String> {
+    if text.eq_ignore_ascii_case("auto") {
+        return Ok(Order::Auto);
+    }
+    match text.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(Order::Fixed(n)),
+        _ => Err(format!(
+            "expected a whole number N ≥ 1 or 'auto', got '{text}'"
+        )),
+    }
+}
+
+/// Curves of `E.csv` per axis, with the first and last file line of each axis.
+fn curves_from_file(path: &Path) -> Result<Vec<(MeasuredAxis, (u64, u64))>> {
+    let rows = files::read_errors(path)?;
+    let records: Vec<ErrorRow> = rows.iter().map(|r| r.record.clone()).collect();
+    Ok(measured_axes(&records)
+        .into_iter()
+        .map(|m| {
+            let lines: Vec<u64> = rows
+                .iter()
+                .filter(|r| r.record.axis() == m.axis)
+                .map(|r| r.line)
+                .collect();
+            let first = lines.first().copied().unwrap_or(0);
+            (m, (first, lines.last().copied().unwrap_or(first)))
+        })
+        .collect())
+}
+
+/// Fail if `path` exists and is one of `inputs`, or exists without `force`.
+fn check_output(path: &Path, inputs: &[PathBuf], force: bool) -> Result<()> {
+    if !path.exists() {
+        return Ok(());
+    }
+    let canonical = path.canonicalize().ok();
+    for i in inputs {
+        if i.canonicalize().ok() == canonical {
+            bail!(
+                "{}: is an input; choose another --out (outputs never overwrite inputs)",
+                path.display()
+            );
+        }
+    }
+    if !force {
+        bail!("{}: exists; use --force to overwrite", path.display());
+    }
+    Ok(())
+}
+
+/// Run the method.
+pub fn run(args: &Args) -> Result<()> {
+    let chain = Chain::parse(&args.chain)?;
+    let mut inputs: Vec<PathBuf> = Vec::new();
+    let mut curves: Vec<MeasuredAxis> = Vec::new();
+    let mut sources = Vec::new();
+    let mut measured_square = None;
+    let mut campaign_curves = None;
+    if let Some(dir) = &args.from_report {
+        let report = files::read_evaluate_report(dir)?;
+        let source = dir.join("report.json").display().to_string();
+        let c = campaign::from_evaluate(&report, &chain, &source)?;
+        inputs.push(dir.join("report.json"));
+        measured_square = Some(c.squareness);
+        curves.extend(c.axes.iter().cloned());
+        sources.push(format!("{} (vision campaign)", dir.display()));
+        campaign_curves = Some(c);
+    }
+    if let Some(path) = &args.errors {
+        let order_n = match args.order {
+            Order::Fixed(n) => Some(n),
+            Order::Auto => None,
+        };
+        for (m, (first, last)) in curves_from_file(path)? {
+            if curves.iter().any(|c| c.axis == m.axis) {
+                bail!(
+                    "{}: lines {first}–{last}, column 'axis': axis {} comes from --from-report too; give each axis once",
+                    path.display(),
+                    m.axis
+                );
+            }
+            let coefficients = order_n
+                .map_or(probe::volumetric::series::POINTS_PER_COEFFICIENT * 3, |n| {
+                    2 * n + 1
+                });
+            if m.positions.len() < coefficients {
+                bail!(
+                    "{}: lines {first}–{last}, axis {}: {} points, fewer than the {coefficients} coefficients {}",
+                    path.display(),
+                    m.axis,
+                    m.positions.len(),
+                    match order_n {
+                        Some(n) => format!("of a series of order {n} (--order {n})"),
+                        None => "that --order auto needs for order 1".into(),
+                    }
+                );
+            }
+            curves.push(m);
+        }
+        inputs.push(path.clone());
+        sources.push(path.display().to_string());
+    }
+    let squareness = match (args.squareness, measured_square) {
+        (Some(s), _) => Squareness {
+            ec0y: s[0],
+            eb0z: s[1],
+            ea0z: s[2],
+        },
+        (None, Some(m)) => Squareness {
+            ec0y: m.ec0y.unwrap_or(0.0),
+            eb0z: m.eb0z.unwrap_or(0.0),
+            ea0z: m.ea0z.unwrap_or(0.0),
+        },
+        (None, None) => Squareness::default(),
+    };
+    let at_rows = match &args.at {
+        Some(p) => {
+            inputs.push(p.clone());
+            files::read_at(p)?
+        }
+        None => Vec::new(),
+    };
+    let at_label = |line: u64| {
+        format!(
+            "{}: line {line}",
+            args.at
+                .as_deref()
+                .map(Path::display)
+                .map(|d| d.to_string())
+                .unwrap_or_default()
+        )
+    };
+    let setup = Setup {
+        chain,
+        squareness,
+        tool: args.tool,
+        model: match args.model {
+            ModelArg::Raw => Model::Raw,
+            ModelArg::Fourier => Model::Fourier,
+            ModelArg::Polynomial => Model::Polynomial,
+        },
+        order: args.order,
+        at: at_rows
+            .iter()
+            .map(|r| (at_label(r.line), [r.record.x, r.record.y, r.record.z]))
+            .collect(),
+        circle: args.circle.map(|c| CircleSpec {
+            centre: [c[0], c[1], c[2]],
+            radius: c[3],
+        }),
+        source: sources.join(" + "),
+    };
+    let analysis = analyse(curves, &setup, campaign_curves.as_ref())
+        .with_context(|| format!("volumetric model from {}", setup.source))?;
+    let page = html::render(&analysis)?;
+
+    // Outputs: refuse before writing anything.
+    let out = &args.out;
+    let mut names: Vec<String> = vec![
+        "report.json".into(),
+        "report.html".into(),
+        "fits.csv".into(),
+    ];
+    if args.at.is_some() {
+        names.push("volumetric.csv".into());
+    }
+    if args.circle.is_some() {
+        names.push("circle.csv".into());
+    }
+    for (axis, _) in &analysis.compensation {
+        names.push(comp_name(*axis));
+    }
+    for n in &names {
+        check_output(&out.join(n), &inputs, args.force)?;
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+
+    let fits: Vec<FitRow> = analysis
+        .report
+        .fits
+        .iter()
+        .map(|f| FitRow {
+            axis: f.axis,
+            error: f.error.name().into(),
+            model: f.model.name().into(),
+            r2: f.r2,
+            sse: f.sse,
+            rmse: f.rmse,
+            emax: f.emax,
+            order: f.order,
+            coefficients: 2 * f.order + 1,
+        })
+        .collect();
+    formats::write_records(&out.join("fits.csv"), &fits)?;
+    if args.at.is_some() {
+        let rows: Vec<VolumetricRow> = analysis
+            .volumetric
+            .iter()
+            .map(|(q, d)| VolumetricRow {
+                x: q[0],
+                y: q[1],
+                z: q[2],
+                dx: d.x,
+                dy: d.y,
+                dz: d.z,
+            })
+            .collect();
+        formats::write_records(&out.join("volumetric.csv"), &rows)?;
+    }
+    if let Some(c) = &analysis.circles {
+        let rows: Vec<CircleRow> = c
+            .predicted
+            .points
+            .iter()
+            .zip(&c.compensated_fourier.points)
+            .zip(&c.compensated_polynomial.points)
+            .map(|((p, f), q)| CircleRow {
+                angle_deg: p.angle_deg,
+                dx: p.delta[0],
+                dy: p.delta[1],
+                dz: p.delta[2],
+                radial: p.radial,
+                radial_compensated_fourier: f.radial,
+                radial_compensated_polynomial: q.radial,
+            })
+            .collect();
+        formats::write_records(&out.join("circle.csv"), &rows)?;
+    }
+    for (axis, table) in &analysis.compensation {
+        files::write_comp_file(&out.join(comp_name(*axis)), table)?;
+    }
+    formats::write_json(&out.join("report.json"), &analysis.report)?;
+    formats::write_atomic(out.join("report.html"), page.as_bytes())?;
+
+    print_summary(&analysis, &setup);
+    println!("wrote {} files into {}", names.len(), out.display());
+    Ok(())
+}
+
+/// The compensation file of an axis.
+fn comp_name(axis: Axis) -> String {
+    format!("comp_{}.txt", axis.name())
+}
+
+fn print_summary(a: &probe::volumetric::Analysis, setup: &Setup) {
+    let r = &a.report;
+    for ax in &r.axes {
+        let better = ax
+            .curves
+            .iter()
+            .filter(|c| c.fourier.rmse <= c.polynomial.rmse)
+            .count();
+        println!(
+            "{}: {} positions {}–{} mm; Fourier beats the polynomial (RMSE) on {better} of 6 curves",
+            ax.axis, ax.points, ax.travel_mm[0], ax.travel_mm[1]
+        );
+    }
+    println!(
+        "chain {}, tool ({}, {}, {}) mm, squareness EC0Y {:.2} µrad, EB0Z {:.2} µrad, EA0Z {:.2} µrad",
+        r.chain,
+        r.tool_mm[0],
+        r.tool_mm[1],
+        r.tool_mm[2],
+        r.squareness_urad.ec0y,
+        r.squareness_urad.eb0z,
+        r.squareness_urad.ea0z
+    );
+    if let Some(v) = &r.volumetric {
+        println!(
+            "volumetric error at {} positions ({} curves): max {:.3} µm, RMS {:.3} µm",
+            v.points,
+            setup.model.name(),
+            v.max_um,
+            v.rms_um
+        );
+    }
+    if let Some(c) = &r.circle {
+        println!(
+            "circle R {} mm at ({}, {}, {}): circular deviation {:.3} µm, radial range {:.3} µm ({} curves)",
+            c.radius_mm,
+            c.centre_mm[0],
+            c.centre_mm[1],
+            c.centre_mm[2],
+            c.circular_deviation_um,
+            c.radial_range_um,
+            setup.model.name()
+        );
+        println!(
+            "after compensation: Fourier {:.3} µm, polynomial {:.3} µm (circular deviation)",
+            c.compensated.fourier.circular_deviation_um,
+            c.compensated.polynomial.circular_deviation_um
+        );
+    }
+    if r.order == "auto" {
+        for ax in &r.axes {
+            let orders = |f: fn(&probe::volumetric::report::CurveReport) -> usize| {
+                ax.curves
+                    .iter()
+                    .map(|c| format!("{}={}", c.error.name(), f(c)))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            println!(
+                "{}: orders by leave-one-out: Fourier {}; polynomial {}",
+                ax.axis,
+                orders(|c| c.fourier.order),
+                orders(|c| c.polynomial.order)
+            );
+        }
+    }
+    println!(
+        "compensation tables comp_<axis>.txt for LinuxCNC: COMP_FILE_TYPE = {} (nominal, actual forward, actual reverse; mm)",
+        files::COMP_FILE_TYPE
+    );
+    if let Some(c) = &r.campaign {
+        for (k, v) in &c.measured_squareness_urad {
+            println!("campaign: measured {k} {v:.2} µrad");
+        }
+        for n in &c.notes {
+            println!("campaign: {n}");
+        }
+    }
+}
 
 /// Arguments of `trinocular synth probe volumetric`.
 #[derive(Debug, clap::Args)]
-pub struct SynthArgs {}
-
-/// Run the method.
-pub fn run(_args: &Args) -> Result<()> {
-    bail!("probe volumetric is not written yet")
+pub struct SynthArgs {
+    /// Output folder (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Random seed of the error motions and the noise.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Kinematic chain.
+    #[arg(long)]
+    chain: Option<String>,
+    /// Overwrite output files that exist.
+    #[arg(long)]
+    force: bool,
 }
 
 /// Run the generator.
-pub fn synth(_args: &SynthArgs) -> Result<()> {
-    bail!("synth probe volumetric is not written yet")
+pub fn synth(args: &SynthArgs) -> Result<()> {
+    let mut config = synth::probe::volumetric::VolumetricConfig::default();
+    if let Some(s) = args.seed {
+        config.seed = s;
+    }
+    if let Some(c) = &args.chain {
+        config.chain = c.clone();
+    }
+    let data = synth::probe::volumetric::generate(&config)?;
+    let out = &args.out;
+    let names = ["errors.csv", "at.csv", "setup.json", "truth.json"];
+    for n in names {
+        check_output(&out.join(n), &[], args.force)?;
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    formats::write_records(&out.join("errors.csv"), &data.errors)?;
+    let at: Vec<AtRow> = data.at.clone();
+    formats::write_records(&out.join("at.csv"), &at)?;
+    formats::write_json(&out.join("setup.json"), &data.setup)?;
+    formats::write_json(&out.join("truth.json"), &data.truth)?;
+    let s = &data.setup;
+    println!(
+        "error curves of X, Y, Z ({} rows), {} positions in at.csv, chain {}, tool ({}, {}, {}) mm",
+        data.errors.len(),
+        data.at.len(),
+        s.chain,
+        s.tool_mm[0],
+        s.tool_mm[1],
+        s.tool_mm[2]
+    );
+    println!(
+        "next: trinocular probe volumetric --errors {e} --chain {} --squareness {},{},{} --tool {},{},{} \
+         --at {a} --circle {},{},{},{} --out <DIR>",
+        s.chain,
+        s.squareness_rad.ec0y,
+        s.squareness_rad.eb0z,
+        s.squareness_rad.ea0z,
+        s.tool_mm[0],
+        s.tool_mm[1],
+        s.tool_mm[2],
+        s.circle.centre_mm[0],
+        s.circle.centre_mm[1],
+        s.circle.centre_mm[2],
+        s.circle.radius_mm,
+        e = out.join("errors.csv").display(),
+        a = out.join("at.csv").display(),
+    );
+    println!("wrote {} files into {}", names.len(), out.display());
+    Ok(())
 }

@@ -1,0 +1,497 @@
+//! Error curves from a vision campaign (`--from-report DIR`): the figures
+//! `trinocular evaluate` writes for each swept axis, converted to the
+//! conventions of METHODS.md §5.
+//!
+//! What evaluate reports for the main line of an axis j, per target k at
+//! commanded position `q_k`: the positional deviation `d_j` of the
+//! evaluated sphere along the fitted axis direction (datum: first target),
+//! its straightness deviations `d_o` in the two perpendicular world
+//! directions (least-squares line removed), roll, pitch and yaw of the
+//! table (rotation vector of the sphere set since the first target, world
+//! axes: X roll = εx, pitch = εy, yaw = εz; Y roll = εy, pitch = εx,
+//! yaw = εz; Z roll = εz, pitch = εx, yaw = εy), and the sphere's mean
+//! centre `p_k` (flatness points).
+//!
+//! The conversion:
+//! 1. ε_k = the rotation vector above (rad), re-referenced to zero at the
+//!    reference position `r_j` (below) by subtracting its value there
+//!    (linear between targets).
+//! 2. Rotation reference point: §5 rotates a carriage about the machine
+//!    origin carried by it, while the sphere sits at the lever
+//!    `s_j = p − Σ q_m·e_m` from that point (the sum over j and the
+//!    carriages between j and the frame on the workpiece side of the chain,
+//!    at their commanded positions; mean over the targets). The translation
+//!    at the reference point is `δ_k = d_k − ε_k × s_j` with
+//!    `d_k = d_j·e_j + Σ_o d_o·e_o`.
+//! 3. Positioning `δ_j` is zeroed at `r_j`; the straightness curves keep
+//!    their least-squares line removed, and its slopes σ_o, refitted after
+//!    step 2, turn the fitted direction into the carriage's direction
+//!    `a_j ∝ d + Σ σ_o·p_o` (p_o ⟂ d).
+//! 4. Squareness from those directions in the frame §5 defines (x along
+//!    a_X, y in the plane of a_X and a_Y): `EC0Y = −asin(a_X·a_Y)`, and with
+//!    a Z sweep `EA0Z = −asin(a_Z·ŷ)`, `EB0Z = asin((a_Z·x̂)/cos EA0Z)`.
+//!
+//! The reference position `r_j` is where the main line of another swept axis
+//! crosses axis j (its off-axis coordinate j): there the errors of j are zero,
+//! so the directions measured on the other lines are the directions the chain
+//! uses. Without a crossing line it is the first target (noted).
+
+use std::collections::BTreeMap;
+
+use formats::Axis;
+use formats::probe::volumetric::{EvaluateLine, EvaluateReport};
+use geom::Vector3;
+use serde::Serialize;
+
+use super::chain::{Chain, Side};
+use super::curves::MeasuredAxis;
+use crate::{ProbeError, Result};
+
+/// µm → mm.
+const UM: f64 = 1e-3;
+/// µrad → rad.
+const URAD: f64 = 1e-6;
+/// Off-axis coordinates of lines closer than this (mm) are the same.
+const LINE_TOLERANCE_MM: f64 = 0.01;
+
+/// What the conversion found for one swept axis.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepInfo {
+    /// The axis.
+    pub axis: Axis,
+    /// Index of the main line in the report.
+    pub line: usize,
+    /// Commanded off-axis coordinates of the line (mm), x, y, z.
+    pub off_axis_mm: [f64; 3],
+    /// Position where the curves are zero (mm).
+    pub reference_mm: f64,
+    /// Lever from the carriage's reference point to the sphere (mm).
+    pub lever_mm: [f64; 3],
+    /// The direction evaluate fitted (unit, world frame).
+    pub fitted_direction: [f64; 3],
+    /// The carriage direction after removing the Abbe terms (unit, world frame).
+    pub direction: [f64; 3],
+}
+
+/// Squareness as measured by the campaign (rad); a value is absent when the
+/// axes it relates were not both swept.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct MeasuredSquareness {
+    /// Y against X.
+    #[serde(rename = "EC0Y", skip_serializing_if = "Option::is_none")]
+    pub ec0y: Option<f64>,
+    /// Z against X.
+    #[serde(rename = "EB0Z", skip_serializing_if = "Option::is_none")]
+    pub eb0z: Option<f64>,
+    /// Z against Y.
+    #[serde(rename = "EA0Z", skip_serializing_if = "Option::is_none")]
+    pub ea0z: Option<f64>,
+}
+
+/// The error curves of a campaign in the conventions of §5.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CampaignCurves {
+    /// One per swept axis (positions = commanded targets).
+    pub axes: Vec<MeasuredAxis>,
+    /// Squareness between the swept axes.
+    pub squareness: MeasuredSquareness,
+    /// Per swept axis, how it was converted.
+    pub sweeps: Vec<SweepInfo>,
+    /// Choices worth knowing (a reference at the first target, …).
+    pub notes: Vec<String>,
+}
+
+/// The world rotation vector (εx, εy, εz) of `axis`'s roll, pitch, yaw
+/// (evaluate's angular convention).
+pub fn rotation_vector(axis: Axis, roll: f64, pitch: f64, yaw: f64) -> Vector3<f64> {
+    match axis {
+        Axis::X => Vector3::new(roll, pitch, yaw),
+        Axis::Y => Vector3::new(pitch, roll, yaw),
+        Axis::Z => Vector3::new(pitch, yaw, roll),
+    }
+}
+
+fn axis_of(name: &str) -> Option<Axis> {
+    formats::probe::volumetric::axis_named(name)
+}
+
+fn input(source: &str, path: String, message: impl Into<String>) -> ProbeError {
+    ProbeError::Input {
+        what: format!("{source}: {path}"),
+        message: message.into(),
+    }
+}
+
+/// One target of a sweep, gathered from the report's tables.
+struct Target {
+    nominal: f64,
+    positioning: f64,
+    up: Option<f64>,
+    down: Option<f64>,
+    across: [f64; 2],
+    rotation: Vector3<f64>,
+    sphere: Vector3<f64>,
+}
+
+/// The targets of a line, sorted by commanded position (strictly increasing).
+fn targets(
+    axis: Axis,
+    line: &EvaluateLine,
+    report: &EvaluateReport,
+    others: [Axis; 2],
+    source: &str,
+) -> Result<Vec<Target>> {
+    let name = axis.name();
+    let angular = line.angular.as_ref().ok_or_else(|| {
+        input(
+            source,
+            format!("axes.{name}.angular"),
+            "missing: roll, pitch and yaw need three spheres measured at every target",
+        )
+    })?;
+    let flatness = report.flatness.as_ref().ok_or_else(|| {
+        input(
+            source,
+            "flatness.points".into(),
+            "missing: the sphere centres per target are needed for the Abbe offsets",
+        )
+    })?;
+    let straight: Vec<BTreeMap<u32, f64>> = others
+        .iter()
+        .map(|o| {
+            line.straightness
+                .get(o.name())
+                .map(|s| {
+                    s.targets
+                        .iter()
+                        .map(|t| (t.target, t.deviation_um))
+                        .collect()
+                })
+                .ok_or_else(|| {
+                    input(
+                        source,
+                        format!("axes.{name}.straightness.{}", o.name()),
+                        "missing",
+                    )
+                })
+        })
+        .collect::<Result<_>>()?;
+    let rotations: BTreeMap<u32, Vector3<f64>> = angular
+        .targets
+        .iter()
+        .map(|t| {
+            (
+                t.target,
+                rotation_vector(axis, t.roll_urad, t.pitch_urad, t.yaw_urad) * URAD,
+            )
+        })
+        .collect();
+    let spheres: BTreeMap<u32, Vector3<f64>> = flatness
+        .points
+        .iter()
+        .filter(|p| axis_of(&p.axis) == Some(axis) && p.line == line.line)
+        .map(|p| (p.target, Vector3::new(p.x, p.y, p.z)))
+        .collect();
+    let mut out = Vec::with_capacity(line.positioning.targets.len());
+    for t in &line.positioning.targets {
+        let k = t.target;
+        let missing = |table: &str| {
+            input(
+                source,
+                format!("axes.{name}.{table}"),
+                format!("no value for target {k}"),
+            )
+        };
+        let positioning = t
+            .mean_um
+            .or(t.mean_up_um)
+            .or(t.mean_down_um)
+            .ok_or_else(|| {
+                input(
+                    source,
+                    format!("axes.{name}.positioning.targets"),
+                    format!("target {k} has no mean deviation"),
+                )
+            })?;
+        out.push(Target {
+            nominal: t.nominal,
+            positioning: positioning * UM,
+            up: t.mean_up_um.map(|v| v * UM),
+            down: t.mean_down_um.map(|v| v * UM),
+            across: [
+                *straight[0].get(&k).ok_or_else(|| missing("straightness"))? * UM,
+                *straight[1].get(&k).ok_or_else(|| missing("straightness"))? * UM,
+            ],
+            rotation: *rotations
+                .get(&k)
+                .ok_or_else(|| missing("angular.targets"))?,
+            sphere: *spheres.get(&k).ok_or_else(|| missing("flatness points"))?,
+        });
+    }
+    out.sort_by(|a, b| a.nominal.total_cmp(&b.nominal));
+    if let Some(w) = out.windows(2).find(|w| w[1].nominal <= w[0].nominal) {
+        return Err(input(
+            source,
+            format!("axes.{name}.positioning.targets"),
+            format!(
+                "two targets at {} mm: positions must increase",
+                w[0].nominal
+            ),
+        ));
+    }
+    if out.len() < 2 {
+        return Err(input(
+            source,
+            format!("axes.{name}.positioning.targets"),
+            format!("{} target(s): a curve needs at least 2", out.len()),
+        ));
+    }
+    Ok(out)
+}
+
+/// The commanded off-axis coordinates of a line (mm), indexed x, y, z.
+fn off_axis(line: &EvaluateLine) -> [f64; 3] {
+    let mut c = [0.0; 3];
+    for (k, v) in &line.off_axis {
+        if let Some(a) = axis_of(k) {
+            c[a.index()] = *v;
+        }
+    }
+    c
+}
+
+/// Convert the main line of every axis in `report` (read from `source`) to
+/// §5 curves for `chain`; every swept axis must be on the workpiece side
+/// (the spheres ride on the table).
+pub fn from_evaluate(
+    report: &EvaluateReport,
+    chain: &Chain,
+    source: &str,
+) -> Result<CampaignCurves> {
+    let mut lines: Vec<(Axis, &EvaluateLine)> = Vec::new();
+    for (name, line) in &report.axes {
+        let axis = axis_of(name)
+            .ok_or_else(|| input(source, format!("axes.{name}"), "not an axis X, Y or Z"))?;
+        if chain.side(axis) != Some(Side::Workpiece) {
+            return Err(ProbeError::Input {
+                what: format!("--chain '{}'", chain.text),
+                message: format!(
+                    "axis {axis} of {source} moved the table that carries the spheres, so it must be \
+                     between W and F (e.g. WXYFZT)"
+                ),
+            });
+        }
+        lines.push((axis, line));
+    }
+    lines.sort_by_key(|(a, _)| *a);
+    if lines.is_empty() {
+        return Err(input(source, "axes".into(), "no axis was evaluated"));
+    }
+    let mut notes = Vec::new();
+    let mut axes = Vec::new();
+    let mut sweeps = Vec::new();
+    let mut directions: BTreeMap<Axis, Vector3<f64>> = BTreeMap::new();
+    for &(axis, line) in &lines {
+        let mut others = axis.others();
+        others.sort();
+        let t = targets(axis, line, report, others, source)?;
+        let nominal: Vec<f64> = t.iter().map(|t| t.nominal).collect();
+        let (first, last) = (nominal[0], nominal[nominal.len() - 1]);
+
+        // The reference position: where another sweep's main line crosses this axis.
+        let crossing: Vec<f64> = lines
+            .iter()
+            .filter(|(b, _)| *b != axis)
+            .map(|(_, l)| off_axis(l)[axis.index()])
+            .collect();
+        let reference = match crossing.first() {
+            Some(&r) if r >= first && r <= last => {
+                if crossing.iter().any(|c| (c - r).abs() > LINE_TOLERANCE_MM) {
+                    notes.push(format!(
+                        "axis {axis}: the other lines cross it at different positions; its curves are zero at {r} mm"
+                    ));
+                }
+                r
+            }
+            Some(&r) => {
+                notes.push(format!(
+                    "axis {axis}: the crossing line at {r} mm lies outside its travel [{first}, {last}] mm; \
+                     its curves are zero at the first target"
+                ));
+                first
+            }
+            None => {
+                notes.push(format!(
+                    "axis {axis}: no other line crosses it; its curves are zero at the first target"
+                ));
+                first
+            }
+        };
+
+        // The lever from the carriage's reference point to the sphere.
+        let own = chain.workpiece.iter().position(|&a| a == axis).unwrap_or(0);
+        let carriers = &chain.workpiece[own..];
+        let off = off_axis(line);
+        let lever = t
+            .iter()
+            .map(|t| {
+                let mut q = Vector3::from(off);
+                q[axis.index()] = t.nominal;
+                let moved: Vector3<f64> = carriers
+                    .iter()
+                    .map(|m| Vector3::ith(m.index(), q[m.index()]))
+                    .sum();
+                t.sphere - moved
+            })
+            .sum::<Vector3<f64>>()
+            / t.len() as f64;
+
+        // 1. rotations referenced at r; 2. translations at the reference point.
+        let rotations: Vec<Vector3<f64>> = t.iter().map(|t| t.rotation).collect();
+        let at_reference = geom::interp::linear(&nominal, &rotations, reference)?;
+        let epsilon: Vec<Vector3<f64>> = rotations.iter().map(|e| e - at_reference).collect();
+        let abbe: Vec<Vector3<f64>> = epsilon.iter().map(|e| e.cross(&lever)).collect();
+        let mut delta: Vec<Vector3<f64>> = t
+            .iter()
+            .zip(&abbe)
+            .map(|(t, a)| {
+                let mut d = Vector3::ith(axis.index(), t.positioning);
+                d[others[0].index()] = t.across[0];
+                d[others[1].index()] = t.across[1];
+                d - a
+            })
+            .collect();
+        // 3. positioning zero at r; straightness slopes → direction.
+        let positioning: Vec<f64> = delta.iter().map(|d| d[axis.index()]).collect();
+        let offset = geom::interp::linear(&nominal, &positioning, reference)?;
+        for d in &mut delta {
+            d[axis.index()] -= offset;
+        }
+        let fitted = Vector3::from(line.direction);
+        let fitted = if fitted.norm() > 0.0 {
+            fitted.normalize()
+        } else {
+            return Err(input(
+                source,
+                format!("axes.{}.direction", axis.name()),
+                "zero vector",
+            ));
+        };
+        let mut direction = fitted;
+        for o in others {
+            let profile: Vec<geom::Point2<f64>> = nominal
+                .iter()
+                .zip(&delta)
+                .map(|(&q, d)| geom::Point2::new(q, d[o.index()]))
+                .collect();
+            let slope = geom::fit::line_y_on_x(&profile)?.k;
+            let e = Vector3::ith(o.index(), 1.0);
+            direction += (e - fitted * e.dot(&fitted)).normalize() * slope;
+        }
+        let direction = direction.normalize();
+        directions.insert(axis, direction);
+        let shifted =
+            |v: Option<f64>, abbe: &Vector3<f64>| v.map(|v| v - abbe[axis.index()] - offset);
+        let (up, down): (Option<Vec<f64>>, Option<Vec<f64>>) = (
+            t.iter().zip(&abbe).map(|(t, a)| shifted(t.up, a)).collect(),
+            t.iter()
+                .zip(&abbe)
+                .map(|(t, a)| shifted(t.down, a))
+                .collect(),
+        );
+        axes.push(MeasuredAxis {
+            axis,
+            positions: nominal.clone(),
+            values: std::array::from_fn(|m| {
+                if m < 3 {
+                    delta.iter().map(|d| d[m]).collect()
+                } else {
+                    epsilon.iter().map(|e| e[m - 3]).collect()
+                }
+            }),
+            positioning_up: up,
+            positioning_down: down,
+        });
+        sweeps.push(SweepInfo {
+            axis,
+            line: line.line,
+            off_axis_mm: off,
+            reference_mm: reference,
+            lever_mm: [lever.x, lever.y, lever.z],
+            fitted_direction: [fitted.x, fitted.y, fitted.z],
+            direction: [direction.x, direction.y, direction.z],
+        });
+    }
+    Ok(CampaignCurves {
+        axes,
+        squareness: squareness(&directions),
+        sweeps,
+        notes,
+    })
+}
+
+/// Squareness (§5) from carriage directions in any frame: the §5 frame has x
+/// along a_X and y in the plane of a_X and a_Y.
+pub fn squareness(directions: &BTreeMap<Axis, Vector3<f64>>) -> MeasuredSquareness {
+    let (Some(x), Some(y)) = (directions.get(&Axis::X), directions.get(&Axis::Y)) else {
+        return MeasuredSquareness::default();
+    };
+    let e1 = x.normalize();
+    let e2 = (y - e1 * y.dot(&e1)).normalize();
+    let ec0y = -(y.normalize().dot(&e1)).asin();
+    let (eb0z, ea0z) = match directions.get(&Axis::Z) {
+        Some(z) => {
+            let z = z.normalize();
+            let a = -(z.dot(&e2)).asin();
+            (Some((z.dot(&e1) / a.cos()).asin()), Some(a))
+        }
+        None => (None, None),
+    };
+    MeasuredSquareness {
+        ec0y: Some(ec0y),
+        eb0z,
+        ea0z,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volumetric::chain::{Squareness, direction};
+
+    #[test]
+    fn squareness_comes_back_from_directions_in_a_turned_frame() {
+        let s = Squareness {
+            ec0y: 2e-5,
+            eb0z: -3e-5,
+            ea0z: 1.5e-5,
+        };
+        // The same three directions seen from a frame turned by a few mrad.
+        let turn = geom::Rotation3::new(Vector3::new(3e-3, -2e-3, 5e-3));
+        let d: BTreeMap<Axis, Vector3<f64>> = [Axis::X, Axis::Y, Axis::Z]
+            .into_iter()
+            .map(|a| (a, turn * direction(&s, a)))
+            .collect();
+        let m = squareness(&d);
+        assert!((m.ec0y.unwrap_or(0.0) - s.ec0y).abs() < 1e-15);
+        assert!((m.eb0z.unwrap_or(0.0) - s.eb0z).abs() < 1e-15);
+        assert!((m.ea0z.unwrap_or(0.0) - s.ea0z).abs() < 1e-15);
+    }
+
+    #[test]
+    fn roll_pitch_yaw_map_to_world_axes() {
+        // evaluate: X roll εx pitch εy yaw εz; Y roll εy pitch εx yaw εz; Z roll εz pitch εx yaw εy.
+        assert_eq!(
+            rotation_vector(Axis::X, 1.0, 2.0, 3.0),
+            Vector3::new(1.0, 2.0, 3.0)
+        );
+        assert_eq!(
+            rotation_vector(Axis::Y, 1.0, 2.0, 3.0),
+            Vector3::new(2.0, 1.0, 3.0)
+        );
+        assert_eq!(
+            rotation_vector(Axis::Z, 1.0, 2.0, 3.0),
+            Vector3::new(2.0, 3.0, 1.0)
+        );
+    }
+}

@@ -1,0 +1,210 @@
+//! The error model: per axis its curves and both series fits of each, and
+//! the six error motions at any carriage position inside the measured travel
+//! — `raw` (linear between measured positions), `fourier`, `polynomial`, or
+//! what compensation with a series would leave (raw minus the series).
+
+use formats::Axis;
+use geom::Vector3;
+use serde::Serialize;
+
+use super::curves::{AxisCurves, Motion};
+use super::series::{OrderScore, Series, SeriesFit, choose_order};
+use crate::{ProbeError, Result};
+
+/// Default Fourier order N (§5; the polynomial then has degree 6).
+pub const DEFAULT_ORDER: usize = 3;
+/// A position this close outside the measured travel (mm) is its end: the
+/// rounding of positions computed from a circle or a frame, not an extrapolation.
+pub const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
+
+/// How a curve is evaluated between measured positions (`--model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Model {
+    /// Linear between the measured positions.
+    Raw,
+    /// The fitted Fourier series.
+    Fourier,
+    /// The fitted polynomial.
+    Polynomial,
+}
+
+impl Model {
+    /// `raw`, `fourier` or `polynomial`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Raw => "raw",
+            Model::Fourier => "fourier",
+            Model::Polynomial => "polynomial",
+        }
+    }
+
+    /// The series of a fitted model.
+    pub fn series(self) -> Option<Series> {
+        match self {
+            Model::Raw => None,
+            Model::Fourier => Some(Series::Fourier),
+            Model::Polynomial => Some(Series::Polynomial),
+        }
+    }
+}
+
+/// The order N of the series (`--order N` or `--order auto`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Order {
+    /// The same N for every curve and both series.
+    Fixed(usize),
+    /// N per curve and series by leave-one-out cross-validation.
+    Auto,
+}
+
+/// What the error model gives at a position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Evaluation {
+    /// The curves under a model.
+    Model(Model),
+    /// Raw minus a series: the errors left after compensating with that series.
+    Residual(Series),
+}
+
+/// Both series fitted to one curve, and the order scores when chosen automatically.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurveFits {
+    /// Fourier series.
+    pub fourier: SeriesFit,
+    /// Polynomial of the same coefficient count (under `--order auto`, its own order).
+    pub polynomial: SeriesFit,
+    /// Leave-one-out scores per series (Fourier, polynomial) under `--order auto`.
+    pub scores: Option<[Vec<OrderScore>; 2]>,
+}
+
+impl CurveFits {
+    /// The fit of `series`.
+    pub fn get(&self, series: Series) -> &SeriesFit {
+        match series {
+            Series::Fourier => &self.fourier,
+            Series::Polynomial => &self.polynomial,
+        }
+    }
+}
+
+/// One axis of the model: its curves and the fits of each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisModel {
+    /// The curves (straightness lines removed).
+    pub curves: AxisCurves,
+    /// Fits of the six motions, in [`Motion::ALL`] order.
+    pub fits: Vec<CurveFits>,
+}
+
+impl AxisModel {
+    /// Fit both series to every curve of `curves`.
+    pub fn new(curves: AxisCurves, order: Order) -> Result<AxisModel> {
+        let mut fits = Vec::with_capacity(6);
+        for motion in Motion::ALL {
+            let what = format!("axis {} curve {}", curves.axis, motion.name());
+            let (p, v) = (&curves.positions, curves.curve(motion));
+            let fit = |series: Series| -> Result<(SeriesFit, Option<Vec<OrderScore>>)> {
+                match order {
+                    Order::Fixed(n) => Ok((SeriesFit::fit(series, n, p, v, &what)?, None)),
+                    Order::Auto => {
+                        let (n, scores) = choose_order(series, p, v, &what)?;
+                        Ok((SeriesFit::fit(series, n, p, v, &what)?, Some(scores)))
+                    }
+                }
+            };
+            let (fourier, fs) = fit(Series::Fourier)?;
+            let (polynomial, ps) = fit(Series::Polynomial)?;
+            fits.push(CurveFits {
+                fourier,
+                polynomial,
+                scores: fs.zip(ps).map(|(f, p)| [f, p]),
+            });
+        }
+        Ok(AxisModel { curves, fits })
+    }
+
+    /// The axis.
+    pub fn axis(&self) -> Axis {
+        self.curves.axis
+    }
+
+    /// One motion at carriage position `q` under `how`; `q` must lie in the
+    /// measured travel (no extrapolation).
+    pub fn value(&self, motion: Motion, q: f64, how: Evaluation) -> Result<f64> {
+        let (lo, hi) = self.curves.travel();
+        if !(q >= lo - TRAVEL_TOLERANCE_MM && q <= hi + TRAVEL_TOLERANCE_MM) {
+            return Err(ProbeError::Input {
+                what: format!("axis {} at {q} mm", self.axis()),
+                message: format!(
+                    "outside the measured travel [{lo}, {hi}] mm: the model does not extrapolate"
+                ),
+            });
+        }
+        let q = q.clamp(lo, hi);
+        let raw = || geom::interp::linear(&self.curves.positions, self.curves.curve(motion), q);
+        let series = |s: Series| {
+            self.fits[motion.index()]
+                .get(s)
+                .value(q)
+                .ok_or_else(|| ProbeError::Unsolvable(format!("{q} mm outside a fitted travel")))
+        };
+        Ok(match how {
+            Evaluation::Model(Model::Raw) => raw()?,
+            Evaluation::Model(Model::Fourier) => series(Series::Fourier)?,
+            Evaluation::Model(Model::Polynomial) => series(Series::Polynomial)?,
+            Evaluation::Residual(s) => raw()? - series(s)?,
+        })
+    }
+
+    /// Translation δ (mm) and rotation ε (rad) of the carriage at `q`.
+    pub fn motions(&self, q: f64, how: Evaluation) -> Result<(Vector3<f64>, Vector3<f64>)> {
+        let mut v = [0.0; 6];
+        for m in Motion::ALL {
+            v[m.index()] = self.value(m, q, how)?;
+        }
+        Ok((
+            Vector3::new(v[0], v[1], v[2]),
+            Vector3::new(v[3], v[4], v[5]),
+        ))
+    }
+}
+
+/// The error model of a machine: the axes that were measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ErrorModel {
+    /// Per axis, in X, Y, Z order.
+    pub axes: Vec<AxisModel>,
+    /// The order setting the fits were made with.
+    pub order: Order,
+}
+
+impl ErrorModel {
+    /// Fit every curve of every axis; each axis at most once.
+    pub fn new(curves: Vec<AxisCurves>, order: Order) -> Result<ErrorModel> {
+        if let Order::Fixed(0) = order {
+            return Err(ProbeError::Input {
+                what: "--order".into(),
+                message: "the order N must be at least 1".into(),
+            });
+        }
+        let mut axes: Vec<AxisModel> = Vec::with_capacity(curves.len());
+        for c in curves {
+            if axes.iter().any(|a| a.axis() == c.axis) {
+                return Err(ProbeError::Input {
+                    what: format!("axis {}", c.axis),
+                    message: "given twice".into(),
+                });
+            }
+            axes.push(AxisModel::new(c, order)?);
+        }
+        axes.sort_by_key(AxisModel::axis);
+        Ok(ErrorModel { axes, order })
+    }
+
+    /// The model of one axis, if measured.
+    pub fn axis(&self, axis: Axis) -> Option<&AxisModel> {
+        self.axes.iter().find(|a| a.axis() == axis)
+    }
+}

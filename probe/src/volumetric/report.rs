@@ -1,0 +1,533 @@
+//! The whole analysis of `trinocular probe volumetric` and its `report.json`
+//! (INTERFACES.md: `circle.radial_range_um`, `circle.circular_deviation_um`;
+//! µm and µrad, mm for positions).
+
+use formats::Axis;
+use formats::probe::volumetric::CompLine;
+use geom::Vector3;
+use serde::Serialize;
+
+use super::campaign::CampaignCurves;
+use super::chain::{Chain, Machine, Positions, Squareness};
+use super::circle::{self, CirclePrediction, CircleSpec};
+use super::compensation;
+use super::curves::{AxisCurves, MeasuredAxis, Motion, RemovedSlope};
+use super::model::{ErrorModel, Evaluation, Model, Order};
+use super::series::{Figures, OrderScore, Series, SeriesFit};
+use crate::{ProbeError, Result};
+
+/// mm → µm.
+const UM: f64 = 1e3;
+/// rad → µrad.
+const URAD: f64 = 1e6;
+
+/// What to compute, besides the curves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Setup {
+    /// Kinematic chain.
+    pub chain: Chain,
+    /// Squareness errors (rad).
+    pub squareness: Squareness,
+    /// Tool offset t (mm).
+    pub tool: [f64; 3],
+    /// Model of the curves for the predictions.
+    pub model: Model,
+    /// Order of the series.
+    pub order: Order,
+    /// Carriage positions for volumetric errors (`--at`), each with a label
+    /// that names it in errors (e.g. `at.csv: line 5`).
+    pub at: Vec<(String, Positions)>,
+    /// Circle of the circular test (`--circle`).
+    pub circle: Option<CircleSpec>,
+    /// Where the curves came from (for the report).
+    pub source: String,
+}
+
+/// The predicted circular tests.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Circles {
+    /// The circle.
+    pub spec: CircleSpec,
+    /// With the curves under the chosen model.
+    pub predicted: CirclePrediction,
+    /// What compensation with the Fourier series would leave.
+    pub compensated_fourier: CirclePrediction,
+    /// What compensation with the polynomial would leave.
+    pub compensated_polynomial: CirclePrediction,
+}
+
+/// Everything computed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Analysis {
+    /// The error model (curves and fits).
+    pub model: ErrorModel,
+    /// Volumetric error (mm) at each position of `setup.at`.
+    pub volumetric: Vec<(Positions, Vector3<f64>)>,
+    /// The circular tests, with `--circle`.
+    pub circles: Option<Circles>,
+    /// Pitch compensation table per axis.
+    pub compensation: Vec<(Axis, Vec<CompLine>)>,
+    /// `report.json`.
+    pub report: Report,
+}
+
+/// Run the analysis: check and fit the curves, build the machine, predict.
+/// `campaign` describes curves that came from a vision campaign.
+pub fn analyse(
+    curves: Vec<MeasuredAxis>,
+    setup: &Setup,
+    campaign: Option<&CampaignCurves>,
+) -> Result<Analysis> {
+    let checked: Vec<AxisCurves> = curves
+        .into_iter()
+        .map(AxisCurves::new)
+        .collect::<Result<_>>()?;
+    let model = ErrorModel::new(checked, setup.order)?;
+    let tool = Vector3::from(setup.tool);
+    let machine = Machine::new(&setup.chain, setup.squareness, tool, &model)?;
+    let how = Evaluation::Model(setup.model);
+    let volumetric = setup
+        .at
+        .iter()
+        .map(|(label, q)| {
+            machine
+                .volumetric_error(q, how)
+                .map(|d| (*q, d))
+                .map_err(|e| ProbeError::Input {
+                    what: label.clone(),
+                    message: e.to_string(),
+                })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let circles = match setup.circle {
+        Some(spec) => Some(Circles {
+            spec,
+            predicted: circle::predict(&machine, &spec, how)?,
+            compensated_fourier: circle::predict(
+                &machine,
+                &spec,
+                Evaluation::Residual(Series::Fourier),
+            )?,
+            compensated_polynomial: circle::predict(
+                &machine,
+                &spec,
+                Evaluation::Residual(Series::Polynomial),
+            )?,
+        }),
+        None => None,
+    };
+    let compensation = model
+        .axes
+        .iter()
+        .map(|a| (a.axis(), compensation::table(&a.curves)))
+        .collect();
+    let report = Report::new(setup, &model, &volumetric, circles.as_ref(), campaign);
+    Ok(Analysis {
+        model,
+        volumetric,
+        circles,
+        compensation,
+        report,
+    })
+}
+
+/// `report.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// `volumetric`.
+    pub method: &'static str,
+    /// Where the curves came from.
+    pub source: String,
+    /// Chain string.
+    pub chain: String,
+    /// Axes between the workpiece and the frame, from the workpiece.
+    pub workpiece_side: Vec<Axis>,
+    /// Axes between the frame and the tool, from the frame.
+    pub tool_side: Vec<Axis>,
+    /// Tool offset t (mm).
+    pub tool_mm: [f64; 3],
+    /// Squareness (µrad).
+    pub squareness_urad: Squareness,
+    /// Model of the predictions: `raw`, `fourier` or `polynomial`.
+    pub model: Model,
+    /// Order setting: a number or `auto`.
+    pub order: String,
+    /// Per axis: curves and fits.
+    pub axes: Vec<AxisReport>,
+    /// The fit table: both series of every curve.
+    pub fits: Vec<FitReport>,
+    /// Volumetric errors at `--at`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub volumetric: Option<VolumetricReport>,
+    /// The circular test, with `--circle`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub circle: Option<CircleReport>,
+    /// The conversion of a vision campaign's figures (`--from-report`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub campaign: Option<CampaignReport>,
+    /// Conventions of the figures.
+    pub conventions: Vec<String>,
+}
+
+/// One axis: its curves.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AxisReport {
+    /// The axis.
+    pub axis: Axis,
+    /// Measured travel (mm).
+    pub travel_mm: [f64; 2],
+    /// Number of measured positions.
+    pub points: usize,
+    /// Measured positions (mm).
+    pub positions_mm: Vec<f64>,
+    /// The six curves.
+    pub curves: Vec<CurveReport>,
+    /// Lines removed from the straightness curves.
+    pub straightness_lines: Vec<SlopeReport>,
+    /// Whether the compensation table has separate forward and reverse values.
+    pub compensation_bidirectional: bool,
+}
+
+/// One curve and both fits (µm or µrad, see `unit`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CurveReport {
+    /// `ex` … `ec`.
+    pub error: Motion,
+    /// ISO 230-1 symbol (`EXX`, `EYX`, …).
+    pub symbol: String,
+    /// `um` or `urad`.
+    pub unit: &'static str,
+    /// Values at the positions (straightness lines removed).
+    pub values: Vec<f64>,
+    /// Fourier fit.
+    pub fourier: SeriesReport,
+    /// Polynomial fit.
+    pub polynomial: SeriesReport,
+}
+
+/// A series fit of a curve (values in the curve's unit).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SeriesReport {
+    /// Order N.
+    pub order: usize,
+    /// R².
+    pub r2: Option<f64>,
+    /// SSE (unit²).
+    pub sse: f64,
+    /// RMSE.
+    pub rmse: f64,
+    /// e_max.
+    pub emax: f64,
+    /// The fit at the measured positions.
+    pub fitted: Vec<f64>,
+    /// Leave-one-out scores, under `--order auto`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub order_scores: Option<Vec<OrderScore>>,
+}
+
+/// A removed straightness line.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SlopeReport {
+    /// `ey`, `ez` of X, ….
+    pub error: Motion,
+    /// Slope (µrad = µm/m).
+    pub slope_urad: f64,
+    /// Intercept at q = 0 (µm).
+    pub intercept_um: f64,
+}
+
+/// One row of the fit table (the units of `fits.csv`: mm or rad).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FitReport {
+    /// The axis.
+    pub axis: Axis,
+    /// The curve.
+    pub error: Motion,
+    /// `fourier` or `polynomial`.
+    pub model: Series,
+    /// Order N.
+    pub order: usize,
+    /// R².
+    pub r2: Option<f64>,
+    /// SSE (mm² or rad²).
+    pub sse: f64,
+    /// RMSE (mm or rad).
+    pub rmse: f64,
+    /// e_max (mm or rad).
+    pub emax: f64,
+}
+
+/// Volumetric errors at the given positions (µm).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VolumetricReport {
+    /// Number of positions.
+    pub points: usize,
+    /// Largest |Δ|.
+    pub max_um: f64,
+    /// RMS of |Δ|.
+    pub rms_um: f64,
+    /// Per position: carriage positions (mm) and Δ (µm).
+    pub rows: Vec<VolumetricPoint>,
+}
+
+/// Δ at one position.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VolumetricPoint {
+    /// Carriage positions x, y, z (mm).
+    pub q_mm: [f64; 3],
+    /// Volumetric error (µm, workpiece frame).
+    pub d_um: [f64; 3],
+}
+
+/// The circular test (µm).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CircleReport {
+    /// Centre (mm, workpiece frame).
+    pub centre_mm: [f64; 3],
+    /// Radius (mm).
+    pub radius_mm: f64,
+    /// Range of the radial deviations.
+    pub radial_range_um: f64,
+    /// ISO 230-4 circular deviation about the least-squares centre.
+    pub circular_deviation_um: f64,
+    /// Least-squares centre of the predicted path (mm).
+    pub lsq_centre_mm: [f64; 2],
+    /// Radial deviation per degree, θ = 0 … 359°.
+    pub radial_um: Vec<f64>,
+    /// After compensating with each series.
+    pub compensated: CompensatedReport,
+}
+
+/// The circular test after compensation (µm).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CompensatedReport {
+    /// With the Fourier series.
+    pub fourier: CircleFigures,
+    /// With the polynomial.
+    pub polynomial: CircleFigures,
+}
+
+/// Figures of a circular test (µm).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CircleFigures {
+    /// Range of the radial deviations.
+    pub radial_range_um: f64,
+    /// Circular deviation.
+    pub circular_deviation_um: f64,
+    /// Radial deviation per degree.
+    pub radial_um: Vec<f64>,
+}
+
+/// How a vision campaign's figures were converted.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CampaignReport {
+    /// Per swept axis.
+    pub sweeps: Vec<super::campaign::SweepInfo>,
+    /// Squareness measured by the campaign (µrad).
+    pub measured_squareness_urad: std::collections::BTreeMap<String, f64>,
+    /// Notes of the conversion.
+    pub notes: Vec<String>,
+}
+
+/// The curve unit of a motion in reports, and the factor from file units.
+pub fn unit(motion: Motion) -> (&'static str, f64) {
+    if motion.is_rotation() {
+        ("urad", URAD)
+    } else {
+        ("um", UM)
+    }
+}
+
+fn series_report(
+    fit: &SeriesFit,
+    values: &[f64],
+    scale: f64,
+    scores: Option<&Vec<OrderScore>>,
+) -> SeriesReport {
+    let f: Figures = fit.figures;
+    SeriesReport {
+        order: fit.order,
+        r2: f.r2,
+        sse: f.sse * scale * scale,
+        rmse: f.rmse * scale,
+        emax: f.emax * scale,
+        fitted: values
+            .iter()
+            .zip(&fit.residuals)
+            .map(|(v, r)| (v - r) * scale)
+            .collect(),
+        order_scores: scores.map(|s| {
+            s.iter()
+                .map(|o| OrderScore {
+                    order: o.order,
+                    loo_rmse: o.loo_rmse * scale,
+                })
+                .collect()
+        }),
+    }
+}
+
+fn circle_figures(c: &CirclePrediction) -> CircleFigures {
+    CircleFigures {
+        radial_range_um: c.radial_range * UM,
+        circular_deviation_um: c.circular_deviation * UM,
+        radial_um: c.points.iter().map(|p| p.radial * UM).collect(),
+    }
+}
+
+impl Report {
+    fn new(
+        setup: &Setup,
+        model: &ErrorModel,
+        volumetric: &[(Positions, Vector3<f64>)],
+        circles: Option<&Circles>,
+        campaign: Option<&CampaignCurves>,
+    ) -> Report {
+        let mut fits = Vec::new();
+        let axes = model
+            .axes
+            .iter()
+            .map(|a| {
+                let c = &a.curves;
+                let curves = Motion::ALL
+                    .iter()
+                    .map(|&m| {
+                        let (unit, scale) = unit(m);
+                        let values = c.curve(m);
+                        let f = &a.fits[m.index()];
+                        for s in Series::BOTH {
+                            let fit = f.get(s);
+                            fits.push(FitReport {
+                                axis: a.axis(),
+                                error: m,
+                                model: s,
+                                order: fit.order,
+                                r2: fit.figures.r2,
+                                sse: fit.figures.sse,
+                                rmse: fit.figures.rmse,
+                                emax: fit.figures.emax,
+                            });
+                        }
+                        CurveReport {
+                            error: m,
+                            symbol: m.symbol(a.axis()),
+                            unit,
+                            values: values.iter().map(|v| v * scale).collect(),
+                            fourier: series_report(
+                                &f.fourier,
+                                values,
+                                scale,
+                                f.scores.as_ref().map(|s| &s[0]),
+                            ),
+                            polynomial: series_report(
+                                &f.polynomial,
+                                values,
+                                scale,
+                                f.scores.as_ref().map(|s| &s[1]),
+                            ),
+                        }
+                    })
+                    .collect();
+                let (lo, hi) = c.travel();
+                AxisReport {
+                    axis: a.axis(),
+                    travel_mm: [lo, hi],
+                    points: c.positions.len(),
+                    positions_mm: c.positions.clone(),
+                    curves,
+                    straightness_lines: c
+                        .removed
+                        .iter()
+                        .map(|r: &RemovedSlope| SlopeReport {
+                            error: r.error,
+                            slope_urad: r.slope * URAD,
+                            intercept_um: r.intercept_mm * UM,
+                        })
+                        .collect(),
+                    compensation_bidirectional: compensation::bidirectional(c),
+                }
+            })
+            .collect();
+        let volumetric = (!volumetric.is_empty()).then(|| {
+            let norms: Vec<f64> = volumetric.iter().map(|(_, d)| d.norm() * UM).collect();
+            VolumetricReport {
+                points: volumetric.len(),
+                max_um: norms.iter().fold(0.0, |m, v| m.max(*v)),
+                rms_um: (norms.iter().map(|v| v * v).sum::<f64>() / norms.len() as f64).sqrt(),
+                rows: volumetric
+                    .iter()
+                    .map(|(q, d)| VolumetricPoint {
+                        q_mm: *q,
+                        d_um: [d.x * UM, d.y * UM, d.z * UM],
+                    })
+                    .collect(),
+            }
+        });
+        let circle = circles.map(|c| CircleReport {
+            centre_mm: c.spec.centre,
+            radius_mm: c.spec.radius,
+            radial_range_um: c.predicted.radial_range * UM,
+            circular_deviation_um: c.predicted.circular_deviation * UM,
+            lsq_centre_mm: c.predicted.lsq_centre,
+            radial_um: c.predicted.points.iter().map(|p| p.radial * UM).collect(),
+            compensated: CompensatedReport {
+                fourier: circle_figures(&c.compensated_fourier),
+                polynomial: circle_figures(&c.compensated_polynomial),
+            },
+        });
+        let campaign = campaign.map(|c| CampaignReport {
+            sweeps: c.sweeps.clone(),
+            measured_squareness_urad: [
+                ("EC0Y", c.squareness.ec0y),
+                ("EB0Z", c.squareness.eb0z),
+                ("EA0Z", c.squareness.ea0z),
+            ]
+            .into_iter()
+            .filter_map(|(k, v)| v.map(|v| (k.to_string(), v * URAD)))
+            .collect(),
+            notes: c.notes.clone(),
+        });
+        Report {
+            method: "volumetric",
+            source: setup.source.clone(),
+            chain: setup.chain.text.clone(),
+            workpiece_side: setup.chain.workpiece.clone(),
+            tool_side: setup.chain.tool.clone(),
+            tool_mm: setup.tool,
+            squareness_urad: Squareness {
+                ec0y: setup.squareness.ec0y * URAD,
+                eb0z: setup.squareness.eb0z * URAD,
+                ea0z: setup.squareness.ea0z * URAD,
+            },
+            model: setup.model,
+            order: match setup.order {
+                Order::Fixed(n) => n.to_string(),
+                Order::Auto => "auto".into(),
+            },
+            axes,
+            fits,
+            volumetric,
+            circle,
+            campaign,
+            conventions: conventions(),
+        }
+    }
+}
+
+/// The conventions written into every report.
+pub fn conventions() -> Vec<String> {
+    [
+        "METHODS.md §5: error motions of each carriage relative to the body it rides on, translations along and rotations about the machine X, Y, Z, rotations about the machine origin carried by the carriage",
+        "T_j(q) = Trans(q·a_j + δ_j(q))·Rot(ε_j(q)), Rot by Rodrigues' formula; a_X = (1,0,0), a_Y = (−sin EC0Y, cos EC0Y, 0), a_Z = Ry(EB0Z)·Rx(EA0Z)·(0,0,1)",
+        "chain W a1…ak F b1…bl T: T_W = T_ak⋯T_a1, T_T = T_b1⋯T_bl, w = T_W⁻¹·T_T·t; volumetric error = w − w(no errors, no squareness), workpiece frame",
+        "straightness curves: least-squares line v = k·q + b removed, slopes reported",
+        "Fourier series of order N with ω = 2π/L over the measured travel L; polynomial of degree 2N (same 2N + 1 coefficients); R² = 1 − SSE/SST, RMSE = √(SSE/n), e_max = max|r|",
+        "circular test (ISO 230-4) in the workpiece frame, plane XY, 1° steps: q_L = s_L·(w₀_L − t_L), s = −1 workpiece side, +1 tool side; circular deviation = range of the radial distances from the least-squares centre",
+        "compensated prediction: the raw curves minus the series, squareness removed",
+        "outside the measured travel is an error, never an extrapolation",
+        "report units: µm and µrad (curves, figures), mm (positions); fits.csv in mm and rad",
+    ]
+    .iter()
+    .map(|s| (*s).to_string())
+    .collect()
+}
