@@ -233,7 +233,7 @@ pub fn fit_flat_field(
         .max(0.5);
     let b = blocks(flat, dark);
     let level = b.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if !(level > MIN_SIGNAL_SIGMAS * dark_sd) {
+    if level.is_nan() || level <= MIN_SIGNAL_SIGMAS * dark_sd {
         return Err(CalibError::FlatField(format!(
             "the flat field is only {level:.1} DN above the dark frame (noise {dark_sd:.1} DN): \
              is it lit, and is the dark frame the right one?"
@@ -260,7 +260,7 @@ pub fn fit_flat_field(
         .map_err(CalibError::geom("flat-field fit"))?;
     let p = &solution.params;
     let q0 = p[2];
-    if !(q0 > 0.0) {
+    if q0.is_nan() || q0 <= 0.0 {
         return Err(CalibError::FlatField(format!(
             "flat-field fit: non-positive level {q0} at the model's centre"
         )));
@@ -291,7 +291,7 @@ pub fn fit_flat_field(
         .iter()
         .map(|c| model.at(c[0], c[1]))
         .fold(1.0, f64::max);
-    if !(ri_min > 0.0) {
+    if ri_min.is_nan() || ri_min <= 0.0 {
         return Err(CalibError::FlatField(format!(
             "flat-field fit: the model falls to {ri_min} in the image"
         )));

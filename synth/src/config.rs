@@ -503,39 +503,6 @@ pub struct Overrides {
     pub seed: Option<u64>,
 }
 
-/// Parse TOML into `T` and validate it; errors name `path` (when given), the
-/// line and column of a syntax or type error, or the key `validate` names.
-pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
-    text: &str,
-    path: Option<&Path>,
-    validate: impl FnOnce(&T) -> Result<()>,
-) -> Result<T> {
-    let value: T = toml::from_str(text).map_err(|e| {
-        let at = e.span().map(|s| {
-            let before = &text[..s.start.min(text.len())];
-            let line = before.matches('\n').count() + 1;
-            let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-            format!("line {line}, column {column}: ")
-        });
-        SynthError::Config {
-            path: path.map(Path::to_path_buf),
-            message: format!(
-                "{}{}",
-                at.unwrap_or_default(),
-                e.message().trim_end().replace('\n', " ")
-            ),
-        }
-    })?;
-    validate(&value).map_err(|e| match e {
-        SynthError::Config { message, .. } => SynthError::Config {
-            path: path.map(Path::to_path_buf),
-            message,
-        },
-        other => other,
-    })?;
-    Ok(value)
-}
-
 pub(crate) fn bad(key: &str, message: impl std::fmt::Display) -> SynthError {
     SynthError::config(format!("{key}: {message}"))
 }
@@ -565,7 +532,7 @@ pub(crate) fn finite(key: &str, values: &[f64]) -> Result<()> {
 
 /// Parse a TOML configuration of type `T` and check it with `validate`;
 /// errors name `path` (when given) and, for a parse error, the line and
-/// column. Shared by every generator's configuration.
+/// column, or the key `validate` names. Shared by every generator's configuration.
 pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
     text: &str,
     path: Option<&Path>,
@@ -706,7 +673,7 @@ impl Config {
         if v2 > 0.0 && (0.0..t2).contains(&vertex) {
             v_min = v_min.min(v(vertex));
         }
-        if !(v_min > 0.0) {
+        if v_min.is_nan() || v_min <= 0.0 {
             return Err(bad(
                 "optics.vignetting",
                 format!(

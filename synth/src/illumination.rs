@@ -49,7 +49,7 @@ pub fn exact(camera: &Camera, v: [f64; 2], u: f64, w: f64) -> Result<f64> {
         .undistort_normalized(observed)
         .map_err(|e| SynthError::geometry(format!("undistorting pixel ({u}, {w})"), e))?;
     let det = camera.distortion.jacobian(n).determinant();
-    if !(det > 0.0) {
+    if det.is_nan() || det <= 0.0 {
         return Err(SynthError::Scene(format!(
             "lens distortion folds the image at pixel ({u}, {w})"
         )));
