@@ -154,6 +154,43 @@ impl LensIllumination {
         self.with_gradient(u, v).0
     }
 
+    /// Multiply `values[u]` by RI at pixel (u, v) for every column u of row
+    /// `v` (the same expansion as [`Self::at`], node by node along the row).
+    pub fn scale_row(&self, v: f64, values: &mut [f64]) {
+        let j = ((v - self.origin[1]) / NODE_STEP_PX)
+            .round()
+            .clamp(0.0, self.rows as f64 - 1.0) as usize;
+        let dv = v - (self.origin[1] + j as f64 * NODE_STEP_PX);
+        let nodes = &self.nodes[j * self.columns..(j + 1) * self.columns];
+        let half = NODE_STEP_PX / 2.0;
+        let mut u0 = 0usize;
+        for (i, node) in nodes.iter().enumerate() {
+            let centre = self.origin[0] + i as f64 * NODE_STEP_PX;
+            // Columns nearest to this node: up to (but not including) centre + half.
+            let end = if i + 1 == self.columns {
+                values.len()
+            } else {
+                ((centre + half).ceil().max(0.0) as usize).min(values.len())
+            };
+            if end <= u0 {
+                continue;
+            }
+            let [huu, huv, hvv] = node.hessian;
+            // RI(du) = a + b·du + c·du² along the row.
+            let a = node.value + node.gradient[1] * dv + 0.5 * hvv * dv * dv;
+            let b = node.gradient[0] + huv * dv;
+            let c = 0.5 * huu;
+            for (u, x) in values[u0..end].iter_mut().enumerate() {
+                let du = (u0 + u) as f64 - centre;
+                *x *= a + du * (b + du * c);
+            }
+            u0 = end;
+            if u0 == values.len() {
+                break;
+            }
+        }
+    }
+
     /// Largest RI at a node inside the image.
     pub fn max_in(&self, width: u32, height: u32) -> f64 {
         let (w, h) = (f64::from(width) - 1.0, f64::from(height) - 1.0);
@@ -237,6 +274,12 @@ mod tests {
             assert!((g[0] - d).abs() < 1e-9, "∂RI/∂u {} vs {d}", g[0]);
         }
         assert!(worst < 1e-8, "relative error {worst}");
+        // A whole row at once: the same values as pixel by pixel.
+        let mut row = vec![1.0; 1024];
+        lens.scale_row(300.0, &mut row);
+        for (u, r) in row.iter().enumerate() {
+            assert!((r - lens.at(u as f64, 300.0)).abs() < 1e-14, "column {u}");
+        }
     }
 
     /// Without distortion or V, RI is cos⁴θ exactly; with distortion the

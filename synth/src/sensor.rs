@@ -352,9 +352,7 @@ pub fn mean_row(
         }
     }
     if let Some(lens) = lens {
-        for (u, m) in mean.iter_mut().enumerate() {
-            *m *= lens.at(u as f64, vf);
-        }
+        lens.scale_row(vf, mean);
     }
     for layer in layers {
         let sig = layer.signal;
