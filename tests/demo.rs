@@ -79,6 +79,25 @@ fn demo_measures_the_injected_errors() {
         !out.join("problems.csv").exists(),
         "some instants could not be measured"
     );
+    // The lenses' relative illumination was measured from the flat fields,
+    // and the commissioning report says what a user must capture.
+    let rig: Value = read_json(&out.join("rig.json")).unwrap();
+    for c in rig["cameras"].as_array().unwrap() {
+        let ri = &c["relative_illumination"];
+        assert_eq!(ri["model"], "radial", "camera {}: {ri}", c["id"]);
+        assert!(
+            ri["flat_field"]
+                .as_str()
+                .unwrap()
+                .ends_with(&format!("flat_cam{}.tif", c["id"]))
+        );
+    }
+    let commissioning = std::fs::read_to_string(out.join("commissioning.txt")).unwrap();
+    assert!(
+        commissioning.contains("relative illumination measured from the flat field")
+            && commissioning.contains("Capture per"),
+        "{commissioning}"
+    );
 
     // Sphere-A displacements against the truth, per line from its first instant.
     let measured: Vec<PointRow> = rows(&out.join("points.csv"));
