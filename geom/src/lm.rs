@@ -151,15 +151,28 @@ pub fn minimize<P: Residuals>(
     })
 }
 
+/// Smallest singular value of J, relative to the largest, for which the
+/// covariance is defined (below it a parameter is not determined).
+const COVARIANCE_RANK_TOLERANCE: f64 = 1e-12;
+
 /// `s²·(JᵀJ)⁻¹`, `s² = ssr/(m − n)` (the usual first-order covariance of a
-/// least-squares estimate); `None` when undefined.
+/// least-squares estimate), computed from the SVD `J = U·Σ·Vᵀ` as
+/// `s²·V·Σ⁻²·Vᵀ` — without forming JᵀJ, whose condition number is the square
+/// of J's; `None` when undefined (no redundancy, or J rank-deficient).
 pub fn covariance(jacobian: &DMatrix<f64>, ssr: f64, m: usize, n: usize) -> Option<DMatrix<f64>> {
-    if m <= n {
+    if m <= n || jacobian.ncols() != n {
         return None;
     }
-    let jtj = jacobian.transpose() * jacobian;
-    let inv = jtj.try_inverse()?;
-    Some(inv * (ssr / (m - n) as f64))
+    let svd = nalgebra::SVD::try_new(jacobian.clone(), false, true, f64::EPSILON, 1000)?;
+    let v_t = svd.v_t?;
+    let sigma = &svd.singular_values;
+    let largest = sigma.max();
+    let smallest = sigma.min();
+    if sigma.len() < n || smallest.is_nan() || smallest <= COVARIANCE_RANK_TOLERANCE * largest {
+        return None;
+    }
+    let scaled = DMatrix::from_fn(n, n, |k, j| v_t[(k, j)] / sigma[k]);
+    Some(scaled.transpose() * scaled * (ssr / (m - n) as f64))
 }
 
 /// Central-difference Jacobian with a relative step `h·max(|p|, 1)` per parameter.
@@ -266,6 +279,24 @@ mod tests {
         let sd = sol.std_devs().unwrap();
         // σ of the offset c is of the order of noise/√n.
         assert!(sd[2] > 0.0005 && sd[2] < 0.01, "σc = {}", sd[2]);
+    }
+
+    /// The covariance from the SVD of J equals s²·(JᵀJ)⁻¹ on a well
+    /// conditioned J, and is undefined for a rank-deficient one.
+    #[test]
+    fn covariance_from_the_svd_of_j() {
+        let j = DMatrix::from_fn(7, 3, |i, k| ((i * 3 + k * 5) % 7) as f64 + 0.25 * k as f64);
+        let direct = (j.transpose() * &j).try_inverse().unwrap() * (2.0 / 4.0);
+        let c = covariance(&j, 2.0, 7, 3).unwrap();
+        assert!(
+            (&c - &direct).abs().max() < 1e-12 * direct.abs().max(),
+            "{c} vs {direct}"
+        );
+        let mut deficient = j.clone();
+        let col = deficient.column(0).into_owned() * 2.0;
+        deficient.set_column(2, &col);
+        assert!(covariance(&deficient, 2.0, 7, 3).is_none());
+        assert!(covariance(&j, 2.0, 3, 3).is_none());
     }
 
     #[test]
