@@ -238,18 +238,20 @@ fn calibrated_cameras_reproduce_the_truth() {
             truth.distortion.k1,
             cal.outliers
         );
+        // Twice the largest figures measured over the three cameras (the
+        // README's): P 0.0075 px RMS, focal length 6.3e-6, centre 0.0034 mm.
         assert!(
-            rms <= 0.02,
+            rms <= 0.015,
             "camera {}: P reprojects the target with {rms} px RMS",
             cam.id
         );
         assert!(
-            efx.abs() <= 5e-4 && efy.abs() <= 5e-4,
+            efx.abs() <= 1.3e-5 && efy.abs() <= 1.3e-5,
             "camera {}: focal error {efx}, {efy}",
             cam.id
         );
         assert!(
-            centre <= 0.5,
+            centre <= 0.007,
             "camera {}: centre off by {centre} mm",
             cam.id
         );

@@ -1,7 +1,7 @@
 //! Sub-pixel truth of rendered radiance images of spheres against the analytic
-//! image of a sphere (geom::sphere_image): intensity centroid = ellipse centre within 1e-3 px,
-//! perspective bias Δ = r_c·R²/(Z² − R²) within 2 %, with and without lens
-//! distortion (after undistortion with the area Jacobian).
+//! image of a sphere (geom::sphere_image): intensity centroid = ellipse centre
+//! and perspective bias Δ = r_c·R²/(Z² − R²), with and without lens distortion
+//! (after undistortion with the area Jacobian), within twice the measured errors.
 
 #![allow(clippy::unwrap_used)]
 
@@ -46,9 +46,22 @@ fn spheres() -> Vec<Sphere> {
     ]
 }
 
-/// Centroid tolerance (issue #3): 1e-3 px. The renderer's own error is far
-/// smaller (exact areas and first moments, ≈ 1e-5 px), so this cannot pass by luck.
-const CENTROID_TOL_PX: f64 = 1e-3;
+/// Noise-free centroid tolerance: twice the largest error measured (1.2e-7
+/// px, the 5 mm sphere; exact areas and first moments, the blur's expansion).
+const CENTROID_TOL_PX: f64 = 2.5e-7;
+
+/// Through the 16-bit frame: twice the largest error measured (1.2e-6 px),
+/// from rounding every pixel to an integer DN.
+const QUANTISED_TOL_PX: f64 = 2.5e-6;
+
+/// Over undistorted positions: twice the largest error measured (1.2e-5 px);
+/// the blur acts in observed pixels, the centroid is taken through the
+/// non-linear undistortion.
+const UNDISTORTED_TOL_PX: f64 = 2.5e-5;
+
+/// Perspective bias against r_c·R²/(Z² − R²), relative: twice the largest
+/// departure measured (1.0e-4, the 5 mm sphere through the distortion).
+const BIAS_TOL: f64 = 2e-4;
 
 /// Intensity centroid of the noise-free rendered image of each sphere.
 #[test]
@@ -109,7 +122,7 @@ fn quantised_frame_centroid_is_the_ellipse_centre() {
             sphere.radius
         );
         assert!(
-            err < CENTROID_TOL_PX,
+            err < QUANTISED_TOL_PX,
             "centroid {c:?} vs ellipse centre {e:?}"
         );
     }
@@ -137,7 +150,7 @@ fn check_bias(camera: &Camera, sphere: &Sphere, centroid: Vector2<f64>) {
         expected > 0.05,
         "test sphere too close to the axis to test the bias"
     );
-    assert!((delta.norm() / expected - 1.0).abs() < 0.02);
+    assert!((delta.norm() / expected - 1.0).abs() < BIAS_TOL);
     assert!(radial > 0.99 * delta.norm(), "bias is not radially outward");
 }
 
@@ -190,7 +203,7 @@ fn undistorted_centroid_is_the_ellipse_centre() {
             (plain - e.coords).norm()
         );
         assert!(
-            err < CENTROID_TOL_PX,
+            err < UNDISTORTED_TOL_PX,
             "centroid {c:?} vs ellipse centre {e:?}"
         );
         check_bias(&cam.camera, sphere, c);
