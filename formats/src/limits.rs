@@ -14,28 +14,75 @@ pub const MAX_IMAGE_SIDE_PX: u32 = 1 << 16;
 /// Commands that read images override it with `--max-pixels`.
 pub const DEFAULT_MAX_PIXELS: u64 = 1 << 28;
 
+/// Why an image size is refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SizeError {
+    /// No pixels.
+    Empty {
+        /// Width claimed (px).
+        width: u64,
+        /// Height claimed (px).
+        height: u64,
+    },
+    /// A side beyond [`MAX_IMAGE_SIDE_PX`].
+    Side {
+        /// Width claimed (px).
+        width: u64,
+        /// Height claimed (px).
+        height: u64,
+    },
+    /// More pixels than the limit.
+    Pixels {
+        /// Width claimed (px).
+        width: u64,
+        /// Height claimed (px).
+        height: u64,
+        /// The limit (pixels).
+        max_pixels: u64,
+    },
+}
+
+impl std::fmt::Display for SizeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            SizeError::Empty { width, height } => {
+                write!(f, "the image claims {width}×{height} px: it has no pixels")
+            }
+            SizeError::Side { width, height } => write!(
+                f,
+                "the image claims {width}×{height} px, more than {MAX_IMAGE_SIDE_PX} px a side \
+                 (no camera sensor is that large: a damaged or hostile header?)"
+            ),
+            SizeError::Pixels {
+                width,
+                height,
+                max_pixels,
+            } => write!(
+                f,
+                "the image claims {width}×{height} px = {} pixels, more than the limit of \
+                 {max_pixels}",
+                width * height
+            ),
+        }
+    }
+}
+
 /// Check an image size read from a header before anything is allocated for
 /// it: each side in `1..=MAX_IMAGE_SIDE_PX` and `width × height ≤ max_pixels`.
-/// The error says what the header claims and which limit it breaks.
-pub fn check_image_size(width: u64, height: u64, max_pixels: u64) -> Result<(), String> {
+pub fn check_image_size(width: u64, height: u64, max_pixels: u64) -> Result<(), SizeError> {
     if width == 0 || height == 0 {
-        return Err(format!(
-            "the image claims {width}×{height} px: it has no pixels"
-        ));
+        return Err(SizeError::Empty { width, height });
     }
     let side = u64::from(MAX_IMAGE_SIDE_PX);
     if width > side || height > side {
-        return Err(format!(
-            "the image claims {width}×{height} px, more than {side} px a side (no camera \
-             sensor is that large: a damaged or hostile header?)"
-        ));
+        return Err(SizeError::Side { width, height });
     }
-    let pixels = width * height;
-    if pixels > max_pixels {
-        return Err(format!(
-            "the image claims {width}×{height} px = {pixels} pixels, more than the limit of \
-             {max_pixels} (raise it with --max-pixels if this machine can hold such frames)"
-        ));
+    if width * height > max_pixels {
+        return Err(SizeError::Pixels {
+            width,
+            height,
+            max_pixels,
+        });
     }
     Ok(())
 }
@@ -49,9 +96,12 @@ mod tests {
         assert!(check_image_size(4096, 3072, DEFAULT_MAX_PIXELS).is_ok());
         assert!(check_image_size(65536, 4096, DEFAULT_MAX_PIXELS).is_ok());
         let e = check_image_size(u64::from(u32::MAX), u64::from(u32::MAX), DEFAULT_MAX_PIXELS)
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("4294967295×4294967295") && e.contains("a side"), "{e}");
-        let e = check_image_size(20000, 20000, DEFAULT_MAX_PIXELS).unwrap_err();
+        let e = check_image_size(20000, 20000, DEFAULT_MAX_PIXELS)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("400000000 pixels") && e.contains("268435456"), "{e}");
         assert!(check_image_size(0, 5, DEFAULT_MAX_PIXELS).is_err());
         assert!(check_image_size(3, 3, 8).is_err());
