@@ -191,6 +191,37 @@ pub fn validate(observations: &[Observation]) -> Result<()> {
     Ok(())
 }
 
+/// Check a calibration target on its own, before any camera: at least
+/// [`dlt::MIN_POINTS`] markers, finite coordinates, each id once, and the
+/// markers spanning space (a DLT needs a 3-D target, [`dlt::Spread::check`]).
+pub fn check_target(target: &[TargetRow]) -> Result<()> {
+    if target.len() < MIN_POINTS {
+        return Err(CalibError::TooFewPoints {
+            what: "a calibration target",
+            needed: MIN_POINTS,
+            got: target.len(),
+        });
+    }
+    let mut ids = HashSet::with_capacity(target.len());
+    let mut points = Vec::with_capacity(target.len());
+    for t in target {
+        for (field, value) in [("x", t.x), ("y", t.y), ("z", t.z)] {
+            if !value.is_finite() {
+                return Err(CalibError::NonFinite {
+                    id: t.id,
+                    field,
+                    value,
+                });
+            }
+        }
+        if !ids.insert(t.id) {
+            return Err(CalibError::DuplicateId { id: t.id });
+        }
+        points.push(Point3::new(t.x, t.y, t.z));
+    }
+    dlt::Spread::of(&points).check()
+}
+
 /// Observations from `target.csv` rows and `id,u,v` correspondences: each
 /// correspondence's id must be on the target and occur once; with
 /// `spheres`, the target's diameters make the markers spheres.

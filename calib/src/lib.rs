@@ -37,7 +37,8 @@ pub mod outliers;
 pub mod refine;
 
 pub use calibration::{
-    Calibration, Observation, Options, Parameter, PointResidual, calibrate, observations,
+    Calibration, Observation, Options, Parameter, PointResidual, calibrate, check_target,
+    observations,
 };
 pub use commission::{CameraInput, CommissionOptions, Report, commission};
 pub use correspond::{CorrespondOptions, Correspondence, Marker, Match, correspond, markers};

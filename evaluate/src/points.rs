@@ -26,6 +26,11 @@ pub const UNITS_TOLERANCE_MM: f64 = 1.0;
 pub const UNITS_TOLERANCE_OF_TRAVEL: f64 = 0.02;
 /// The factor between the units a stray row may have used and millimetres (µm, m).
 const UNIT_FACTOR: f64 = 1000.0;
+/// Largest coordinate (mm), measured or commanded: 10 m from the origin is
+/// beyond the travel of any machine a rig of cameras measures, so a value
+/// past it is a length in µm (a whole file in µm puts a 150 mm travel at
+/// 150 000) or not a length at all (1e300).
+pub const MAX_COORDINATE_MM: f64 = 10_000.0;
 
 /// Read `points.csv`: the file contract's checks (header, parse, NaN, with
 /// line and column) plus an empty file reported at line 1.
@@ -88,9 +93,45 @@ pub(crate) fn check(rows: &[Located<'_>], source: &str) -> Result<()> {
         r.row
             .validate()
             .map_err(|inv| row_error(source, r.line, inv.column, inv.message))?;
+        check_reach(r, source, MAX_COORDINATE_MM * UNIT_FACTOR)?;
     }
     check_duplicates(rows, source)?;
-    check_units(rows, source)
+    check_units(rows, source)?;
+    // Rows that agree with each other may all be in the wrong unit.
+    rows.iter()
+        .try_for_each(|r| check_reach(r, source, MAX_COORDINATE_MM))
+}
+
+/// Every coordinate within ±`limit` mm: [`MAX_COORDINATE_MM`], or 1000 times
+/// that for values that cannot be a length in any unit (checked first).
+fn check_reach(r: &Located<'_>, source: &str, limit: f64) -> Result<()> {
+    let p = r.row;
+    for (column, value) in [
+        ("nominal_x", p.nominal_x),
+        ("nominal_y", p.nominal_y),
+        ("nominal_z", p.nominal_z),
+        ("x", p.x),
+        ("y", p.y),
+        ("z", p.z),
+    ] {
+        if value.abs() > limit {
+            let message = if value.abs() <= MAX_COORDINATE_MM * UNIT_FACTOR {
+                format!(
+                    "{column} = {value} mm lies more than {MAX_COORDINATE_MM} mm from the origin, \
+                     beyond the travel of any machine the rig measures: is the file in µm? \
+                     (points.csv is in millimetres)"
+                )
+            } else {
+                format!(
+                    "{column} = {value:e} is not a length in millimetres (more than {:e} mm \
+                     from the origin)",
+                    MAX_COORDINATE_MM * UNIT_FACTOR
+                )
+            };
+            return Err(row_error(source, r.line, column, message));
+        }
+    }
+    Ok(())
 }
 
 /// Each (axis, direction, run, target, capture, sphere, nominal) once.

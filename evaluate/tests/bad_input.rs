@@ -160,6 +160,33 @@ fn mixed_units() {
     assert!(e.contains("units"), "{e}");
 }
 
+/// A file in µm throughout agrees with itself; its coordinates are beyond
+/// any machine. A value like 1e300 is not a length at all.
+#[test]
+fn a_file_in_micrometres_and_absurd_values() {
+    let mut l = lines(&good_text());
+    for line in l.iter_mut().skip(1) {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        for v in f[5..8].iter_mut().chain(&mut f[9..12]) {
+            *v = (v.parse::<f64>().unwrap() * 1000.0).to_string();
+        }
+        *line = f.join(",");
+    }
+    let (e, path, _d) = error_of(&join(&l));
+    // The first row: target 0 at x = −60 mm commanded, now −60000.
+    names(&e, &path, 2, "nominal_x");
+    assert!(e.contains("= -60000 mm") && e.contains("in µm?"), "{e}");
+
+    let mut l = lines(&good_text());
+    let i = find(&l, |f| f[3] == "2" && f[8] == "A");
+    let mut f: Vec<String> = l[i].split(',').map(str::to_string).collect();
+    f[11] = "1e300".into();
+    l[i] = f.join(",");
+    let (e, path, _d) = error_of(&join(&l));
+    names(&e, &path, i as u64 + 1, "z");
+    assert!(e.contains("1e300"), "{e}");
+}
+
 #[test]
 fn duplicates_and_inconsistent_targets() {
     let mut l = lines(&good_text());

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use formats::limits::{DEFAULT_MAX_PIXELS, check_image_size};
 use serde::{Deserialize, Serialize};
 
 use crate::background::BackgroundStats;
@@ -35,6 +36,14 @@ pub struct ExtractParams {
     pub max_area: u64,
     /// Give up on a frame with more above-threshold runs than this.
     pub max_runs: usize,
+    /// Refuse frames of more pixels than this (decoded or given), before
+    /// anything is allocated for them.
+    #[serde(default = "default_max_pixels")]
+    pub max_pixels: u64,
+}
+
+fn default_max_pixels() -> u64 {
+    DEFAULT_MAX_PIXELS
 }
 
 impl Default for ExtractParams {
@@ -46,13 +55,33 @@ impl Default for ExtractParams {
             min_area: DEFAULT_MIN_AREA,
             max_area: u64::MAX,
             max_runs: DEFAULT_MAX_RUNS,
+            max_pixels: DEFAULT_MAX_PIXELS,
         }
     }
 }
 
 impl ExtractParams {
+    /// Check the parameters for `frame`: on their own ([`Self::validate`])
+    /// and the frame's size (at most [`Self::max_pixels`] pixels and
+    /// [`MAX_IMAGE_SIDE_PX`] a side, so that every sum stays exact).
+    pub fn validate_for(&self, frame: &FrameView<'_>) -> Result<()> {
+        self.validate()?;
+        check_image_size(
+            u64::from(frame.width),
+            u64::from(frame.height),
+            self.max_pixels,
+        )
+        .map_err(|e| ExtractError::Parameters(e.to_string()))
+    }
+
     /// Check the parameters on their own.
     pub fn validate(&self) -> Result<()> {
+        self.threshold.validate()?;
+        if self.max_pixels == 0 {
+            return Err(ExtractError::Parameters(
+                "max_pixels must be at least 1".into(),
+            ));
+        }
         if self.min_area > self.max_area {
             return Err(ExtractError::Parameters(format!(
                 "min_area {} exceeds max_area {}",
@@ -83,6 +112,45 @@ pub struct Extraction {
     pub too_small: usize,
     /// Blobs dropped for being larger than `max_area`.
     pub too_large: usize,
+    /// Blobs dropped because every pixel is exactly at the threshold (no
+    /// weight): saturated blobs when the threshold is the saturation level.
+    pub weightless: usize,
+    /// Of those, blobs at the frame's saturation level.
+    pub weightless_saturated: usize,
+}
+
+impl Extraction {
+    /// Blobs kept with pixels at the saturation level.
+    pub fn saturated(&self) -> usize {
+        self.blobs.iter().filter(|b| b.saturated()).count()
+    }
+
+    /// What the frame's saturated blobs are, for a problems list: `None`
+    /// when none is saturated or dropped for want of weight.
+    pub fn saturation_note(&self, saturation: u16) -> Option<String> {
+        let kept = self.saturated();
+        let mut parts = Vec::new();
+        if kept > 0 {
+            parts.push(format!(
+                "{kept} of {} blobs saturated (pixels at {saturation} DN): their weights are \
+                 clipped",
+                self.blobs.len()
+            ));
+        }
+        if self.weightless > 0 {
+            parts.push(format!(
+                "{} blobs dropped: every pixel at the threshold {}{}, so no weight and no centroid",
+                self.weightless,
+                self.level.describe(),
+                if self.weightless_saturated > 0 {
+                    format!(", the saturation level ({} of them saturated)", self.weightless_saturated)
+                } else {
+                    String::new()
+                }
+            ));
+        }
+        (!parts.is_empty()).then(|| format!("{}; lower the exposure", parts.join("; ")))
+    }
 }
 
 /// A compute backend for extraction.
@@ -132,7 +200,7 @@ impl Backend for CpuBackend {
     }
 
     fn extract(&self, frame: FrameView<'_>, params: &ExtractParams) -> Result<Extraction> {
-        params.validate()?;
+        params.validate_for(&frame)?;
         let denoised = denoise::apply(&frame, params.denoise);
         let frame = denoised.as_ref().map_or(frame, |f| f.view());
         let (level, background) = params.threshold.resolve(&frame)?;
@@ -144,11 +212,16 @@ impl Backend for CpuBackend {
 
 /// Apply the area limits and assemble the result (shared by every backend).
 pub fn filter_area(
-    all: Vec<Blob>,
+    collected: blob::Collected,
     level: Level,
     background: Option<BackgroundStats>,
     params: &ExtractParams,
 ) -> Extraction {
+    let blob::Collected {
+        blobs: all,
+        weightless,
+        weightless_saturated,
+    } = collected;
     let total = all.len();
     let too_small = all.iter().filter(|b| b.area_px < params.min_area).count();
     let blobs: Vec<Blob> = all
@@ -161,5 +234,7 @@ pub fn filter_area(
         blobs,
         level,
         background,
+        weightless,
+        weightless_saturated,
     }
 }

@@ -13,6 +13,9 @@ const CLIPPED_UNIT_SIGMA: f64 = 0.986_654;
 const CLIP_ITERATIONS: usize = 10;
 /// Sampling step of the global estimate (every n-th pixel of every n-th row).
 const GLOBAL_SAMPLE_STEP: usize = 16;
+/// Smallest box of the local background mesh (px): fewer pixels give no
+/// usable clipped statistics.
+pub const MIN_MESH_PX: u32 = 8;
 
 /// Background level and noise (DN).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -98,24 +101,32 @@ pub struct BackgroundMesh {
 }
 
 impl BackgroundMesh {
-    /// Estimate the mesh with boxes of `box_size` px (≥ 8).
+    /// Estimate the mesh with boxes of `box_size` px (at least
+    /// [`MIN_MESH_PX`]; a box larger than the frame is the whole frame).
     pub fn estimate(frame: &FrameView<'_>, box_size: u32) -> Self {
-        let box_size = box_size.max(8);
+        let box_size = box_size
+            .max(MIN_MESH_PX)
+            .min(frame.width.max(frame.height).max(MIN_MESH_PX));
         let cols = frame.width.div_ceil(box_size) as usize;
         let rows = frame.height.div_ceil(box_size) as usize;
         let mut level = Vec::with_capacity(cols * rows);
         let mut sigma = Vec::with_capacity(cols * rows);
-        let mut samples = Vec::with_capacity((box_size * box_size) as usize);
-        for by in 0..rows as u32 {
-            for bx in 0..cols as u32 {
+        let (bw, bh) = (
+            box_size.min(frame.width) as usize,
+            box_size.min(frame.height) as usize,
+        );
+        let mut samples = Vec::with_capacity(bw * bh);
+        let step = box_size as usize;
+        for by in 0..rows {
+            for bx in 0..cols {
                 samples.clear();
-                let (x0, y0) = (bx * box_size, by * box_size);
+                let (x0, y0) = (bx * step, by * step);
                 let (x1, y1) = (
-                    (x0 + box_size).min(frame.width),
-                    (y0 + box_size).min(frame.height),
+                    (x0 + step).min(frame.width as usize),
+                    (y0 + step).min(frame.height as usize),
                 );
                 for y in y0..y1 {
-                    samples.extend_from_slice(&frame.row(y)[x0 as usize..x1 as usize]);
+                    samples.extend_from_slice(&frame.row(y as u32)[x0..x1]);
                 }
                 let s = clipped_stats(&mut samples);
                 level.push(s.level);

@@ -40,6 +40,9 @@ pub struct FrameBlobs {
     /// Blobs whose flat-field correction failed (their centroid is the plain
     /// one), with the reason; empty without a flat field.
     pub uncorrected: Vec<(usize, String)>,
+    /// Saturated blobs, kept or dropped for want of weight
+    /// ([`Extraction::saturation_note`]); `None` when there are none.
+    pub saturation: Option<String>,
 }
 
 /// A file's result from its frame, metadata and extraction (blob runs
@@ -53,6 +56,7 @@ pub(crate) fn frame_blobs(
     flat_field: Option<&RadialIllumination>,
 ) -> FrameBlobs {
     let mut uncorrected = Vec::new();
+    let saturation = extraction.saturation_note(frame.max_value());
     let blobs = extraction
         .blobs
         .iter()
@@ -80,6 +84,7 @@ pub(crate) fn frame_blobs(
         threshold: extraction.level.describe(),
         blobs,
         uncorrected,
+        saturation,
     }
 }
 
@@ -165,7 +170,11 @@ pub fn extract_parallel<B: Backend + ?Sized>(
         pool.lock()
             .ok()
             .and_then(|mut p| p.pop())
-            .unwrap_or_else(|| FrameReader::new().expect_bit_depth(expected_depth))
+            .unwrap_or_else(|| {
+                FrameReader::new()
+                    .expect_bit_depth(expected_depth)
+                    .limit_pixels(params.max_pixels)
+            })
     };
     let give_back = |reader: FrameReader| {
         if let Ok(mut p) = pool.lock() {

@@ -176,9 +176,22 @@ impl Blob {
     }
 }
 
+/// The blobs of a labelling, and how many were dropped for having no weight.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Collected {
+    /// Blobs with a centroid, ordered by their first run in raster order.
+    pub blobs: Vec<Blob>,
+    /// Blobs dropped because every pixel is exactly at the threshold (no
+    /// weight, no centroid): with T at the saturation level, saturated blobs.
+    pub weightless: usize,
+    /// Of those, blobs at the frame's saturation level.
+    pub weightless_saturated: usize,
+}
+
 /// Gather the labelled runs into blobs, ordered by their first run in raster
-/// order; blobs with zero weight (all pixels exactly at T) are dropped.
-pub fn collect(frame: &FrameView<'_>, labelling: Labelling) -> Vec<Blob> {
+/// order; blobs with zero weight (all pixels exactly at T) are dropped and
+/// counted.
+pub fn collect(frame: &FrameView<'_>, labelling: Labelling) -> Collected {
     let Labelling {
         runs,
         component,
@@ -216,13 +229,22 @@ pub fn collect(frame: &FrameView<'_>, labelling: Labelling) -> Vec<Blob> {
         b.bbox.y1 = b.bbox.y1.max(run.y);
         b.runs.push(*run);
     }
+    let (mut weightless, mut weightless_saturated) = (0, 0);
     blobs.retain_mut(|b| match b.moments.centroid() {
         Some((u, v)) => {
             b.u = u;
             b.v = v;
             true
         }
-        None => false,
+        None => {
+            weightless += 1;
+            weightless_saturated += usize::from(b.saturated());
+            false
+        }
     });
-    blobs
+    Collected {
+        blobs,
+        weightless,
+        weightless_saturated,
+    }
 }

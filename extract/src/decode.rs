@@ -7,32 +7,74 @@
 //! decoded with the `tiff` crate straight into the reused pixel buffer (the
 //! `image` crate's TIFF decoder would decode into a fresh buffer and copy);
 //! PNG through the `image` crate.
+//!
+//! Nothing is allocated from what a file claims before it is checked: the
+//! file's size against the largest frame allowed, the dimensions in its
+//! header against [`formats::limits::check_image_size`] (at most
+//! [`FrameReader::limit_pixels`] pixels, [`MAX_IMAGE_SIDE_PX`] a side), and
+//! the decoders run under the same limits.
 
 use std::io::{Cursor, Read};
 use std::path::Path;
 
+use formats::limits::{DEFAULT_MAX_PIXELS, MAX_IMAGE_SIDE_PX, SizeError, check_image_size};
 use image::{ColorType, ImageDecoder, ImageFormat, ImageReader};
-use tiff::decoder::Decoder as TiffDecoder;
+use tiff::decoder::{Decoder as TiffDecoder, Limits as TiffLimits};
 use tiff::tags::{PhotometricInterpretation, SampleFormat, Tag};
 
 use crate::frame::FrameView;
 use crate::metadata::FrameMetadata;
 use crate::{ExtractError, Result};
 
+/// Largest image file (bytes) relative to the largest frame's 16-bit pixel
+/// bytes: room for metadata, thumbnails and incompressible data.
+const FILE_BYTES_PER_FRAME_BYTE: u64 = 4;
+/// Bytes an image file may hold beyond that (tags, EXIF, ICC profiles).
+const FILE_SLACK_BYTES: u64 = 1 << 20;
+
 /// Reads frames one after another, reusing its buffers.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct FrameReader {
     bytes: Vec<u8>,
     pixels: Vec<u16>,
     narrow: Vec<u8>,
     /// Bit depth every frame must have, if set (8 or 16).
     expected_depth: Option<u8>,
+    /// Largest frame (pixels) this reader decodes.
+    max_pixels: u64,
+}
+
+impl Default for FrameReader {
+    fn default() -> Self {
+        Self {
+            bytes: Vec::new(),
+            pixels: Vec::new(),
+            narrow: Vec::new(),
+            expected_depth: None,
+            max_pixels: DEFAULT_MAX_PIXELS,
+        }
+    }
 }
 
 impl FrameReader {
-    /// A reader with empty buffers.
+    /// A reader with empty buffers and the default limit
+    /// ([`DEFAULT_MAX_PIXELS`]).
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Refuse frames of more than `max_pixels` pixels (before allocating anything for them).
+    pub fn limit_pixels(mut self, max_pixels: u64) -> Self {
+        self.max_pixels = max_pixels;
+        self
+    }
+
+    /// Largest file read: [`FILE_BYTES_PER_FRAME_BYTE`] times the largest
+    /// frame's 16-bit pixels, plus [`FILE_SLACK_BYTES`].
+    fn max_file_bytes(&self) -> u64 {
+        self.max_pixels
+            .saturating_mul(2 * FILE_BYTES_PER_FRAME_BYTE)
+            .saturating_add(FILE_SLACK_BYTES)
     }
 
     /// Require every frame to have this bit depth (8 or 16).
@@ -44,12 +86,27 @@ impl FrameReader {
     /// Read and decode `path`; the frame borrows the reader's buffer until the next call.
     pub fn read(&mut self, path: &Path) -> Result<(FrameView<'_>, FrameMetadata)> {
         self.bytes.clear();
-        std::fs::File::open(path)
-            .and_then(|mut f| f.read_to_end(&mut self.bytes))
-            .map_err(|source| ExtractError::Io {
-                path: path.to_path_buf(),
-                source,
-            })?;
+        let io = |source| ExtractError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = std::fs::File::open(path).map_err(io)?;
+        let limit = self.max_file_bytes();
+        let len = file.metadata().map_err(io)?.len();
+        if len > limit {
+            return Err(unsupported(
+                path,
+                format!(
+                    "the file holds {len} bytes, more than any image of at most {} pixels needs \
+                     ({limit} bytes; raise the limit with --max-pixels)",
+                    self.max_pixels
+                ),
+            ));
+        }
+        // The file may grow while it is read: never read past the limit.
+        file.take(limit.saturating_add(1))
+            .read_to_end(&mut self.bytes)
+            .map_err(io)?;
         self.decode(path)
     }
 
@@ -65,10 +122,7 @@ impl FrameReader {
     }
 
     fn decode(&mut self, path: &Path) -> Result<(FrameView<'_>, FrameMetadata)> {
-        let decode_err = |e: image::ImageError| ExtractError::Decode {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
+        let decode_err = |e: image::ImageError| image_error(path, e);
         if self.bytes.is_empty() {
             return Err(ExtractError::Decode {
                 path: path.to_path_buf(),
@@ -92,6 +146,7 @@ impl FrameReader {
             pixels: &mut self.pixels,
             narrow: &mut self.narrow,
             expected_depth: self.expected_depth,
+            max_pixels: self.max_pixels,
         };
         let (width, height, depth) = match format {
             ImageFormat::Tiff => buffers.decode_tiff(&self.bytes, path)?,
@@ -108,6 +163,38 @@ struct Buffers<'a> {
     pixels: &'a mut Vec<u16>,
     narrow: &'a mut Vec<u8>,
     expected_depth: Option<u8>,
+    max_pixels: u64,
+}
+
+/// A decoder's complaint: a file that ends early is called truncated (the
+/// I/O error would say only "failed to fill whole buffer").
+fn decode_error(path: &Path, message: String, eof: bool) -> ExtractError {
+    ExtractError::Decode {
+        path: path.to_path_buf(),
+        message: if eof {
+            "truncated file: the image data end before the size its header gives".into()
+        } else {
+            message
+        },
+    }
+}
+
+fn tiff_error(path: &Path, e: tiff::TiffError) -> ExtractError {
+    let eof = matches!(&e, tiff::TiffError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof);
+    decode_error(path, e.to_string(), eof)
+}
+
+fn image_error(path: &Path, e: image::ImageError) -> ExtractError {
+    let eof = match &e {
+        image::ImageError::IoError(io) => io.kind() == std::io::ErrorKind::UnexpectedEof,
+        // The png crate reports a missing end as a format error.
+        image::ImageError::Decoding(d) => {
+            let text = d.to_string().to_ascii_lowercase();
+            text.contains("unexpected end") || text.contains("eof")
+        }
+        _ => false,
+    };
+    decode_error(path, e.to_string(), eof)
 }
 
 fn unsupported(path: &Path, message: String) -> ExtractError {
@@ -118,11 +205,22 @@ fn unsupported(path: &Path, message: String) -> ExtractError {
 }
 
 impl Buffers<'_> {
+    /// Check the size the header claims (before anything is allocated for it).
+    fn check_size(&self, path: &Path, width: u32, height: u32) -> Result<()> {
+        check_image_size(u64::from(width), u64::from(height), self.max_pixels).map_err(|e| {
+            let hint = match e {
+                SizeError::Pixels { .. } => {
+                    " (raise the limit with --max-pixels if this machine can hold such frames)"
+                }
+                _ => "",
+            };
+            unsupported(path, format!("{e}{hint}"))
+        })
+    }
+
     /// Check the bit depth against the expectation and size the pixel buffer.
     fn prepare(&mut self, path: &Path, width: u32, height: u32, depth: u8) -> Result<usize> {
-        if width == 0 || height == 0 {
-            return Err(unsupported(path, "image has zero size".into()));
-        }
+        self.check_size(path, width, height)?;
         if let Some(expected) = self.expected_depth.filter(|e| *e != depth) {
             return Err(unsupported(
                 path,
@@ -145,12 +243,17 @@ impl Buffers<'_> {
     }
 
     fn decode_tiff(&mut self, bytes: &[u8], path: &Path) -> Result<(u32, u32, u8)> {
-        let err = |e: tiff::TiffError| ExtractError::Decode {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
-        let mut dec = TiffDecoder::new(Cursor::new(bytes)).map_err(err)?;
+        let err = |e: tiff::TiffError| tiff_error(path, e);
+        // The decoder's buffers never exceed the largest frame allowed.
+        let frame_bytes = usize::try_from(self.max_pixels.saturating_mul(2)).unwrap_or(usize::MAX);
+        let mut limits = TiffLimits::default();
+        limits.decoding_buffer_size = frame_bytes;
+        limits.intermediate_buffer_size = frame_bytes;
+        let mut dec = TiffDecoder::new(Cursor::new(bytes))
+            .map_err(err)?
+            .with_limits(limits);
         let (width, height) = dec.dimensions().map_err(err)?;
+        self.check_size(path, width, height)?;
         let depth = match dec.colortype().map_err(err)? {
             tiff::ColorType::Gray(16) => 16,
             tiff::ColorType::Gray(8) => 8,
@@ -195,14 +298,29 @@ impl Buffers<'_> {
     }
 
     fn decode_png(&mut self, bytes: &[u8], path: &Path) -> Result<(u32, u32, u8)> {
-        let err = |e: image::ImageError| ExtractError::Decode {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
-        let decoder = ImageReader::with_format(Cursor::new(bytes), ImageFormat::Png)
-            .into_decoder()
-            .map_err(err)?;
+        let err = |e: image::ImageError| image_error(path, e);
+        // The size in the IHDR chunk, which must come first (PNG §5.6), is
+        // checked before the decoder sizes any buffer from it.
+        if let (Some(b"IHDR"), Some(w), Some(h)) = (
+            bytes.get(12..16),
+            bytes.get(16..20).and_then(|b| <[u8; 4]>::try_from(b).ok()),
+            bytes.get(20..24).and_then(|b| <[u8; 4]>::try_from(b).ok()),
+        ) {
+            self.check_size(path, u32::from_be_bytes(w), u32::from_be_bytes(h))?;
+        }
+        let mut reader = ImageReader::with_format(Cursor::new(bytes), ImageFormat::Png);
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
+        limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
+        limits.max_alloc = Some(
+            self.max_pixels
+                .saturating_mul(2 * FILE_BYTES_PER_FRAME_BYTE)
+                .saturating_add(FILE_SLACK_BYTES),
+        );
+        reader.limits(limits);
+        let decoder = reader.into_decoder().map_err(err)?;
         let (width, height) = decoder.dimensions();
+        self.check_size(path, width, height)?;
         let depth = match decoder.color_type() {
             ColorType::L16 => 16,
             ColorType::L8 => 8,

@@ -481,7 +481,7 @@ mod tests {
         pool.install(|| {
             let f = FrameView::new(w as u32, h as u32, 16, px).unwrap();
             let l = label(&f, &Level::Constant(t), Weighting::Subtracted, usize::MAX).unwrap();
-            blob::collect(&f, l)
+            blob::collect(&f, l).blobs
         })
     }
 

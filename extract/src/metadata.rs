@@ -43,10 +43,16 @@ fn ascii(fields: &[Field], tag: Tag) -> Option<String> {
     }
 }
 
-/// `YYYY:MM:DD HH:MM:SS` + sub-second digits → ISO 8601.
+/// `YYYY:MM:DD HH:MM:SS` + sub-second digits → ISO 8601; `None` unless the
+/// first 19 bytes have digits where the date and time have them (a damaged
+/// tag may hold anything).
 fn iso_datetime(raw: &str, subsec: Option<String>) -> Option<String> {
     let b = raw.as_bytes();
-    if b.len() < 19 {
+    const DIGITS: [usize; 14] = [0, 1, 2, 3, 5, 6, 8, 9, 11, 12, 14, 15, 17, 18];
+    if b.len() < 19
+        || !b[..19].is_ascii()
+        || !DIGITS.iter().all(|&i| b[i].is_ascii_digit())
+    {
         return None;
     }
     let mut s = format!(
@@ -119,5 +125,8 @@ mod tests {
             Some("2026-11-21T10:15:30")
         );
         assert_eq!(iso_datetime("bad", None), None);
+        // A damaged tag: non-ASCII inside the date, letters for digits.
+        assert_eq!(iso_datetime("   i\u{fffd}    ?   20", None), None);
+        assert_eq!(iso_datetime("2026:1x:21 10:15:30", None), None);
     }
 }

@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use formats::limits::MAX_IMAGE_SIDE_PX;
+
 use crate::background::{self, BackgroundMesh, BackgroundStats};
 use crate::frame::FrameView;
 use crate::{ExtractError, Result};
@@ -74,6 +76,29 @@ fn to_dn(level: f64, max: u16) -> u16 {
 }
 
 impl Threshold {
+    /// Check the parameters on their own: k finite and positive, the mesh
+    /// `MIN_MESH_PX..=MAX_IMAGE_SIDE_PX` px.
+    pub fn validate(&self) -> Result<()> {
+        match *self {
+            Threshold::Fixed(t) if t == 0 => Err(ExtractError::Parameters(
+                "threshold 0 DN would keep every pixel: it must be at least 1".into(),
+            )),
+            Threshold::Fixed(_) => Ok(()),
+            Threshold::Auto { k } => check_k(k),
+            Threshold::Local { k, mesh } => {
+                check_k(k)?;
+                if (background::MIN_MESH_PX..=MAX_IMAGE_SIDE_PX).contains(&mesh) {
+                    Ok(())
+                } else {
+                    Err(ExtractError::Parameters(format!(
+                        "background mesh {mesh} px is not {}..={MAX_IMAGE_SIDE_PX} px",
+                        background::MIN_MESH_PX
+                    )))
+                }
+            }
+        }
+    }
+
     /// Resolve for `frame`; also returns the background estimate when one was made.
     pub fn resolve(&self, frame: &FrameView<'_>) -> Result<(Level, Option<BackgroundStats>)> {
         match *self {

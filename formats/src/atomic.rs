@@ -26,8 +26,19 @@ impl AtomicFile {
             .ok_or_else(|| FormatError::file(&target, "not a file path"))?
             .to_string_lossy()
             .into_owned();
+        let folder = target
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        if !folder.is_dir() {
+            return Err(FormatError::file(
+                &target,
+                format!("the output folder {} does not exist", folder.display()),
+            ));
+        }
         let temp = target.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-        let file = File::create(&temp).map_err(|e| FormatError::io(&temp, e))?;
+        // Errors name the output the user asked for, not the hidden temporary file.
+        let file = File::create(&temp).map_err(|e| FormatError::io(&target, e))?;
         Ok(Self {
             target,
             temp,
@@ -122,5 +133,17 @@ mod tests {
         f.write_all(b"new").unwrap();
         f.commit().unwrap();
         assert_eq!(std::fs::read(&target).unwrap(), b"new");
+    }
+
+    #[test]
+    fn a_missing_output_folder_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("missing").join("out.csv");
+        let e = AtomicFile::create(&target).unwrap_err().to_string();
+        assert!(
+            e.contains("missing/out.csv") && e.ends_with("missing does not exist"),
+            "{e}"
+        );
+        assert!(!e.contains(".tmp-"), "{e}");
     }
 }

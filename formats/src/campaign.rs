@@ -1,8 +1,11 @@
 //! The campaign manifest (`manifest.csv`) and sphere set (`spheres.csv`).
 
+use std::path::Path;
+
 use serde::{Deserialize, Serialize};
 
-use crate::table::{Invalid, Record, finite};
+use crate::table::{Invalid, Record, Row, finite, read_csv};
+use crate::{FormatError, Result};
 
 /// A machine axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -180,7 +183,7 @@ impl Record for ManifestRow {
         "nominal_z",
     ];
 
-    fn validate(&self) -> Result<(), Invalid> {
+    fn validate(&self) -> std::result::Result<(), Invalid> {
         if self.image.trim().is_empty() {
             return Err(Invalid::new("image", "empty image path"));
         }
@@ -214,7 +217,7 @@ pub struct SphereRow {
 impl Record for SphereRow {
     const COLUMNS: &'static [&'static str] = &["name", "diameter"];
 
-    fn validate(&self) -> Result<(), Invalid> {
+    fn validate(&self) -> std::result::Result<(), Invalid> {
         if self.name.trim().is_empty() {
             return Err(Invalid::new("name", "empty sphere name"));
         }
@@ -226,5 +229,94 @@ impl Record for SphereRow {
             ));
         }
         Ok(())
+    }
+}
+
+/// Two diameters closer than this fraction are the same to the matching of
+/// blobs to spheres by size (`fuse::matching`).
+pub const SAME_DIAMETER: f64 = 1e-6;
+
+/// What is wrong with a sphere set as a whole: the index of the sphere at
+/// fault, its column (`name` or `diameter`) and why.
+pub type SphereSetProblem = (usize, &'static str, String);
+
+/// Check a sphere set as a whole (`spheres.csv`, the renderer's `[[spheres]]`):
+/// at least one sphere, names unique, and no two diameters within
+/// [`SAME_DIAMETER`] of each other — blobs are matched to spheres by their
+/// size, so spheres of one diameter cannot be told apart.
+pub fn check_sphere_set<'a>(
+    spheres: impl IntoIterator<Item = (&'a str, f64)>,
+) -> std::result::Result<(), SphereSetProblem> {
+    let spheres: Vec<(&str, f64)> = spheres.into_iter().collect();
+    if spheres.is_empty() {
+        return Err((0, "name", "no spheres".into()));
+    }
+    for (i, &(name, diameter)) in spheres.iter().enumerate() {
+        if let Some((first, _)) = spheres[..i].iter().find(|(n, _)| *n == name) {
+            return Err((i, "name", format!("sphere {first} is listed twice")));
+        }
+        if let Some((other, d)) = spheres[..i]
+            .iter()
+            .find(|(_, d)| (d - diameter).abs() <= SAME_DIAMETER * d.abs().max(diameter.abs()))
+        {
+            return Err((
+                i,
+                "diameter",
+                format!(
+                    "spheres {other} ({d} mm) and {name} ({diameter} mm) share a diameter: \
+                     blobs are matched to spheres by size, so they could not be told apart"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Read `spheres.csv`: every row ([`SphereRow`]) and the set as a whole
+/// ([`check_sphere_set`]); errors name the file, line and column.
+pub fn read_spheres(path: &Path) -> Result<Vec<Row<SphereRow>>> {
+    let rows: Vec<Row<SphereRow>> = read_csv(path)?;
+    check_sphere_set(rows.iter().map(|r| (r.record.name.as_str(), r.record.diameter))).map_err(
+        |(i, column, message)| match rows.get(i) {
+            Some(r) => FormatError::Row {
+                path: path.to_path_buf(),
+                line: r.line,
+                column: Some(column.into()),
+                message,
+            },
+            None => FormatError::file(path, format!("{message}: the file has a header only")),
+        },
+    )?;
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_sets_that_cannot_be_matched_are_refused() {
+        assert!(check_sphere_set([("A", 20.0), ("B", 15.0), ("C", 10.0)]).is_ok());
+        let (i, column, m) =
+            check_sphere_set([("A", 20.0), ("B", 15.0), ("C", 15.0)]).unwrap_err();
+        assert_eq!((i, column), (2, "diameter"));
+        assert!(m.contains("B (15 mm) and C (15 mm) share a diameter"), "{m}");
+        let (i, column, m) = check_sphere_set([("A", 20.0), ("A", 15.0)]).unwrap_err();
+        assert_eq!((i, column, m.as_str()), (1, "name", "sphere A is listed twice"));
+        assert!(check_sphere_set([]).is_err());
+        // One part in 10⁵ apart is still two spheres.
+        assert!(check_sphere_set([("A", 20.0), ("B", 20.0002)]).is_ok());
+    }
+
+    #[test]
+    fn the_spheres_file_names_the_line_at_fault() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("spheres.csv");
+        std::fs::write(&path, "name,diameter\nA,20\nB,15\nC,15.0\n").unwrap();
+        let e = read_spheres(&path).unwrap_err().to_string();
+        assert!(e.contains("spheres.csv: line 4, column 'diameter'"), "{e}");
+        std::fs::write(&path, "name,diameter\n").unwrap();
+        let e = read_spheres(&path).unwrap_err().to_string();
+        assert!(e.contains("no spheres"), "{e}");
     }
 }

@@ -13,6 +13,7 @@ pub mod atomic;
 pub mod blobs;
 pub mod campaign;
 pub mod json;
+pub mod limits;
 pub mod measure;
 pub mod points;
 pub mod probe;
@@ -23,14 +24,17 @@ pub mod truth;
 
 pub use atomic::{AtomicFile, write_atomic};
 pub use blobs::{BlobRow, ProblemRow};
-pub use campaign::{Axis, Direction, InstantKey, LineKey, ManifestRow, SphereRow};
+pub use campaign::{
+    Axis, Direction, InstantKey, LineKey, ManifestRow, SphereRow, check_sphere_set, read_spheres,
+};
 pub use error::{FormatError, Result};
 pub use json::{read_json, write_json};
 pub use measure::{InstantProblemRow, PoseRow};
 pub use points::PointRow;
 pub use rig::{
     CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera,
+    read_nominal, read_rig,
 };
 pub use table::{Invalid, Record, Row, read_csv, read_csv_from, write_csv, write_records};
-pub use target::{CorrespondenceRow, TargetRow};
+pub use target::{CorrespondenceRow, TargetRow, read_correspondences, read_target};
 pub use truth::{Truth, TruthCamera, TruthInstant};

@@ -1,14 +1,58 @@
 //! Camera descriptions: the nominal rig (`nominal.json`) that starts
 //! calibration, and the calibrated rig (`rig.json`).
 
+use std::path::Path;
+
+use geom::camera::normalize_projection;
 use geom::nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
 use geom::{
-    Camera, Distortion, Illumination, Intrinsics, Matrix3x4, Point3, RadialIllumination, Vector3,
+    Camera, Distortion, Illumination, Intrinsics, Matrix3x4, Point2, Point3, RadialIllumination,
+    Vector3,
 };
 use serde::{Deserialize, Serialize};
 
+use crate::limits::MAX_IMAGE_SIDE_PX;
+use crate::{FormatError, Result as FormatResult, read_json};
+
 /// Tolerance on ‖RᵀR − I‖ for a rotation read from a file.
 const ROTATION_TOLERANCE: f64 = 1e-6;
+
+/// Largest disagreement (px) between where a camera's `P` and its K, R, t
+/// put a point: far above the rounding of a file written with 7 significant
+/// digits (≈ 0.001 px), far below any real difference between two cameras.
+pub const P_TOLERANCE_PX: f64 = 0.05;
+
+/// Camera ids of the contract (INTERFACES.md: cameras `1`, `2`, `3`).
+const CAMERA_IDS: std::ops::RangeInclusive<u8> = 1..=3;
+
+/// Fails unless the camera ids are 1, 2 or 3 and each occurs once.
+fn check_ids(ids: impl IntoIterator<Item = u8>) -> Result<(), String> {
+    let mut seen = [false; 4];
+    let mut count = 0;
+    for id in ids {
+        count += 1;
+        if !CAMERA_IDS.contains(&id) {
+            return Err(format!("camera id {id} is not 1, 2 or 3"));
+        }
+        if std::mem::replace(&mut seen[usize::from(id)], true) {
+            return Err(format!("camera {id} appears twice"));
+        }
+    }
+    if count == 0 {
+        return Err("no cameras".into());
+    }
+    Ok(())
+}
+
+/// Fails unless a sensor size is 1..=[`MAX_IMAGE_SIDE_PX`] a side.
+fn check_sensor(id: u8, width: u32, height: u32) -> Result<(), String> {
+    if width == 0 || height == 0 || width > MAX_IMAGE_SIDE_PX || height > MAX_IMAGE_SIDE_PX {
+        return Err(format!(
+            "camera {id}: image size {width}×{height} px is not 1..={MAX_IMAGE_SIDE_PX} px a side"
+        ));
+    }
+    Ok(())
+}
 
 /// An approximate camera: where it is, where it looks, its optics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -44,8 +88,18 @@ impl NominalCamera {
                 self.id, self.focal_mm, self.pixel_mm
             ));
         }
-        if self.width == 0 || self.height == 0 {
-            return Err(format!("camera {}: zero image size", self.id));
+        check_sensor(self.id, self.width, self.height)?;
+        if !self
+            .position
+            .iter()
+            .chain(&self.look_at)
+            .chain(&self.up)
+            .all(|v| v.is_finite())
+        {
+            return Err(format!(
+                "camera {}: position, look_at and up must be finite numbers",
+                self.id
+            ));
         }
         let k = Intrinsics::centred(self.focal_mm / self.pixel_mm, self.width, self.height);
         Camera::look_at(
@@ -65,6 +119,25 @@ impl NominalCamera {
 pub struct NominalRig {
     /// The cameras, any order.
     pub cameras: Vec<NominalCamera>,
+}
+
+impl NominalRig {
+    /// Check the rig as a whole: camera ids 1, 2 or 3, each once, and every
+    /// camera a pinhole camera ([`NominalCamera::to_camera`]).
+    pub fn validate(&self) -> Result<(), String> {
+        check_ids(self.cameras.iter().map(|c| c.id))?;
+        for c in &self.cameras {
+            c.to_camera()?;
+        }
+        Ok(())
+    }
+}
+
+/// Read `nominal.json` and check it ([`NominalRig::validate`]); errors name the file.
+pub fn read_nominal(path: &Path) -> FormatResult<NominalRig> {
+    let rig: NominalRig = read_json(path)?;
+    rig.validate().map_err(|m| FormatError::file(path, m))?;
+    Ok(rig)
 }
 
 /// Brown distortion coefficients as written in files (`k3` optional).
@@ -166,9 +239,7 @@ impl CameraJson {
         if ![d.k1, d.k2, d.k3, d.p1, d.p2].iter().all(|v| v.is_finite()) {
             return Err(format!("camera {}: non-finite distortion", self.id));
         }
-        if self.width == 0 || self.height == 0 {
-            return Err(format!("camera {}: zero image size", self.id));
-        }
+        check_sensor(self.id, self.width, self.height)?;
         let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r));
         Ok(Camera {
             intrinsics,
@@ -329,6 +400,25 @@ pub struct RigCamera {
 }
 
 impl RigCamera {
+    /// The camera, checked in full: K, R, t and distortion
+    /// ([`CameraJson::to_camera`]), `P` consistent with them
+    /// ([`check_projection`]), the relative illumination over the image and
+    /// finite figures.
+    pub fn validate(&self) -> Result<Camera, String> {
+        let camera = self.model.to_camera()?;
+        check_projection(&self.p, &camera).map_err(|m| format!("camera {}: {m}", self.model.id))?;
+        self.relative_illumination
+            .to_model(self.model.width, self.model.height)
+            .map_err(|m| format!("camera {}: {m}", self.model.id))?;
+        if !(self.rms_px.is_finite() && self.rms_px >= 0.0) {
+            return Err(format!(
+                "camera {}: rms_px {} is not a finite number ≥ 0",
+                self.model.id, self.rms_px
+            ));
+        }
+        Ok(camera)
+    }
+
     /// Describe a calibrated camera.
     pub fn new(id: u8, camera: &Camera, rms_px: f64, points: usize) -> Self {
         let p: Matrix3x4<f64> = camera.projection_matrix();
@@ -355,6 +445,61 @@ impl Rig {
     pub fn camera(&self, id: u8) -> Option<&RigCamera> {
         self.cameras.iter().find(|c| c.model.id == id)
     }
+
+    /// Check the rig as a whole: camera ids 1, 2 or 3, each once, and every
+    /// camera ([`RigCamera::validate`]).
+    pub fn validate(&self) -> Result<(), String> {
+        check_ids(self.cameras.iter().map(|c| c.model.id))?;
+        for c in &self.cameras {
+            c.validate()?;
+        }
+        Ok(())
+    }
+}
+
+/// Read `rig.json` and check it ([`Rig::validate`]); errors name the file.
+pub fn read_rig(path: &Path) -> FormatResult<Rig> {
+    let rig: Rig = read_json(path)?;
+    rig.validate().map_err(|m| FormatError::file(path, m))?;
+    Ok(rig)
+}
+
+/// Fails unless the projection `p` of a file agrees with `camera`'s K, R, t:
+/// `p` must have a regular left 3×3 block (scale and sign are free), and
+/// points seen at the image centre and corners, at half and twice the
+/// distance of the world origin, must project through `p` within
+/// [`P_TOLERANCE_PX`] of where the camera's pinhole model puts them.
+pub fn check_projection(p: &[[f64; 4]; 3], camera: &Camera) -> Result<(), String> {
+    let m = Matrix3x4::from_fn(|i, j| p[i][j]);
+    if !m.iter().all(|v| v.is_finite()) {
+        return Err("P holds a value that is not a finite number".into());
+    }
+    let m = normalize_projection(&m).map_err(|_| {
+        "P is singular (its left 3×3 block has no inverse): not a projection".to_string()
+    })?;
+    let k = camera.intrinsics;
+    let depth = camera.translation().norm().max(1.0);
+    let (w, h) = (f64::from(camera.width) - 1.0, f64::from(camera.height) - 1.0);
+    for scale in [0.5, 2.0] {
+        for (u, v) in [(w / 2.0, h / 2.0), (0.0, 0.0), (w, 0.0), (0.0, h), (w, h)] {
+            let n = k.to_normalized(Point2::new(u, v));
+            let z = scale * depth;
+            let in_camera = Point3::new(n.x * z, n.y * z, z);
+            let world = camera.pose.inverse_transform_point(&in_camera);
+            let q = m * world.to_homogeneous();
+            let (pu, pv) = (q.x / q.z, q.y / q.z);
+            let off = (pu - u).hypot(pv - v);
+            if !(q.z > 0.0 && off <= P_TOLERANCE_PX) {
+                return Err(format!(
+                    "P contradicts K, R and t: a point K, R, t image at pixel ({u}, {v}) at \
+                     {z:.1} mm depth projects through P to ({pu:.3}, {pv:.3}){} (tolerance \
+                     {P_TOLERANCE_PX} px)",
+                    if q.z > 0.0 { "" } else { " behind the camera" }
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -428,6 +573,71 @@ mod tests {
                 .unwrap_err()
                 .contains("not positive")
         );
+    }
+
+    fn nominal(id: u8) -> NominalCamera {
+        NominalCamera {
+            id,
+            position: [0.0, 0.0, 560.0],
+            look_at: [0.0, 0.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            focal_mm: 40.0,
+            pixel_mm: 0.0055,
+            width: 4096,
+            height: 3072,
+            extra: serde_json::Map::new(),
+        }
+    }
+
+    #[test]
+    fn rigs_with_twice_the_same_camera_are_refused() {
+        let rig = NominalRig {
+            cameras: vec![nominal(1), nominal(2), nominal(1)],
+        };
+        assert_eq!(rig.validate().unwrap_err(), "camera 1 appears twice");
+        let rig = NominalRig {
+            cameras: vec![nominal(4)],
+        };
+        assert_eq!(rig.validate().unwrap_err(), "camera id 4 is not 1, 2 or 3");
+        let mut bad = nominal(2);
+        bad.up = [f64::NAN, 1.0, 0.0];
+        let e = NominalRig { cameras: vec![bad] }.validate().unwrap_err();
+        assert!(e.contains("camera 2") && e.contains("finite"), "{e}");
+        let cam = nominal(3).to_camera().unwrap();
+        let rig = Rig {
+            cameras: vec![
+                RigCamera::new(3, &cam, 0.01, 40),
+                RigCamera::new(3, &cam, 0.01, 40),
+            ],
+        };
+        assert_eq!(rig.validate().unwrap_err(), "camera 3 appears twice");
+    }
+
+    #[test]
+    fn a_projection_that_contradicts_the_camera_is_refused() {
+        let cam = nominal(3).to_camera().unwrap();
+        let good = RigCamera::new(3, &cam, 0.01, 40);
+        good.validate().unwrap();
+        // Any scale and sign of P is the same projection.
+        let mut scaled = good.clone();
+        scaled.p = good.p.map(|r| r.map(|v| -2.5 * v));
+        scaled.validate().unwrap();
+        // Seven significant digits are enough.
+        let mut rounded = good.clone();
+        rounded.p = good.p.map(|r| r.map(|v| format!("{v:.6e}").parse().unwrap()));
+        rounded.validate().unwrap();
+        // A focal length 0.1 % off is not.
+        let mut wrong = good.clone();
+        wrong.p[0][0] *= 1.001;
+        let e = wrong.validate().unwrap_err();
+        assert!(e.starts_with("camera 3: P contradicts K, R and t"), "{e}");
+        let mut zero = good.clone();
+        zero.p = [[0.0; 4]; 3];
+        let e = zero.validate().unwrap_err();
+        assert!(e.contains("P is singular"), "{e}");
+        let mut nan = good;
+        nan.p[1][3] = f64::NAN;
+        assert!(nan.validate().unwrap_err().contains("not a finite number"));
     }
 
     #[test]

@@ -64,12 +64,56 @@ pub fn read_csv<T: Record>(path: &Path) -> Result<Vec<Row<T>>> {
     read_csv_from(file, path)
 }
 
+/// Line numbers of byte offsets in a text whose lines end in `\n`, `\r\n`
+/// or `\r`. The `csv` crate's own line count lags by one after every `\r\n`
+/// (it ends a record at the `\r` and counts the `\n` into the next one) and
+/// ignores lone `\r`, so lines are counted here from the bytes.
+struct Lines<'a> {
+    bytes: &'a [u8],
+    /// Offsets where the second and later lines begin, ascending.
+    starts: Vec<usize>,
+}
+
+impl<'a> Lines<'a> {
+    fn new(bytes: &'a [u8]) -> Self {
+        let starts = (0..bytes.len())
+            .filter(|&i| match bytes[i] {
+                b'\n' => true,
+                b'\r' => bytes.get(i + 1) != Some(&b'\n'),
+                _ => false,
+            })
+            .map(|i| i + 1)
+            .collect();
+        Self { bytes, starts }
+    }
+
+    /// 1-based line of the record that starts at `offset` (line ends left
+    /// over from the previous record are skipped).
+    fn line_of(&self, offset: u64) -> u64 {
+        let mut at = usize::try_from(offset)
+            .unwrap_or(usize::MAX)
+            .min(self.bytes.len());
+        while at < self.bytes.len() && matches!(self.bytes[at], b'\r' | b'\n') {
+            at += 1;
+        }
+        self.starts.partition_point(|&s| s <= at) as u64 + 1
+    }
+}
+
 /// As [`read_csv`], from any reader; `path` names the source in errors.
-pub fn read_csv_from<T: Record, R: Read>(reader: R, path: &Path) -> Result<Vec<Row<T>>> {
+pub fn read_csv_from<T: Record, R: Read>(mut reader: R, path: &Path) -> Result<Vec<Row<T>>> {
+    let mut bytes = Vec::new();
+    reader
+        .read_to_end(&mut bytes)
+        .map_err(|e| FormatError::io(path, e))?;
+    let lines = Lines::new(&bytes);
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
-        .from_reader(reader);
-    let headers = rdr.headers().map_err(|e| csv_error(path, e, None))?.clone();
+        .from_reader(bytes.as_slice());
+    let headers = rdr
+        .headers()
+        .map_err(|e| csv_error(path, e, None, &lines))?
+        .clone();
     if headers.is_empty() || headers.iter().all(str::is_empty) {
         return Err(FormatError::file(path, "the file is empty (no header row)"));
     }
@@ -85,11 +129,11 @@ pub fn read_csv_from<T: Record, R: Read>(reader: R, path: &Path) -> Result<Vec<R
     }
     let mut rows = Vec::new();
     for result in rdr.records() {
-        let raw = result.map_err(|e| csv_error(path, e, Some(&headers)))?;
-        let line = raw.position().map_or(0, csv::Position::line);
+        let raw = result.map_err(|e| csv_error(path, e, Some(&headers), &lines))?;
+        let line = raw.position().map_or(0, |p| lines.line_of(p.byte()));
         let record: T = raw
             .deserialize(Some(&headers))
-            .map_err(|e| csv_error(path, e, Some(&headers)))
+            .map_err(|e| csv_error(path, e, Some(&headers), &lines))
             .map_err(|e| with_line(e, line))?;
         record.validate().map_err(|inv| FormatError::Row {
             path: path.to_path_buf(),
@@ -120,8 +164,13 @@ fn with_line(e: FormatError, line: u64) -> FormatError {
     }
 }
 
-fn csv_error(path: &Path, e: csv::Error, headers: Option<&csv::StringRecord>) -> FormatError {
-    let line = e.position().map(|p| p.line()).unwrap_or(0);
+fn csv_error(
+    path: &Path,
+    e: csv::Error,
+    headers: Option<&csv::StringRecord>,
+    lines: &Lines<'_>,
+) -> FormatError {
+    let line = e.position().map_or(0, |p| lines.line_of(p.byte()));
     match e.into_kind() {
         csv::ErrorKind::Io(source) => FormatError::io(path, source),
         csv::ErrorKind::Deserialize { err, .. } => FormatError::Row {
@@ -257,6 +306,21 @@ mod tests {
         assert!(e.contains("empty"), "{e}");
         let e = read("name,x\na,1,2\n").unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("fields"), "{e}");
+    }
+
+    #[test]
+    fn lines_are_counted_the_same_with_crlf_line_ends() {
+        for end in ["\n", "\r\n", "\r"] {
+            let text = ["name,x", "a,1", "", "b,2", "c,NaN", ""].join(end);
+            let e = read(&text).unwrap_err().to_string();
+            assert!(e.contains("p.csv: line 5, column 'x'"), "{end:?}: {e}");
+            let text = ["name,x", "a,1", "b,2"].join(end);
+            let rows = read(&text).unwrap();
+            assert_eq!([rows[0].line, rows[1].line], [2, 3], "{end:?}");
+            let text = ["name,x", "a,1", "b,2,3"].join(end);
+            let e = read(&text).unwrap_err().to_string();
+            assert!(e.contains("line 3:"), "{end:?}: {e}");
+        }
     }
 
     #[test]

@@ -1,8 +1,12 @@
 //! Calibration target (`target.csv`) and image correspondences (`id,u,v`).
 
+use std::collections::HashMap;
+use std::path::Path;
+
 use serde::{Deserialize, Serialize};
 
-use crate::table::{Invalid, Record, finite};
+use crate::table::{Invalid, Record, Row, finite, read_csv};
+use crate::{FormatError, Result};
 
 /// One marker of the 3-D calibration target (target frame, mm).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -23,7 +27,7 @@ pub struct TargetRow {
 impl Record for TargetRow {
     const COLUMNS: &'static [&'static str] = &["id", "x", "y", "z"];
 
-    fn validate(&self) -> Result<(), Invalid> {
+    fn validate(&self) -> std::result::Result<(), Invalid> {
         finite("x", self.x)?;
         finite("y", self.y)?;
         finite("z", self.z)?;
@@ -54,8 +58,56 @@ pub struct CorrespondenceRow {
 impl Record for CorrespondenceRow {
     const COLUMNS: &'static [&'static str] = &["id", "u", "v"];
 
-    fn validate(&self) -> Result<(), Invalid> {
+    fn validate(&self) -> std::result::Result<(), Invalid> {
         finite("u", self.u)?;
         finite("v", self.v)
+    }
+}
+
+/// Read `target.csv` (or an `id,u,v` file): every row, and each marker id
+/// once; errors name the file, line and column.
+pub fn read_target(path: &Path) -> Result<Vec<Row<TargetRow>>> {
+    let rows: Vec<Row<TargetRow>> = read_csv(path)?;
+    unique_ids(&rows, |r| r.id, path)?;
+    Ok(rows)
+}
+
+/// Read an `id,u,v` correspondence file: every row, each id once.
+pub fn read_correspondences(path: &Path) -> Result<Vec<Row<CorrespondenceRow>>> {
+    let rows: Vec<Row<CorrespondenceRow>> = read_csv(path)?;
+    unique_ids(&rows, |r| r.id, path)?;
+    Ok(rows)
+}
+
+/// Fails on the first row whose id an earlier row has.
+fn unique_ids<T>(rows: &[Row<T>], id: impl Fn(&T) -> u32, path: &Path) -> Result<()> {
+    let mut first: HashMap<u32, u64> = HashMap::with_capacity(rows.len());
+    for r in rows {
+        if let Some(line) = first.insert(id(&r.record), r.line) {
+            return Err(FormatError::Row {
+                path: path.to_path_buf(),
+                line: r.line,
+                column: Some("id".into()),
+                message: format!("marker id {} appears twice (first on line {line})", id(&r.record)),
+            });
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_marker_id_twice_is_named_with_both_lines() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("target.csv");
+        std::fs::write(&path, "id,x,y,z\n1,0,0,0\n2,1,0,0\n1,0,1,0\n").unwrap();
+        let e = read_target(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("target.csv: line 4, column 'id': marker id 1 appears twice (first on line 2)"),
+            "{e}"
+        );
     }
 }

@@ -202,7 +202,7 @@ impl Context<'_> {
             .lock()
             .ok()
             .and_then(|mut r| r.pop())
-            .unwrap_or_default();
+            .unwrap_or_else(|| FrameReader::new().limit_pixels(self.options.extract.max_pixels));
         let result = (|| {
             let (frame, _) = reader.read(path).map_err(|e| fail(e.to_string()))?;
             let extraction = self
@@ -224,11 +224,15 @@ impl Context<'_> {
                     let names: Vec<&str> =
                         m.iter().map(|&i| self.spheres[i].name.as_str()).collect();
                     Err(fail(format!(
-                        "sphere{} {} not found among {} blob{}",
+                        "sphere{} {} not found among {} blob{}{}",
                         if names.len() == 1 { "" } else { "s" },
                         names.join(", "),
                         extraction.blobs.len(),
-                        if extraction.blobs.len() == 1 { "" } else { "s" }
+                        if extraction.blobs.len() == 1 { "" } else { "s" },
+                        extraction
+                            .saturation_note(frame.max_value())
+                            .map(|n| format!(" ({n})"))
+                            .unwrap_or_default()
                     )))
                 }
                 Err(MatchFailure::Ambiguous) => Err(fail(format!(

@@ -3,13 +3,12 @@
 //! instant's nominal position, unknown cameras, duplicate rows, spheres that
 //! cannot be told apart — every problem is collected into one report.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use formats::{Axis, InstantKey, LineKey, ManifestRow, Row, SphereRow, read_csv};
 use geom::{Camera, Illumination, Point3, Vector3};
 
-use crate::matching::spread_tolerance;
 use crate::{FuseError, Result};
 
 /// Cameras whose optical axis makes more than this |cosine| with a motion
@@ -151,19 +150,12 @@ pub fn plan(
     let base = manifest.parent().unwrap_or(Path::new("."));
     let mut problems = Vec::new();
 
-    let mut names = BTreeSet::new();
-    for s in spheres {
-        if !names.insert(s.name.as_str()) {
-            problems.push(format!("spheres: sphere {} is listed twice", s.name));
-        }
-    }
-    let diameters: Vec<f64> = spheres.iter().map(|s| s.diameter).collect();
-    if spheres.is_empty() {
-        problems.push("spheres: no spheres".into());
-    } else if spread_tolerance(&diameters).is_none() {
-        problems.push(
-            "spheres: two spheres share a diameter, so blobs cannot be matched to them".into(),
-        );
+    // The binary refuses such a set when it reads spheres.csv; a library
+    // caller gets the same check here.
+    if let Err((_, _, message)) =
+        formats::check_sphere_set(spheres.iter().map(|s| (s.name.as_str(), s.diameter)))
+    {
+        problems.push(format!("spheres: {message}"));
     }
     if rows.is_empty() {
         problems.push("the manifest has no rows".into());

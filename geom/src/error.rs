@@ -38,6 +38,19 @@ pub enum GeomError {
         /// Size of the last correction, in the iteration's own unit.
         last_step: f64,
     },
+    /// A value so large that the sums of squares a fit needs would overflow.
+    #[error(
+        "{what}: coordinate {value:e} is beyond ±{limit:e}, where the sums of squares a fit \
+         needs overflow"
+    )]
+    OutOfRange {
+        /// The computation that was asked for.
+        what: &'static str,
+        /// The value.
+        value: f64,
+        /// The largest magnitude accepted.
+        limit: f64,
+    },
 }
 
 /// Result alias for `geom`.

@@ -35,7 +35,12 @@ pub(crate) const RANK_TOLERANCE: f64 = 1e-12;
 /// Iteration limit of the SVD (nalgebra counts sweeps; 0 would mean unlimited).
 const SVD_MAX_ITERATIONS: usize = 1000;
 
-/// Fail unless there are at least `needed` points, all finite.
+/// Largest coordinate magnitude a fit accepts: products and sums of squares
+/// of a billion such values stay far from `f64::MAX` (≈ 1.8e308).
+pub const MAX_COORDINATE: f64 = 1e100;
+
+/// Fail unless there are at least `needed` points, all finite and within
+/// ±[`MAX_COORDINATE`].
 pub(crate) fn validate<const D: usize>(
     points: &[OPoint<f64, nalgebra::Const<D>>],
     what: &'static str,
@@ -53,6 +58,17 @@ pub(crate) fn validate<const D: usize>(
         .any(|p| p.coords.iter().any(|v| !v.is_finite()))
     {
         return Err(GeomError::NonFinite(what));
+    }
+    if let Some(&value) = points
+        .iter()
+        .flat_map(|p| p.coords.iter())
+        .find(|v| v.abs() > MAX_COORDINATE)
+    {
+        return Err(GeomError::OutOfRange {
+            what,
+            value,
+            limit: MAX_COORDINATE,
+        });
     }
     Ok(())
 }

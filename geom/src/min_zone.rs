@@ -659,6 +659,21 @@ mod tests {
         let mut bad = table();
         bad[7].z = f64::INFINITY;
         assert!(matches!(flatness(&bad), Err(GeomError::NonFinite(_))));
+        // Values whose squares overflow give an error, not a zone of width 0.
+        let absurd = [
+            Point2::new(0.0, 0.0),
+            Point2::new(1.0, 1e300),
+            Point2::new(2.0, 0.0),
+        ];
+        assert!(matches!(
+            straightness(&absurd),
+            Err(GeomError::OutOfRange { value, .. }) if value == 1e300
+        ));
+        bad[7].z = -1e200;
+        assert!(matches!(
+            flatness(&bad),
+            Err(GeomError::OutOfRange { .. })
+        ));
     }
 
     /// Points along a 150 mm axis with micrometre deviations and a small tilt.

@@ -23,14 +23,15 @@ use calib::{Calibration, CorrespondOptions, FlatFieldFit, Model, Options};
 use clap::ValueEnum;
 use extract::{Blob, CameraMap, FrameReader, mapped_centroid};
 use formats::{
-    CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera, SphereRow,
-    TargetRow, read_csv, read_json, write_json,
+    CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera, TargetRow,
+    read_correspondences, read_json, read_nominal, read_spheres, read_target, write_json,
 };
 use geom::{Illumination, Point2};
 use serde::Serialize;
 use serde_json::{Value, json};
 
 use crate::cmd::extract::ExtractOptions;
+use crate::cmd::values;
 
 /// Distortion model (`--model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -93,7 +94,7 @@ pub struct Args {
     #[arg(long)]
     skew: bool,
     /// Reject points whose residual exceeds k·σ (robust σ) and refit.
-    #[arg(long, default_value_t = calib::calibration::DEFAULT_OUTLIER_K)]
+    #[arg(long, default_value_t = calib::calibration::DEFAULT_OUTLIER_K, value_parser = values::positive)]
     outlier_k: f64,
     /// Keep every point (no outlier rejection).
     #[arg(long)]
@@ -102,16 +103,16 @@ pub struct Args {
     #[arg(long, value_enum)]
     markers: Option<MarkerArg>,
     /// X travel (mm) through the working point checked by the commissioning report.
-    #[arg(long, default_value_t = 150.0)]
+    #[arg(long, default_value_t = 150.0, value_parser = values::positive)]
     travel_x: f64,
     /// Y travel (mm) checked by the commissioning report.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, value_parser = values::positive)]
     travel_y: f64,
     /// Largest deviation from 90° between optical axes before a warning (deg).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = values::positive)]
     perpendicularity_tolerance: f64,
     /// Largest angle between an optical axis and its machine axis before a warning (deg).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = values::positive)]
     alignment_tolerance: f64,
     #[command(flatten)]
     extract: ExtractOptions,
@@ -221,11 +222,13 @@ fn illumination(
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
-    let target: Vec<TargetRow> = read_csv(&args.target)?
+    let target: Vec<TargetRow> = read_target(&args.target)?
         .into_iter()
         .map(|r| r.record)
         .collect();
-    let nominal: NominalRig = read_json(&args.nominal)?;
+    // Problems of the target are the target file's, not the first camera's.
+    calib::check_target(&target).with_context(|| format!("{}", args.target.display()))?;
+    let nominal: NominalRig = read_nominal(&args.nominal)?;
     let raw_nominal: Value = read_json(&args.nominal)?;
     let mut cameras = nominal.cameras.clone();
     cameras.sort_by_key(|c| c.id);
@@ -282,7 +285,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     options.validate()?;
     let sphere_set = match &args.spheres {
-        Some(path) => read_csv::<SphereRow>(path)?
+        Some(path) => read_spheres(path)?
             .into_iter()
             .map(|r| (r.record.name, r.record.diameter))
             .collect(),
@@ -304,7 +307,7 @@ pub fn run(args: &Args) -> Result<()> {
              and a dark frame per camera (--flat-fields, --dark-frames) for a real lens"
         );
     }
-    let mut reader = FrameReader::new();
+    let mut reader = FrameReader::new().limit_pixels(args.extract.params()?.max_pixels);
     let mut yaml = Vec::new();
     let mut rig = Rig {
         cameras: Vec::new(),
@@ -370,8 +373,10 @@ pub fn run(args: &Args) -> Result<()> {
             });
             (result.observations, result.calibration, info)
         } else {
-            let rows: Vec<CorrespondenceRow> =
-                read_csv(input)?.into_iter().map(|r| r.record).collect();
+            let rows: Vec<CorrespondenceRow> = read_correspondences(input)?
+                .into_iter()
+                .map(|r| r.record)
+                .collect();
             let obs = calib::observations(&target, &rows, spheres).with_context(context)?;
             let cal = calib::calibrate(&obs, nominal_camera.width, nominal_camera.height, &options)
                 .with_context(context)?;

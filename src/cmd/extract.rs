@@ -9,7 +9,7 @@ use extract::{Backend, Denoise, ExtractParams, Threshold, Weighting};
 use formats::{AtomicFile, BlobRow, ProblemRow};
 
 use crate::cmd::backend::{BackendChoice, select_backend};
-use crate::cmd::{Finished, progress};
+use crate::cmd::{Finished, progress, values};
 
 /// Centroid weighting.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -36,13 +36,14 @@ pub enum DenoiseArg {
 pub struct ExtractOptions {
     /// Threshold T in DN (e.g. 6000 on 16-bit frames), `auto` (global
     /// background + k·σ) or `local` (background mesh + k·σ).
-    #[arg(long, default_value = "auto")]
+    #[arg(long, default_value = "auto", value_parser = threshold_arg)]
     threshold: String,
     /// k of the automatic thresholds.
-    #[arg(long, default_value_t = extract::threshold::DEFAULT_K)]
+    #[arg(long, default_value_t = extract::threshold::DEFAULT_K, value_parser = values::positive)]
     k: f64,
     /// Box size of the local background mesh (px).
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(
+        i64::from(extract::background::MIN_MESH_PX)..=i64::from(formats::limits::MAX_IMAGE_SIDE_PX)))]
     mesh: u32,
     /// Centroid weights.
     #[arg(long, value_enum, default_value_t = WeightingArg::Subtracted)]
@@ -51,7 +52,7 @@ pub struct ExtractOptions {
     #[arg(long, value_enum, default_value_t = DenoiseArg::None)]
     denoise: DenoiseArg,
     /// σ of the Gaussian denoising (px).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = values::positive_f32)]
     sigma: f32,
     /// Smallest blob kept (px).
     #[arg(long, default_value_t = extract::backend::DEFAULT_MIN_AREA)]
@@ -62,6 +63,26 @@ pub struct ExtractOptions {
     /// Compute backend.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     backend: BackendChoice,
+    /// Largest frame decoded (pixels): an image whose header claims more is
+    /// refused before anything is allocated for it (default 2²⁸; each side
+    /// is at most 65536 px whatever the limit).
+    #[arg(long, default_value_t = formats::limits::DEFAULT_MAX_PIXELS,
+        value_parser = clap::value_parser!(u64).range(1..))]
+    max_pixels: u64,
+}
+
+/// `--threshold`: `auto`, `local` or a level of at least 1 DN.
+fn threshold_arg(text: &str) -> std::result::Result<String, String> {
+    match text {
+        "auto" | "local" => Ok(text.to_string()),
+        t => match t.parse::<u16>() {
+            Ok(level) if level >= 1 => Ok(text.to_string()),
+            _ => Err(format!(
+                "expected a level of 1..={} DN, 'auto' or 'local', got '{t}'",
+                u16::MAX
+            )),
+        },
+    }
 }
 
 impl ExtractOptions {
@@ -90,6 +111,7 @@ impl ExtractOptions {
             },
             min_area: self.min_area,
             max_area: self.max_area.unwrap_or(u64::MAX),
+            max_pixels: self.max_pixels,
             ..ExtractParams::default()
         };
         params.validate()?;
@@ -161,8 +183,8 @@ pub fn problems_path(out: &Path) -> PathBuf {
 /// The lens's relative illumination from a flat field and a dark frame,
 /// without a camera model: centre started at the image centre, ρ scaled by
 /// half the image diagonal.
-fn fit_flat_field(flat: &Path, dark: &Path) -> Result<geom::RadialIllumination> {
-    let mut reader = extract::FrameReader::new();
+fn fit_flat_field(flat: &Path, dark: &Path, max_pixels: u64) -> Result<geom::RadialIllumination> {
+    let mut reader = extract::FrameReader::new().limit_pixels(max_pixels);
     let (f, _) = reader.read(flat)?;
     let (values, width, height, saturation) = (f.pixels.to_vec(), f.width, f.height, f.max_value());
     let (d, _) = reader.read(dark)?;
@@ -218,7 +240,7 @@ pub fn run(args: &Args) -> Result<()> {
         .map(|d| if d == "8" { 8 } else { 16 });
     let files = expand_images(&args.images)?;
     let flat_field = match (&args.flat_field, &args.dark_frame) {
-        (Some(flat), Some(dark)) => Some(fit_flat_field(flat, dark)?),
+        (Some(flat), Some(dark)) => Some(fit_flat_field(flat, dark, params.max_pixels)?),
         _ => None,
     };
     let mut out = AtomicFile::create(&args.out)?;
@@ -231,6 +253,13 @@ pub fn run(args: &Args) -> Result<()> {
         let name = path.display().to_string();
         match result {
             Ok(frame) => {
+                if let Some(reason) = &frame.saturation {
+                    bar.suspend(|| eprintln!("trinocular: warning: {name}: {reason}"));
+                    problems.push(ProblemRow {
+                        item: name.clone(),
+                        reason: reason.clone(),
+                    });
+                }
                 for (i, reason) in &frame.uncorrected {
                     problems.push(ProblemRow {
                         item: format!("{name}#blob{i}"),
@@ -297,9 +326,15 @@ pub fn run(args: &Args) -> Result<()> {
         return Ok(());
     }
     formats::write_records(&problems_file, &problems)?;
+    let images: std::collections::BTreeSet<&str> = problems
+        .iter()
+        .map(|p| p.item.split_once('#').map_or(p.item.as_str(), |(image, _)| image))
+        .collect();
     Err(Finished::with_problems(format!(
-        "{} of {} images could not be used (listed in {})",
+        "{} problem{} in {} of {} images (listed in {})",
         problems.len(),
+        if problems.len() == 1 { "" } else { "s" },
+        images.len(),
         files.len(),
         problems_file.display()
     )))

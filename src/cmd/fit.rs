@@ -76,7 +76,9 @@ fn read_ds(path: &Path) -> Result<Vec<Point3<f64>>> {
         .trim()
         .parse()
         .with_context(|| format!("{}: line 1: expected the number of points", path.display()))?;
-    let mut points = Vec::with_capacity(n);
+    // The count is checked against the points the file holds, never used to
+    // size a buffer: a header may announce 10¹⁹ points.
+    let mut points = Vec::new();
     for (i, line) in lines {
         let v: Vec<f64> = line
             .split_whitespace()

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::ValueEnum;
-use formats::{Rig, SphereRow, read_csv, read_json};
+use formats::{Rig, SphereRow, read_rig, read_spheres};
 use fuse::{Fusion, Inputs, MeasureOptions, measure};
 
 use crate::cmd::extract::ExtractOptions;
@@ -54,8 +54,8 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
-    let rig: Rig = read_json(&args.rig)?;
-    let spheres: Vec<SphereRow> = read_csv(&args.spheres)?
+    let rig: Rig = read_rig(&args.rig)?;
+    let spheres: Vec<SphereRow> = read_spheres(&args.spheres)?
         .into_iter()
         .map(|r| r.record)
         .collect();

@@ -11,6 +11,7 @@ pub mod measure;
 pub mod probe;
 pub mod progress;
 pub mod synth;
+pub mod values;
 
 /// A batch that finished but left items unprocessed (listed in a problems
 /// file): reported on stderr with exit status [`Finished::EXIT_STATUS`], so

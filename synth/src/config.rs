@@ -503,6 +503,13 @@ pub struct Overrides {
     pub seed: Option<u64>,
 }
 
+/// Most instants a campaign may have (≈ 90 times the seed's 11 300): the
+/// list of instants and their true centres is held in memory.
+pub const MAX_INSTANTS: usize = 1_000_000;
+
+/// Largest target grid (markers per side of the Latin square; 49 by default).
+pub const MAX_GRID: u32 = 101;
+
 pub(crate) fn bad(key: &str, message: impl std::fmt::Display) -> SynthError {
     SynthError::config(format!("{key}: {message}"))
 }
@@ -626,12 +633,12 @@ impl Config {
                 format!("{}×{} px is too small (≥ 16×16)", s.width, s.height),
             ));
         }
-        if u64::from(s.width) * u64::from(s.height) > 1 << 28 {
-            return Err(bad(
-                "sensor.width/height",
-                format!("{}×{} px is too large", s.width, s.height),
-            ));
-        }
+        formats::limits::check_image_size(
+            u64::from(s.width),
+            u64::from(s.height),
+            formats::limits::DEFAULT_MAX_PIXELS,
+        )
+        .map_err(|e| bad("sensor.width/height", e))?;
         positive("sensor.pixel_mm", s.pixel_mm)?;
         if s.bits != 8 && s.bits != 16 {
             return Err(bad("sensor.bits", format!("{} must be 8 or 16", s.bits)));
@@ -745,6 +752,13 @@ impl Config {
             finite(&format!("{key}.position_mm"), &sp.position_mm)?;
             non_negative(&format!("{key}.radiance_e"), sp.radiance_e)?;
         }
+        // The set as `trinocular measure` checks it: spheres one diameter
+        // cannot be told apart.
+        formats::check_sphere_set(self.spheres.iter().map(|s| (s.name.as_str(), s.diameter_mm)))
+            .map_err(|(i, column, message)| {
+                let field = if column == "diameter" { "diameter_mm" } else { column };
+                bad(&format!("spheres[{i}].{field}"), message)
+            })?;
 
         let p = &self.procedure;
         if p.runs < 1 {
@@ -785,6 +799,28 @@ impl Config {
             }
             finite(&format!("{key}.lines_mm"), &a.lines_mm)?;
         }
+        // Counts multiply into the list of instants held in memory: checked
+        // before anything is sized from them.
+        let instants: u128 = p
+            .axes
+            .iter()
+            .map(|a| {
+                a.lines_mm.len() as u128
+                    * (u128::from(a.segments) + 1)
+                    * 2
+                    * u128::from(p.runs)
+                    * u128::from(p.captures)
+            })
+            .sum();
+        if instants > MAX_INSTANTS as u128 {
+            return Err(bad(
+                "procedure",
+                format!(
+                    "lines × (segments + 1) × 2 directions × runs × captures = {instants} instants, \
+                     more than {MAX_INSTANTS} (the seed's campaign has 11300)"
+                ),
+            ));
+        }
 
         for (axis, e) in [(Axis::X, &self.machine.x), (Axis::Y, &self.machine.y)] {
             let key = format!("machine.{axis}");
@@ -815,10 +851,14 @@ impl Config {
         }
 
         let t = &self.target;
-        if t.grid < 2 || t.grid.is_multiple_of(2) || t.grid.is_multiple_of(3) {
+        if t.grid < 2 || t.grid.is_multiple_of(2) || t.grid.is_multiple_of(3) || t.grid > MAX_GRID
+        {
             return Err(bad(
                 "target.grid",
-                format!("{} must be ≥ 5 and coprime with 6 (5, 7, 11, ...)", t.grid),
+                format!(
+                    "{} must be ≥ 5, at most {MAX_GRID} and coprime with 6 (5, 7, 11, ...)",
+                    t.grid
+                ),
             ));
         }
         positive("target.spacing_mm[0]", t.spacing_mm[0])?;

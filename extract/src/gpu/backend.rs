@@ -9,7 +9,7 @@ use super::{AdapterKind, AdapterSummary, GpuOptions, GpuStats, segments};
 use crate::backend::{Backend, ExtractParams, Extraction, filter_area};
 use crate::background::BackgroundStats;
 use crate::batch::FrameBlobs;
-use crate::blob::{self, Blob};
+use crate::blob;
 use crate::denoise;
 use crate::frame::{Frame, FrameView};
 use crate::label;
@@ -82,7 +82,7 @@ impl GpuBackend {
 
     /// Host side before the kernel: parameters, denoising, threshold.
     pub(super) fn prepare(frame: &FrameView<'_>, params: &ExtractParams) -> Result<Prepared> {
-        params.validate()?;
+        params.validate_for(frame)?;
         let denoised = denoise::apply(frame, params.denoise);
         let view = denoised.as_ref().map_or(*frame, |f| f.view());
         let (level, background) = params.threshold.resolve(&view)?;
@@ -112,7 +112,7 @@ impl GpuBackend {
             // most likely reports too many runs).
             Found::TooMany => label::label(&frame, &level, params.weighting, params.max_runs)?,
         };
-        let all: Vec<Blob> = blob::collect(&frame, labelling);
+        let all = blob::collect(&frame, labelling);
         Ok(filter_area(all, level, background, params))
     }
 }

@@ -182,7 +182,11 @@ fn decode_ahead<'a>(
                     .lock()
                     .ok()
                     .and_then(|mut r| r.pop())
-                    .unwrap_or_else(|| FrameReader::new().expect_bit_depth(expected_depth));
+                    .unwrap_or_else(|| {
+                        FrameReader::new()
+                            .expect_bit_depth(expected_depth)
+                            .limit_pixels(params.max_pixels)
+                    });
                 let mut pixels = recycled
                     .lock()
                     .ok()

@@ -124,7 +124,27 @@ impl CorrectionGrid {
             step[a] = s;
             dims[a] = lv.len();
         }
-        let cells = dims[0] * dims[1] * dims[2];
+        // Each node holds exactly one point: a lattice of many more nodes
+        // than points (points on a diagonal make n levels per axis, n³ nodes)
+        // is refused before its nodes are allocated.
+        let cells = dims[0]
+            .checked_mul(dims[1])
+            .and_then(|c| c.checked_mul(dims[2]))
+            .filter(|&c| c <= 2 * nominal.len())
+            .ok_or_else(|| {
+                not_lattice(
+                    None,
+                    None,
+                    format!(
+                        "{} points span {}×{}×{} lattice values: most nodes of such a lattice \
+                         would have no point",
+                        nominal.len(),
+                        dims[0],
+                        dims[1],
+                        dims[2]
+                    ),
+                )
+            })?;
         let mut values: Vec<Option<Vector3<f64>>> = vec![None; cells];
         for (i, p) in nominal.iter().enumerate() {
             let mut index = [0usize; 3];
@@ -282,5 +302,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("equally spaced"), "{e}");
+        // 2000 points on a diagonal: 2000 levels per axis, 8e9 nodes never allocated.
+        let diagonal: Vec<Point3<f64>> = (0..2000)
+            .map(|k| Point3::new(k as f64, k as f64, k as f64))
+            .collect();
+        let c = vec![Vector3::zeros(); diagonal.len()];
+        let e = CorrectionGrid::new(&diagonal, &names(diagonal.len()), &c)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("2000 points span 2000×2000×2000"), "{e}");
     }
 }

@@ -22,10 +22,10 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Nominal head-centre-to-stylus-ball length, to compare the fitted radius with.
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", value_parser = crate::cmd::values::finite)]
     nominal_radius: Option<f64>,
     /// List the positions whose |ΔθA| or |ΔθB| exceed this many arc-seconds.
-    #[arg(long, value_name = "ARCSEC")]
+    #[arg(long, value_name = "ARCSEC", value_parser = crate::cmd::values::finite)]
     tolerance: Option<f64>,
     /// Replace output files that already exist.
     #[arg(long)]
@@ -45,19 +45,19 @@ pub struct SynthArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Largest A (degrees).
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", value_parser = crate::cmd::values::finite)]
     a_max: Option<f64>,
     /// A step (degrees).
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", value_parser = crate::cmd::values::finite)]
     a_step: Option<f64>,
     /// B step (degrees; must divide 360).
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", value_parser = crate::cmd::values::finite)]
     b_step: Option<f64>,
     /// Head-centre-to-stylus-ball length (mm).
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", value_parser = crate::cmd::values::finite)]
     stylus: Option<f64>,
     /// Noise of every reported coordinate (µm, standard deviation).
-    #[arg(long, value_name = "UM")]
+    #[arg(long, value_name = "UM", value_parser = crate::cmd::values::finite)]
     noise_um: Option<f64>,
     /// Print the documented default configuration and exit.
     #[arg(long)]

@@ -37,7 +37,7 @@ pub struct Args {
     out: PathBuf,
     /// Also write rotary_at.csv: the errors at these angles (degrees, any value; linear between
     /// the two nearest measured angles, wrapping at 360°).
-    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "DEG")]
+    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "DEG", value_parser = crate::cmd::values::finite)]
     at: Vec<f64>,
     /// Replace output files that already exist.
     #[arg(long)]
@@ -58,10 +58,10 @@ pub struct SynthArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Angular step (degrees): angles 0, step, … below 360.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cmd::values::finite)]
     step_deg: Option<f64>,
     /// Noise of centres and probed points, per coordinate (µm, standard deviation).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cmd::values::finite)]
     noise_um: Option<f64>,
     /// Print the documented default configuration and exit.
     #[arg(long)]

@@ -38,11 +38,11 @@ pub struct Args {
     #[arg(long, value_name = "Q.csv")]
     query: Option<PathBuf>,
     /// Flag a reading when its normalised residual exceeds k.
-    #[arg(long, default_value_t = tracer::OUTLIER_K)]
+    #[arg(long, default_value_t = tracer::OUTLIER_K, value_parser = crate::cmd::values::finite)]
     k: f64,
     /// Standard deviation of a reading (µm) to use for the uncertainties, instead of the one
     /// estimated from the residuals.
-    #[arg(long, value_name = "UM")]
+    #[arg(long, value_name = "UM", value_parser = crate::cmd::values::finite)]
     sigma_um: Option<f64>,
     /// Replace output files that already exist.
     #[arg(long)]
@@ -69,19 +69,19 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = TracerConfig::default().stations)]
     stations: usize,
     /// Distance of the stations from the grid centre, in half-diagonals of the grid.
-    #[arg(long, default_value_t = TracerConfig::default().station_distance)]
+    #[arg(long, default_value_t = TracerConfig::default().station_distance, value_parser = crate::cmd::values::finite)]
     station_distance: f64,
     /// RMS of the CMM's error field (µm).
-    #[arg(long, default_value_t = TracerConfig::default().error_um)]
+    #[arg(long, default_value_t = TracerConfig::default().error_um, value_parser = crate::cmd::values::finite)]
     error_um: f64,
     /// Standard deviation of a reading (µm).
-    #[arg(long, default_value_t = TracerConfig::default().noise_um)]
+    #[arg(long, default_value_t = TracerConfig::default().noise_um, value_parser = crate::cmd::values::finite)]
     noise_um: f64,
     /// Resolution the readings are rounded to (µm; 0: none).
-    #[arg(long, default_value_t = TracerConfig::default().resolution_um)]
+    #[arg(long, default_value_t = TracerConfig::default().resolution_um, value_parser = crate::cmd::values::finite)]
     resolution_um: f64,
     /// Share of readings left out at random.
-    #[arg(long, default_value_t = TracerConfig::default().missing)]
+    #[arg(long, default_value_t = TracerConfig::default().missing, value_parser = crate::cmd::values::finite)]
     missing: f64,
     /// Seed of the error field and the station layout.
     #[arg(long, default_value_t = TracerConfig::default().seed)]

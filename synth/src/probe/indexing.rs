@@ -238,6 +238,11 @@ impl IndexingConfig {
             ));
         }
         let turn = 360.0 / self.b_step_deg;
+        super::check_rows(
+            "a_step_deg, b_step_deg",
+            "A detents × B detents",
+            (self.a_max_deg / self.a_step_deg + 1.0).floor() * turn.round(),
+        )?;
         if (turn - turn.round()).abs() > STEP_SLACK_DEG * turn || turn.round() < 3.0 {
             return Err(bad(
                 "b_step_deg",

@@ -328,6 +328,13 @@ impl RotaryConfig {
                 ),
             ));
         }
+        super::check_rows(
+            "step_deg, balls, probe",
+            "angles × balls × (centre + probed points)",
+            (FULL_TURN_DEG / self.step_deg).ceil()
+                * self.balls.len() as f64
+                * (points as f64 + 1.0),
+        )?;
         for r in &self.probe.rings {
             if !(r.polar_deg > 0.0 && r.polar_deg <= 180.0 && r.phase_deg.is_finite()) {
                 return Err(bad(

@@ -120,6 +120,12 @@ impl TracerConfig {
         if self.stations == 0 {
             return bad("stations", "at least one station".into());
         }
+        let points: f64 = self.counts.iter().map(|&c| c as f64).product();
+        super::check_rows(
+            "tracer.counts, tracer.stations",
+            "grid points × (1 + stations)",
+            points * (1.0 + self.stations as f64),
+        )?;
         if !(self.station_distance.is_finite() && self.station_distance > 1.0) {
             return bad(
                 "station_distance",
