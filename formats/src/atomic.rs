@@ -37,7 +37,7 @@ pub(crate) fn is_temp_name(name: &str, target_name: &str) -> bool {
 }
 
 /// The folder of `path` (`.` for a bare name).
-pub(crate) fn folder_of(path: &Path) -> &Path {
+pub fn folder_of(path: &Path) -> &Path {
     match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),

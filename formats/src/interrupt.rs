@@ -76,6 +76,34 @@ fn remove(path: &Path, kind: Kind) -> bool {
     }
 }
 
+/// A scratch folder in the system's temporary folder, removed when dropped
+/// and when the process is interrupted.
+#[derive(Debug)]
+pub struct ScratchFolder {
+    temp: tempfile::TempDir,
+    _listed: Listed,
+}
+
+impl ScratchFolder {
+    /// A fresh scratch folder.
+    pub fn new() -> std::io::Result<Self> {
+        let (temp, listed) = create_listed(Kind::Folder, || {
+            let temp = tempfile::Builder::new().prefix("trinocular-").tempdir()?;
+            let path = temp.path().to_path_buf();
+            Ok((temp, path))
+        })?;
+        Ok(Self {
+            temp,
+            _listed: listed,
+        })
+    }
+
+    /// Its path.
+    pub fn path(&self) -> &Path {
+        self.temp.path()
+    }
+}
+
 /// The paths listed now (for tests).
 #[cfg(test)]
 pub(crate) fn listed() -> Vec<PathBuf> {

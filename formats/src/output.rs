@@ -26,9 +26,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+pub use crate::atomic::folder_of;
 use crate::atomic::{
-    AtomicFile, TEMP_RANDOM, TEMP_SUFFIX, create_error, folder_of, is_temp_name, sync_folder,
-    temp_prefix, write_into,
+    AtomicFile, TEMP_RANDOM, TEMP_SUFFIX, create_error, is_temp_name, sync_folder, temp_prefix,
+    write_into,
 };
 use crate::interrupt::{Kind, Listed, create_listed};
 use crate::lock::{Acquired, OutputLock};
@@ -114,6 +115,8 @@ pub struct OutputPlan {
     files: BTreeMap<PathBuf, Role>,
     folders: BTreeSet<PathBuf>,
     sets: Vec<Set>,
+    /// Outputs planned twice (two outputs of one name).
+    twice: Vec<PathBuf>,
     lock: Option<OutputLock>,
     notes: Vec<String>,
 }
@@ -129,6 +132,7 @@ impl OutputPlan {
             files: BTreeMap::new(),
             folders: BTreeSet::new(),
             sets: Vec::new(),
+            twice: Vec::new(),
             lock: None,
             notes: Vec::new(),
         }
@@ -161,15 +165,20 @@ impl OutputPlan {
 
     /// An output file.
     pub fn file(&mut self, path: impl AsRef<Path>) -> &mut Self {
-        self.files.insert(path.as_ref().to_path_buf(), Role::Result);
+        self.plan_file(path.as_ref(), Role::Result)
+    }
+
+    fn plan_file(&mut self, path: &Path, role: Role) -> &mut Self {
+        if self.files.insert(path.to_path_buf(), role).is_some() {
+            self.twice.push(path.to_path_buf());
+        }
         self
     }
 
     /// A file the command keeps between its runs (resume state): replaced
     /// whenever the command needs to, but never an input.
     pub fn state(&mut self, path: impl AsRef<Path>) -> &mut Self {
-        self.files.insert(path.as_ref().to_path_buf(), Role::State);
-        self
+        self.plan_file(path.as_ref(), Role::State)
     }
 
     /// A folder written as one set ([`OutputPlan::stage`]): replaced as a
@@ -267,6 +276,12 @@ impl OutputPlan {
     pub fn check(&mut self) -> Result<()> {
         let inputs: Vec<Identity> = self.inputs.iter().map(|p| Identity::of(p)).collect();
         let replace = self.force || self.resuming;
+        if let Some(path) = self.twice.first() {
+            return Err(FormatError::file(
+                path,
+                "two outputs of this command would have this name; choose another --out",
+            ));
+        }
         for folder in &self.folders {
             if folder.exists() && !folder.is_dir() {
                 return Err(FormatError::file(
