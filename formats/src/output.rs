@@ -113,6 +113,8 @@ pub struct OutputPlan {
     checked: bool,
     inputs: Vec<PathBuf>,
     files: BTreeMap<PathBuf, Role>,
+    /// The files in the order planned (faults are reported in this order).
+    order: Vec<PathBuf>,
     folders: BTreeSet<PathBuf>,
     sets: Vec<Set>,
     /// Outputs planned twice (two outputs of one name).
@@ -130,6 +132,7 @@ impl OutputPlan {
             checked: false,
             inputs: Vec::new(),
             files: BTreeMap::new(),
+            order: Vec::new(),
             folders: BTreeSet::new(),
             sets: Vec::new(),
             twice: Vec::new(),
@@ -157,7 +160,7 @@ impl OutputPlan {
         self
     }
 
-    /// An output folder (`--out DIR`), created if missing once the plan is checked.
+    /// An output folder (`--out DIR`), created if missing when its first file is written.
     pub fn folder(&mut self, path: impl AsRef<Path>) -> &mut Self {
         self.folders.insert(path.as_ref().to_path_buf());
         self
@@ -171,6 +174,8 @@ impl OutputPlan {
     fn plan_file(&mut self, path: &Path, role: Role) -> &mut Self {
         if self.files.insert(path.to_path_buf(), role).is_some() {
             self.twice.push(path.to_path_buf());
+        } else {
+            self.order.push(path.to_path_buf());
         }
         self
     }
@@ -271,8 +276,8 @@ impl OutputPlan {
     }
 
     /// Check every planned output against the inputs and the files that
-    /// exist, then create the planned output folders. Nothing else is
-    /// written; the first fault found is the error.
+    /// exist; the first fault found is the error. Nothing is written (the
+    /// planned folders are created when their first file is).
     pub fn check(&mut self) -> Result<()> {
         let inputs: Vec<Identity> = self.inputs.iter().map(|p| Identity::of(p)).collect();
         let replace = self.force || self.resuming;
@@ -290,7 +295,8 @@ impl OutputPlan {
                 ));
             }
         }
-        for (path, role) in &self.files {
+        for path in &self.order {
+            let role = self.files.get(path).copied().unwrap_or(Role::Result);
             let out = Identity::of(path);
             if let Some(input) = inputs.iter().find(|i| i.same(&out)) {
                 return Err(FormatError::OverwritesInput {
@@ -304,7 +310,7 @@ impl OutputPlan {
                     "is a folder; this output is a file, choose another --out",
                 ));
             }
-            if *role == Role::Result && !replace && path.symlink_metadata().is_ok() {
+            if role == Role::Result && !replace && path.symlink_metadata().is_ok() {
                 return Err(FormatError::Exists { path: path.clone() });
             }
             let folder = folder_of(path);
@@ -317,16 +323,6 @@ impl OutputPlan {
         }
         for set in &self.sets {
             self.check_set(set, &inputs)?;
-        }
-        for folder in self
-            .folders
-            .iter()
-            .map(PathBuf::as_path)
-            .chain(self.sets.iter().filter_map(|s| s.folder.parent()))
-        {
-            if !folder.as_os_str().is_empty() {
-                std::fs::create_dir_all(folder).map_err(|e| FormatError::io(folder, e))?;
-            }
         }
         self.checked = true;
         Ok(())
@@ -390,6 +386,10 @@ impl OutputPlan {
     /// Start writing a planned output file.
     pub fn create(&self, path: &Path) -> Result<AtomicFile> {
         let role = self.planned(path)?;
+        let folder = folder_of(path);
+        if self.creates(folder) && !folder.is_dir() {
+            std::fs::create_dir_all(folder).map_err(|e| FormatError::io(folder, e))?;
+        }
         if role == Role::State || self.force || self.resuming {
             AtomicFile::create(path)
         } else {
@@ -461,6 +461,7 @@ impl OutputPlan {
         }
         let prefix = temp_prefix(folder)?;
         let parent = folder_of(folder);
+        std::fs::create_dir_all(parent).map_err(|e| FormatError::io(parent, e))?;
         let (temp, listed) = create_listed(Kind::Folder, || {
             let mut builder = tempfile::Builder::new();
             builder
@@ -629,7 +630,12 @@ mod tests {
         let mut plan = OutputPlan::new(false);
         plan.folder(dir.path().join("nope")).file(&out);
         plan.check().unwrap();
-        assert!(dir.path().join("nope").is_dir());
+        assert!(
+            !dir.path().join("nope").exists(),
+            "created with its first file"
+        );
+        plan.write_bytes(&out, b"x").unwrap();
+        assert!(out.is_file());
     }
 
     #[test]
