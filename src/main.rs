@@ -3,6 +3,7 @@
 //! work is done by the library crates.
 
 mod cmd;
+mod interrupt;
 
 use std::process::ExitCode;
 
@@ -86,6 +87,7 @@ fn main() -> ExitCode {
             return ExitCode::from(USAGE_ERROR);
         }
     };
+    interrupt::install();
     let result = match cli.command {
         Command::Bench(args) => cmd::bench::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),

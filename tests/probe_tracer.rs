@@ -196,7 +196,7 @@ fn outputs_never_replace_inputs() {
     std::fs::copy(testdata("readings.csv"), &readings).unwrap();
     let run = tracer(&testdata("grid.csv"), &readings, dir.path(), &["--force"]);
     let e = one_line_error(&run, 1);
-    assert!(e.contains("would overwrite this input"), "{e}");
+    assert!(e.contains("would overwrite an input"), "{e}");
     assert_eq!(
         std::fs::read(&readings).unwrap(),
         std::fs::read(testdata("readings.csv")).unwrap()

@@ -287,7 +287,7 @@ fn outputs_refuse_to_overwrite_without_force_and_never_an_input() {
         "--force",
     ]));
     assert_eq!(code, 1);
-    assert!(err.contains("is an input"), "{err}");
+    assert!(err.contains("would overwrite an input"), "{err}");
 }
 
 /// Write `E.csv` from the check data's rows, transformed by `edit`.

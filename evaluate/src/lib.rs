@@ -49,7 +49,7 @@ use formats::{Axis, PointRow, Row};
 use geom::Point3;
 
 pub use error::{EvaluateError, Result};
-pub use output::write_outputs;
+pub use output::{REPORT_FILES, write_outputs};
 pub use points::read_points;
 pub use report::Report;
 

@@ -1,13 +1,28 @@
 //! Writing the report: `report.json` (INTERFACES.md), CSV tables per axis
 //! (`positioning_X.csv`, `straightness_X.csv`, `angular_X.csv`,
-//! `flatness.csv`) and `report.html`, each written atomically.
+//! `flatness.csv`) and `report.html`, written as one set: into a fresh
+//! staging folder that then takes the place of the old report in one
+//! exchange (`formats::OutputPlan::set`), so no table of an earlier report
+//! stands beside a new one and a failure leaves the old report whole.
 
 use std::path::{Path, PathBuf};
 
+use formats::OutputPlan;
 use serde::Serialize;
 
 use crate::report::{AxisReport, Report};
-use crate::{EvaluateError, Result, html};
+use crate::{Result, html};
+
+/// The files a report folder may hold (`*`: an axis name); a folder holding
+/// anything else is never replaced.
+pub const REPORT_FILES: &[&str] = &[
+    "report.json",
+    "report.html",
+    "positioning_*.csv",
+    "straightness_*.csv",
+    "angular_*.csv",
+    "flatness.csv",
+];
 
 /// One row of `positioning_<axis>.csv` (µm; nominal in mm).
 #[derive(Debug, Serialize)]
@@ -70,15 +85,27 @@ struct FlatnessRow<'a> {
     min_zone_um: f64,
 }
 
-/// Write `report.json`, the CSV tables and `report.html` into `dir`
-/// (created if missing); returns the paths written.
-pub fn write_outputs(report: &Report, dir: &Path) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|e| EvaluateError::Io {
-        path: dir.to_path_buf(),
-        source: e,
-    })?;
-    // Render first, so that a plot failure leaves no partial set of files.
+/// Write `report.json`, the CSV tables and `report.html` as the set `dir`
+/// through `output` (where the caller declared its inputs and `--force`):
+/// an existing report is replaced only with `--force`, a folder that holds
+/// an input or files other than a report's never. Returns the paths written.
+pub fn write_outputs(report: &Report, dir: &Path, output: &mut OutputPlan) -> Result<Vec<PathBuf>> {
+    output.set(dir, REPORT_FILES);
+    output.check()?;
+    // Render first, so that a plot failure leaves nothing written.
     let page = html::render(report)?;
+    let stage = output.stage(dir)?;
+    let written = write_set(report, &page, stage.path())?;
+    stage.commit()?;
+    Ok(written
+        .iter()
+        .filter_map(|p| p.file_name())
+        .map(|name| dir.join(name))
+        .collect())
+}
+
+/// Every file of the report into the folder `dir`; the paths written.
+fn write_set(report: &Report, page: &str, dir: &Path) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     let json = dir.join("report.json");
     formats::write_json(&json, report)?;

@@ -167,8 +167,8 @@ fn a_file_in_micrometres_and_absurd_values() {
     let mut l = lines(&good_text());
     for line in l.iter_mut().skip(1) {
         let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
-        for v in f[5..8].iter_mut().chain(&mut f[9..12]) {
-            *v = (v.parse::<f64>().unwrap() * 1000.0).to_string();
+        for i in (5..8).chain(9..12) {
+            f[i] = (f[i].parse::<f64>().unwrap() * 1000.0).to_string();
         }
         *line = f.join(",");
     }

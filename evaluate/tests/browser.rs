@@ -46,8 +46,9 @@ fn report_html_renders_in_chromium() {
         },
     )
     .unwrap();
-    evaluate::write_outputs(&report, dir.path()).unwrap();
-    let shown = browser::render(&chromium, &dir.path().join("report.html")).unwrap();
+    let out = dir.path().join("report");
+    evaluate::write_outputs(&report, &out, &mut formats::OutputPlan::new(false)).unwrap();
+    let shown = browser::render(&chromium, &out.join("report.html")).unwrap();
     assert!(
         shown.errors.is_empty(),
         "console errors: {:#?}",

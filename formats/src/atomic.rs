@@ -1,48 +1,129 @@
-//! Atomic output: write to a temporary file beside the target, then rename, so
-//! a reader never sees a half-written file and a crash never truncates an
-//! existing one.
+//! Atomic output: write to a temporary file beside the target (a unique name,
+//! `.NAME.XXXXXX.tmp`, from the `tempfile` crate), sync it, rename it into
+//! place and sync the folder, so a reader never sees a half-written file and
+//! a crash never truncates an existing one. The temporary file is removed
+//! when the writer is dropped without commit and, through
+//! [`crate::interrupt`], when the process is interrupted.
 
-use std::fs::File;
-use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::fs::{File, Permissions};
+use std::io::{BufWriter, ErrorKind, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
+use tempfile::NamedTempFile;
+
+use crate::interrupt::{Kind, Listed, create_listed};
 use crate::{FormatError, Result};
+
+/// Random characters in a temporary name (`tempfile`'s alphabet: ASCII letters and digits).
+pub(crate) const TEMP_RANDOM: usize = 6;
+/// Suffix of every temporary file and staging folder.
+pub(crate) const TEMP_SUFFIX: &str = ".tmp";
+
+/// The prefix of the temporary names of `target` (`.NAME.`).
+pub(crate) fn temp_prefix(target: &Path) -> Result<String> {
+    let name = target
+        .file_name()
+        .ok_or_else(|| FormatError::file(target, "not a file path"))?;
+    Ok(format!(".{}.", name.to_string_lossy()))
+}
+
+/// Whether `name` is a temporary name of the file or folder named `target_name`.
+pub(crate) fn is_temp_name(name: &str, target_name: &str) -> bool {
+    name.strip_prefix('.')
+        .and_then(|n| n.strip_prefix(target_name))
+        .and_then(|n| n.strip_prefix('.'))
+        .and_then(|n| n.strip_suffix(TEMP_SUFFIX))
+        .is_some_and(|r| r.len() == TEMP_RANDOM && r.bytes().all(|b| b.is_ascii_alphanumeric()))
+}
+
+/// The folder of `path` (`.` for a bare name).
+pub fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Permissions asked for new files and folders: everyone may read (and
+/// write) as the umask allows, as for any file a program creates —
+/// `tempfile`'s own default (owner only) would carry over to the outputs.
+#[cfg(unix)]
+pub(crate) fn new_permissions(folder: bool) -> Permissions {
+    use std::os::unix::fs::PermissionsExt;
+    Permissions::from_mode(if folder { 0o777 } else { 0o666 })
+}
+
+/// The error of creating a temporary file or folder for `target` in `folder`.
+pub(crate) fn create_error(target: &Path, folder: &Path, e: std::io::Error) -> FormatError {
+    if e.kind() == ErrorKind::NotFound && !folder.is_dir() {
+        FormatError::file(
+            target,
+            format!("output folder {} does not exist", folder.display()),
+        )
+    } else {
+        FormatError::io(target, e)
+    }
+}
+
+/// Sync a folder after a rename in it, so that the new name survives a crash
+/// (a no-op where folders cannot be opened for syncing).
+pub(crate) fn sync_folder(folder: &Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        File::open(folder)
+            .and_then(|f| f.sync_all())
+            .map_err(|e| FormatError::io(folder, e))?;
+    }
+    #[cfg(not(unix))]
+    let _ = folder;
+    Ok(())
+}
 
 /// A file being written; it appears under its final name only on [`AtomicFile::commit`].
 /// Dropped without commit, the temporary file is removed.
 #[derive(Debug)]
 pub struct AtomicFile {
     target: PathBuf,
-    temp: PathBuf,
-    writer: Option<BufWriter<File>>,
+    writer: Option<BufWriter<NamedTempFile>>,
+    replace: bool,
+    _listed: Listed,
 }
 
 impl AtomicFile {
-    /// Start writing `target` (its directory must exist).
+    /// Start writing `target` (its folder must exist); commit replaces an
+    /// existing file.
     pub fn create(target: impl AsRef<Path>) -> Result<Self> {
-        let target = target.as_ref().to_path_buf();
-        let name = target
-            .file_name()
-            .ok_or_else(|| FormatError::file(&target, "not a file path"))?
-            .to_string_lossy()
-            .into_owned();
-        let folder = target
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        if !folder.is_dir() {
-            return Err(FormatError::file(
-                &target,
-                format!("the output folder {} does not exist", folder.display()),
-            ));
-        }
-        let temp = target.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-        // Errors name the output the user asked for, not the hidden temporary file.
-        let file = File::create(&temp).map_err(|e| FormatError::io(&target, e))?;
+        Self::open(target.as_ref(), true)
+    }
+
+    /// Start writing `target`; commit fails with [`FormatError::Exists`]
+    /// when a file of that name exists by then (created since the command
+    /// checked its outputs).
+    pub fn create_new(target: impl AsRef<Path>) -> Result<Self> {
+        Self::open(target.as_ref(), false)
+    }
+
+    fn open(target: &Path, replace: bool) -> Result<Self> {
+        let prefix = temp_prefix(target)?;
+        let folder = folder_of(target);
+        let (temp, listed) = create_listed(Kind::File, || {
+            let mut builder = tempfile::Builder::new();
+            builder
+                .prefix(&prefix)
+                .suffix(TEMP_SUFFIX)
+                .rand_bytes(TEMP_RANDOM);
+            #[cfg(unix)]
+            builder.permissions(new_permissions(false));
+            let temp = builder.tempfile_in(folder)?;
+            let path = temp.path().to_path_buf();
+            Ok((temp, path))
+        })
+        .map_err(|e| create_error(target, folder, e))?;
         Ok(Self {
-            target,
-            temp,
-            writer: Some(BufWriter::new(file)),
+            target: target.to_path_buf(),
+            writer: Some(BufWriter::new(temp)),
+            replace,
+            _listed: listed,
         })
     }
 
@@ -51,7 +132,7 @@ impl AtomicFile {
         &self.target
     }
 
-    /// Flush, sync and rename into place.
+    /// Flush, sync, rename into place and sync the folder.
     pub fn commit(mut self) -> Result<()> {
         let Some(writer) = self.writer.take() else {
             return Err(FormatError::file(
@@ -59,13 +140,24 @@ impl AtomicFile {
                 "atomic file already committed",
             ));
         };
-        let file = writer
+        let temp = writer
             .into_inner()
-            .map_err(|e| FormatError::io(&self.temp, e.into_error()))?;
-        file.sync_all()
-            .map_err(|e| FormatError::io(&self.temp, e))?;
-        drop(file);
-        std::fs::rename(&self.temp, &self.target).map_err(|e| FormatError::io(&self.target, e))
+            .map_err(|e| FormatError::io(&self.target, e.into_error()))?;
+        temp.as_file()
+            .sync_all()
+            .map_err(|e| FormatError::io(&self.target, e))?;
+        let persisted = if self.replace {
+            temp.persist(&self.target)
+        } else {
+            temp.persist_noclobber(&self.target)
+        };
+        match persisted {
+            Ok(_) => sync_folder(folder_of(&self.target)),
+            Err(e) if e.error.kind() == ErrorKind::AlreadyExists => Err(FormatError::Exists {
+                path: self.target.clone(),
+            }),
+            Err(e) => Err(FormatError::io(&self.target, e.error)),
+        }
     }
 }
 
@@ -96,25 +188,23 @@ impl Seek for AtomicFile {
     }
 }
 
-impl Drop for AtomicFile {
-    fn drop(&mut self) {
-        if self.writer.take().is_some() {
-            // Not committed: leave the target untouched and remove the partial file.
-            let _ = std::fs::remove_file(&self.temp);
-        }
-    }
+/// Write `bytes` into `file` and commit it.
+pub(crate) fn write_into(mut file: AtomicFile, bytes: &[u8]) -> Result<()> {
+    file.write_all(bytes)
+        .map_err(|e| FormatError::io(file.target().to_path_buf(), e))?;
+    file.commit()
 }
 
-/// Write `bytes` to `target` atomically.
+/// Write `bytes` to `target` atomically, replacing an existing file
+/// (commands write their outputs through an [`crate::OutputPlan`]).
 pub fn write_atomic(target: impl AsRef<Path>, bytes: &[u8]) -> Result<()> {
-    let mut f = AtomicFile::create(target)?;
-    f.write_all(bytes)
-        .map_err(|e| FormatError::io(f.target().to_path_buf(), e))?;
-    f.commit()
+    write_into(AtomicFile::create(target)?, bytes)
 }
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
+
     use super::*;
 
     #[test]
@@ -136,14 +226,76 @@ mod tests {
     }
 
     #[test]
+    fn temporary_names_are_unique_and_listed_until_commit() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("b.csv");
+        let a = AtomicFile::create(&target).unwrap();
+        let b = AtomicFile::create(&target).unwrap();
+        let temps: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(temps.len(), 2, "{temps:?}");
+        assert_ne!(temps[0], temps[1]);
+        for t in &temps {
+            assert!(is_temp_name(t, "b.csv"), "{t}");
+            assert!(crate::interrupt::listed().contains(&dir.path().join(t)));
+        }
+        a.commit().unwrap();
+        drop(b);
+        let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(left.len(), 1);
+        assert!(
+            !crate::interrupt::listed()
+                .iter()
+                .any(|p| p.starts_with(dir.path()))
+        );
+    }
+
+    #[test]
+    fn create_new_refuses_a_file_that_appeared() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("rig.json");
+        let mut f = AtomicFile::create_new(&target).unwrap();
+        f.write_all(b"mine").unwrap();
+        std::fs::write(&target, b"theirs").unwrap();
+        let e = f.commit().unwrap_err();
+        assert!(matches!(e, FormatError::Exists { .. }), "{e}");
+        assert_eq!(std::fs::read(&target).unwrap(), b"theirs");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn outputs_are_readable_as_the_umask_allows() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("report.json");
+        write_atomic(&target, b"{}").unwrap();
+        let plain = dir.path().join("plain");
+        std::fs::write(&plain, b"{}").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&target), mode(&plain));
+    }
+
+    #[test]
     fn a_missing_output_folder_is_named() {
         let dir = tempfile::tempdir().unwrap();
-        let target = dir.path().join("missing").join("out.csv");
+        let target = dir.path().join("no-such").join("b.csv");
         let e = AtomicFile::create(&target).unwrap_err().to_string();
         assert!(
-            e.contains("missing/out.csv") && e.ends_with("missing does not exist"),
+            e.contains("output folder") && e.contains("does not exist"),
             "{e}"
         );
-        assert!(!e.contains(".tmp-"), "{e}");
+        assert!(!e.contains(".b.csv."), "no temporary name: {e}");
+    }
+
+    #[test]
+    fn temporary_names_are_told_apart() {
+        assert!(is_temp_name(".b.csv.a1B2c3.tmp", "b.csv"));
+        assert!(!is_temp_name(".b.csv.partial.a1B2c3.tmp", "b.csv"));
+        assert!(!is_temp_name(".b.csv.a1B2c.tmp", "b.csv"));
+        assert!(!is_temp_name("b.csv.a1B2c3.tmp", "b.csv"));
+        assert!(!is_temp_name(".b.csv.a1-2c3.tmp", "b.csv"));
     }
 }

@@ -28,6 +28,29 @@ pub enum FormatError {
         /// What is wrong.
         message: String,
     },
+    /// An output exists and the command was not told to replace it.
+    #[error("{}: already exists; give --force to replace it or choose another --out", path.display())]
+    Exists {
+        /// The output.
+        path: PathBuf,
+    },
+    /// An output would be written over one of the command's inputs (the same
+    /// file, also through a link, or a folder holding it).
+    #[error("{}: would overwrite an input of this run{}; choose another --out", output.display(), if input == output { String::new() } else { format!(" ({})", input.display()) })]
+    OverwritesInput {
+        /// The output.
+        output: PathBuf,
+        /// The input, as given.
+        input: PathBuf,
+    },
+    /// Another run holds the lock of an output folder.
+    #[error("{}: another trinocular run ({holder}) is writing into this folder; wait for it to finish or choose another --out", folder.display())]
+    Locked {
+        /// The output folder.
+        folder: PathBuf,
+        /// Who holds the lock, as its lock file says (`pid N, COMMAND`).
+        holder: String,
+    },
     /// The file as a whole is malformed (empty, missing columns, bad JSON).
     #[error("{}: {message}", path.display())]
     File {

@@ -17,10 +17,16 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T> {
     serde_json::from_str(&text).map_err(|e| FormatError::file(path, e.to_string()))
 }
 
-/// Write a value as pretty JSON, atomically.
+/// Write a value as pretty JSON, atomically, replacing an existing file
+/// (commands write their outputs through an [`crate::OutputPlan`]).
 pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    write_atomic(path, &to_bytes(path, value)?)
+}
+
+/// A value as pretty JSON with a final newline; errors name `path`.
+pub(crate) fn to_bytes<T: Serialize>(path: &Path, value: &T) -> Result<Vec<u8>> {
     let mut text =
-        serde_json::to_string_pretty(value).map_err(|e| FormatError::file(path, e.to_string()))?;
-    text.push('\n');
-    write_atomic(path, text.as_bytes())
+        serde_json::to_vec_pretty(value).map_err(|e| FormatError::file(path, e.to_string()))?;
+    text.push(b'\n');
+    Ok(text)
 }

@@ -6,15 +6,26 @@
 //! Lengths in files are millimetres, angles radians; pixel coordinates put the
 //! centre of the top-left pixel at (0, 0). CSV: comma separated, one header
 //! row, `.` decimal point, UTF-8; extra columns are ignored on reading.
+//!
+//! # Outputs
+//! Every command declares what it writes in an [`OutputPlan`] (checked
+//! against its inputs and the files that exist before anything is written;
+//! existing outputs replaced only with `--force`), writes through it
+//! atomically ([`AtomicFile`]), locks its output folder when it is a long
+//! batch ([`lock`]), and lists its temporary files for removal on
+//! interruption ([`interrupt`]).
 
 mod error;
 
 pub mod atomic;
 pub mod blobs;
 pub mod campaign;
+pub mod interrupt;
 pub mod json;
 pub mod limits;
+pub mod lock;
 pub mod measure;
+pub mod output;
 pub mod points;
 pub mod probe;
 pub mod rig;
@@ -29,7 +40,9 @@ pub use campaign::{
 };
 pub use error::{FormatError, Result};
 pub use json::{read_json, write_json};
+pub use lock::OutputLock;
 pub use measure::{InstantProblemRow, PoseRow};
+pub use output::{OutputPlan, Stage};
 pub use points::PointRow;
 pub use rig::{
     CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera,

@@ -200,12 +200,23 @@ fn csv_error(
     }
 }
 
-/// Write records as CSV (header from the record's field names), atomically.
+/// Write records as CSV (header from the record's field names), atomically,
+/// replacing an existing file (commands write their outputs through an
+/// [`crate::OutputPlan`]).
 pub fn write_csv<'a, T: Serialize + 'a>(
     path: &Path,
     records: impl IntoIterator<Item = &'a T>,
 ) -> Result<()> {
-    let file = AtomicFile::create(path)?;
+    write_csv_into(AtomicFile::create(path)?, records)
+}
+
+/// [`write_csv`] into an atomic file, committed at the end.
+pub(crate) fn write_csv_into<'a, T: Serialize + 'a>(
+    file: AtomicFile,
+    records: impl IntoIterator<Item = &'a T>,
+) -> Result<()> {
+    let path = file.target().to_path_buf();
+    let path = path.as_path();
     let mut w = csv::Writer::from_writer(file);
     for r in records {
         w.serialize(r)
@@ -217,14 +228,23 @@ pub fn write_csv<'a, T: Serialize + 'a>(
     file.commit()
 }
 
-/// Write records of the contract as CSV, atomically; the header is written
-/// even when there are no records (from [`Record::COLUMNS`], which must then
-/// list every field in order).
+/// Write records of the contract as CSV, atomically, replacing an existing
+/// file; the header is written even when there are no records (from
+/// [`Record::COLUMNS`], which must then list every field in order).
 pub fn write_records<'a, T: Record + 'a>(
     path: &Path,
     records: impl IntoIterator<Item = &'a T>,
 ) -> Result<()> {
-    let file = AtomicFile::create(path)?;
+    write_records_into(AtomicFile::create(path)?, records)
+}
+
+/// [`write_records`] into an atomic file, committed at the end.
+pub(crate) fn write_records_into<'a, T: Record + 'a>(
+    file: AtomicFile,
+    records: impl IntoIterator<Item = &'a T>,
+) -> Result<()> {
+    let path = file.target().to_path_buf();
+    let path = path.as_path();
     let mut w = csv::WriterBuilder::new()
         .has_headers(false)
         .from_writer(file);

@@ -18,11 +18,8 @@ pub enum FuseError {
         /// Every problem found, each naming its row or file.
         problems: Vec<String>,
     },
-    /// The output exists and would be overwritten.
-    #[error("{}: exists (use --force to replace it, or choose another output)", .0.display())]
-    OutputExists(PathBuf),
     /// A partial output belongs to a different run.
-    #[error("{}: partial output of a run with other inputs or options (remove it to start afresh)", .0.display())]
+    #[error("{}: partial output of a run with other inputs or options; give --force to discard it and start afresh", .0.display())]
     ResumeMismatch(PathBuf),
     /// A rig camera is unusable.
     #[error("rig camera {camera}: {message}")]

@@ -17,8 +17,7 @@ use std::sync::Mutex;
 
 use extract::{Backend, ExtractParams, FrameReader};
 use formats::{
-    InstantKey, InstantProblemRow, LineKey, PointRow, SphereRow, read_csv_from, write_json,
-    write_records,
+    InstantKey, InstantProblemRow, LineKey, OutputPlan, PointRow, SphereRow, read_csv_from,
 };
 use geom::{Point2, Point3};
 use rayon::prelude::*;
@@ -451,15 +450,20 @@ fn load_partial(path: &Path, spheres: usize) -> Result<Vec<PointRow>> {
         .collect())
 }
 
-/// Measure a campaign into `out` (`points.csv`); `force` replaces an existing
-/// output and discards a partial one. `progress(done, total)` is called as
-/// instants finish.
+/// Measure a campaign into `out` (`points.csv`), with `poses.csv` and
+/// `problems.csv` beside it, through `output`: the caller has declared its
+/// inputs there and whether existing outputs may be replaced (`--force`,
+/// which also discards a partial output); this adds the campaign's manifest
+/// and images as inputs and the outputs, locks the output folder for the
+/// run, resumes a partial output of the same inputs and options, and checks
+/// the plan before writing. `progress(done, total)` is called as instants
+/// finish.
 pub fn measure(
     inputs: &Inputs<'_>,
     out: &Path,
     options: &MeasureOptions,
     backend: &dyn Backend,
-    force: bool,
+    output: &mut OutputPlan,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Summary> {
     options.extract.validate()?;
@@ -468,22 +472,33 @@ pub fn measure(
     let plans = plan(inputs.manifest, &rig, inputs.spheres, options.all_cameras)?;
     let partial = with_suffix(out, ".partial");
     let sidecar = with_suffix(out, ".resume.json");
+    let poses_path = beside(out, "poses.csv");
+    let problems_path = beside(out, "problems.csv");
+    output
+        .input(inputs.manifest)
+        .inputs(plans.iter().flat_map(|p| p.images.values()))
+        .file(out)
+        .file(&poses_path)
+        .file(&problems_path)
+        .state(&partial)
+        .state(&sidecar);
+    output.lock(formats::output::folder_of(out), "measure")?;
     let print = fingerprint(inputs, options)?;
 
     // Resume or start afresh.
     let mut done_rows: Vec<PointRow> = Vec::new();
-    if partial.exists() && !force {
+    if partial.exists() && !output.force() {
         let previous: Option<Fingerprint> = formats::read_json(&sidecar).ok();
         if previous.as_ref() != Some(&print) {
             return Err(FuseError::ResumeMismatch(partial));
         }
+        output.resume();
         done_rows = load_partial(&partial, inputs.spheres.len())?;
-    } else if out.exists() && !force {
-        return Err(FuseError::OutputExists(out.to_path_buf()));
     }
-    write_json(&sidecar, &print)?;
+    output.check()?;
+    output.write_json(&sidecar, &print)?;
     // Rewrite the partial with the complete instants only, then append to it.
-    write_records(&partial, &done_rows)?;
+    output.write_records(&partial, &done_rows)?;
     let index_of: HashMap<InstantKey, usize> = plans.iter().map(|p| (p.key, p.index)).collect();
     let done: std::collections::HashSet<InstantKey> = done_rows
         .iter()
@@ -590,21 +605,17 @@ pub fn measure(
         )
     };
     rows.sort_by_key(rank);
-    write_records(out, &rows)?;
+    output.write_records(out, &rows)?;
     let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
-    let poses_path = beside(out, "poses.csv");
-    write_records(&poses_path, &poses(&rows, &names))?;
+    output.write_records(&poses_path, &poses(&rows, &names))?;
     problems.sort_by_key(|(i, _)| *i);
-    let problems_path = beside(out, "problems.csv");
     let problems_file = if problems.is_empty() {
-        if problems_path.exists() {
-            std::fs::remove_file(&problems_path)
-                .map_err(|e| formats::FormatError::io(&problems_path, e))?;
-        }
+        // One left by the interrupted run this one resumed, or replaced with --force.
+        output.remove(&problems_path)?;
         None
     } else {
         let list: Vec<InstantProblemRow> = problems.iter().map(|(_, p)| p.clone()).collect();
-        write_records(&problems_path, &list)?;
+        output.write_records(&problems_path, &list)?;
         Some(problems_path)
     };
     for f in [&partial, &sidecar] {

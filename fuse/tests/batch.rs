@@ -10,7 +10,8 @@ use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 
 use formats::{
-    InstantProblemRow, ManifestRow, PointRow, Rig, SphereRow, Truth, read_csv, read_json, write_csv,
+    FormatError, InstantProblemRow, ManifestRow, OutputPlan, PointRow, Rig, SphereRow, Truth,
+    read_csv, read_json, write_csv,
 };
 use fuse::{FuseError, Inputs, MeasureOptions, Summary, measure};
 use image::{ImageBuffer, Luma};
@@ -36,8 +37,12 @@ fn manifest(dir: &Path) -> Vec<ManifestRow> {
         .collect()
 }
 
+/// Measure into `dir/out` (its folder created), existing outputs kept.
 fn run(dir: &Path, out: &str, progress: &(dyn Fn(u64, u64) + Sync)) -> fuse::Result<Summary> {
     let (rig, spheres) = (rig(dir), spheres(dir));
+    if let Some(folder) = dir.join(out).parent() {
+        std::fs::create_dir_all(folder).unwrap();
+    }
     measure(
         &Inputs {
             manifest: &dir.join("manifest.csv"),
@@ -47,7 +52,7 @@ fn run(dir: &Path, out: &str, progress: &(dyn Fn(u64, u64) + Sync)) -> fuse::Res
         &dir.join(out),
         &MeasureOptions::default(),
         &extract::CpuBackend,
-        false,
+        &mut OutputPlan::new(false),
         progress,
     )
 }
@@ -247,17 +252,19 @@ fn an_interrupted_run_resumes_without_loss_or_duplicates() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     campaign(d);
-    let reference = run(d, "reference.csv", &|_, _| {}).unwrap();
+    // Each run in its own folder: runs in one folder share poses.csv and problems.csv.
+    let reference = run(d, "reference/points.csv", &|_, _| {}).unwrap();
     assert_eq!(reference.problems, 0);
     // The same bytes on one thread as on many.
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .unwrap();
-    one.install(|| run(d, "single.csv", &|_, _| {})).unwrap();
+    one.install(|| run(d, "single/points.csv", &|_, _| {}))
+        .unwrap();
     assert_eq!(
-        std::fs::read(d.join("single.csv")).unwrap(),
-        std::fs::read(d.join("reference.csv")).unwrap()
+        std::fs::read(d.join("single/points.csv")).unwrap(),
+        std::fs::read(d.join("reference/points.csv")).unwrap()
     );
 
     // Interrupt after the second chunk, then tear the partial file's last line
@@ -291,7 +298,7 @@ fn an_interrupted_run_resumes_without_loss_or_duplicates() {
         &d.join("points.csv"),
         &other,
         &extract::CpuBackend,
-        false,
+        &mut OutputPlan::new(false),
         &|_, _| {},
     )
     .unwrap_err();
@@ -303,11 +310,14 @@ fn an_interrupted_run_resumes_without_loss_or_duplicates() {
     assert_eq!(resumed.measured, reference.measured);
     assert_eq!(
         points(&d.join("points.csv")),
-        points(&d.join("reference.csv"))
+        points(&d.join("reference/points.csv"))
     );
     assert!(!partial.exists() && !d.join("points.csv.resume.json").exists());
 
     // A finished output is not overwritten silently.
     let err = run(d, "points.csv", &|_, _| {}).unwrap_err();
-    assert!(matches!(err, FuseError::OutputExists(_)), "{err}");
+    assert!(
+        matches!(&err, FuseError::Format(FormatError::Exists { path }) if path == &d.join("points.csv")),
+        "{err}"
+    );
 }

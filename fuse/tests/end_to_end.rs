@@ -48,7 +48,7 @@ fn run(dir: &Path, options: &MeasureOptions, name: &str) -> Vec<PointRow> {
         &out,
         options,
         &extract::CpuBackend,
-        false,
+        &mut formats::OutputPlan::new(true),
         &|_, _| {},
     )
     .unwrap();

@@ -38,7 +38,13 @@ fn campaign(dir: &Path, illumination: IlluminationModel, v: [f64; 2], seed: u64)
         .unwrap();
     config.optics.illumination = illumination;
     config.optics.vignetting = v;
-    synth::campaign::write_campaign(&config, dir, &synth::progress::NoProgress).unwrap();
+    synth::campaign::write_campaign(
+        &config,
+        dir,
+        &mut formats::OutputPlan::new(false),
+        &synth::progress::NoProgress,
+    )
+    .unwrap();
 }
 
 /// The true rig with each camera's RI fitted from the campaign's flat field
@@ -84,7 +90,7 @@ fn measure_campaign(dir: &Path, rig: &Rig, name: &str) -> (f64, [f64; 2]) {
         &out,
         &MeasureOptions::default(),
         &extract::CpuBackend,
-        true,
+        &mut formats::OutputPlan::new(true),
         &|_, _| {},
     )
     .unwrap();

@@ -60,7 +60,7 @@ fn run(dir: &Path, out: &str, force: bool) -> Summary {
         &dir.join(out),
         &MeasureOptions::default(),
         &extract::CpuBackend,
-        force,
+        &mut formats::OutputPlan::new(force),
         &|_, _| {},
     )
     .unwrap()

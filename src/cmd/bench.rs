@@ -50,6 +50,9 @@ pub struct ExtractArgs {
     /// Folder for the frames (kept); default: a temporary folder, removed afterwards.
     #[arg(long)]
     dir: Option<PathBuf>,
+    /// Replace frames of an earlier run in --dir.
+    #[arg(long)]
+    force: bool,
 }
 
 /// Median of `repeat` timed calls of `f`.
@@ -90,7 +93,7 @@ fn seed_frame(camera: u8, frame: u64) -> Result<synth::Image16> {
     )?)
 }
 
-fn write_tiff(path: &Path, img: &synth::Image16) -> Result<()> {
+fn write_tiff(output: &formats::OutputPlan, path: &Path, img: &synth::Image16) -> Result<()> {
     let meta = synth::encode::FrameMetadata {
         make: "trinocular".into(),
         model: "bench".into(),
@@ -110,7 +113,7 @@ fn write_tiff(path: &Path, img: &synth::Image16) -> Result<()> {
         synth::config::TiffCompression::None,
         path,
     )?;
-    formats::write_atomic(path, bytes.get_ref())?;
+    output.write_bytes(path, bytes.get_ref())?;
     Ok(())
 }
 
@@ -169,21 +172,24 @@ fn bench_extract(args: &ExtractArgs) -> Result<()> {
 
     let temp;
     let dir = match &args.dir {
-        Some(d) => {
-            std::fs::create_dir_all(d).with_context(|| format!("{}", d.display()))?;
-            d.clone()
-        }
+        Some(d) => d.clone(),
         None => {
-            temp = tempfile::tempdir()?;
+            temp = formats::interrupt::ScratchFolder::new()?;
             temp.path().to_path_buf()
         }
     };
+    let files: Vec<PathBuf> = (0..args.frames)
+        .map(|i| dir.join(format!("bench_{i:04}.tif")))
+        .collect();
+    let mut output = formats::OutputPlan::new(args.force);
+    output.folder(&dir);
+    for f in &files {
+        output.file(f);
+    }
+    output.check()?;
     eprintln!("writing {} frames to {} …", args.frames, dir.display());
-    let mut files = Vec::with_capacity(args.frames);
-    for i in 0..args.frames {
-        let path = dir.join(format!("bench_{i:04}.tif"));
-        write_tiff(&path, &seed_frame(2, i as u64)?)?;
-        files.push(path);
+    for (i, path) in files.iter().enumerate() {
+        write_tiff(&output, path, &seed_frame(2, i as u64)?)?;
     }
     // Decode alone, one thread, reused buffers.
     let mut reader = FrameReader::new();

@@ -23,8 +23,8 @@ use calib::{Calibration, CorrespondOptions, FlatFieldFit, Model, Options};
 use clap::ValueEnum;
 use extract::{Blob, CameraMap, FrameReader, mapped_centroid};
 use formats::{
-    CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera, TargetRow,
-    read_correspondences, read_json, read_nominal, read_spheres, read_target, write_json,
+    CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, Rig, RigCamera,
+    TargetRow, read_correspondences, read_json, read_nominal, read_spheres, read_target,
 };
 use geom::{Illumination, Point2};
 use serde::Serialize;
@@ -81,9 +81,12 @@ pub struct Args {
     /// commissioning report gives (default: A 20, B 15, C 10 mm).
     #[arg(long)]
     spheres: Option<PathBuf>,
-    /// Output `rig.json`; the other outputs go beside it.
+    /// Output `rig.json`; the other outputs go beside it (the folder is created if missing).
     #[arg(long)]
     out: PathBuf,
+    /// Replace existing outputs (rig.json and the files beside it).
+    #[arg(long)]
+    force: bool,
     /// Distortion model.
     #[arg(long, value_enum, default_value_t = ModelArg::K1k2p1p2)]
     model: ModelArg,
@@ -297,9 +300,23 @@ pub fn run(args: &Args) -> Result<()> {
     } else {
         Some((args.extract.backend()?, args.extract.params()?))
     };
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
+    let mut output = OutputPlan::new(args.force);
+    output
+        .inputs([&args.target, &args.nominal])
+        .inputs(&args.images)
+        .inputs(&args.points)
+        .inputs(&args.flat_fields)
+        .inputs(&args.dark_frames)
+        .inputs(&args.spheres)
+        .folder(formats::output::folder_of(&args.out))
+        .file(&args.out)
+        .file(beside(&args.out, ".residuals.csv"))
+        .file(args.out.with_file_name("commissioning.txt"))
+        .file(args.out.with_file_name("commissioning.json"));
+    for c in cameras.iter().take(inputs.len()) {
+        output.file(beside(&args.out, &format!(".cam{}.opencv.yml", c.id)));
     }
+    output.check()?;
     if args.flat_fields.is_empty() {
         eprintln!(
             "trinocular: note: no flat fields given: every camera records the ideal-lens assumption \
@@ -426,11 +443,11 @@ pub fn run(args: &Args) -> Result<()> {
 
     // Every camera is calibrated: only now write the outputs.
     for (path, text) in &yaml {
-        formats::write_atomic(path, text.as_bytes())?;
+        output.write_bytes(path, text.as_bytes())?;
     }
 
-    write_json(&args.out, &rig)?;
-    formats::write_csv(&beside(&args.out, ".residuals.csv"), &residual_rows)?;
+    output.write_json(&args.out, &rig)?;
+    output.write_csv(&beside(&args.out, ".residuals.csv"), &residual_rows)?;
     let report = calib::commission(
         &commissioning,
         &CommissionOptions {
@@ -441,11 +458,11 @@ pub fn run(args: &Args) -> Result<()> {
             ..CommissionOptions::default()
         },
     );
-    formats::write_atomic(
-        args.out.with_file_name("commissioning.txt"),
+    output.write_bytes(
+        &args.out.with_file_name("commissioning.txt"),
         report.text().as_bytes(),
     )?;
-    write_json(&args.out.with_file_name("commissioning.json"), &report)?;
+    output.write_json(&args.out.with_file_name("commissioning.json"), &report)?;
     for c in &report.cameras {
         println!(
             "camera {}: {:.6} mm/px at {:.1} mm, optical axis {:.3}° from {}",

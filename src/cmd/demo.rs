@@ -33,6 +33,9 @@ pub struct Args {
     /// Captures per target.
     #[arg(long, default_value_t = 2)]
     captures: u32,
+    /// Replace the files of an earlier demo in --out (each step is run with --force).
+    #[arg(long)]
+    force: bool,
 }
 
 /// Parse a subcommand's arguments exactly as the command line would.
@@ -64,12 +67,17 @@ fn path(p: &Path) -> String {
 }
 
 /// Run one step: print its command line, parse it, run it, report the time.
+/// With `force`, the step replaces the files of an earlier run.
 fn step<A: ClapArgs + FromArgMatches>(
     title: &str,
     name: &'static str,
-    args: Vec<String>,
+    mut args: Vec<String>,
+    force: bool,
     run: fn(&A) -> Result<()>,
 ) -> Result<()> {
+    if force {
+        args.push("--force".into());
+    }
     let mut line = name.split(' ').map(str::to_string).collect::<Vec<_>>();
     line.extend(args.iter().cloned());
     show(title, &line);
@@ -183,6 +191,7 @@ pub fn run(args: &Args) -> Result<()> {
         ]
         .map(str::to_string)
         .to_vec(),
+        args.force,
         cmd::synth::run,
     )?;
     let c = |f: &str| path(&campaign.join(f));
@@ -210,6 +219,7 @@ pub fn run(args: &Args) -> Result<()> {
             "--out".into(),
             rig.clone(),
         ],
+        args.force,
         cmd::calibrate::run,
     )?;
     let points = path(&out.join("points.csv"));
@@ -225,8 +235,8 @@ pub fn run(args: &Args) -> Result<()> {
             c("spheres.csv"),
             "--out".into(),
             points.clone(),
-            "--force".into(),
         ],
+        args.force,
         cmd::measure::run,
     )?;
     let report_dir = out.join("report");
@@ -234,6 +244,7 @@ pub fn run(args: &Args) -> Result<()> {
         "4/4 evaluate (ISO 230-2, straightness, flatness, angular)",
         "evaluate",
         vec!["--points".into(), points, "--out".into(), path(&report_dir)],
+        args.force,
         cmd::evaluate::run,
     )?;
 

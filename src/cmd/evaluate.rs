@@ -13,9 +13,13 @@ pub struct Args {
     /// Measured sphere centres (`points.csv`, INTERFACES.md).
     #[arg(long)]
     points: PathBuf,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing), written as one set: an
+    /// existing report in it is replaced only with --force, and as a whole.
     #[arg(long)]
     out: PathBuf,
+    /// Replace an existing report in the output directory.
+    #[arg(long)]
+    force: bool,
     /// Sphere that carries positioning, straightness and flatness (default: A,
     /// or the first sphere in the file).
     #[arg(long)]
@@ -32,7 +36,9 @@ pub fn run(args: &Args) -> Result<()> {
         vdi3441: args.vdi3441,
     };
     let report = evaluate::evaluate_file(&args.points, &options)?;
-    let written = evaluate::write_outputs(&report, &args.out)
+    let mut output = formats::OutputPlan::new(args.force);
+    output.input(&args.points);
+    let written = evaluate::write_outputs(&report, &args.out, &mut output)
         .with_context(|| format!("writing the report into {}", args.out.display()))?;
     for (axis, a) in report.axes.iter() {
         let p = &a.main.positioning;

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use extract::{Backend, Denoise, ExtractParams, Threshold, Weighting};
-use formats::{AtomicFile, BlobRow, ProblemRow};
+use formats::{BlobRow, OutputPlan, ProblemRow};
 
 use crate::cmd::backend::{BackendChoice, select_backend};
 use crate::cmd::{Finished, progress, values};
@@ -135,6 +135,9 @@ pub struct Args {
     /// Output CSV (one row per blob); problems go to problems.csv beside it.
     #[arg(long)]
     out: PathBuf,
+    /// Replace existing outputs (the CSV and problems.csv beside it).
+    #[arg(long)]
+    force: bool,
     /// Flat-field frame of the camera (a uniform radiance source filling the
     /// view, same settings as the images): centroids are flat-field corrected
     /// by the lens's relative illumination fitted from it.
@@ -230,6 +233,13 @@ fn fit_flat_field(flat: &Path, dark: &Path, max_pixels: u64) -> Result<geom::Rad
     Ok(fit.model)
 }
 
+/// Print the notes of an output plan (a stale lock taken over).
+pub fn print_notes(plan: &OutputPlan) {
+    for note in plan.notes() {
+        eprintln!("trinocular: note: {note}");
+    }
+}
+
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
     let params = args.options.params()?;
@@ -239,11 +249,22 @@ pub fn run(args: &Args) -> Result<()> {
         .as_deref()
         .map(|d| if d == "8" { 8 } else { 16 });
     let files = expand_images(&args.images)?;
+    let problems_file = problems_path(&args.out);
+    let mut plan = OutputPlan::new(args.force);
+    plan.inputs(&args.images)
+        .inputs(&files)
+        .inputs(&args.flat_field)
+        .inputs(&args.dark_frame)
+        .file(&args.out)
+        .file(&problems_file);
+    plan.lock(formats::output::folder_of(&args.out), "extract")?;
+    print_notes(&plan);
+    plan.check()?;
     let flat_field = match (&args.flat_field, &args.dark_frame) {
         (Some(flat), Some(dark)) => Some(fit_flat_field(flat, dark, params.max_pixels)?),
         _ => None,
     };
-    let mut out = AtomicFile::create(&args.out)?;
+    let mut out = plan.create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);
     let mut problems: Vec<ProblemRow> = Vec::new();
     let mut write_error: Option<anyhow::Error> = None;
@@ -316,16 +337,12 @@ pub fn run(args: &Args) -> Result<()> {
         .with_context(|| format!("{}", args.out.display()))?;
     drop(csv);
     out.commit()?;
-    let problems_file = problems_path(&args.out);
     if problems.is_empty() {
-        // A stale problems.csv from an earlier run would mislead.
-        if problems_file.exists() {
-            std::fs::remove_file(&problems_file)
-                .with_context(|| format!("{}", problems_file.display()))?;
-        }
+        // A stale problems.csv from an earlier run (replaced with --force) would mislead.
+        plan.remove(&problems_file)?;
         return Ok(());
     }
-    formats::write_records(&problems_file, &problems)?;
+    plan.write_records(&problems_file, &problems)?;
     let images: std::collections::BTreeSet<&str> = problems
         .iter()
         .map(|p| p.item.split_once('#').map_or(p.item.as_str(), |(image, _)| image))

@@ -6,10 +6,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::ValueEnum;
-use formats::{Rig, SphereRow, read_rig, read_spheres};
+use formats::{OutputPlan, Rig, SphereRow, read_rig, read_spheres};
 use fuse::{Fusion, Inputs, MeasureOptions, measure};
 
-use crate::cmd::extract::ExtractOptions;
+use crate::cmd::extract::{ExtractOptions, print_notes};
 use crate::cmd::{Finished, progress};
 
 /// Fusion method.
@@ -45,7 +45,7 @@ pub struct Args {
     /// Do not remove the perspective bias of the spheres' images (diagnostics only).
     #[arg(long)]
     no_bias_correction: bool,
-    /// Replace an existing output and discard a partial one.
+    /// Replace existing outputs (points.csv, poses.csv, problems.csv) and discard a partial one.
     #[arg(long)]
     force: bool,
     #[command(flatten)]
@@ -69,8 +69,10 @@ pub fn run(args: &Args) -> Result<()> {
         extract: args.extract.params()?,
     };
     let backend = args.extract.backend()?;
+    let mut output = OutputPlan::new(args.force);
+    output.input(&args.rig).input(&args.spheres);
     let bar = progress::bar(0, "measure");
-    let summary = measure(
+    let result = measure(
         &Inputs {
             manifest: &args.manifest,
             rig: &rig,
@@ -79,14 +81,15 @@ pub fn run(args: &Args) -> Result<()> {
         &args.out,
         &options,
         backend.as_ref(),
-        args.force,
+        &mut output,
         &|done, total| {
             bar.set_length(total);
             bar.set_position(done);
         },
-    )
-    .with_context(|| format!("measuring {}", args.manifest.display()))?;
+    );
     bar.finish_and_clear();
+    print_notes(&output);
+    let summary = result.with_context(|| format!("measuring {}", args.manifest.display()))?;
     if !summary.assumed_ideal_lens.is_empty() {
         let ids: Vec<String> = summary
             .assumed_ideal_lens

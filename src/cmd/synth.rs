@@ -5,8 +5,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use anyhow::{Context, Result};
+use formats::OutputPlan;
 use indicatif::ProgressBar;
 use synth::{Config, Overrides};
+
+use crate::cmd::extract::print_notes;
 
 /// Arguments of `trinocular synth`.
 #[derive(Debug, clap::Args)]
@@ -44,6 +47,9 @@ struct ConfigArgs {
     /// Random seed (noise, repeatability); same seed → same bytes.
     #[arg(long)]
     seed: Option<u64>,
+    /// Replace the files of an earlier run in the output directory.
+    #[arg(long)]
+    force: bool,
 }
 
 /// Arguments of `trinocular synth campaign`.
@@ -73,6 +79,13 @@ struct TargetArgs {
     /// Output directory (created if missing).
     #[arg(long)]
     out: PathBuf,
+}
+
+/// The output plan: `--force`, and the configuration file as an input.
+fn output_plan(args: &ConfigArgs) -> OutputPlan {
+    let mut plan = OutputPlan::new(args.force);
+    plan.inputs(&args.config);
+    plan
 }
 
 fn load(args: &ConfigArgs, overrides: Overrides) -> Result<Config> {
@@ -127,8 +140,10 @@ fn campaign(args: &CampaignArgs) -> Result<()> {
         },
     )?;
     let bars = Bars(Mutex::new(None));
-    let s = synth::campaign::write_campaign(&config, &args.out, &bars)
-        .with_context(|| format!("writing the campaign into {}", args.out.display()))?;
+    let mut output = output_plan(&args.config);
+    let written = synth::campaign::write_campaign(&config, &args.out, &mut output, &bars);
+    print_notes(&output);
+    let s = written.with_context(|| format!("writing the campaign into {}", args.out.display()))?;
     println!(
         "{} instants, {} frames of {}×{} px ({:.2} GB of images with the calibration images) in {}",
         s.instants,
@@ -160,8 +175,11 @@ fn campaign(args: &CampaignArgs) -> Result<()> {
 fn target(args: &TargetArgs) -> Result<()> {
     let config = load(&args.config, Overrides::default())?;
     let bars = Bars(Mutex::new(None));
-    let s = synth::campaign::write_target_scene(&config, &args.out, &bars)
-        .with_context(|| format!("writing the target scene into {}", args.out.display()))?;
+    let mut output = output_plan(&args.config);
+    let written = synth::campaign::write_target_scene(&config, &args.out, &mut output, &bars);
+    print_notes(&output);
+    let s =
+        written.with_context(|| format!("writing the target scene into {}", args.out.display()))?;
     println!(
         "{} markers; images {} in {}",
         s.markers,

@@ -7,16 +7,20 @@
 //! written atomically as soon as it is encoded; only the plan (a few hundred
 //! bytes per instant) is held in memory. The manifest and truth are written
 //! last, so a complete `manifest.csv` means a complete campaign.
+//!
+//! Every file is planned in a `formats::OutputPlan` and checked before the
+//! first is written (an existing campaign is replaced only with `--force`);
+//! the output folder is locked while the campaign is written.
 
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use formats::{ManifestRow, SphereRow, write_csv, write_json};
+use formats::{ManifestRow, OutputPlan, SphereRow};
 use rayon::prelude::*;
 
 use crate::config::Config;
-use crate::encode::{FrameMetadata, write_image};
+use crate::encode::{FrameMetadata, write_image_into};
 use crate::procedure::{Instant, Plan};
 use crate::progress::Progress;
 use crate::rig::SynthRig;
@@ -125,10 +129,6 @@ pub struct CampaignSummary {
     pub scene: SceneCheck,
 }
 
-fn create_dir(path: &Path) -> Result<()> {
-    std::fs::create_dir_all(path).map_err(|e| SynthError::io(path, e))
-}
-
 fn file_len(path: &Path) -> Result<u64> {
     Ok(std::fs::metadata(path)
         .map_err(|e| SynthError::io(path, e))?
@@ -143,6 +143,7 @@ fn write_instant(
     i: &Instant,
     out: &Path,
     bytes: &AtomicU64,
+    output: &OutputPlan,
 ) -> Result<()> {
     let spheres = plan.spheres_at(i);
     let ext = config.output.format.extension();
@@ -167,8 +168,8 @@ fn write_instant(
             focal_mm: config.optics.focal_mm,
             description: format!("camera {} {}", cam.id, describe(i)),
         };
-        write_image(
-            &path,
+        write_image_into(
+            output.create(&path)?,
             &img,
             config.sensor.bits,
             &meta,
@@ -180,10 +181,41 @@ fn write_instant(
     Ok(())
 }
 
-/// Write a whole campaign under `out` (created if needed).
+/// Files of a campaign beside its images and calibration files.
+const CAMPAIGN_FILES: [&str; 6] = [
+    "config.toml",
+    "spheres.csv",
+    "nominal.json",
+    "truth_points.csv",
+    "truth.json",
+    "manifest.csv",
+];
+
+/// Plan the calibration files under `out` ([`crate::target::target_files`]),
+/// then lock `out` and check the plan.
+fn plan_target(
+    config: &Config,
+    rig: &SynthRig,
+    out: &Path,
+    output: &mut OutputPlan,
+    command: &str,
+) -> Result<()> {
+    output.folder(out).folder(out.join("calib"));
+    for f in crate::target::target_files(config, rig) {
+        output.file(out.join(f));
+    }
+    output.lock(out, command)?;
+    output.check()?;
+    Ok(())
+}
+
+/// Write a whole campaign under `out` (created if needed) through `output`,
+/// where the caller declared its inputs (the configuration file) and
+/// whether an existing campaign may be replaced (`--force`).
 pub fn write_campaign(
     config: &Config,
     out: &Path,
+    output: &mut OutputPlan,
     progress: &dyn Progress,
 ) -> Result<CampaignSummary> {
     config.validate()?;
@@ -194,17 +226,27 @@ pub fn write_campaign(
             "procedure.axes: the procedure has no instants",
         ));
     }
+    let ext = config.output.format.extension();
+    for f in CAMPAIGN_FILES {
+        output.file(out.join(f));
+    }
+    let dirs: BTreeSet<String> = plan.instants.iter().map(Instant::image_dir).collect();
+    for d in &dirs {
+        output.folder(out.join(d));
+    }
+    for i in &plan.instants {
+        for cam in &rig.cameras {
+            output.file(out.join(i.image_path(cam.id, ext)));
+        }
+    }
+    plan_target(config, &rig, out, output, "synth campaign")?;
+
     progress.begin("checking scenes", 1);
     let scene = check_plan(&rig, &plan)?;
     progress.advance(1);
     progress.finish();
 
-    create_dir(out)?;
-    let dirs: BTreeSet<String> = plan.instants.iter().map(Instant::image_dir).collect();
-    for d in &dirs {
-        create_dir(&out.join(d))?;
-    }
-    formats::write_atomic(out.join("config.toml"), config.to_toml()?.as_bytes())?;
+    output.write_bytes(&out.join("config.toml"), config.to_toml()?.as_bytes())?;
     let sphere_rows: Vec<SphereRow> = plan
         .spheres
         .iter()
@@ -213,12 +255,12 @@ pub fn write_campaign(
             diameter: 2.0 * s.radius,
         })
         .collect();
-    write_csv(&out.join("spheres.csv"), &sphere_rows)?;
-    write_json(&out.join("nominal.json"), &rig.nominal())?;
+    output.write_csv(&out.join("spheres.csv"), &sphere_rows)?;
+    output.write_json(&out.join("nominal.json"), &rig.nominal())?;
 
     let bytes = AtomicU64::new(0);
     progress.begin("calibration images", rig.cameras.len() as u64);
-    let calib = crate::target::write_target_files(config, &rig, out, plan.start_time_s)?;
+    let calib = crate::target::write_target_files(config, &rig, out, plan.start_time_s, output)?;
     for p in &calib {
         bytes.fetch_add(file_len(&out.join(p))?, Ordering::Relaxed);
     }
@@ -230,7 +272,7 @@ pub fn write_campaign(
     let batch = BATCH_PER_THREAD * rayon::current_num_threads().max(1);
     for chunk in plan.instants.chunks(batch) {
         chunk.par_iter().try_for_each(|i| -> Result<()> {
-            write_instant(config, &rig, &plan, i, out, &bytes)?;
+            write_instant(config, &rig, &plan, i, out, &bytes, output)?;
             progress.advance(rig.cameras.len() as u64);
             Ok(())
         })?;
@@ -239,7 +281,7 @@ pub fn write_campaign(
 
     progress.begin("truth and manifest", 1);
     let points = plan.truth_points();
-    write_csv(&out.join("truth_points.csv"), &points)?;
+    output.write_csv(&out.join("truth_points.csv"), &points)?;
     let mut truth = crate::truth::campaign_truth(config, &rig, &plan, &points)?;
     truth.extra.insert(
         "scene".into(),
@@ -250,14 +292,13 @@ pub fn write_campaign(
             "worst_separation": scene.worst_separation,
         }),
     );
-    write_json(&out.join("truth.json"), &truth)?;
-    let ext = config.output.format.extension();
+    output.write_json(&out.join("truth.json"), &truth)?;
     let manifest: Vec<ManifestRow> = plan
         .instants
         .iter()
         .flat_map(|i| rig.cameras.iter().map(move |c| i.manifest_row(c.id, ext)))
         .collect();
-    write_csv(&out.join("manifest.csv"), &manifest)?;
+    output.write_csv(&out.join("manifest.csv"), &manifest)?;
     progress.advance(1);
     progress.finish();
 
@@ -278,23 +319,28 @@ pub struct TargetSummary {
     pub images: Vec<String>,
 }
 
-/// Write the calibration target scene under `out`: `target.csv`,
-/// `nominal.json`, `truth.json` (true cameras; no spheres or instants),
-/// `calib/cam{k}.*` and `calib/points_cam{k}.csv`.
+/// Write the calibration target scene under `out` (created if needed)
+/// through `output`: `target.csv`, `nominal.json`, `truth.json` (true
+/// cameras; no spheres or instants), `calib/cam{k}.*` and
+/// `calib/points_cam{k}.csv`.
 pub fn write_target_scene(
     config: &Config,
     out: &Path,
+    output: &mut OutputPlan,
     progress: &dyn Progress,
 ) -> Result<TargetSummary> {
     config.validate()?;
     let rig = SynthRig::from_config(config)?;
-    create_dir(out)?;
     let start = crate::datetime::parse(&config.procedure.start_time).map_err(SynthError::config)?;
+    output
+        .file(out.join("nominal.json"))
+        .file(out.join("truth.json"));
+    plan_target(config, &rig, out, output, "synth target")?;
     progress.begin("calibration images", rig.cameras.len() as u64);
-    let images = crate::target::write_target_files(config, &rig, out, start)?;
+    let images = crate::target::write_target_files(config, &rig, out, start, output)?;
     progress.advance(rig.cameras.len() as u64);
     progress.finish();
-    write_json(&out.join("nominal.json"), &rig.nominal())?;
+    output.write_json(&out.join("nominal.json"), &rig.nominal())?;
     let mut extra = serde_json::Map::new();
     extra.insert("seed".into(), serde_json::json!(config.seed));
     let truth = formats::Truth {
@@ -303,7 +349,7 @@ pub fn write_target_scene(
         instants: Vec::new(),
         extra,
     };
-    write_json(&out.join("truth.json"), &truth)?;
+    output.write_json(&out.join("truth.json"), &truth)?;
     Ok(TargetSummary {
         markers: crate::target::markers(&config.target).len(),
         images,

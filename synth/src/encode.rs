@@ -262,7 +262,8 @@ pub fn encode_png<W: Write>(
     writer.finish().map_err(png_err)
 }
 
-/// Write an image file atomically (temporary file, then rename).
+/// Write an image file atomically (temporary file, then rename), replacing
+/// an existing one (commands write through an `OutputPlan`: [`write_image_into`]).
 pub fn write_image(
     path: &Path,
     image: &Image16,
@@ -271,10 +272,29 @@ pub fn write_image(
     format: ImageFormat,
     compression: TiffCompression,
 ) -> Result<()> {
-    let mut file = formats::AtomicFile::create(path)?;
+    write_image_into(
+        formats::AtomicFile::create(path)?,
+        image,
+        bits,
+        meta,
+        format,
+        compression,
+    )
+}
+
+/// Encode an image into `file` (from an output plan) and commit it.
+pub fn write_image_into(
+    mut file: formats::AtomicFile,
+    image: &Image16,
+    bits: u8,
+    meta: &FrameMetadata,
+    format: ImageFormat,
+    compression: TiffCompression,
+) -> Result<()> {
+    let path = file.target().to_path_buf();
     match format {
-        ImageFormat::Tiff => encode_tiff(&mut file, image, bits, meta, compression, path)?,
-        ImageFormat::Png => encode_png(&mut file, image, bits, meta, path)?,
+        ImageFormat::Tiff => encode_tiff(&mut file, image, bits, meta, compression, &path)?,
+        ImageFormat::Png => encode_png(&mut file, image, bits, meta, &path)?,
     }
     file.commit()?;
     Ok(())

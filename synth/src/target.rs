@@ -11,11 +11,11 @@
 
 use std::path::Path;
 
-use formats::{CorrespondenceRow, TargetRow, write_csv};
+use formats::{CorrespondenceRow, OutputPlan, TargetRow};
 use geom::nalgebra::Point3;
 
 use crate::config::{Config, TargetConfig};
-use crate::encode::{FrameMetadata, write_image};
+use crate::encode::{FrameMetadata, write_image_into};
 use crate::rig::{SynthCamera, SynthRig};
 use crate::scene::Sphere;
 use crate::sensor::{Image16, NoiseKey};
@@ -132,28 +132,51 @@ pub fn render_target(cam: &SynthCamera, config: &Config) -> Result<Image16> {
     )
 }
 
+/// The calibration frames of one camera: file stem, what it is.
+const CALIBRATION_FRAMES: [(&str, &str); 3] = [
+    ("cam", "calibration target"),
+    ("flat_cam", "flat field"),
+    ("dark_cam", "dark frame"),
+];
+
+/// The files [`write_target_files`] writes, relative to the output folder:
+/// `target.csv`, then per camera its calibration frames and `calib/points_cam{k}.csv`.
+pub fn target_files(config: &Config, rig: &SynthRig) -> Vec<String> {
+    let ext = config.output.format.extension();
+    let mut files = vec!["target.csv".to_string()];
+    for cam in &rig.cameras {
+        for (name, _) in CALIBRATION_FRAMES {
+            files.push(format!("calib/{name}{}.{ext}", cam.id));
+        }
+        files.push(format!("calib/points_cam{}.csv", cam.id));
+    }
+    files
+}
+
 /// Write `target.csv` and, per camera, `calib/cam{k}.{ext}`,
 /// `calib/flat_cam{k}.{ext}`, `calib/dark_cam{k}.{ext}` and
-/// `calib/points_cam{k}.csv` under `out`. Returns the image paths (relative).
+/// `calib/points_cam{k}.csv` under `out`, through `output`, where
+/// [`target_files`] and the folder `calib` are planned. Returns the image
+/// paths (relative).
 pub fn write_target_files(
     config: &Config,
     rig: &SynthRig,
     out: &Path,
     time_s: f64,
+    output: &OutputPlan,
 ) -> Result<Vec<String>> {
     let m = markers(&config.target);
-    write_csv(&out.join("target.csv"), &target_rows(&m))?;
-    let calib = out.join("calib");
-    std::fs::create_dir_all(&calib).map_err(|e| SynthError::io(&calib, e))?;
+    output.write_csv(&out.join("target.csv"), &target_rows(&m))?;
     let ext = config.output.format.extension();
     let mut paths = Vec::new();
     for cam in &rig.cameras {
+        let [target, flat, dark] = CALIBRATION_FRAMES;
         let frames = [
-            ("cam", render_target(cam, config)?, "calibration target"),
-            ("flat_cam", cam.flat_field(config.seed), "flat field"),
-            ("dark_cam", cam.dark_frame(config.seed), "dark frame"),
+            (target, render_target(cam, config)?),
+            (flat, cam.flat_field(config.seed)),
+            (dark, cam.dark_frame(config.seed)),
         ];
-        for (name, img, what) in frames {
+        for ((name, what), img) in frames {
             let rel = format!("calib/{name}{}.{ext}", cam.id);
             let meta = FrameMetadata {
                 make: config.output.make.clone(),
@@ -165,8 +188,8 @@ pub fn write_target_files(
                 focal_mm: config.optics.focal_mm,
                 description: format!("{what}, camera {}", cam.id),
             };
-            write_image(
-                &out.join(&rel),
+            write_image_into(
+                output.create(&out.join(&rel))?,
                 &img,
                 config.sensor.bits,
                 &meta,
@@ -175,8 +198,8 @@ pub fn write_target_files(
             )?;
             paths.push(rel);
         }
-        write_csv(
-            &calib.join(format!("points_cam{}.csv", cam.id)),
+        output.write_csv(
+            &out.join(format!("calib/points_cam{}.csv", cam.id)),
             &correspondences(cam, &m)?,
         )?;
     }

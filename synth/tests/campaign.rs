@@ -6,7 +6,8 @@
 use std::collections::BTreeSet;
 
 use formats::{
-    Axis, ManifestRow, NominalRig, PointRow, SphereRow, TargetRow, Truth, read_csv, read_json,
+    Axis, ManifestRow, NominalRig, OutputPlan, PointRow, SphereRow, TargetRow, Truth, read_csv,
+    read_json,
 };
 use synth::campaign::{check_plan, write_campaign, write_target_scene};
 use synth::procedure::Plan;
@@ -34,7 +35,7 @@ fn small_campaign_follows_the_contract() {
     let config = small_config();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("campaign");
-    let summary = write_campaign(&config, &out, &NoProgress).unwrap();
+    let summary = write_campaign(&config, &out, &mut OutputPlan::new(false), &NoProgress).unwrap();
     // X: 3 targets × 2 directions × 2 runs × 2 captures × 2 lines; Y: one line.
     let instants = 3 * 2 * 2 * 2 * 2 + 3 * 2 * 2 * 2;
     assert_eq!(summary.instants, instants);
@@ -136,7 +137,13 @@ fn small_campaign_follows_the_contract() {
 fn target_scene_is_written() {
     let config = small_config();
     let dir = tempfile::tempdir().unwrap();
-    let summary = write_target_scene(&config, dir.path(), &NoProgress).unwrap();
+    let summary = write_target_scene(
+        &config,
+        dir.path(),
+        &mut OutputPlan::new(false),
+        &NoProgress,
+    )
+    .unwrap();
     assert_eq!(summary.markers, 49);
     let truth: Truth = read_json(&dir.path().join("truth.json")).unwrap();
     assert_eq!(truth.cameras.len(), 3);

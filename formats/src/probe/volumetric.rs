@@ -388,10 +388,10 @@ pub fn comp_file_text(lines: &[CompLine]) -> std::result::Result<String, String>
     Ok(text)
 }
 
-/// Write a LinuxCNC `COMP_FILE` (type [`COMP_FILE_TYPE`]) atomically.
-pub fn write_comp_file(path: &Path, lines: &[CompLine]) -> Result<()> {
+/// Write a LinuxCNC `COMP_FILE` (type [`COMP_FILE_TYPE`]), a planned output of `output`.
+pub fn write_comp_file(output: &crate::OutputPlan, path: &Path, lines: &[CompLine]) -> Result<()> {
     let text = comp_file_text(lines).map_err(|m| FormatError::file(path, m))?;
-    crate::write_atomic(path, text.as_bytes())
+    output.write_bytes(path, text.as_bytes())
 }
 
 /// `setup.json` of the generator and the check data: squareness (rad), chain,

@@ -20,7 +20,13 @@ pub fn campaign(dir: &Path, width: u32, targets: u32, runs: u32, seed: u64) {
             seed: Some(seed),
         })
         .unwrap();
-    synth::campaign::write_campaign(&config, dir, &synth::progress::NoProgress).unwrap();
+    synth::campaign::write_campaign(
+        &config,
+        dir,
+        &mut formats::OutputPlan::new(false),
+        &synth::progress::NoProgress,
+    )
+    .unwrap();
 }
 
 /// The renderer's true cameras as a rig.json: measurements then judge fusion alone.

@@ -67,43 +67,6 @@ pub struct SynthArgs {
     force: bool,
 }
 
-/// The paths of `names` in the output directory; refuses when one of them
-/// is an input, or exists and `force` is not given.
-fn outputs<const N: usize>(
-    dir: &Path,
-    names: [&str; N],
-    inputs: &[&Path],
-    force: bool,
-) -> Result<[PathBuf; N]> {
-    let paths = names.map(|n| dir.join(n));
-    for path in &paths {
-        let same = |input: &&Path| {
-            std::fs::canonicalize(input)
-                .ok()
-                .is_some_and(|i| std::fs::canonicalize(path).ok() == Some(i))
-        };
-        if inputs.iter().any(same) {
-            bail!(
-                "{}: this output would overwrite an input; choose another --out",
-                path.display()
-            );
-        }
-        if !force && path.exists() {
-            bail!(
-                "{}: already exists; give --force to replace it or choose another --out",
-                path.display()
-            );
-        }
-    }
-    Ok(paths)
-}
-
-/// Create the output directory if it is missing.
-fn create(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("creating the output directory {}", dir.display()))
-}
-
 /// The positions of `centres.csv`, checked for the construction; a fault
 /// names the file, the line and the column.
 fn positions(path: &Path) -> Result<Vec<Position>> {
@@ -138,10 +101,10 @@ fn positions(path: &Path) -> Result<Vec<Position>> {
 
 /// Run the method.
 pub fn run(args: &Args) -> Result<()> {
-    let [csv, json, html] = outputs(
+    let (output, [csv, json, html]) = super::outputs_n(
         &args.out,
         ["indexing.csv", "report.json", "report.html"],
-        &[&args.centres],
+        [&args.centres],
         args.force,
     )?;
     let positions = positions(&args.centres)?;
@@ -169,10 +132,9 @@ pub fn run(args: &Args) -> Result<()> {
             residual_um: p.residual_um,
         })
         .collect();
-    create(&args.out)?;
-    formats::write_records(&csv, &rows)?;
-    formats::write_json(&json, &report)?;
-    formats::write_atomic(&html, page.as_bytes())?;
+    output.write_records(&csv, &rows)?;
+    output.write_json(&json, &report)?;
+    output.write_bytes(&html, page.as_bytes())?;
 
     let c = report.rotation_centre;
     println!(
@@ -245,12 +207,11 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     config.b_step_deg = args.b_step.unwrap_or(config.b_step_deg);
     config.stylus_mm = args.stylus.unwrap_or(config.stylus_mm);
     config.noise_um = args.noise_um.unwrap_or(config.noise_um);
-    let inputs: Vec<&Path> = args.config.iter().map(PathBuf::as_path).collect();
-    let [centres, truth] = outputs(out, ["centres.csv", "truth.json"], &inputs, args.force)?;
+    let (output, [centres, truth]) =
+        super::outputs_n(out, ["centres.csv", "truth.json"], &args.config, args.force)?;
     let generated = generate(&config)?;
-    create(out)?;
-    formats::write_records::<CentreRow>(&centres, &generated.centres)?;
-    formats::write_json(&truth, &generated.truth)?;
+    output.write_records::<CentreRow>(&centres, &generated.centres)?;
+    output.write_json(&truth, &generated.truth)?;
     let largest =
         |values: &mut dyn Iterator<Item = f64>| values.fold(0.0_f64, |m, v| m.max(v.abs()));
     let t = &generated.truth.truth;

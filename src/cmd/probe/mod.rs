@@ -8,7 +8,10 @@ pub mod rotary;
 pub mod tracer;
 pub mod volumetric;
 
+use std::path::{Path, PathBuf};
+
 use anyhow::Result;
+use formats::OutputPlan;
 
 /// Arguments of `trinocular probe`.
 #[derive(Debug, clap::Args)]
@@ -37,6 +40,38 @@ pub fn run(args: &Args) -> Result<()> {
         Method::Tracer(a) => tracer::run(a),
         Method::Volumetric(a) => volumetric::run(a),
     }
+}
+
+/// The checked output plan of a method or generator writing `names` into
+/// `dir` (created if missing), and their paths: no output over an input, an
+/// existing one only with `force`.
+fn outputs<P: AsRef<Path>>(
+    dir: &Path,
+    names: &[&str],
+    inputs: impl IntoIterator<Item = P>,
+    force: bool,
+) -> Result<(OutputPlan, Vec<PathBuf>)> {
+    let paths: Vec<PathBuf> = names.iter().map(|n| dir.join(n)).collect();
+    let mut plan = OutputPlan::new(force);
+    plan.inputs(inputs).folder(dir);
+    for p in &paths {
+        plan.file(p);
+    }
+    plan.check()?;
+    Ok((plan, paths))
+}
+
+/// [`outputs`] of a fixed set of names.
+fn outputs_n<const N: usize, P: AsRef<Path>>(
+    dir: &Path,
+    names: [&str; N],
+    inputs: impl IntoIterator<Item = P>,
+    force: bool,
+) -> Result<(OutputPlan, [PathBuf; N])> {
+    let (plan, paths) = outputs(dir, &names, inputs, force)?;
+    let paths = <[PathBuf; N]>::try_from(paths)
+        .map_err(|p| anyhow::anyhow!("{} output paths for {N} names", p.len()))?;
+    Ok((plan, paths))
 }
 
 /// Arguments of `trinocular synth probe`.

@@ -9,9 +9,9 @@
 //! (`centres.csv`, `points.csv`, `truth.json`, `config.toml`);
 //! `--print-config` prints the documented default configuration.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail};
 use formats::probe::rotary::{
     CentreRow, ErrorRow, RotaryInput, SphereFitRow, read_centres, read_points,
 };
@@ -74,37 +74,6 @@ pub struct SynthArgs {
 /// mm → µm and rad → µrad, for printing.
 const UM: f64 = 1e3;
 const URAD: f64 = 1e6;
-
-/// Create `dir` and return the paths of `names` in it, refusing any that
-/// exists (unless `force`) or that is one of `inputs` (always).
-fn outputs(dir: &Path, names: &[&str], inputs: &[&Path], force: bool) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
-    let inputs: Vec<PathBuf> = inputs
-        .iter()
-        .filter_map(|p| std::fs::canonicalize(p).ok())
-        .collect();
-    let mut paths = Vec::new();
-    for name in names {
-        let path = dir.join(name);
-        if let Ok(canonical) = std::fs::canonicalize(&path) {
-            if inputs.contains(&canonical) {
-                bail!(
-                    "{}: is an input of this run; choose another --out",
-                    path.display()
-                );
-            }
-            if !force {
-                bail!(
-                    "{}: already exists; give --force to replace it",
-                    path.display()
-                );
-            }
-        }
-        paths.push(path);
-    }
-    Ok(paths)
-}
 
 /// `12–16` or `12` for the lines of one ball and angle.
 fn line_span(lines: &[u64]) -> String {
@@ -232,22 +201,22 @@ pub fn run(args: &Args) -> Result<()> {
     if points {
         names.push("spheres.csv");
     }
-    let files = outputs(&args.out, &names, &[path.as_path()], args.force)?;
+    let (output, files) = super::outputs(&args.out, &names, [path], args.force)?;
     let rows: Vec<ErrorRow> = solution
         .errors
         .iter()
         .map(|e| error_row(e.angle_deg, &e.errors, &e.uncertainty))
         .collect();
-    formats::write_records(&files[0], &rows)?;
-    formats::write_json(&files[1], &report)?;
-    formats::write_atomic(&files[2], html.as_bytes())?;
+    output.write_records(&files[0], &rows)?;
+    output.write_json(&files[1], &report)?;
+    output.write_bytes(&files[2], html.as_bytes())?;
     let mut next = 3;
     if !at.is_empty() {
         let rows: Vec<ErrorRow> = at
             .iter()
             .map(|i| error_row(i.angle_deg, &i.errors, &i.uncertainty))
             .collect();
-        formats::write_records(&files[next], &rows)?;
+        output.write_records(&files[next], &rows)?;
         next += 1;
     }
     if points {
@@ -268,7 +237,7 @@ pub fn run(args: &Args) -> Result<()> {
                 })
             })
             .collect();
-        formats::write_records(&files[next], &rows)?;
+        output.write_records(&files[next], &rows)?;
     }
     print_summary(&solution, &report);
     for i in &at {
@@ -309,17 +278,16 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     }
     config.validate()?;
     let data = synth::probe::rotary::generate(&config)?;
-    let inputs: Vec<&Path> = args.config.iter().map(PathBuf::as_path).collect();
-    let files = outputs(
+    let (output, files) = super::outputs(
         out,
         &["centres.csv", "points.csv", "truth.json", "config.toml"],
-        &inputs,
+        &args.config,
         args.force,
     )?;
-    formats::write_records::<CentreRow>(&files[0], &data.centres)?;
-    formats::write_records::<CentreRow>(&files[1], &data.points)?;
-    formats::write_json(&files[2], &data.truth)?;
-    formats::write_atomic(&files[3], config.to_toml()?.as_bytes())?;
+    output.write_records::<CentreRow>(&files[0], &data.centres)?;
+    output.write_records::<CentreRow>(&files[1], &data.points)?;
+    output.write_json(&files[2], &data.truth)?;
+    output.write_bytes(&files[3], config.to_toml()?.as_bytes())?;
     let l = config.location;
     println!(
         "{} balls at {} angles ({}° steps): {} centres, {} probed points; noise {} µm (centres), {} µm (points)",

@@ -12,7 +12,7 @@ use formats::probe::tracer::{
     CorrectedRow, CorrectionRow, Grid, QueryRow, ResidualRow, StationRow, read_grid, read_query,
     read_readings,
 };
-use formats::{Row, write_atomic, write_json, write_records};
+use formats::{Row, write_records};
 use geom::nalgebra::Point3;
 use probe::ProbeError;
 use probe::tracer::{self, CorrectionGrid, Network, Options};
@@ -94,38 +94,6 @@ pub struct SynthArgs {
     force: bool,
 }
 
-/// Create `dir` and refuse, before anything is written, an output that
-/// already exists (unless `force`) or that is one of the `inputs` (always).
-fn prepare_outputs(dir: &Path, names: &[&str], inputs: &[&Path], force: bool) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
-    for name in names {
-        let path = dir.join(name);
-        if !path.exists() {
-            continue;
-        }
-        let target = path
-            .canonicalize()
-            .with_context(|| path.display().to_string())?;
-        for input in inputs {
-            if input.canonicalize().is_ok_and(|i| i == target) {
-                bail!(
-                    "{}: output {name} would overwrite this input; choose another --out",
-                    input.display()
-                );
-            }
-        }
-        if !force {
-            bail!(
-                "{}: already exists; use --force to replace the outputs in {}",
-                path.display(),
-                dir.display()
-            );
-        }
-    }
-    Ok(())
-}
-
 /// The lattice of the grid and the query points inside it, checked before
 /// solving so that a refused query leaves nothing written.
 fn check_query(
@@ -196,7 +164,7 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let mut inputs = vec![args.nominal.as_path(), args.readings.as_path()];
     inputs.extend(args.query.as_deref());
-    prepare_outputs(&args.out, &names, &inputs, args.force)?;
+    let (output, _) = super::outputs(&args.out, &names, inputs, args.force)?;
 
     if let Some(v) = args.sigma_um
         && (v.is_nan() || v <= 0.0)
@@ -294,14 +262,14 @@ pub fn run(args: &Args) -> Result<()> {
     };
 
     let out = &args.out;
-    write_records(&out.join("corrections.csv"), &corrections)?;
-    write_records(&out.join("stations.csv"), &stations)?;
-    write_records(&out.join("residuals.csv"), &residuals)?;
+    output.write_records(&out.join("corrections.csv"), &corrections)?;
+    output.write_records(&out.join("stations.csv"), &stations)?;
+    output.write_records(&out.join("residuals.csv"), &residuals)?;
     if let Some(c) = &corrected {
-        write_records(&out.join("corrected.csv"), c)?;
+        output.write_records(&out.join("corrected.csv"), c)?;
     }
-    write_json(&out.join("report.json"), &report)?;
-    write_atomic(out.join("report.html"), page.as_bytes())?;
+    output.write_json(&out.join("report.json"), &report)?;
+    output.write_bytes(&out.join("report.html"), page.as_bytes())?;
 
     println!(
         "tracer: {} points, {} stations, {} readings, {} unknowns (redundancy {})",
@@ -382,10 +350,11 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     };
     let data = generate(&config)?;
     let names = ["grid.csv", "readings.csv", "truth.json"];
-    prepare_outputs(&args.out, &names, &[], args.force)?;
-    write_records(&args.out.join("grid.csv"), &data.grid)?;
-    write_records(&args.out.join("readings.csv"), &data.readings)?;
-    write_json(&args.out.join("truth.json"), &data.truth)?;
+    let (output, [grid, readings, truth]) =
+        super::outputs_n(&args.out, names, [] as [&Path; 0], args.force)?;
+    output.write_records(&grid, &data.grid)?;
+    output.write_records(&readings, &data.readings)?;
+    output.write_json(&truth, &data.truth)?;
     println!(
         "tracer: {} grid points ({}×{}×{} over {}×{}×{} mm), {} stations, {} readings (noise {} µm), \
          error field {} µm RMS",
@@ -444,7 +413,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         ..TracerConfig::default()
     };
     let data = generate(&config)?;
-    let dir = tempfile::tempdir()?;
+    let dir = formats::interrupt::ScratchFolder::new()?;
     let (grid_path, readings_path) = (dir.path().join("grid.csv"), dir.path().join("readings.csv"));
     write_records(&grid_path, &data.grid)?;
     write_records(&readings_path, &data.readings)?;

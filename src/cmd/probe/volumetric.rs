@@ -134,26 +134,6 @@ fn curves_from_file(path: &Path) -> Result<Vec<(MeasuredAxis, (u64, u64))>> {
         .collect())
 }
 
-/// Fail if `path` exists and is one of `inputs`, or exists without `force`.
-fn check_output(path: &Path, inputs: &[PathBuf], force: bool) -> Result<()> {
-    if !path.exists() {
-        return Ok(());
-    }
-    let canonical = path.canonicalize().ok();
-    for i in inputs {
-        if i.canonicalize().ok() == canonical {
-            bail!(
-                "{}: is an input; choose another --out (outputs never overwrite inputs)",
-                path.display()
-            );
-        }
-    }
-    if !force {
-        bail!("{}: exists; use --force to overwrite", path.display());
-    }
-    Ok(())
-}
-
 /// Run the method.
 pub fn run(args: &Args) -> Result<()> {
     let chain = Chain::parse(&args.chain)?;
@@ -276,10 +256,8 @@ pub fn run(args: &Args) -> Result<()> {
     for (axis, _) in &analysis.compensation {
         names.push(comp_name(*axis));
     }
-    for n in &names {
-        check_output(&out.join(n), &inputs, args.force)?;
-    }
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let (output, _) = super::outputs(out, &names, &inputs, args.force)?;
 
     let fits: Vec<FitRow> = analysis
         .report
@@ -297,7 +275,7 @@ pub fn run(args: &Args) -> Result<()> {
             coefficients: 2 * f.order + 1,
         })
         .collect();
-    formats::write_records(&out.join("fits.csv"), &fits)?;
+    output.write_records(&out.join("fits.csv"), &fits)?;
     if args.at.is_some() {
         let rows: Vec<VolumetricRow> = analysis
             .volumetric
@@ -311,7 +289,7 @@ pub fn run(args: &Args) -> Result<()> {
                 dz: d.z,
             })
             .collect();
-        formats::write_records(&out.join("volumetric.csv"), &rows)?;
+        output.write_records(&out.join("volumetric.csv"), &rows)?;
     }
     if let Some(c) = &analysis.circles {
         let rows: Vec<CircleRow> = c
@@ -330,13 +308,13 @@ pub fn run(args: &Args) -> Result<()> {
                 radial_compensated_polynomial: q.radial,
             })
             .collect();
-        formats::write_records(&out.join("circle.csv"), &rows)?;
+        output.write_records(&out.join("circle.csv"), &rows)?;
     }
     for (axis, table) in &analysis.compensation {
-        files::write_comp_file(&out.join(comp_name(*axis)), table)?;
+        files::write_comp_file(&output, &out.join(comp_name(*axis)), table)?;
     }
-    formats::write_json(&out.join("report.json"), &analysis.report)?;
-    formats::write_atomic(out.join("report.html"), page.as_bytes())?;
+    output.write_json(&out.join("report.json"), &analysis.report)?;
+    output.write_bytes(&out.join("report.html"), page.as_bytes())?;
 
     print_summary(&analysis, &setup);
     println!("wrote {} files into {}", names.len(), out.display());
@@ -456,16 +434,17 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     }
     let data = synth::probe::volumetric::generate(&config)?;
     let out = &args.out;
-    let names = ["errors.csv", "at.csv", "setup.json", "truth.json"];
-    for n in names {
-        check_output(&out.join(n), &[], args.force)?;
-    }
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    formats::write_records(&out.join("errors.csv"), &data.errors)?;
+    let (output, [errors, at_path, setup, truth]) = super::outputs_n(
+        out,
+        ["errors.csv", "at.csv", "setup.json", "truth.json"],
+        [] as [&Path; 0],
+        args.force,
+    )?;
+    output.write_records(&errors, &data.errors)?;
     let at: Vec<AtRow> = data.at.clone();
-    formats::write_records(&out.join("at.csv"), &at)?;
-    formats::write_json(&out.join("setup.json"), &data.setup)?;
-    formats::write_json(&out.join("truth.json"), &data.truth)?;
+    output.write_records(&at_path, &at)?;
+    output.write_json(&setup, &data.setup)?;
+    output.write_json(&truth, &data.truth)?;
     let s = &data.setup;
     println!(
         "error curves of X, Y, Z ({} rows), {} positions in at.csv, chain {}, tool ({}, {}, {}) mm",
@@ -493,6 +472,6 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         e = out.join("errors.csv").display(),
         a = out.join("at.csv").display(),
     );
-    println!("wrote {} files into {}", names.len(), out.display());
+    println!("wrote 4 files into {}", out.display());
     Ok(())
 }

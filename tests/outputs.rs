@@ -1,0 +1,709 @@
+//! Outputs through the command line: an existing output (sidecars included)
+//! is replaced only with `--force`, no command writes over one of its
+//! inputs (also through links), `evaluate` replaces its report as one set,
+//! two `measure` runs on one folder cannot interleave, and an interrupted
+//! run (SIGINT, SIGTERM, kill −9) leaves no temporary file and, run again,
+//! gives the same bytes as a run that was never interrupted.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_trinocular"))
+}
+
+fn trinocular(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run trinocular")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn ok(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "{:?}: {}{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        stderr(out)
+    );
+    stderr(out)
+}
+
+/// A refused run: exit status 1 and one line on stderr holding every fragment.
+fn refused(out: &Output, fragments: &[&str]) -> String {
+    let err = stderr(out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("trinocular: error: "))
+        .unwrap_or_else(|| panic!("no error line: {err}"));
+    for f in fragments {
+        assert!(line.contains(f), "'{f}' missing from {line}");
+    }
+    line.to_string()
+}
+
+/// Files under `dir` (recursively) whose name marks a temporary file, a
+/// staging folder or a lock.
+fn leftovers(dir: &Path) -> Vec<PathBuf> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap().flatten() {
+        let path = entry.path();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.ends_with(".tmp") || name == ".trinocular.lock" {
+            found.push(path.clone());
+        }
+        if path.is_dir() {
+            found.extend(leftovers(&path));
+        }
+    }
+    found
+}
+
+fn read(p: &Path) -> Vec<u8> {
+    std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// A rendered campaign `dir/c` and its rig `dir/rig.json` (calibrated from
+/// the renderer's correspondences).
+fn campaign(dir: &Path, width: u32, targets: u32, runs: u32, captures: u32) -> PathBuf {
+    let c = dir.join("c");
+    let (w, h) = (width.to_string(), (width * 3 / 4).to_string());
+    let (t, r, k) = (targets.to_string(), runs.to_string(), captures.to_string());
+    ok(&trinocular(&[
+        "synth",
+        "campaign",
+        "--out",
+        s(&c),
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--targets",
+        &t,
+        "--runs",
+        &r,
+        "--captures",
+        &k,
+    ]));
+    let cal = |n: u8| c.join(format!("calib/points_cam{n}.csv"));
+    ok(&trinocular(&[
+        "calibrate",
+        "--target",
+        s(&c.join("target.csv")),
+        "--nominal",
+        s(&c.join("nominal.json")),
+        "--points",
+        s(&cal(1)),
+        s(&cal(2)),
+        s(&cal(3)),
+        "--out",
+        s(&dir.join("rig.json")),
+    ]));
+    c
+}
+
+fn measure_args<'a>(dir: &'a Path, c: &'a Path, out: &'a Path) -> Vec<String> {
+    [
+        "measure",
+        "--backend",
+        "cpu",
+        "--rig",
+        s(&dir.join("rig.json")),
+        "--manifest",
+        s(&c.join("manifest.csv")),
+        "--spheres",
+        s(&c.join("spheres.csv")),
+        "--out",
+        s(out),
+    ]
+    .map(str::to_string)
+    .to_vec()
+}
+
+fn measure(dir: &Path, c: &Path, out: &Path, extra: &[&str]) -> Output {
+    bin()
+        .args(measure_args(dir, c, out))
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn extract_never_writes_over_its_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = campaign(d, 256, 2, 1, 1);
+    let image = d.join("z.tif");
+    std::fs::copy(c.join("calib/cam1.tif"), &image).unwrap();
+    let before = read(&image);
+    let extract = |out: &Path, input: &Path| {
+        trinocular(&[
+            "extract",
+            "--backend",
+            "cpu",
+            "--force",
+            "--out",
+            s(out),
+            s(input),
+        ])
+    };
+    refused(
+        &extract(&image, &image),
+        &["z.tif: would overwrite an input"],
+    );
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(&image, d.join("soft.tif")).unwrap();
+        std::fs::hard_link(&image, d.join("hard.tif")).unwrap();
+        refused(
+            &extract(&d.join("soft.tif"), &image),
+            &["would overwrite an input"],
+        );
+        refused(
+            &extract(&d.join("hard.tif"), &image),
+            &["would overwrite an input"],
+        );
+        refused(
+            &extract(&image, &d.join("soft.tif")),
+            &["would overwrite an input"],
+        );
+    }
+    // An image of a folder given as input.
+    let images = c.join("calib");
+    let out = images.join("flat_cam1.tif");
+    let before_flat = read(&out);
+    refused(
+        &extract(&out, &images),
+        &["flat_cam1.tif: would overwrite an input"],
+    );
+    assert_eq!(read(&out), before_flat);
+    assert_eq!(read(&image), before);
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+#[test]
+fn extract_keeps_its_outputs_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = campaign(d, 256, 2, 1, 1);
+    let images = c.join("calib");
+    let out = d.join("b.csv");
+    let run = |out: &Path, extra: &[&str]| {
+        bin()
+            .args(["extract", "--backend", "cpu", "--out", s(out), s(&images)])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    ok(&run(&out, &[]));
+    let first = read(&out);
+    refused(&run(&out, &[]), &["b.csv: already exists", "--force"]);
+    assert_eq!(read(&out), first);
+    ok(&run(&out, &["--force"]));
+    assert_eq!(read(&out), first, "same input, same bytes");
+
+    // The problems.csv beside the output is an output too.
+    std::fs::write(d.join("problems.csv"), "item,reason\nmine,kept\n").unwrap();
+    refused(
+        &run(&d.join("other.csv"), &[]),
+        &["problems.csv: already exists"],
+    );
+    assert!(!d.join("other.csv").exists());
+    // With --force a stale problems.csv goes (this run had no problems).
+    ok(&run(&d.join("other.csv"), &["--force"]));
+    assert!(!d.join("problems.csv").exists());
+    // A missing output folder is named, before any work.
+    refused(
+        &run(&d.join("nope").join("b.csv"), &[]),
+        &["output folder", "nope", "does not exist"],
+    );
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+#[test]
+fn calibrate_keeps_the_rig_and_its_sidecars_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = d.join("c");
+    ok(&trinocular(&[
+        "synth",
+        "target",
+        "--out",
+        s(&c),
+        "--width",
+        "256",
+        "--height",
+        "192",
+    ]));
+    let run = |out: &Path, extra: &[&str]| {
+        let cal = |n: u8| c.join(format!("calib/points_cam{n}.csv"));
+        bin()
+            .args(["calibrate", "--target", s(&c.join("target.csv"))])
+            .args(["--nominal", s(&c.join("nominal.json")), "--points"])
+            .args([s(&cal(1)), s(&cal(2)), s(&cal(3)), "--out", s(out)])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let rig = d.join("out").join("rig.json");
+    ok(&run(&rig, &[]));
+    let files = [
+        "rig.json",
+        "rig.cam1.opencv.yml",
+        "rig.cam3.opencv.yml",
+        "rig.residuals.csv",
+        "commissioning.txt",
+        "commissioning.json",
+    ];
+    let before: Vec<Vec<u8>> = files.iter().map(|f| read(&d.join("out").join(f))).collect();
+    refused(&run(&rig, &[]), &["rig.json: already exists", "--force"]);
+    // Another rig in the same folder would replace the commissioning report.
+    refused(
+        &run(&d.join("out").join("other.json"), &[]),
+        &["commissioning.txt: already exists"],
+    );
+    assert!(!d.join("out").join("other.json").exists());
+    ok(&run(&rig, &["--force"]));
+    for (f, b) in files.iter().zip(&before) {
+        assert_eq!(&read(&d.join("out").join(f)), b, "{f}");
+    }
+    // Never over an input, even with --force.
+    let target = read(&c.join("target.csv"));
+    refused(
+        &run(&c.join("target.csv"), &["--force"]),
+        &["target.csv: would overwrite an input"],
+    );
+    assert_eq!(read(&c.join("target.csv")), target);
+    // Nor a file beside the output over an input.
+    let other = d.join("other");
+    std::fs::create_dir(&other).unwrap();
+    std::fs::copy(
+        c.join("calib/points_cam1.csv"),
+        other.join("rig.residuals.csv"),
+    )
+    .unwrap();
+    let cal = |n: u8| c.join(format!("calib/points_cam{n}.csv"));
+    let sidecar = bin()
+        .args(["calibrate", "--target", s(&c.join("target.csv"))])
+        .args(["--nominal", s(&c.join("nominal.json")), "--points"])
+        .args([s(&other.join("rig.residuals.csv")), s(&cal(2)), s(&cal(3))])
+        .args(["--out", s(&other.join("rig.json")), "--force"])
+        .output()
+        .unwrap();
+    refused(&sidecar, &["rig.residuals.csv: would overwrite an input"]);
+    assert_eq!(
+        read(&other.join("rig.residuals.csv")),
+        read(&c.join("calib/points_cam1.csv"))
+    );
+    assert!(!other.join("rig.json").exists());
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+#[test]
+fn synth_keeps_a_campaign_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = d.join("c");
+    let args = [
+        "synth",
+        "campaign",
+        "--out",
+        s(&c),
+        "--width",
+        "256",
+        "--height",
+        "192",
+        "--targets",
+        "3",
+        "--runs",
+        "2",
+        "--captures",
+        "1",
+    ];
+    ok(&trinocular(&args));
+    let manifest = read(&c.join("manifest.csv"));
+    let image = read(&c.join("images/X1/run1-up/t000_c01_cam2.tif"));
+    refused(&trinocular(&args), &["already exists", "--force"]);
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    ok(&trinocular(&forced));
+    assert_eq!(read(&c.join("manifest.csv")), manifest);
+    assert_eq!(read(&c.join("images/X1/run1-up/t000_c01_cam2.tif")), image);
+    // Its own config.toml as the configuration: an input, never replaced.
+    let config_path = c.join("config.toml");
+    let config = read(&config_path);
+    let mut again = forced.clone();
+    again.extend(["--config", s(&config_path)]);
+    refused(
+        &trinocular(&again),
+        &["config.toml: would overwrite an input"],
+    );
+    assert_eq!(read(&config_path), config);
+
+    let t = d.join("t");
+    let target = [
+        "synth",
+        "target",
+        "--out",
+        s(&t),
+        "--width",
+        "256",
+        "--height",
+        "192",
+    ];
+    ok(&trinocular(&target));
+    refused(&trinocular(&target), &["already exists", "--force"]);
+    // The probe generators refuse as well.
+    for method in ["tracer", "volumetric", "rotary", "indexing"] {
+        let out = d.join(method);
+        let args = ["synth", "probe", method, "--out", s(&out)];
+        ok(&trinocular(&args));
+        refused(&trinocular(&args), &["already exists", "--force"]);
+    }
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+#[test]
+fn evaluate_replaces_its_report_as_one_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = campaign(d, 256, 3, 2, 1);
+    let points = d.join("points.csv");
+    ok(&measure(d, &c, &points, &[]));
+    let report = d.join("report");
+    let run = |points: &Path, out: &Path, extra: &[&str]| {
+        bin()
+            .args(["evaluate", "--points", s(points), "--out", s(out)])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    ok(&run(&points, &report, &[]));
+    assert!(report.join("positioning_Y.csv").exists());
+    let json = read(&report.join("report.json"));
+    refused(
+        &run(&points, &report, &[]),
+        &["report: already exists", "--force"],
+    );
+    assert_eq!(read(&report.join("report.json")), json);
+
+    // An X-only report replaces the X-and-Y one whole: no stale Y table.
+    let text = String::from_utf8(read(&points)).unwrap();
+    let x_only: Vec<&str> = text
+        .lines()
+        .enumerate()
+        .filter(|(i, l)| *i == 0 || l.starts_with("X,"))
+        .map(|(_, l)| l)
+        .collect();
+    let x_points = d.join("x_points.csv");
+    std::fs::write(&x_points, x_only.join("\n") + "\n").unwrap();
+    ok(&run(&x_points, &report, &["--force"]));
+    assert!(report.join("positioning_X.csv").exists());
+    for y in ["positioning_Y.csv", "straightness_Y.csv", "angular_Y.csv"] {
+        assert!(!report.join(y).exists(), "stale {y}");
+    }
+    // A file a report does not write is never deleted, even with --force.
+    std::fs::write(report.join("notes.txt"), "mine").unwrap();
+    refused(&run(&points, &report, &["--force"]), &["holds notes.txt"]);
+    assert_eq!(read(&report.join("notes.txt")), b"mine");
+    // Nor is the folder that holds the input.
+    refused(
+        &run(&points, d, &["--force"]),
+        &["would overwrite an input", "points.csv"],
+    );
+    assert!(points.exists());
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+#[test]
+fn measure_keeps_its_outputs_and_sidecars_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = campaign(d, 256, 3, 2, 1);
+    let a = d.join("a.csv");
+    ok(&measure(d, &c, &a, &[]));
+    let (points, poses) = (read(&a), read(&d.join("poses.csv")));
+    refused(
+        &measure(d, &c, &a, &[]),
+        &["a.csv: already exists", "--force"],
+    );
+    // Another output in the same folder would replace poses.csv.
+    refused(
+        &measure(d, &c, &d.join("b.csv"), &[]),
+        &["poses.csv: already exists"],
+    );
+    assert!(!d.join("b.csv").exists());
+    ok(&measure(d, &c, &a, &["--force"]));
+    assert_eq!(read(&a), points);
+    assert_eq!(read(&d.join("poses.csv")), poses);
+    // Never over an input.
+    refused(
+        &measure(d, &c, &d.join("rig.json"), &["--force"]),
+        &["rig.json: would overwrite an input"],
+    );
+    refused(
+        &measure(
+            d,
+            &c,
+            &c.join("images/X1/run1-up/t000_c01_cam2.tif"),
+            &["--force"],
+        ),
+        &["would overwrite an input"],
+    );
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+/// Signals and concurrent runs (Unix).
+#[cfg(unix)]
+mod interrupted {
+    use super::*;
+
+    /// Rows per chunk of the partial output: 16 instants × 3 spheres.
+    const CHUNK_ROWS: usize = 48;
+
+    fn signal(child: &Child, name: &str) {
+        let pid = child.id().to_string();
+        let status = Command::new("kill")
+            .args([&format!("-{name}"), &pid])
+            .status()
+            .unwrap();
+        assert!(status.success(), "kill -{name} {pid}");
+    }
+
+    fn spawn(args: &[String]) -> Child {
+        bin()
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    }
+
+    /// Wait until `ready` holds, the child still running; then stop it
+    /// (SIGSTOP), so that what follows happens mid-run.
+    fn stop_when(child: &mut Child, what: &str, ready: impl Fn() -> bool) {
+        let start = std::time::Instant::now();
+        while !ready() {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "the run ended before {what}"
+            );
+            assert!(start.elapsed().as_secs() < 120, "no {what} after 2 min");
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        signal(child, "STOP");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before {what}"
+        );
+    }
+
+    fn rows(path: &Path) -> usize {
+        std::fs::read_to_string(path)
+            .map(|t| t.lines().count().saturating_sub(1))
+            .unwrap_or(0)
+    }
+
+    /// The campaign of the interruption tests: 180 instants (12 chunks) at
+    /// 512×384 px, so that a run takes a while after its first chunk.
+    fn big(d: &Path) -> PathBuf {
+        campaign(d, 512, 5, 3, 2)
+    }
+
+    /// An uninterrupted run's points.csv and poses.csv.
+    fn reference(d: &Path, c: &Path) -> (Vec<u8>, Vec<u8>) {
+        let r = d.join("reference");
+        std::fs::create_dir(&r).unwrap();
+        ok(&measure(d, c, &r.join("points.csv"), &[]));
+        (read(&r.join("points.csv")), read(&r.join("poses.csv")))
+    }
+
+    /// Interrupt a measure run after its first chunk with `how`; then run it
+    /// again: the same bytes as the reference, nothing left over.
+    fn interrupt_then_resume(how: &str, status: Option<i32>) {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let c = big(d);
+        let (points, poses) = reference(d, &c);
+        let run = d.join("run");
+        std::fs::create_dir(&run).unwrap();
+        let out = run.join("points.csv");
+        let partial = run.join("points.csv.partial");
+        let mut child = spawn(&measure_args(d, &c, &out));
+        stop_when(&mut child, "the first chunk", || {
+            rows(&partial) >= CHUNK_ROWS
+        });
+        signal(&child, how);
+        signal(&child, "CONT");
+        let ended = child.wait_with_output().unwrap();
+        assert_eq!(ended.status.code(), status, "{}", stderr(&ended));
+        let kept = rows(&partial);
+        assert!(kept >= CHUNK_ROWS && kept < 180 * 3, "{kept} rows kept");
+        assert!(!out.exists());
+        let left = leftovers(&run);
+        if how == "KILL" {
+            // Nothing runs on SIGKILL: the lock stays, and whatever
+            // temporary file was open at that instant.
+            assert!(left.contains(&run.join(".trinocular.lock")), "{left:?}");
+        } else {
+            assert!(
+                stderr(&ended).contains(&format!("interrupted by SIG{how}")),
+                "{}",
+                stderr(&ended)
+            );
+            assert!(left.is_empty(), "{left:?}");
+        }
+
+        let again = ok(&measure(d, &c, &out, &[]));
+        assert!(again.contains("resumed from an interrupted run"), "{again}");
+        if how == "KILL" {
+            assert!(
+                again.contains("took over the lock of a run that is no longer running"),
+                "{again}"
+            );
+        }
+        assert_eq!(read(&out), points, "points.csv as uninterrupted");
+        assert_eq!(
+            read(&run.join("poses.csv")),
+            poses,
+            "poses.csv as uninterrupted"
+        );
+        assert!(!partial.exists() && !run.join("points.csv.resume.json").exists());
+        assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+    }
+
+    #[test]
+    fn measure_resumes_after_sigint() {
+        interrupt_then_resume("INT", Some(130));
+    }
+
+    #[test]
+    fn measure_resumes_after_kill_9() {
+        interrupt_then_resume("KILL", None);
+    }
+
+    #[test]
+    fn a_second_measure_on_the_same_output_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let c = big(d);
+        let (points, poses) = reference(d, &c);
+        let out = d.join("points.csv");
+        let mut first = spawn(&measure_args(d, &c, &out));
+        let lock = d.join(".trinocular.lock");
+        stop_when(&mut first, "the lock", || {
+            std::fs::read_to_string(&lock).is_ok_and(|t| t.ends_with('\n'))
+        });
+        let holder = format!("pid {}, trinocular measure", first.id());
+        for second in [&out, &d.join("other.csv")] {
+            refused(
+                &measure(d, &c, second, &[]),
+                &[
+                    &format!("another trinocular run ({holder}) is writing into this folder"),
+                    "choose another --out",
+                ],
+            );
+        }
+        // The same goes for --force: a run in progress is never replaced.
+        refused(&measure(d, &c, &out, &["--force"]), &[&holder]);
+        signal(&first, "CONT");
+        let done = first.wait_with_output().unwrap();
+        assert!(done.status.success(), "{}", stderr(&done));
+        assert_eq!(read(&out), points, "the first run's output is complete");
+        assert_eq!(read(&d.join("poses.csv")), poses);
+        assert!(!d.join("other.csv").exists());
+        assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+    }
+
+    /// Extract with a FIFO among the images: the run blocks on it, its
+    /// output's temporary file open, until it is interrupted.
+    fn interrupt_extract(how: &str, status: Option<i32>) {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let c = campaign(d, 256, 2, 1, 1);
+        let images = d.join("images");
+        std::fs::create_dir(&images).unwrap();
+        for k in 1..=3 {
+            std::fs::copy(
+                c.join(format!("calib/cam{k}.tif")),
+                images.join(format!("cam{k}.tif")),
+            )
+            .unwrap();
+        }
+        let last = images.join("cam3.tif");
+        let saved = read(&last);
+        std::fs::remove_file(&last).unwrap();
+        assert!(
+            Command::new("mkfifo")
+                .arg(&last)
+                .status()
+                .unwrap()
+                .success()
+        );
+        let run = d.join("run");
+        std::fs::create_dir(&run).unwrap();
+        let out = run.join("b.csv");
+        let extract = |out: &Path| -> Vec<String> {
+            let mut args: Vec<String> = ["extract", "--backend", "cpu", "--out", s(out)]
+                .map(str::to_string)
+                .to_vec();
+            args.extend((1..=3).map(|k| s(&images.join(format!("cam{k}.tif"))).to_string()));
+            args
+        };
+        let args = extract(&out);
+        let mut child = spawn(&args);
+        stop_when(&mut child, "the temporary output", || {
+            leftovers(&run).iter().any(|p| {
+                p.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with(".b.csv."))
+            })
+        });
+        signal(&child, how);
+        signal(&child, "CONT");
+        let ended = child.wait_with_output().unwrap();
+        assert_eq!(ended.status.code(), status, "{}", stderr(&ended));
+        assert!(!out.exists());
+        if how != "KILL" {
+            assert!(leftovers(&run).is_empty(), "{:?}", leftovers(&run));
+        }
+        // The image back, the run again: as if never interrupted.
+        std::fs::remove_file(&last).unwrap();
+        std::fs::write(&last, saved).unwrap();
+        let again = bin().args(&args).output().unwrap();
+        let note = ok(&again);
+        if how == "KILL" {
+            assert!(
+                note.contains("removed the temporary file it left"),
+                "{note}"
+            );
+        }
+        let reference = d.join("reference.csv");
+        ok(&bin().args(extract(&reference)).output().unwrap());
+        assert_eq!(read(&out), read(&reference));
+        assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+    }
+
+    #[test]
+    fn extract_leaves_no_temporary_file_on_sigint() {
+        interrupt_extract("INT", Some(130));
+    }
+
+    #[test]
+    fn extract_leaves_no_temporary_file_on_sigterm() {
+        interrupt_extract("TERM", Some(143));
+    }
+
+    #[test]
+    fn extract_after_kill_9_cleans_up_and_gives_the_same_bytes() {
+        interrupt_extract("KILL", None);
+    }
+}
