@@ -26,7 +26,7 @@ pub use blobs::{BlobRow, ProblemRow};
 pub use campaign::{Axis, Direction, InstantKey, LineKey, ManifestRow, SphereRow};
 pub use error::{FormatError, Result};
 pub use json::{read_json, write_json};
-pub use measure::{InstantProblemRow, PoseRow};
+pub use measure::{InstantProblemRow, Missing, PoseRow};
 pub use points::PointRow;
 pub use rig::{
     CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera,

@@ -57,6 +57,21 @@ pub fn predict(
     Some((pixel, jac))
 }
 
+/// RMS reprojection residual (px) of a sphere of radius `radius` at `x` over
+/// its views: `√(Σ|predicted − observed|²/n)` in ideal pixels, the
+/// `residual_px` of `points.csv`. `None` when `x` is not in front of every camera.
+pub fn reprojection_rms(views: &[View<'_>], x: &Point3<f64>, radius: f64) -> Option<f64> {
+    if views.is_empty() {
+        return None;
+    }
+    let mut ss = 0.0;
+    for v in views {
+        let (p, _) = predict(v.camera, x, radius)?;
+        ss += (p - v.ideal_px.coords).norm_squared();
+    }
+    Some((ss / views.len() as f64).sqrt())
+}
+
 /// Linear triangulation (DLT): homogeneous least squares over the views'
 /// normalised coordinates, `x·P₃ − P₁ = 0`, `y·P₃ − P₂ = 0`, P = [R|t].
 pub fn linear(views: &[View<'_>]) -> Result<Point3<f64>> {
@@ -288,5 +303,22 @@ mod tests {
         // Pixel scale at the reference depth: the motion across the field is
         // recovered to the (small) perspective error of the seed's model.
         assert!((d.x - 30.0).abs() < 1e-3, "{d:?}");
+    }
+
+    #[test]
+    fn the_residual_is_the_rms_distance_of_the_reprojections() {
+        let cams = rig();
+        let x = Point3::new(10.0, 5.0, 40.0);
+        let mut v = views(&cams, &x, 10.0);
+        assert!(reprojection_rms(&v, &x, 10.0).unwrap() < 1e-9);
+        // Shift one view by (3, 4) px: √((5² + 0 + 0)/3) px at the true centre.
+        v[0].ideal_px += Vector2::new(3.0, 4.0);
+        let r = reprojection_rms(&v, &x, 10.0).unwrap();
+        assert!((r - (25.0f64 / 3.0).sqrt()).abs() < 1e-9, "{r}");
+        // The triangulated centre reports the same quantity at its own solution.
+        let t = triangulate(&v, 10.0).unwrap();
+        let at = reprojection_rms(&v, &t.point, 10.0).unwrap();
+        assert!((t.residual_px - at).abs() < 1e-9 && at < r, "{} {at}", t.residual_px);
+        assert_eq!(reprojection_rms(&v, &Point3::new(0.0, 0.0, 1e4), 10.0), None);
     }
 }
