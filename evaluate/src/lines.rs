@@ -352,24 +352,26 @@ pub(crate) fn evaluate_line(
                 ));
                 None
             }
-            Ok(means_at) => match angular_report(axis, &complete, &means_at, &targets, &commanded) {
-                Ok(a) => {
-                    if a.lever_mm < angular::MIN_LEVER_MM {
-                        warnings.push(format!(
+            Ok(means_at) => {
+                match angular_report(axis, &complete, &means_at, &targets, &commanded) {
+                    Ok(a) => {
+                        if a.lever_mm < angular::MIN_LEVER_MM {
+                            warnings.push(format!(
                             "{what}: spheres {} are nearly in a line (smallest lever {:.2} mm): the rotation about it is \
                              poorly determined, ≈ {:.0} µrad per µm of position error",
                             a.spheres.join(", "),
                             a.lever_mm,
                             1e3 / a.lever_mm.max(1e-6)
                         ));
+                        }
+                        Some(a)
                     }
-                    Some(a)
+                    Err(e) => {
+                        warnings.push(format!("{what}: angular errors left out: {e}"));
+                        None
+                    }
                 }
-                Err(e) => {
-                    warnings.push(format!("{what}: angular errors left out: {e}"));
-                    None
-                }
-            },
+            }
         }
     } else {
         if all_spheres.len() >= 3 {
@@ -480,12 +482,14 @@ fn common_means(
     targets: &[u32],
 ) -> std::result::Result<BTreeMap<u32, Vec<Point3<f64>>>, u32> {
     type Instant = (u32, Direction, u32, u32);
-    let instant = |r: &Located<'_>| -> Instant {
-        (r.row.target, r.row.direction, r.row.run, r.row.capture)
-    };
+    let instant =
+        |r: &Located<'_>| -> Instant { (r.row.target, r.row.direction, r.row.run, r.row.capture) };
     let mut present: BTreeMap<Instant, Vec<&str>> = BTreeMap::new();
     for r in &line.rows {
-        present.entry(instant(r)).or_default().push(r.row.sphere.as_str());
+        present
+            .entry(instant(r))
+            .or_default()
+            .push(r.row.sphere.as_str());
     }
     let complete = |i: &Instant| {
         present

@@ -605,7 +605,11 @@ fn instants_lacking_a_sphere_are_evaluated_from_the_others() {
     let x = report.axes.x.as_ref().unwrap();
     // The middle line keeps every figure of the model, the angular ones exact
     // because they come from the instants with all three spheres.
-    check_line("X line 1 lacking B and C at some instants", &lines[1], &x.lines[1]);
+    check_line(
+        "X line 1 lacking B and C at some instants",
+        &lines[1],
+        &x.lines[1],
+    );
     check_line("Y line", &lines[3], &report.axes.y.as_ref().unwrap().main);
     // Without A at an approach, that approach is not in the positioning: the
     // figures are those of the line without the instant at all, and the

@@ -103,8 +103,15 @@ impl InstantProblemRow {
 }
 
 impl Record for InstantProblemRow {
-    const COLUMNS: &'static [&'static str] =
-        &["axis", "direction", "run", "target", "capture", "missing", "reason"];
+    const COLUMNS: &'static [&'static str] = &[
+        "axis",
+        "direction",
+        "run",
+        "target",
+        "capture",
+        "missing",
+        "reason",
+    ];
 
     fn validate(&self) -> Result<(), Invalid> {
         Ok(())

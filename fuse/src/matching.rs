@@ -247,7 +247,10 @@ mod tests {
             cand(px(15.0, 440.0)),
             cand(3000.0),
         ];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), vec![Found(2), Found(3), Found(0)]);
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(2), Found(3), Found(0)]
+        );
     }
 
     #[test]
@@ -258,13 +261,19 @@ mod tests {
             cand(px(15.0, 392.0)),
             cand(px(10.0, 380.0)),
         ];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), vec![Found(0), Found(1), Found(2)]);
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(0), Found(1), Found(2)]
+        );
     }
 
     #[test]
     fn a_missing_sphere_leaves_the_others_found() {
         let c = vec![cand(px(20.0, 460.0)), cand(px(10.0, 462.0))];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), vec![Found(0), Missing, Found(1)]);
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(0), Missing, Found(1)]
+        );
     }
 
     #[test]
@@ -285,7 +294,10 @@ mod tests {
             cand(px(15.0, 459.0)),
             cand(px(10.0, 460.0)),
         ];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), vec![Found(0), Ambiguous, Found(3)]);
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(0), Ambiguous, Found(3)]
+        );
     }
 
     #[test]
@@ -305,7 +317,10 @@ mod tests {
         // C is gone; A's and B's blobs could also be B and C at ≈ 0.72 of
         // the distance — which the travel does not allow.
         let c = vec![cand(px(20.0, 460.0)), cand(px(15.0, 480.0))];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), vec![Found(0), Found(1), Missing]);
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(0), Found(1), Missing]
+        );
     }
 
     #[test]
@@ -313,14 +328,24 @@ mod tests {
         let mut b = cand(px(15.0, 460.0));
         b.rejected = Some("touches the image border");
         let c = vec![cand(px(20.0, 460.0)), b, cand(px(10.0, 460.0))];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), vec![Found(0), Missing, Found(2)]);
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(0), Missing, Found(2)]
+        );
     }
 
     #[test]
     fn subsets_are_every_combination_once() {
         assert_eq!(
             subsets(4, 2),
-            vec![vec![0, 1], vec![0, 2], vec![0, 3], vec![1, 2], vec![1, 3], vec![2, 3]]
+            vec![
+                vec![0, 1],
+                vec![0, 2],
+                vec![0, 3],
+                vec![1, 2],
+                vec![1, 3],
+                vec![2, 3]
+            ]
         );
         assert_eq!(subsets(3, 3), vec![vec![0, 1, 2]]);
     }
@@ -328,7 +353,10 @@ mod tests {
     #[test]
     fn equal_diameters_cannot_be_matched() {
         assert_eq!(spread_tolerance(&[10.0, 10.0]), None);
-        assert_eq!(assign(&[cand(40.0)], &[10.0, 10.0], F, D0), vec![Ambiguous; 2]);
+        assert_eq!(
+            assign(&[cand(40.0)], &[10.0, 10.0], F, D0),
+            vec![Ambiguous; 2]
+        );
         assert!(
             (spread_tolerance(&DIAMETERS).unwrap() - 0.5 * (20.0f64 / 15.0).ln()).abs() < 1e-12
         );

@@ -40,7 +40,7 @@ use crate::observe::{Candidate, candidates};
 use crate::plan::{InstantPlan, RigModel, plan};
 use crate::plausibility::ResidualGate;
 use crate::pose::poses;
-use crate::triangulate::{View, reprojection_rms, seed_displacement, triangulate};
+use crate::triangulate::{View, seed_displacement, triangulate};
 use crate::{FuseError, Result};
 
 /// Allowance for the spheres' layout on the table around its reference point (mm).
@@ -363,15 +363,21 @@ impl Context<'_> {
     }
 
     /// Triangulated centre and residual of one sphere.
-    fn triangulate_one(&self, sphere: usize, seen: &Seen) -> std::result::Result<(Point3<f64>, f64), String> {
+    fn triangulate_one(
+        &self,
+        sphere: usize,
+        seen: &Seen,
+    ) -> std::result::Result<(Point3<f64>, f64), String> {
         triangulate(&self.views(seen), self.radius(sphere))
             .map(|t| (t.point, t.residual_px))
             .map_err(|e| e.to_string())
     }
 
     /// The seed's fusion of one sphere against its reference: the reference
-    /// centre plus the pixel-scale displacement, and the RMS reprojection
-    /// residual of that centre against this instant's images.
+    /// centre plus the pixel-scale displacement. The residual is, as for
+    /// triangulation, the RMS reprojection residual of this instant's images
+    /// at their least-squares centre: how well the images agree, whatever the
+    /// seed's model makes of them.
     fn seed_one(
         &self,
         sphere: usize,
@@ -387,10 +393,8 @@ impl Context<'_> {
             .collect();
         let (d, _) = seed_displacement(&self.views(&r0), &self.views(&r1), &depths)
             .map_err(|e| e.to_string())?;
-        let p = p0 + d;
-        let residual = reprojection_rms(&self.views(seen), &p, self.radius(sphere))
-            .ok_or("the fused centre is not in front of every camera")?;
-        Ok((p, residual))
+        let (_, residual) = self.triangulate_one(sphere, seen)?;
+        Ok((p0 + d, residual))
     }
 
     /// Image centres with the perspective bias removed for a sphere at `point`
@@ -467,7 +471,9 @@ fn whole_instant(key: &InstantKey, misses: Vec<Failure>) -> Failure {
             None => groups.push((m.camera, m.image, tail, vec![name])),
         }
     }
-    let one_camera = groups.windows(2).all(|w| w[0].0 == w[1].0 && w[0].1 == w[1].1);
+    let one_camera = groups
+        .windows(2)
+        .all(|w| w[0].0 == w[1].0 && w[0].1 == w[1].1);
     let text: Vec<String> = groups
         .iter()
         .map(|(camera, _, tail, names)| {
@@ -528,7 +534,13 @@ fn measure_one(
         };
         match centre {
             Ok(c) => centres[s] = Some(c),
-            Err(e) => problems.push(ctx.sphere_failure(&ip.key, s, None, None, &format!("cannot be fused: {e}"))),
+            Err(e) => problems.push(ctx.sphere_failure(
+                &ip.key,
+                s,
+                None,
+                None,
+                &format!("cannot be fused: {e}"),
+            )),
         }
     }
     let rows = rows_for(&ip.key, ctx.spheres, &sight.cams, &centres);

@@ -68,7 +68,11 @@ impl ResidualGate {
     /// The gate of a campaign whose instants have these residuals (px);
     /// `None` without any finite residual.
     pub fn from_residuals(residuals: &[f64]) -> Option<Self> {
-        let mut r: Vec<f64> = residuals.iter().copied().filter(|v| v.is_finite()).collect();
+        let mut r: Vec<f64> = residuals
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .collect();
         if r.is_empty() {
             return None;
         }
