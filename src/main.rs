@@ -39,7 +39,7 @@ enum Command {
 }
 
 /// Exit status for command-line usage errors (as clap uses).
-const USAGE_ERROR: u8 = 2;
+const USAGE_ERROR: u8 = cmd::Usage::EXIT_STATUS;
 
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
@@ -80,6 +80,13 @@ fn main() -> ExitCode {
         Err(err) if err.downcast_ref::<cmd::Finished>().is_some() => {
             eprintln!("trinocular: finished with problems: {err}");
             ExitCode::from(cmd::Finished::EXIT_STATUS)
+        }
+        Err(err) if cmd::Usage::is(&err) => {
+            eprintln!(
+                "trinocular: error: {} (see 'trinocular --help')",
+                one_line(&err)
+            );
+            ExitCode::from(USAGE_ERROR)
         }
         Err(err) => {
             eprintln!("trinocular: error: {}", one_line(&err));

@@ -213,7 +213,9 @@ pub fn run(args: &Args) -> Result<()> {
         cmd::calibrate::run,
     )?;
     let points = path(&out.join("points.csv"));
-    step::<cmd::measure::Args>(
+    // A measurement that finished with problems (instants lacking a sphere,
+    // say) is evaluated all the same; the demo then ends with its status.
+    let measured = step::<cmd::measure::Args>(
         "3/4 measure every instant",
         "measure",
         vec![
@@ -228,7 +230,17 @@ pub fn run(args: &Args) -> Result<()> {
             "--force".into(),
         ],
         cmd::measure::run,
-    )?;
+    );
+    let unmeasured = match measured {
+        Err(e) if e.downcast_ref::<cmd::Finished>().is_some() => {
+            eprintln!("trinocular: note: {e:#}");
+            Some(e)
+        }
+        other => {
+            other?;
+            None
+        }
+    };
     let report_dir = out.join("report");
     step::<cmd::evaluate::Args>(
         "4/4 evaluate (ISO 230-2, straightness, flatness, angular)",
@@ -275,5 +287,5 @@ pub fn run(args: &Args) -> Result<()> {
         start.elapsed().as_secs_f64(),
         report_dir.join("report.html").display()
     );
-    Ok(())
+    unmeasured.map_or(Ok(()), Err)
 }

@@ -8,6 +8,8 @@ use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use synth::{Config, Overrides};
 
+use crate::cmd::OrUsage;
+
 /// Arguments of `trinocular synth`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -80,12 +82,16 @@ fn load(args: &ConfigArgs, overrides: Overrides) -> Result<Config> {
         Some(path) => Config::from_file(path)?,
         None => Config::default(),
     };
-    config.apply(&Overrides {
-        width: args.width,
-        height: args.height,
-        seed: args.seed,
-        ..overrides
-    })?;
+    // The file's configuration is valid (from_file checks it): what the
+    // overrides break is a usage error.
+    config
+        .apply(&Overrides {
+            width: args.width,
+            height: args.height,
+            seed: args.seed,
+            ..overrides
+        })
+        .or_usage()?;
     Ok(config)
 }
 

@@ -20,6 +20,8 @@ use probe::rotary::report::Report;
 use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
 use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
 
+use crate::cmd::{OrUsage, Usage};
+
 /// Arguments of `trinocular probe rotary`.
 #[derive(Debug, clap::Args)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["centres", "points"])))]
@@ -37,7 +39,7 @@ pub struct Args {
     out: PathBuf,
     /// Also write rotary_at.csv: the errors at these angles (degrees, any value; linear between
     /// the two nearest measured angles, wrapping at 360°).
-    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "DEG")]
+    #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "DEG", value_parser = crate::cmd::args::finite)]
     at: Vec<f64>,
     /// Replace output files that already exist.
     #[arg(long)]
@@ -195,7 +197,7 @@ pub fn run(args: &Args) -> Result<()> {
     let (path, points) = match (&args.centres, &args.points) {
         (Some(c), None) => (c, false),
         (None, Some(p)) => (p, true),
-        _ => bail!("give exactly one of --centres and --points"),
+        _ => return Err(Usage::error("give exactly one of --centres and --points")),
     };
     let input = if points {
         read_points(path)?
@@ -217,7 +219,7 @@ pub fn run(args: &Args) -> Result<()> {
         .iter()
         .map(|a| solution.at(*a))
         .collect::<probe::Result<_>>()
-        .map_err(|e| anyhow!("--at: {e}"))?;
+        .map_err(|e| Usage::error(format!("--at: {e}")))?;
     let source = path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
@@ -291,7 +293,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         return Ok(());
     }
     let Some(out) = &args.out else {
-        bail!("--out is required");
+        return Err(Usage::error("--out is required"));
     };
     let mut config = match &args.config {
         Some(path) => RotaryConfig::from_file(path)?,
@@ -307,7 +309,9 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         config.noise_um = n;
         config.probe_noise_um = n;
     }
-    config.validate()?;
+    // The file's configuration is valid (from_file checks it): what the
+    // options break is a usage error.
+    config.validate().or_usage()?;
     let data = synth::probe::rotary::generate(&config)?;
     let inputs: Vec<&Path> = args.config.iter().map(PathBuf::as_path).collect();
     let files = outputs(

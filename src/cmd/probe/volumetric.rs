@@ -20,6 +20,8 @@ use probe::volumetric::{
     measured_axes,
 };
 
+use crate::cmd::OrUsage;
+
 /// Arguments of `trinocular probe volumetric`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -156,7 +158,7 @@ fn check_output(path: &Path, inputs: &[PathBuf], force: bool) -> Result<()> {
 
 /// Run the method.
 pub fn run(args: &Args) -> Result<()> {
-    let chain = Chain::parse(&args.chain)?;
+    let chain = Chain::parse(&args.chain).or_usage()?;
     let mut inputs: Vec<PathBuf> = Vec::new();
     let mut curves: Vec<MeasuredAxis> = Vec::new();
     let mut sources = Vec::new();
@@ -452,6 +454,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         config.seed = s;
     }
     if let Some(c) = &args.chain {
+        Chain::parse(c).or_usage()?;
         config.chain = c.clone();
     }
     let data = synth::probe::volumetric::generate(&config)?;
