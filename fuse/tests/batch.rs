@@ -255,6 +255,10 @@ fn an_unusable_manifest_is_reported_in_full_before_any_work() {
     rows[10].nominal_x += 0.5; // a camera disagrees on the nominal position
     let dup = rows[20].clone();
     rows.push(dup); // the same image twice
+    // One file given for two frames (another camera of the same instant).
+    assert_ne!(rows[30].camera, rows[31].camera);
+    rows[31].image = rows[30].image.clone();
+    let twice = format!("line 33: image {}", d.join(&rows[30].image).display());
     write_csv(&d.join("manifest.csv"), &rows).unwrap();
     let err = run(d, "points.csv", &|_, _| {}).unwrap_err();
     let FuseError::Campaign { problems, .. } = &err else {
@@ -265,6 +269,10 @@ fn an_unusable_manifest_is_reported_in_full_before_any_work() {
     assert!(text.contains("has no image of camera"), "{text}");
     assert!(text.contains("disagree on the nominal position"), "{text}");
     assert!(text.contains("already has an image"), "{text}");
+    assert!(
+        text.contains(&twice) && text.contains("one file cannot be two frames"),
+        "{text}"
+    );
     assert!(!d.join("points.csv").exists() && !d.join("points.csv.partial").exists());
 
     // A row that breaks the manifest's contract is named by line and column.
