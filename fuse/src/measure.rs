@@ -654,42 +654,56 @@ fn load_partial(path: &Path, spheres: usize) -> Result<Vec<PointRow>> {
         .collect())
 }
 
-/// The instants whose residual (the largest of their spheres') the gate
-/// refuses, with the problem row of each.
-fn implausible(rows: &[PointRow], gate: &ResidualGate) -> BTreeMap<InstantKey, Failure> {
-    let mut worst: BTreeMap<InstantKey, (f64, &str)> = BTreeMap::new();
+/// Each instant's residual — the largest of its spheres', with that sphere
+/// and the cameras — in instant order.
+fn instant_residuals(rows: &[PointRow]) -> BTreeMap<InstantKey, (f64, &str, &str)> {
+    let mut worst: BTreeMap<InstantKey, (f64, &str, &str)> = BTreeMap::new();
     for r in rows {
-        let w = worst.entry(r.instant()).or_insert((f64::NEG_INFINITY, ""));
+        let w = worst
+            .entry(r.instant())
+            .or_insert((f64::NEG_INFINITY, "", ""));
         if !(r.residual_px <= w.0) {
-            *w = (r.residual_px, r.sphere.as_str());
+            *w = (r.residual_px, r.sphere.as_str(), r.cameras.as_str());
         }
     }
     worst
-        .into_iter()
-        .filter(|(_, (residual, _))| !gate.admits(*residual))
-        .map(|(key, (residual, sphere))| {
-            let cameras = rows
-                .iter()
-                .find(|r| r.instant() == key)
-                .map_or("", |r| r.cameras.as_str());
-            let reason = format!(
-                "implausible: reprojection residual {residual:.4} px (sphere {sphere}, cameras {cameras}) \
-                 above the {}: images of another instant or camera?",
-                gate.describe()
-            );
-            (key, InstantProblemRow::new(&key, None, None, reason))
-        })
-        .collect()
 }
 
-/// Largest residual of each instant of `rows`.
-fn instant_residuals(rows: &[PointRow]) -> Vec<f64> {
-    let mut worst: BTreeMap<InstantKey, f64> = BTreeMap::new();
-    for r in rows {
-        let w = worst.entry(r.instant()).or_insert(f64::NEG_INFINITY);
-        *w = w.max(r.residual_px);
+/// The instants the gate refuses, with the problem row of each: residuals
+/// above the campaign's limit and above the limit of their commanded
+/// position (the other instants of the same axis at the same nominal
+/// coordinates), or above the ceiling.
+fn implausible(
+    residuals: &BTreeMap<InstantKey, (f64, &str, &str)>,
+    gate: &ResidualGate,
+) -> BTreeMap<InstantKey, Failure> {
+    let mut at_position: BTreeMap<(formats::Axis, [u64; 3]), Vec<(InstantKey, f64)>> =
+        BTreeMap::new();
+    for (key, (r, ..)) in residuals {
+        at_position
+            .entry((key.axis, key.nominal_bits))
+            .or_default()
+            .push((*key, *r));
     }
-    worst.into_values().collect()
+    let mut refused = BTreeMap::new();
+    for (key, (residual, sphere, cameras)) in residuals {
+        let others: Vec<f64> = at_position[&(key.axis, key.nominal_bits)]
+            .iter()
+            .filter(|(k, _)| k != key)
+            .map(|(_, r)| *r)
+            .collect();
+        let limit = gate.limit_at(&others);
+        if *residual <= limit.limit_px {
+            continue;
+        }
+        let reason = format!(
+            "implausible: reprojection residual {residual:.4} px (sphere {sphere}, cameras {cameras}) \
+             above the {}: images of another instant or camera?",
+            gate.explain(&limit)
+        );
+        refused.insert(*key, InstantProblemRow::new(key, None, None, reason));
+    }
+    refused
 }
 
 /// Measure a campaign into `out` (`points.csv`); `force` replaces an existing
@@ -792,8 +806,12 @@ pub fn measure(
     // the same residuals whether or not the run was interrupted.
     let mut rows = read_partial(&partial)?;
     rows.retain(|r| index_of.contains_key(&r.instant()));
-    let gate = ResidualGate::from_residuals(&instant_residuals(&rows));
-    let refused = gate.map(|g| implausible(&rows, &g)).unwrap_or_default();
+    let residuals = instant_residuals(&rows);
+    let all: Vec<f64> = residuals.values().map(|r| r.0).collect();
+    let gate = ResidualGate::from_residuals(&all);
+    let refused = gate
+        .map(|g| implausible(&residuals, &g))
+        .unwrap_or_default();
     rows.retain(|r| !refused.contains_key(&r.instant()));
     let implausible_count = refused.len();
     problems.extend(refused.into_iter().map(|(key, p)| (index_of[&key], p)));

@@ -126,7 +126,7 @@ pub fn run(args: &Args) -> Result<()> {
     let failed = summary.instants - summary.measured;
     let refused = if summary.implausible > 0 {
         format!(
-            " ({} of them implausible: {})",
+            " ({} of them implausible against the campaign's residuals, {})",
             summary.implausible,
             summary.gate.map(|g| g.describe()).unwrap_or_default()
         )
