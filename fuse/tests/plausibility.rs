@@ -51,10 +51,12 @@ fn damage(dir: &Path) -> BTreeSet<InstantKey> {
     let (a, b) = (row_of(&rows, &keys[9], 2), row_of(&rows, &keys[9], 3));
     std::fs::copy(dir.join(&rows[b].image), dir.join("copy_of_cam3.tif")).unwrap();
     rows[a].image = "copy_of_cam3.tif".into();
-    // X (second line), camera 3's image of the next target of the run.
+    // X (second line), a copy of camera 3's image of the next target of the
+    // run (the file itself twice is refused before any work, see batch.rs).
     assert_ne!(keys[13].target, keys[14].target);
     let (a, b) = (row_of(&rows, &keys[13], 3), row_of(&rows, &keys[14], 3));
-    rows[a].image = rows[b].image.clone();
+    std::fs::copy(dir.join(&rows[b].image), dir.join("next_target_cam3.tif")).unwrap();
+    rows[a].image = "next_target_cam3.tif".into();
     // Y, cameras 1 and 3 swapped.
     let (a, b) = (row_of(&rows, &keys[29], 1), row_of(&rows, &keys[29], 3));
     let swapped = rows[a].image.clone();
