@@ -40,7 +40,7 @@ enum Command {
 }
 
 /// Exit status for command-line usage errors (as clap uses).
-const USAGE_ERROR: u8 = 2;
+const USAGE_ERROR: u8 = cmd::Usage::EXIT_STATUS;
 
 /// Every flag and argument that takes a value accepts a negative number as
 /// that value (`--width -512` is then reported as an invalid width, not as an
@@ -104,6 +104,13 @@ fn main() -> ExitCode {
         Err(err) if err.downcast_ref::<cmd::Finished>().is_some() => {
             eprintln!("trinocular: finished with problems: {err}");
             ExitCode::from(cmd::Finished::EXIT_STATUS)
+        }
+        Err(err) if cmd::Usage::is(&err) => {
+            eprintln!(
+                "trinocular: error: {} (see 'trinocular --help')",
+                one_line(&err)
+            );
+            ExitCode::from(USAGE_ERROR)
         }
         Err(err) => {
             eprintln!("trinocular: error: {}", one_line(&err));

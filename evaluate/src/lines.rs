@@ -332,7 +332,9 @@ pub(crate) fn evaluate_line(
         );
     }
 
-    // Angular errors from every sphere present at every target.
+    // Angular errors from every sphere present at every target, over the
+    // instants at which all of them were measured (an instant lacking a
+    // sphere would otherwise shift that sphere's mean against the others').
     let mut warnings = Vec::new();
     let complete: Vec<&String> = all_spheres
         .iter()
@@ -342,22 +344,33 @@ pub(crate) fn evaluate_line(
         })
         .collect();
     let angular = if complete.len() >= 3 {
-        match angular_report(axis, &complete, &data, &targets, &commanded) {
-            Ok(a) => {
-                if a.lever_mm < angular::MIN_LEVER_MM {
-                    warnings.push(format!(
-                        "{what}: spheres {} are nearly in a line (smallest lever {:.2} mm): the rotation about it is \
-                         poorly determined, ≈ {:.0} µrad per µm of position error",
-                        a.spheres.join(", "),
-                        a.lever_mm,
-                        1e3 / a.lever_mm.max(1e-6)
-                    ));
-                }
-                Some(a)
-            }
-            Err(e) => {
-                warnings.push(format!("{what}: angular errors left out: {e}"));
+        match common_means(line, &complete, &targets) {
+            Err(target) => {
+                warnings.push(format!(
+                    "{what}: angular errors left out: no instant of target {target} has all of spheres {}",
+                    complete.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                ));
                 None
+            }
+            Ok(means_at) => {
+                match angular_report(axis, &complete, &means_at, &targets, &commanded) {
+                    Ok(a) => {
+                        if a.lever_mm < angular::MIN_LEVER_MM {
+                            warnings.push(format!(
+                            "{what}: spheres {} are nearly in a line (smallest lever {:.2} mm): the rotation about it is \
+                             poorly determined, ≈ {:.0} µrad per µm of position error",
+                            a.spheres.join(", "),
+                            a.lever_mm,
+                            1e3 / a.lever_mm.max(1e-6)
+                        ));
+                        }
+                        Some(a)
+                    }
+                    Err(e) => {
+                        warnings.push(format!("{what}: angular errors left out: {e}"));
+                        None
+                    }
+                }
             }
         }
     } else {
@@ -459,24 +472,64 @@ fn check_runs(
     Ok(())
 }
 
-/// Roll, pitch and yaw per target from the rigid motion of `spheres`.
+/// Per target, the mean position of each of `spheres` (in that order) over
+/// the instants of the line at which every one of them was measured — the
+/// captures of an approach averaged first, as for positioning. `Err(target)`
+/// names a target without such an instant.
+fn common_means(
+    line: &Line<'_>,
+    spheres: &[&String],
+    targets: &[u32],
+) -> std::result::Result<BTreeMap<u32, Vec<Point3<f64>>>, u32> {
+    type Instant = (u32, Direction, u32, u32);
+    let instant =
+        |r: &Located<'_>| -> Instant { (r.row.target, r.row.direction, r.row.run, r.row.capture) };
+    let mut present: BTreeMap<Instant, Vec<&str>> = BTreeMap::new();
+    for r in &line.rows {
+        present
+            .entry(instant(r))
+            .or_default()
+            .push(r.row.sphere.as_str());
+    }
+    let complete = |i: &Instant| {
+        present
+            .get(i)
+            .is_some_and(|have| spheres.iter().all(|s| have.contains(&s.as_str())))
+    };
+    let mut out = BTreeMap::new();
+    for &t in targets {
+        let mut at = Vec::with_capacity(spheres.len());
+        for s in spheres {
+            let mut runs: BTreeMap<(Direction, u32), Approach> = BTreeMap::new();
+            for r in line
+                .rows
+                .iter()
+                .filter(|r| r.row.target == t && r.row.sphere == **s && complete(&instant(r)))
+            {
+                runs.entry((r.row.direction, r.row.run))
+                    .or_default()
+                    .push((r.line, Point3::from(r.row.position())));
+            }
+            if runs.is_empty() {
+                return Err(t);
+            }
+            at.push(target_mean(&runs));
+        }
+        out.insert(t, at);
+    }
+    Ok(out)
+}
+
+/// Roll, pitch and yaw per target from the rigid motion of `spheres`, whose
+/// mean positions per target `means_at` holds (in the order of `spheres`).
 fn angular_report(
     axis: Axis,
     spheres: &[&String],
-    data: &BTreeMap<&str, SphereData>,
+    means_at: &BTreeMap<u32, Vec<Point3<f64>>>,
     targets: &[u32],
     commanded: &[f64],
 ) -> geom::Result<AngularReport> {
-    let at = |t: u32| -> Vec<Point3<f64>> {
-        spheres
-            .iter()
-            .filter_map(|s| {
-                data.get(s.as_str())
-                    .and_then(|d| d.get(&t))
-                    .map(target_mean)
-            })
-            .collect()
-    };
+    let at = |t: u32| -> Vec<Point3<f64>> { means_at.get(&t).cloned().unwrap_or_default() };
     let first = at(targets[0]);
     let (lever_mm, _) = angular::lever(&first);
     let mut rows = Vec::with_capacity(targets.len());

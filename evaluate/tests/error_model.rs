@@ -564,3 +564,101 @@ fn two_spheres_give_no_angular_errors() {
     let e = evaluate(&rows, &options).unwrap_err().to_string();
     assert!(e.contains("'Q'") && e.contains("A, B"), "{e}");
 }
+
+#[test]
+fn instants_lacking_a_sphere_are_evaluated_from_the_others() {
+    // `measure` leaves a sphere out of an instant when a camera does not see
+    // it whole; positioning rests on sphere A, angular errors on the instants
+    // that have all three.
+    let lines = campaign();
+    let all = rows(&lines);
+    let at = |r: &formats::PointRow,
+              off: f64,
+              target: u32,
+              direction: Direction,
+              run: u32,
+              capture: Option<u32>| {
+        r.nominal_y == off
+            && r.axis == Axis::X
+            && r.target == target
+            && r.direction == direction
+            && r.run == run
+            && capture.is_none_or(|c| r.capture == c)
+    };
+    let lacking: Vec<formats::PointRow> = all
+        .iter()
+        .filter(|r| {
+            // Middle X line: B missing in a whole ↑ approach at target 3, C at
+            // one capture of target 5 and B at one capture of the first target
+            // (the angular datum).
+            !(r.sphere == "B" && at(r, 0.0, 3, Direction::Up, 2, None)
+                || r.sphere == "C" && at(r, 0.0, 5, Direction::Down, 1, Some(2))
+                || r.sphere == "B" && at(r, 0.0, 0, Direction::Up, 4, Some(1))
+                // Line y = −20: A missing in a whole ↓ approach at target 2.
+                || r.sphere == "A" && at(r, -20.0, 2, Direction::Down, 3, None))
+        })
+        .cloned()
+        .collect();
+    assert_eq!(all.len() - lacking.len(), 3 + 1 + 1 + 3);
+    let report = evaluate(&lacking, &Options::default()).unwrap();
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    let x = report.axes.x.as_ref().unwrap();
+    // The middle line keeps every figure of the model, the angular ones exact
+    // because they come from the instants with all three spheres.
+    check_line(
+        "X line 1 lacking B and C at some instants",
+        &lines[1],
+        &x.lines[1],
+    );
+    check_line("Y line", &lines[3], &report.axes.y.as_ref().unwrap().main);
+    // Without A at an approach, that approach is not in the positioning: the
+    // figures are those of the line without the instant at all, and the
+    // angular errors still the model's.
+    let without: Vec<formats::PointRow> = all
+        .iter()
+        .filter(|r| !at(r, -20.0, 2, Direction::Down, 3, None))
+        .cloned()
+        .collect();
+    let reference = evaluate(&without, &Options::default()).unwrap();
+    let line0 = &x.lines[0];
+    assert_eq!(
+        line0.positioning,
+        reference.axes.x.as_ref().unwrap().lines[0].positioning
+    );
+    assert_eq!(line0.positioning.targets[2].runs_down_um.len(), 2);
+    let ang = line0.angular.as_ref().unwrap();
+    for (row, w) in ang.targets.iter().zip(&lines[0].omega) {
+        close("X line 0 roll", row.roll_urad, w.x * 1e6, URAD);
+        close("X line 0 pitch", row.pitch_urad, w.y * 1e6, URAD);
+        close("X line 0 yaw", row.yaw_urad, w.z * 1e6, URAD);
+    }
+
+    // A sphere missing at every instant of a target: no angular errors for
+    // that line (with the reason), the rest as before.
+    let gone: Vec<formats::PointRow> = all
+        .iter()
+        .filter(|r| !(r.sphere == "C" && r.axis == Axis::Y && r.target == 8))
+        .cloned()
+        .collect();
+    let report = evaluate(&gone, &Options::default()).unwrap();
+    let y = &report.axes.y.as_ref().unwrap().main;
+    assert!(y.angular.is_none());
+    assert!(
+        report
+            .warnings
+            .iter()
+            .any(|w| w.contains("axis Y") && w.contains("sphere(s) C missing")),
+        "{:?}",
+        report.warnings
+    );
+    assert_eq!(
+        y.positioning,
+        evaluate(&all, &Options::default())
+            .unwrap()
+            .axes
+            .y
+            .unwrap()
+            .main
+            .positioning
+    );
+}

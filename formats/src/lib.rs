@@ -41,7 +41,7 @@ pub use campaign::{
 pub use error::{FormatError, Result};
 pub use json::{read_json, write_json};
 pub use lock::OutputLock;
-pub use measure::{InstantProblemRow, PoseRow};
+pub use measure::{InstantProblemRow, Missing, PoseRow};
 pub use output::{OutputPlan, Stage};
 pub use points::PointRow;
 pub use rig::{

@@ -1,5 +1,5 @@
-//! Files written by `trinocular measure` beside `points.csv`: the instants
-//! that could not be measured (`problems.csv`) and the table pose per instant
+//! Files written by `trinocular measure` beside `points.csv`: what could not
+//! be measured and why (`problems.csv`) and the table pose per instant
 //! (`poses.csv`).
 
 use serde::{Deserialize, Serialize};
@@ -7,7 +7,20 @@ use serde::{Deserialize, Serialize};
 use crate::campaign::{Axis, Direction, InstantKey};
 use crate::table::{Invalid, Record, finite};
 
-/// An instant that could not be measured, and why.
+/// What a problem leaves out of `measure`'s outputs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Missing {
+    /// The whole instant: no row in `points.csv`, no pose.
+    Instant,
+    /// One sphere's row of `points.csv` (the instant's other spheres are
+    /// there), and so the instant's pose.
+    Sphere,
+    /// The instant's pose only (every sphere is in `points.csv`).
+    Pose,
+}
+
+/// Something of an instant that could not be measured, and why.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct InstantProblemRow {
     /// Axis moved.
@@ -26,6 +39,10 @@ pub struct InstantProblemRow {
     pub nominal_y: f64,
     /// Commanded z (mm).
     pub nominal_z: f64,
+    /// What is missing from the outputs because of this problem.
+    pub missing: Missing,
+    /// The sphere concerned, when the problem is one sphere's.
+    pub sphere: Option<String>,
     /// Camera at fault, when one is.
     pub camera: Option<u8>,
     /// Image at fault, when one is.
@@ -35,9 +52,21 @@ pub struct InstantProblemRow {
 }
 
 impl InstantProblemRow {
-    /// A problem with an instant.
+    /// An instant that could not be measured at all.
     pub fn new(
         key: &InstantKey,
+        camera: Option<u8>,
+        image: Option<String>,
+        reason: String,
+    ) -> Self {
+        Self::of(key, Missing::Instant, None, camera, image, reason)
+    }
+
+    /// A problem that leaves `missing` out of the outputs (`sphere` when it is one sphere's).
+    pub fn of(
+        key: &InstantKey,
+        missing: Missing,
+        sphere: Option<String>,
         camera: Option<u8>,
         image: Option<String>,
         reason: String,
@@ -52,16 +81,37 @@ impl InstantProblemRow {
             nominal_x: x,
             nominal_y: y,
             nominal_z: z,
+            missing,
+            sphere,
             camera,
             image,
             reason,
         }
     }
+
+    /// The instant this row belongs to.
+    pub fn instant(&self) -> InstantKey {
+        InstantKey {
+            axis: self.axis,
+            direction: self.direction,
+            run: self.run,
+            target: self.target,
+            capture: self.capture,
+            nominal_bits: [self.nominal_x, self.nominal_y, self.nominal_z].map(f64::to_bits),
+        }
+    }
 }
 
 impl Record for InstantProblemRow {
-    const COLUMNS: &'static [&'static str] =
-        &["axis", "direction", "run", "target", "capture", "reason"];
+    const COLUMNS: &'static [&'static str] = &[
+        "axis",
+        "direction",
+        "run",
+        "target",
+        "capture",
+        "missing",
+        "reason",
+    ];
 
     fn validate(&self) -> Result<(), Invalid> {
         Ok(())

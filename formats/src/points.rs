@@ -34,7 +34,10 @@ pub struct PointRow {
     pub z: f64,
     /// Cameras used, like `2+3`.
     pub cameras: String,
-    /// RMS reprojection residual (px).
+    /// RMS reprojection residual (px): the RMS distance, in ideal pixels,
+    /// between the sphere's image centre in each camera and the image its
+    /// least-squares centre projects to — how well the cameras' images agree
+    /// (0 in the renderer's exact points).
     pub residual_px: f64,
 }
 

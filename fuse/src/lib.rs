@@ -17,9 +17,11 @@ pub mod matching;
 pub mod measure;
 pub mod observe;
 pub mod plan;
+pub mod plausibility;
 pub mod pose;
 pub mod triangulate;
 
 pub use error::{FuseError, Result};
 pub use measure::{Fusion, Inputs, MeasureOptions, Summary, measure};
 pub use plan::RigModel;
+pub use plausibility::ResidualGate;

@@ -8,9 +8,13 @@
 //! when its implied distances agree within half the smallest log-ratio of two
 //! sphere diameters and lie within the distances the campaign's travel allows
 //! (the working distance ± half the largest commanded extent + 50 mm);
-//! extra blobs (reflections, stray light) are left unassigned; a sphere with
-//! no consistent blob is missing, and two near-equally good assignments make
-//! the frame ambiguous. Never a guess.
+//! extra blobs (reflections, stray light) are left unassigned.
+//!
+//! When no blob fits a sphere (clipped by the image border, out of view) the
+//! largest set of spheres that still fits — at least two, so that their
+//! implied distances check each other — is assigned and the rest is missing.
+//! A sphere is assigned only when every assignment about as good as the best
+//! gives it the same blob; otherwise it is ambiguous. Never a guess.
 
 use crate::observe::Candidate;
 
@@ -18,13 +22,19 @@ use crate::observe::Candidate;
 const MAX_SPREAD: f64 = 0.2;
 /// At most this many candidates enter the exhaustive search (the largest first).
 const MAX_CANDIDATES: usize = 12;
+/// Fewest spheres of a partial assignment: one blob alone would be identified
+/// by the distance window only; two or more also check each other's implied
+/// distances.
+const MIN_PARTIAL: usize = 2;
 
-/// Why a frame's blobs could not be matched.
-#[derive(Debug, Clone, PartialEq)]
-pub enum MatchFailure {
-    /// These spheres (indices) have no consistent blob.
-    Missing(Vec<usize>),
-    /// More than one assignment fits about equally well.
+/// What one frame says about one sphere.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SphereMatch {
+    /// The candidate (index into the frame's candidates) that images the sphere.
+    Found(usize),
+    /// No blob consistent with the other spheres images it.
+    Missing,
+    /// Blobs fit it in more than one way about equally well.
     Ambiguous,
 }
 
@@ -109,17 +119,47 @@ fn consistent(
     s.found
 }
 
-/// Assign one candidate to each sphere. `candidates` are the frame's usable
-/// blobs, `diameters` the spheres' (mm), `focal_px` the camera's focal length,
+/// The `k`-element subsets of `0..n`, in lexicographic order.
+fn subsets(n: usize, k: usize) -> Vec<Vec<usize>> {
+    fn extend(n: usize, k: usize, from: usize, cur: &mut Vec<usize>, out: &mut Vec<Vec<usize>>) {
+        if cur.len() == k {
+            out.push(cur.clone());
+            return;
+        }
+        for i in from..n {
+            if n - i < k - cur.len() {
+                break;
+            }
+            cur.push(i);
+            extend(n, k, i + 1, cur, out);
+            cur.pop();
+        }
+    }
+    let mut out = Vec::new();
+    extend(n, k, 0, &mut Vec::with_capacity(k), &mut out);
+    out
+}
+
+/// Assign candidates to spheres. `candidates` are the frame's blobs,
+/// `diameters` the spheres' (mm), `focal_px` the camera's focal length,
 /// `distances` (mm) the range of distances from the camera at which the
-/// spheres can be. Returns, per sphere, the index into `candidates`.
+/// spheres can be. Returns, per sphere, the candidate that images it, or why
+/// none does.
+///
+/// The largest set of spheres with a consistent assignment is used (all of
+/// them when possible, else at least [`MIN_PARTIAL`]); every assignment of a
+/// set of that size within half the tolerance of the best one is a rival,
+/// and a sphere is found only when all rivals give it the same blob.
 pub fn assign(
     candidates: &[Candidate],
     diameters: &[f64],
     focal_px: f64,
     distances: (f64, f64),
-) -> Result<Vec<usize>, MatchFailure> {
-    let tol = spread_tolerance(diameters).ok_or(MatchFailure::Ambiguous)?;
+) -> Vec<SphereMatch> {
+    let n = diameters.len();
+    let Some(tol) = spread_tolerance(diameters) else {
+        return vec![SphereMatch::Ambiguous; n];
+    };
     let (lo, hi) = (distances.0.max(f64::MIN_POSITIVE).ln(), distances.1.ln());
     // Usable candidates, largest first, at most MAX_CANDIDATES.
     let mut usable: Vec<usize> = (0..candidates.len())
@@ -143,45 +183,40 @@ pub fn assign(
                 .collect()
         })
         .collect();
-    let all: Vec<usize> = (0..diameters.len()).collect();
-    let found = consistent(&logs, tol, &all, usable.len());
-    match found.as_slice() {
-        [] => {
-            // Name the missing sphere: the one whose removal leaves the most
-            // consistent assignment, when clearly more consistent than any
-            // other removal; else every sphere whose removal leaves one.
-            let mut drops: Vec<(f64, usize)> = (0..diameters.len())
-                .filter_map(|drop| {
-                    let rest: Vec<usize> = all.iter().copied().filter(|&s| s != drop).collect();
-                    if rest.is_empty() {
-                        return None;
-                    }
-                    consistent(&logs, tol, &rest, usable.len())
-                        .first()
-                        .map(|(spread, _)| (*spread, drop))
-                })
-                .collect();
-            drops.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let missing = match drops.as_slice() {
-                [] => all,
-                [(_, only)] => vec![*only],
-                [(best, one), (second, _), ..] if second - best >= 0.5 * tol => vec![*one],
-                _ => {
-                    let mut m: Vec<usize> = drops.iter().map(|(_, d)| *d).collect();
-                    m.sort_unstable();
-                    m
+    for size in (MIN_PARTIAL.min(n).max(1)..=n).rev() {
+        // Every consistent assignment of every set of `size` spheres:
+        // (spread, sphere → usable candidate).
+        let mut rivals: Vec<(f64, Vec<Option<usize>>)> = Vec::new();
+        for set in subsets(n, size) {
+            for (spread, pick) in consistent(&logs, tol, &set, usable.len()) {
+                let mut of_sphere = vec![None; n];
+                for (&s, &c) in set.iter().zip(&pick) {
+                    of_sphere[s] = Some(usable[c]);
                 }
-            };
-            Err(MatchFailure::Missing(missing))
+                rivals.push((spread, of_sphere));
+            }
         }
-        // Another assignment within half the tolerance of the best one: ambiguous.
-        [(best, _), (second, _), ..] if second - best < 0.5 * tol => Err(MatchFailure::Ambiguous),
-        [(_, pick), ..] => Ok(pick.iter().map(|&c| usable[c]).collect()),
+        let Some(best) = rivals.iter().map(|r| r.0).min_by(f64::total_cmp) else {
+            continue;
+        };
+        rivals.retain(|r| r.0 - best < 0.5 * tol);
+        return (0..n)
+            .map(|s| {
+                let first = rivals.first().and_then(|r| r.1[s]);
+                if rivals.iter().any(|r| r.1[s] != first) {
+                    SphereMatch::Ambiguous
+                } else {
+                    first.map_or(SphereMatch::Missing, SphereMatch::Found)
+                }
+            })
+            .collect();
     }
+    vec![SphereMatch::Missing; n]
 }
 
 #[cfg(test)]
 mod tests {
+    use super::SphereMatch::{Ambiguous, Found, Missing};
     use super::*;
     use geom::Point2;
 
@@ -213,7 +248,10 @@ mod tests {
             cand(px(15.0, 440.0)),
             cand(3000.0),
         ];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), Ok(vec![2, 3, 0]));
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(2), Found(3), Found(0)]
+        );
     }
 
     #[test]
@@ -224,20 +262,32 @@ mod tests {
             cand(px(15.0, 392.0)),
             cand(px(10.0, 380.0)),
         ];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), Ok(vec![0, 1, 2]));
-    }
-
-    #[test]
-    fn missing_sphere_is_named() {
-        let c = vec![cand(px(20.0, 460.0)), cand(px(10.0, 462.0))];
         assert_eq!(
             assign(&c, &DIAMETERS, F, D0),
-            Err(MatchFailure::Missing(vec![1]))
+            vec![Found(0), Found(1), Found(2)]
         );
     }
 
     #[test]
-    fn twin_of_a_sphere_is_ambiguous() {
+    fn a_missing_sphere_leaves_the_others_found() {
+        let c = vec![cand(px(20.0, 460.0)), cand(px(10.0, 462.0))];
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(0), Missing, Found(1)]
+        );
+    }
+
+    #[test]
+    fn one_blob_alone_is_not_identified() {
+        // Sphere A's blob alone: nothing checks its implied distance.
+        let c = vec![cand(px(20.0, 460.0))];
+        assert_eq!(assign(&c, &DIAMETERS, F, D0), vec![Missing; 3]);
+        // A single sphere set has nothing to check against: its blob is used.
+        assert_eq!(assign(&c, &[20.0], F, D0), vec![Found(0)]);
+    }
+
+    #[test]
+    fn twin_of_a_sphere_is_ambiguous_and_the_others_found() {
         // A reflection the size of sphere B next to B itself.
         let c = vec![
             cand(px(20.0, 460.0)),
@@ -245,7 +295,22 @@ mod tests {
             cand(px(15.0, 459.0)),
             cand(px(10.0, 460.0)),
         ];
-        assert_eq!(assign(&c, &DIAMETERS, F, D0), Err(MatchFailure::Ambiguous));
+        assert_eq!(
+            assign(&c, &DIAMETERS, F, D0),
+            vec![Found(0), Ambiguous, Found(3)]
+        );
+    }
+
+    #[test]
+    fn two_equally_good_partial_sets_are_ambiguous() {
+        // Two blobs whose size ratio √2 lies halfway between A:B (4/3) and
+        // B:C (3/2): A + B at ≈ 470 mm and B + C at ≈ 335 mm fit equally well
+        // (both inside a wide window), so which sphere is missing is
+        // undecided and nothing is assigned.
+        let a = px(20.0, 460.0);
+        let c = vec![cand(a), cand(a / 2f64.sqrt())];
+        let wide = (300.0, 700.0);
+        assert_eq!(assign(&c, &DIAMETERS, F, wide), vec![Ambiguous; 3]);
     }
 
     #[test]
@@ -255,7 +320,7 @@ mod tests {
         let c = vec![cand(px(20.0, 460.0)), cand(px(15.0, 480.0))];
         assert_eq!(
             assign(&c, &DIAMETERS, F, D0),
-            Err(MatchFailure::Missing(vec![2]))
+            vec![Found(0), Found(1), Missing]
         );
     }
 
@@ -266,13 +331,33 @@ mod tests {
         let c = vec![cand(px(20.0, 460.0)), b, cand(px(10.0, 460.0))];
         assert_eq!(
             assign(&c, &DIAMETERS, F, D0),
-            Err(MatchFailure::Missing(vec![1]))
+            vec![Found(0), Missing, Found(2)]
         );
+    }
+
+    #[test]
+    fn subsets_are_every_combination_once() {
+        assert_eq!(
+            subsets(4, 2),
+            vec![
+                vec![0, 1],
+                vec![0, 2],
+                vec![0, 3],
+                vec![1, 2],
+                vec![1, 3],
+                vec![2, 3]
+            ]
+        );
+        assert_eq!(subsets(3, 3), vec![vec![0, 1, 2]]);
     }
 
     #[test]
     fn equal_diameters_cannot_be_matched() {
         assert_eq!(spread_tolerance(&[10.0, 10.0]), None);
+        assert_eq!(
+            assign(&[cand(40.0)], &[10.0, 10.0], F, D0),
+            vec![Ambiguous; 2]
+        );
         assert!(
             (spread_tolerance(&DIAMETERS).unwrap() - 0.5 * (20.0f64 / 15.0).ln()).abs() < 1e-12
         );

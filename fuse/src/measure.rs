@@ -1,14 +1,25 @@
 //! The `measure` batch: every instant of a campaign → sphere centres in
-//! `points.csv`, bad instants → `problems.csv`, table poses → `poses.csv`.
+//! `points.csv`, what could not be measured → `problems.csv`, table poses →
+//! `poses.csv`.
 //!
 //! The manifest is checked in full before work starts ([`crate::plan`]).
 //! Instants are measured in parallel, a chunk at a time, and their rows are
 //! appended to `points.csv.partial` after each chunk (all rows of an instant
 //! in one write), with a fingerprint of the inputs and options beside it. An
-//! interrupted run started again with the same inputs resumes: finished
-//! instants are kept (a torn last instant is dropped and redone), the rest is
-//! measured. At the end the rows are sorted into manifest order and every
-//! output is written atomically; the partial files are removed.
+//! interrupted run started again with the same inputs resumes: instants with
+//! every sphere are kept, the rest (failed, lacking a sphere, or torn by the
+//! interruption) is measured again. At the end every instant's residual is
+//! checked against the campaign's own scatter ([`crate::plausibility`]) —
+//! over the rows of the partial file, so a resumed run draws the same line —
+//! the rows are sorted into manifest order and every output is written
+//! atomically; the partial files are removed.
+//!
+//! An instant's outcome is one of: every sphere in `points.csv` and its pose
+//! in `poses.csv`; some spheres in `points.csv` (a sphere clipped by the
+//! image border or out of a camera's view), a `problems.csv` row per missing
+//! sphere and camera, no pose; or no rows and one `problems.csv` row (a frame
+//! that cannot be read, no sphere seen by every camera, an implausible
+//! residual).
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
@@ -17,15 +28,17 @@ use std::sync::Mutex;
 
 use extract::{Backend, ExtractParams, FrameReader};
 use formats::{
-    InstantKey, InstantProblemRow, LineKey, OutputPlan, PointRow, SphereRow, read_csv_from,
+    InstantKey, InstantProblemRow, LineKey, Missing, OutputPlan, PointRow, SphereRow,
+    read_csv_from,
 };
 use geom::{Point2, Point3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::matching::{MatchFailure, assign};
-use crate::observe::candidates;
+use crate::matching::{SphereMatch, assign};
+use crate::observe::{Candidate, candidates};
 use crate::plan::{InstantPlan, RigModel, plan};
+use crate::plausibility::ResidualGate;
 use crate::pose::poses;
 use crate::triangulate::{View, seed_displacement, triangulate};
 use crate::{FuseError, Result};
@@ -87,11 +100,19 @@ pub struct Inputs<'a> {
 pub struct Summary {
     /// Instants in the campaign.
     pub instants: usize,
-    /// Instants with sphere centres in `points.csv`.
+    /// Instants with sphere centres in `points.csv` (all spheres or some).
     pub measured: usize,
-    /// Of those, instants kept from an interrupted earlier run.
+    /// Of those, instants lacking a sphere (and so their pose).
+    pub partial: usize,
+    /// Instants with every sphere but without a pose.
+    pub without_pose: usize,
+    /// Instants with complete rows kept from an interrupted earlier run.
     pub resumed: usize,
-    /// Instants in `problems.csv`.
+    /// Instants refused as implausible (counted in `instants − measured`).
+    pub implausible: usize,
+    /// The residual limit the instants were held to; `None` when none was measured.
+    pub gate: Option<ResidualGate>,
+    /// Rows of `problems.csv`.
     pub problems: usize,
     /// `points.csv`.
     pub points: PathBuf,
@@ -140,8 +161,19 @@ fn fingerprint(inputs: &Inputs<'_>, options: &MeasureOptions) -> Result<Fingerpr
     })
 }
 
-/// Per sphere, the ideal-pixel image centre seen by each camera used.
-type Observations = Vec<BTreeMap<u8, Point2<f64>>>;
+/// Ideal-pixel image centre of one sphere seen by each camera used.
+type Seen = BTreeMap<u8, Point2<f64>>;
+
+/// What the cameras of an instant saw: the cameras used, and per sphere its
+/// image centres when every camera found it, else a row per camera that did not.
+struct Sight {
+    cams: Vec<u8>,
+    spheres: Vec<std::result::Result<Seen, Vec<Failure>>>,
+}
+
+/// A sphere's reference for the seed's fusion: its image centres and
+/// triangulated centre at the first instant of the line that measured it.
+type SphereReference = std::result::Result<(Seen, Point3<f64>), String>;
 
 /// Shared, read-only state of a run.
 struct Context<'a> {
@@ -156,8 +188,28 @@ struct Context<'a> {
     readers: Mutex<Vec<FrameReader>>,
 }
 
-/// Why an instant failed: a row for problems.csv.
+/// A row for problems.csv.
 type Failure = InstantProblemRow;
+
+/// Why a frame's blobs were rejected as sphere images, for messages:
+/// `; rejected: touches the image border (1)`.
+fn rejections(cands: &[Candidate]) -> String {
+    let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+    for c in cands {
+        if let Some(r) = c.rejected {
+            *counts.entry(r).or_default() += 1;
+        }
+    }
+    if counts.is_empty() {
+        return String::new();
+    }
+    let list: Vec<String> = counts.iter().map(|(r, n)| format!("{r} ({n})")).collect();
+    format!("; rejected: {}", list.join(", "))
+}
+
+fn plural(n: usize, word: &str) -> String {
+    format!("{n} {word}{}", if n == 1 { "" } else { "s" })
+}
 
 impl Context<'_> {
     fn failure(
@@ -174,12 +226,34 @@ impl Context<'_> {
         )
     }
 
-    /// Extract and match one camera's image: the ideal-pixel centre of each sphere.
+    /// A row for a sphere of the instant that camera `camera` did not find.
+    fn sphere_failure(
+        &self,
+        key: &InstantKey,
+        sphere: usize,
+        camera: Option<u8>,
+        image: Option<&Path>,
+        reason: &str,
+    ) -> Failure {
+        let name = &self.spheres[sphere].name;
+        InstantProblemRow::of(
+            key,
+            Missing::Sphere,
+            Some(name.clone()),
+            camera,
+            image.map(|p| p.display().to_string()),
+            format!("sphere {name} {reason}"),
+        )
+    }
+
+    /// Extract and match one camera's image: per sphere its ideal-pixel
+    /// centre, or the row saying why the image does not show it. A frame
+    /// that cannot be used at all fails the whole instant.
     fn observe(
         &self,
         ip: &InstantPlan,
         camera: u8,
-    ) -> std::result::Result<Vec<Point2<f64>>, Failure> {
+    ) -> std::result::Result<Vec<std::result::Result<Point2<f64>, Failure>>, Failure> {
         let key = &ip.key;
         let path = ip.images.get(&camera).ok_or_else(|| {
             Self::failure(
@@ -217,28 +291,37 @@ impl Context<'_> {
             );
             let wd = self.rig.working_distance(camera).unwrap_or(1.0);
             let range = ((wd - self.reach_mm).max(0.1 * wd), wd + self.reach_mm);
-            match assign(&cands, &self.diameters, cam.intrinsics.fx, range) {
-                Ok(pick) => Ok(pick.iter().map(|&c| cands[c].ideal_px).collect()),
-                Err(MatchFailure::Missing(m)) => {
-                    let names: Vec<&str> =
-                        m.iter().map(|&i| self.spheres[i].name.as_str()).collect();
-                    Err(fail(format!(
-                        "sphere{} {} not found among {} blob{}{}",
-                        if names.len() == 1 { "" } else { "s" },
-                        names.join(", "),
-                        extraction.blobs.len(),
-                        if extraction.blobs.len() == 1 { "" } else { "s" },
-                        extraction
-                            .saturation_note(frame.max_value())
-                            .map(|n| format!(" ({n})"))
-                            .unwrap_or_default()
-                    )))
-                }
-                Err(MatchFailure::Ambiguous) => Err(fail(format!(
-                    "ambiguous: {} blobs fit the sphere diameters in more than one way",
-                    extraction.blobs.len()
-                ))),
-            }
+            let blobs = plural(extraction.blobs.len(), "blob");
+            Ok(assign(&cands, &self.diameters, cam.intrinsics.fx, range)
+                .into_iter()
+                .enumerate()
+                .map(|(s, m)| match m {
+                    SphereMatch::Found(c) => Ok(cands[c].ideal_px),
+                    SphereMatch::Missing => Err(self.sphere_failure(
+                        key,
+                        s,
+                        Some(camera),
+                        Some(path),
+                        &format!(
+                            "not found among {blobs}{}{}",
+                            rejections(&cands),
+                            extraction
+                                .saturation_note(frame.max_value())
+                                .map(|n| format!(" ({n})"))
+                                .unwrap_or_default()
+                        ),
+                    )),
+                    SphereMatch::Ambiguous => Err(self.sphere_failure(
+                        key,
+                        s,
+                        Some(camera),
+                        Some(path),
+                        &format!(
+                            "ambiguous: {blobs} fit the sphere diameters in more than one way"
+                        ),
+                    )),
+                })
+                .collect())
         })();
         if let Ok(mut r) = self.readers.lock() {
             r.push(reader);
@@ -246,20 +329,25 @@ impl Context<'_> {
         result
     }
 
-    /// Observations of all spheres by the cameras used for this instant.
-    fn observe_instant(
-        &self,
-        ip: &InstantPlan,
-    ) -> std::result::Result<(Vec<u8>, Observations), Failure> {
+    /// What the cameras used for this instant see of every sphere.
+    fn observe_instant(&self, ip: &InstantPlan) -> std::result::Result<Sight, Failure> {
         let cams = self.rig.cameras_for(ip.key.axis, self.options.all_cameras);
-        let mut obs: Observations = vec![BTreeMap::new(); self.spheres.len()];
+        let mut spheres: Vec<std::result::Result<Seen, Vec<Failure>>> =
+            vec![Ok(BTreeMap::new()); self.spheres.len()];
         for &c in &cams {
             let seen = self.observe(ip, c)?;
-            for (s, p) in seen.into_iter().enumerate() {
-                obs[s].insert(c, p);
+            for (sphere, outcome) in spheres.iter_mut().zip(seen) {
+                match (sphere, outcome) {
+                    (Ok(views), Ok(p)) => {
+                        views.insert(c, p);
+                    }
+                    (sphere @ Ok(_), Err(f)) => *sphere = Err(vec![f]),
+                    (Err(misses), Err(f)) => misses.push(f),
+                    (Err(_), Ok(_)) => {}
+                }
             }
         }
-        Ok((cams, obs))
+        Ok(Sight { cams, spheres })
     }
 
     fn radius(&self, sphere: usize) -> f64 {
@@ -281,27 +369,39 @@ impl Context<'_> {
             .collect()
     }
 
-    /// Triangulated centres and residuals of every sphere.
-    fn triangulate_all(
+    /// Triangulated centre and residual of one sphere.
+    fn triangulate_one(
         &self,
-        key: &InstantKey,
-        obs: &Observations,
-    ) -> std::result::Result<Vec<(Point3<f64>, f64)>, Failure> {
-        obs.iter()
-            .enumerate()
-            .map(|(s, o)| {
-                triangulate(&self.views(o), self.radius(s))
-                    .map(|t| (t.point, t.residual_px))
-                    .map_err(|e| {
-                        Self::failure(
-                            key,
-                            None,
-                            None,
-                            format!("sphere {}: {e}", self.spheres[s].name),
-                        )
-                    })
-            })
-            .collect()
+        sphere: usize,
+        seen: &Seen,
+    ) -> std::result::Result<(Point3<f64>, f64), String> {
+        triangulate(&self.views(seen), self.radius(sphere))
+            .map(|t| (t.point, t.residual_px))
+            .map_err(|e| e.to_string())
+    }
+
+    /// The seed's fusion of one sphere against its reference: the reference
+    /// centre plus the pixel-scale displacement. The residual is, as for
+    /// triangulation, the RMS reprojection residual of this instant's images
+    /// at their least-squares centre: how well the images agree, whatever the
+    /// seed's model makes of them.
+    fn seed_one(
+        &self,
+        sphere: usize,
+        seen: &Seen,
+        reference: &SphereReference,
+    ) -> std::result::Result<(Point3<f64>, f64), String> {
+        let (seen0, p0) = reference.as_ref().map_err(Clone::clone)?;
+        let r0 = self.debiased(sphere, seen0, p0);
+        let r1 = self.debiased(sphere, seen, p0);
+        let depths: Vec<f64> = r0
+            .keys()
+            .filter_map(|c| self.rig.cameras.get(c).map(|cam| cam.to_camera(p0).z))
+            .collect();
+        let (d, _) = seed_displacement(&self.views(&r0), &self.views(&r1), &depths)
+            .map_err(|e| e.to_string())?;
+        let (_, residual) = self.triangulate_one(sphere, seen)?;
+        Ok((p0 + d, residual))
     }
 
     /// Image centres with the perspective bias removed for a sphere at `point`
@@ -327,25 +427,19 @@ impl Context<'_> {
     }
 }
 
-/// The reference of a line for the seed's fusion: its first instant's
-/// observations and triangulated centres.
-struct Reference {
-    observations: Observations,
-    points: Vec<(Point3<f64>, f64)>,
-}
-
 fn rows_for(
     key: &InstantKey,
     spheres: &[SphereRow],
     cams: &[u8],
-    centres: &[(Point3<f64>, f64)],
+    centres: &[Option<(Point3<f64>, f64)>],
 ) -> Vec<PointRow> {
     let [nx, ny, nz] = key.nominal();
     let cameras = cams.iter().map(u8::to_string).collect::<Vec<_>>().join("+");
     spheres
         .iter()
         .zip(centres)
-        .map(|(s, (p, res))| PointRow {
+        .filter_map(|(s, c)| c.map(|(p, res)| (s, p, res)))
+        .map(|(s, p, res)| PointRow {
             axis: key.axis,
             direction: key.direction,
             run: key.run,
@@ -359,63 +453,173 @@ fn rows_for(
             y: p.y,
             z: p.z,
             cameras: cameras.clone(),
-            residual_px: *res,
+            residual_px: res,
         })
         .collect()
+}
+
+/// One problem row for an instant none of whose spheres could be measured,
+/// from the rows of its spheres: the spheres that share a camera and a
+/// reason are named together (`spheres A, B not found among 1 blob`).
+fn whole_instant(key: &InstantKey, misses: Vec<Failure>) -> Failure {
+    let mut groups: Vec<(Option<u8>, Option<String>, String, Vec<String>)> = Vec::new();
+    for m in misses {
+        let name = m.sphere.unwrap_or_default();
+        let tail = m
+            .reason
+            .strip_prefix(&format!("sphere {name} "))
+            .unwrap_or(&m.reason)
+            .to_string();
+        match groups
+            .iter_mut()
+            .find(|g| g.0 == m.camera && g.1 == m.image && g.2 == tail)
+        {
+            Some(g) => g.3.push(name),
+            None => groups.push((m.camera, m.image, tail, vec![name])),
+        }
+    }
+    let one_camera = groups
+        .windows(2)
+        .all(|w| w[0].0 == w[1].0 && w[0].1 == w[1].1);
+    let text: Vec<String> = groups
+        .iter()
+        .map(|(camera, _, tail, names)| {
+            let spheres = format!(
+                "sphere{} {}",
+                if names.len() == 1 { "" } else { "s" },
+                names.join(", ")
+            );
+            match camera {
+                Some(c) if !one_camera => format!("camera {c}: {spheres} {tail}"),
+                _ => format!("{spheres} {tail}"),
+            }
+        })
+        .collect();
+    let (camera, image) = match groups.first() {
+        Some((c, i, ..)) if one_camera => (*c, i.clone()),
+        _ => (None, None),
+    };
+    InstantProblemRow::new(key, camera, image, text.join("; "))
+}
+
+/// What measuring one instant gave: its rows and its problems.
+struct Outcome {
+    rows: Vec<PointRow>,
+    problems: Vec<Failure>,
 }
 
 fn measure_one(
     ctx: &Context<'_>,
     ip: &InstantPlan,
-    references: &HashMap<LineKey, std::result::Result<Reference, String>>,
-) -> std::result::Result<Vec<PointRow>, Failure> {
-    let (cams, obs) = ctx.observe_instant(ip)?;
-    let centres = match ctx.options.fusion {
-        Fusion::Triangulate => ctx.triangulate_all(&ip.key, &obs)?,
-        Fusion::Seed => {
-            let reference = match references.get(&ip.line) {
-                Some(Ok(r)) => r,
-                Some(Err(reason)) => {
-                    return Err(Context::failure(
-                        &ip.key,
-                        None,
-                        None,
-                        format!("the first instant of the line could not be measured: {reason}"),
-                    ));
-                }
-                None => {
-                    return Err(Context::failure(
-                        &ip.key,
-                        None,
-                        None,
-                        "no reference instant for the line",
-                    ));
-                }
+    references: &HashMap<LineKey, Vec<SphereReference>>,
+) -> Outcome {
+    let sight = match ctx.observe_instant(ip) {
+        Ok(s) => s,
+        Err(f) => {
+            return Outcome {
+                rows: Vec::new(),
+                problems: vec![f],
             };
-            let mut out = Vec::with_capacity(obs.len());
-            for (s, o) in obs.iter().enumerate() {
-                let (p0, _) = reference.points[s];
-                let r0 = ctx.debiased(s, &reference.observations[s], &p0);
-                let r1 = ctx.debiased(s, o, &p0);
-                let depths: Vec<f64> = r0
-                    .keys()
-                    .filter_map(|c| ctx.rig.cameras.get(c).map(|cam| cam.to_camera(&p0).z))
-                    .collect();
-                let (d, res) = seed_displacement(&ctx.views(&r0), &ctx.views(&r1), &depths)
-                    .map_err(|e| {
-                        Context::failure(
-                            &ip.key,
-                            None,
-                            None,
-                            format!("sphere {}: {e}", ctx.spheres[s].name),
-                        )
-                    })?;
-                out.push((p0 + d, res));
-            }
-            out
         }
     };
-    Ok(rows_for(&ip.key, ctx.spheres, &cams, &centres))
+    let mut problems = Vec::new();
+    let mut centres = vec![None; ctx.spheres.len()];
+    for (s, seen) in sight.spheres.into_iter().enumerate() {
+        let seen = match seen {
+            Ok(seen) => seen,
+            Err(misses) => {
+                problems.extend(misses);
+                continue;
+            }
+        };
+        let centre = match ctx.options.fusion {
+            Fusion::Triangulate => ctx.triangulate_one(s, &seen),
+            Fusion::Seed => match references.get(&ip.line).and_then(|r| r.get(s)) {
+                Some(reference) => ctx.seed_one(s, &seen, reference),
+                None => Err("no reference instant for the line".into()),
+            },
+        };
+        match centre {
+            Ok(c) => centres[s] = Some(c),
+            Err(e) => problems.push(ctx.sphere_failure(
+                &ip.key,
+                s,
+                None,
+                None,
+                &format!("cannot be fused: {e}"),
+            )),
+        }
+    }
+    let rows = rows_for(&ip.key, ctx.spheres, &sight.cams, &centres);
+    if rows.is_empty() {
+        problems = vec![whole_instant(&ip.key, problems)];
+    }
+    Outcome { rows, problems }
+}
+
+/// References of the seed's fusion: per line and sphere, the first instant
+/// of the line (manifest order) at which the sphere was measured.
+fn seed_references(
+    ctx: &Context<'_>,
+    plans: &[InstantPlan],
+) -> HashMap<LineKey, Vec<SphereReference>> {
+    let mut lines: BTreeMap<LineKey, Vec<&InstantPlan>> = BTreeMap::new();
+    for p in plans {
+        lines.entry(p.line).or_default().push(p);
+    }
+    lines
+        .into_par_iter()
+        .map(|(line, instants)| {
+            let n = ctx.spheres.len();
+            let mut found: Vec<Option<(Seen, Point3<f64>)>> = vec![None; n];
+            let mut first_failure: Option<String> = None;
+            for ip in instants {
+                if found.iter().all(Option::is_some) {
+                    break;
+                }
+                let sight = match ctx.observe_instant(ip) {
+                    Ok(s) => s,
+                    Err(f) => {
+                        first_failure.get_or_insert(f.reason);
+                        continue;
+                    }
+                };
+                for (s, seen) in sight.spheres.into_iter().enumerate() {
+                    if found[s].is_some() {
+                        continue;
+                    }
+                    match seen.map_err(|m| m.into_iter().map(|f| f.reason).collect::<Vec<_>>().join("; ")) {
+                        Ok(seen) => match ctx.triangulate_one(s, &seen) {
+                            Ok((p, _)) => found[s] = Some((seen, p)),
+                            Err(e) => {
+                                first_failure.get_or_insert(e);
+                            }
+                        },
+                        Err(e) => {
+                            first_failure.get_or_insert(e);
+                        }
+                    }
+                }
+            }
+            let refs = found
+                .into_iter()
+                .enumerate()
+                .map(|(s, f)| {
+                    f.ok_or_else(|| {
+                        format!(
+                            "no instant of the line measured sphere {}, which the seed's fusion needs as its reference{}",
+                            ctx.spheres[s].name,
+                            first_failure
+                                .as_deref()
+                                .map(|r| format!(" (first problem: {r})"))
+                                .unwrap_or_default()
+                        )
+                    })
+                })
+                .collect();
+            (line, refs)
+        })
+        .collect()
 }
 
 /// Largest extent of the commanded positions along any axis (mm).
@@ -433,21 +637,80 @@ fn extent(plans: &[InstantPlan]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Rows of complete instants in a partial output (a torn tail is dropped).
-fn load_partial(path: &Path, spheres: usize) -> Result<Vec<PointRow>> {
+/// Every row of a partial output (a torn last line is dropped).
+fn read_partial(path: &Path) -> Result<Vec<PointRow>> {
     let bytes = std::fs::read(path).map_err(|e| formats::FormatError::io(path, e))?;
     let end = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
     let rows = read_csv_from::<PointRow, _>(&bytes[..end], path).map_err(FuseError::Format)?;
+    Ok(rows.into_iter().map(|r| r.record).collect())
+}
+
+/// Rows of the instants of a partial output that have every sphere: those
+/// a resumed run keeps. An instant with fewer rows — torn by the
+/// interruption, or lacking a sphere, whose problems are not in the partial
+/// output — is measured again.
+fn load_partial(path: &Path, spheres: usize) -> Result<Vec<PointRow>> {
+    let rows = read_partial(path)?;
     let mut count: BTreeMap<InstantKey, usize> = BTreeMap::new();
-    let key = PointRow::instant;
     for r in &rows {
-        *count.entry(key(&r.record)).or_default() += 1;
+        *count.entry(r.instant()).or_default() += 1;
     }
     Ok(rows
         .into_iter()
-        .map(|r| r.record)
-        .filter(|p| count[&key(p)] == spheres)
+        .filter(|p| count[&p.instant()] == spheres)
         .collect())
+}
+
+/// Each instant's residual — the largest of its spheres', with that sphere
+/// and the cameras — in instant order.
+fn instant_residuals(rows: &[PointRow]) -> BTreeMap<InstantKey, (f64, &str, &str)> {
+    let mut worst: BTreeMap<InstantKey, (f64, &str, &str)> = BTreeMap::new();
+    for r in rows {
+        let w = worst
+            .entry(r.instant())
+            .or_insert((f64::NEG_INFINITY, "", ""));
+        if !(r.residual_px <= w.0) {
+            *w = (r.residual_px, r.sphere.as_str(), r.cameras.as_str());
+        }
+    }
+    worst
+}
+
+/// The instants the gate refuses, with the problem row of each: residuals
+/// above the campaign's limit and above the limit of their commanded
+/// position (the other instants of the same axis at the same nominal
+/// coordinates), or above the ceiling.
+fn implausible(
+    residuals: &BTreeMap<InstantKey, (f64, &str, &str)>,
+    gate: &ResidualGate,
+) -> BTreeMap<InstantKey, Failure> {
+    let mut at_position: BTreeMap<(formats::Axis, [u64; 3]), Vec<(InstantKey, f64)>> =
+        BTreeMap::new();
+    for (key, (r, ..)) in residuals {
+        at_position
+            .entry((key.axis, key.nominal_bits))
+            .or_default()
+            .push((*key, *r));
+    }
+    let mut refused = BTreeMap::new();
+    for (key, (residual, sphere, cameras)) in residuals {
+        let others: Vec<f64> = at_position[&(key.axis, key.nominal_bits)]
+            .iter()
+            .filter(|(k, _)| k != key)
+            .map(|(_, r)| *r)
+            .collect();
+        let limit = gate.limit_at(&others);
+        if *residual <= limit.limit_px {
+            continue;
+        }
+        let reason = format!(
+            "implausible: reprojection residual {residual:.4} px (sphere {sphere}, cameras {cameras}) \
+             above the {}: images of another instant or camera?",
+            gate.explain(&limit)
+        );
+        refused.insert(*key, InstantProblemRow::new(key, None, None, reason));
+    }
+    refused
 }
 
 /// Measure a campaign into `out` (`points.csv`), with `poses.csv` and
@@ -519,31 +782,11 @@ pub fn measure(
     };
     let todo: Vec<&InstantPlan> = plans.iter().filter(|p| !done.contains(&p.key)).collect();
 
-    // References of the seed's fusion: the first instant of each line.
-    let mut references: HashMap<LineKey, std::result::Result<Reference, String>> = HashMap::new();
-    if options.fusion == Fusion::Seed {
-        let mut firsts: BTreeMap<LineKey, &InstantPlan> = BTreeMap::new();
-        for p in &plans {
-            firsts.entry(p.line).or_insert(p);
-        }
-        let computed: Vec<(LineKey, std::result::Result<Reference, String>)> = firsts
-            .into_par_iter()
-            .map(|(line, ip)| {
-                let r = ctx
-                    .observe_instant(ip)
-                    .and_then(|(_, observations)| {
-                        ctx.triangulate_all(&ip.key, &observations)
-                            .map(|points| Reference {
-                                observations,
-                                points,
-                            })
-                    })
-                    .map_err(|f| f.reason);
-                (line, r)
-            })
-            .collect();
-        references.extend(computed);
-    }
+    let references = if options.fusion == Fusion::Seed {
+        seed_references(&ctx, &plans)
+    } else {
+        HashMap::new()
+    };
 
     let total = plans.len() as u64;
     progress(resumed as u64, total);
@@ -554,7 +797,7 @@ pub fn measure(
     let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
     let mut finished = resumed as u64;
     for chunk in todo.chunks(CHUNK_INSTANTS) {
-        let results: Vec<std::result::Result<Vec<PointRow>, Failure>> = chunk
+        let results: Vec<Outcome> = chunk
             .par_iter()
             .map(|ip| measure_one(&ctx, ip, &references))
             .collect();
@@ -563,16 +806,12 @@ pub fn measure(
             let mut w = csv::WriterBuilder::new()
                 .has_headers(false)
                 .from_writer(&mut bytes);
-            for (ip, r) in chunk.iter().zip(results) {
-                match r {
-                    Ok(rows) => {
-                        for row in rows {
-                            w.serialize(row)
-                                .map_err(|e| formats::FormatError::file(&partial, e.to_string()))?;
-                        }
-                    }
-                    Err(problem) => problems.push((ip.index, problem)),
+            for (ip, outcome) in chunk.iter().zip(results) {
+                for row in outcome.rows {
+                    w.serialize(row)
+                        .map_err(|e| formats::FormatError::file(&partial, e.to_string()))?;
                 }
+                problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
             }
             w.flush()
                 .map_err(|e| formats::FormatError::io(&partial, e))?;
@@ -586,8 +825,21 @@ pub fn measure(
     }
     drop(appender);
 
+    // Every row of this run and the resumed one, as written: the gate sees
+    // the same residuals whether or not the run was interrupted.
+    let mut rows = read_partial(&partial)?;
+    rows.retain(|r| index_of.contains_key(&r.instant()));
+    let residuals = instant_residuals(&rows);
+    let all: Vec<f64> = residuals.values().map(|r| r.0).collect();
+    let gate = ResidualGate::from_residuals(&all);
+    let refused = gate
+        .map(|g| implausible(&residuals, &g))
+        .unwrap_or_default();
+    rows.retain(|r| !refused.contains_key(&r.instant()));
+    let implausible_count = refused.len();
+    problems.extend(refused.into_iter().map(|(key, p)| (index_of[&key], p)));
+
     // Final outputs, in manifest order, atomically.
-    let mut rows = load_partial(&partial, inputs.spheres.len())?;
     let sphere_rank: HashMap<&str, usize> = inputs
         .spheres
         .iter()
@@ -607,7 +859,16 @@ pub fn measure(
     rows.sort_by_key(rank);
     output.write_records(out, &rows)?;
     let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
-    output.write_records(&poses_path, &poses(&rows, &names))?;
+    let fitted = poses(&rows, &names);
+    output.write_records(&poses_path, &fitted.rows)?;
+    let without_pose = fitted.failed.len();
+    problems.extend(fitted.failed.into_iter().map(|(key, reason)| {
+        (
+            index_of[&key],
+            InstantProblemRow::of(&key, Missing::Pose, None, None, None, reason),
+        )
+    }));
+    // Manifest order; within an instant, as found (a stable sort).
     problems.sort_by_key(|(i, _)| *i);
     let problems_file = if problems.is_empty() {
         // One left by the interrupted run this one resumed, or replaced with --force.
@@ -621,10 +882,21 @@ pub fn measure(
     for f in [&partial, &sidecar] {
         std::fs::remove_file(f).map_err(|e| formats::FormatError::io(f, e))?;
     }
+    let mut per_instant: HashMap<InstantKey, usize> = HashMap::new();
+    for r in &rows {
+        *per_instant.entry(r.instant()).or_default() += 1;
+    }
     Ok(Summary {
         instants: plans.len(),
-        measured: rows.len() / inputs.spheres.len().max(1),
+        measured: per_instant.len(),
+        partial: per_instant
+            .values()
+            .filter(|&&n| n < inputs.spheres.len())
+            .count(),
+        without_pose,
         resumed,
+        implausible: implausible_count,
+        gate,
         problems: problems.len(),
         points: out.to_path_buf(),
         problems_file,

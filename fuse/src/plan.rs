@@ -1,7 +1,8 @@
 //! The campaign as a list of instants, checked in full before any work starts:
 //! missing files, incomplete camera sets, cameras that disagree on an
-//! instant's nominal position, unknown cameras, duplicate rows, spheres that
-//! cannot be told apart — every problem is collected into one report.
+//! instant's nominal position, unknown cameras, duplicate rows, one image
+//! file given for two frames, spheres that cannot be told apart — every
+//! problem is collected into one report.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -164,6 +165,8 @@ pub fn plan(
     // Instant → camera → (line, image); and key-without-nominal groups for consistency.
     let mut order: Vec<InstantKey> = Vec::new();
     let mut images: BTreeMap<InstantKey, BTreeMap<u8, (u64, PathBuf)>> = BTreeMap::new();
+    // Each file is one frame: (line, camera, instant) of its first row.
+    let mut frames: BTreeMap<PathBuf, (u64, u8, InstantKey)> = BTreeMap::new();
     for r in &rows {
         let m = &r.record;
         if !rig.cameras.contains_key(&m.camera) {
@@ -182,6 +185,19 @@ pub fn plan(
             ));
         }
         let key = m.instant();
+        let file = std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone());
+        if let Some((line, camera, instant)) = frames.get(&file) {
+            if (*camera, *instant) != (m.camera, key) {
+                problems.push(format!(
+                    "line {}: image {} is also the image of camera {camera} for {} (line {line}): one file cannot be two frames",
+                    r.line,
+                    path.display(),
+                    describe(instant)
+                ));
+            }
+        } else {
+            frames.insert(file, (r.line, m.camera, key));
+        }
         let entry = images.entry(key).or_insert_with(|| {
             order.push(key);
             BTreeMap::new()

@@ -19,10 +19,26 @@ pub fn roll_pitch_yaw(axis: Axis, r: &geom::Vector3<f64>) -> [f64; 3] {
     }
 }
 
+/// The table's poses of a measurement, and the instants whose pose could not
+/// be fitted although all their spheres were measured.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Poses {
+    /// One row per instant with every sphere measured and a rigid fit.
+    pub rows: Vec<PoseRow>,
+    /// Instants with every sphere measured but no pose, and why.
+    pub failed: Vec<(InstantKey, String)>,
+}
+
 /// Poses of every instant with all `spheres` measured, relative to the first
 /// such instant of its line (rows in the order of `points`). Instants are
-/// identified by their key columns; lines by axis and off-axis nominal coordinates.
-pub fn poses(points: &[PointRow], spheres: &[String]) -> Vec<PoseRow> {
+/// identified by their key columns; lines by axis and off-axis nominal
+/// coordinates. An instant lacking a sphere has no pose and is not listed in
+/// [`Poses::failed`] (its missing sphere is its problem). A set of fewer
+/// than three spheres has no poses at all, and no failures.
+pub fn poses(points: &[PointRow], spheres: &[String]) -> Poses {
+    if spheres.len() < 3 {
+        return Poses::default();
+    }
     let mut order: Vec<InstantKey> = Vec::new();
     let mut centres: BTreeMap<InstantKey, BTreeMap<&str, Point3<f64>>> = BTreeMap::new();
     for p in points {
@@ -36,7 +52,7 @@ pub fn poses(points: &[PointRow], spheres: &[String]) -> Vec<PoseRow> {
             .insert(p.sphere.as_str(), Point3::from(p.position()));
     }
     let mut reference: BTreeMap<LineKey, Vec<Point3<f64>>> = BTreeMap::new();
-    let mut out = Vec::new();
+    let mut out = Poses::default();
     for k in order {
         let c = &centres[&k];
         let Some(now): Option<Vec<Point3<f64>>> =
@@ -45,8 +61,13 @@ pub fn poses(points: &[PointRow], spheres: &[String]) -> Vec<PoseRow> {
             continue;
         };
         let first = reference.entry(k.line()).or_insert_with(|| now.clone());
-        let Ok(motion) = rigid_fit(first, &now) else {
-            continue;
+        let motion = match rigid_fit(first, &now) {
+            Ok(m) => m,
+            Err(e) => {
+                out.failed
+                    .push((k, format!("no pose: rigid fit of the spheres: {e}")));
+                continue;
+            }
         };
         let r = quaternion_vector(&motion.rotation);
         let [roll, pitch, yaw] = roll_pitch_yaw(k.axis, &r);
@@ -59,7 +80,7 @@ pub fn poses(points: &[PointRow], spheres: &[String]) -> Vec<PoseRow> {
             .sqrt();
         let [nx, ny, nz] = k.nominal();
         let t = motion.translation.vector;
-        out.push(PoseRow {
+        out.rows.push(PoseRow {
             axis: k.axis,
             direction: k.direction,
             run: k.run,

@@ -30,7 +30,9 @@ pub struct View<'a> {
 pub struct Triangulated {
     /// Sphere centre, world frame (mm).
     pub point: Point3<f64>,
-    /// RMS reprojection residual over the views (px).
+    /// RMS reprojection residual over the views (px): `√(Σ|predicted −
+    /// observed|²/n)` in ideal pixels at the least-squares centre, how well
+    /// the views agree (the `residual_px` of `points.csv`).
     pub residual_px: f64,
 }
 
@@ -288,5 +290,26 @@ mod tests {
         // Pixel scale at the reference depth: the motion across the field is
         // recovered to the (small) perspective error of the seed's model.
         assert!((d.x - 30.0).abs() < 1e-3, "{d:?}");
+    }
+
+    #[test]
+    fn the_residual_is_the_rms_distance_of_the_reprojections() {
+        let cams = rig();
+        let x = Point3::new(10.0, 5.0, 40.0);
+        let mut v = views(&cams, &x, 10.0);
+        // Shift one view by (3, 4) px: the views disagree, and the residual is
+        // the RMS distance of the reprojected least-squares centre.
+        v[0].ideal_px += Vector2::new(3.0, 4.0);
+        let t = triangulate(&v, 10.0).unwrap();
+        let ss: f64 = v
+            .iter()
+            .map(|w| {
+                let (p, _) = predict(w.camera, &t.point, 10.0).unwrap();
+                (p - w.ideal_px.coords).norm_squared()
+            })
+            .sum();
+        assert!((t.residual_px - (ss / 3.0).sqrt()).abs() < 1e-12);
+        // Below the RMS at the true centre (√(25/3) px), and well above zero.
+        assert!(t.residual_px > 1.0 && t.residual_px < (25.0f64 / 3.0).sqrt());
     }
 }

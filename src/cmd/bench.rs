@@ -42,10 +42,10 @@ pub struct ExtractArgs {
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     backend: BackendChoice,
     /// Timed repetitions of each in-memory measurement.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 50, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     repeat: usize,
     /// Frames written for the folder measurement.
-    #[arg(long, default_value_t = 24)]
+    #[arg(long, default_value_t = 24, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     frames: usize,
     /// Folder for the frames (kept); default: a temporary folder, removed afterwards.
     #[arg(long)]

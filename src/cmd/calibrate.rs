@@ -31,7 +31,7 @@ use serde::Serialize;
 use serde_json::{Value, json};
 
 use crate::cmd::extract::ExtractOptions;
-use crate::cmd::values;
+use crate::cmd::{OrUsage, Usage, values};
 
 /// Distortion model (`--model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -225,6 +225,18 @@ fn illumination(
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
+    let options = Options {
+        model: match args.model {
+            ModelArg::Pinhole => Model::Pinhole,
+            ModelArg::K1k2 => Model::K1K2,
+            ModelArg::K1k2p1p2 => Model::K1K2P1P2,
+        },
+        k3: args.k3,
+        skew: args.skew,
+        outlier_k: (!args.keep_outliers).then_some(args.outlier_k),
+        ..Options::default()
+    };
+    options.validate().or_usage()?;
     let target: Vec<TargetRow> = read_target(&args.target)?
         .into_iter()
         .map(|r| r.record)
@@ -241,7 +253,7 @@ pub fn run(args: &Args) -> Result<()> {
         &args.images
     };
     if inputs.len() > cameras.len() || (!args.images.is_empty() && inputs.len() != cameras.len()) {
-        bail!(
+        return Err(Usage::error(format!(
             "{} has {} cameras but {} {} were given (one per camera, in camera order)",
             args.nominal.display(),
             cameras.len(),
@@ -251,18 +263,18 @@ pub fn run(args: &Args) -> Result<()> {
             } else {
                 "images"
             }
-        );
+        )));
     }
     for (flag, given) in [
         ("--flat-fields", &args.flat_fields),
         ("--dark-frames", &args.dark_frames),
     ] {
         if !given.is_empty() && given.len() != inputs.len() {
-            bail!(
+            return Err(Usage::error(format!(
                 "{flag}: {} files for {} cameras (one per camera, in camera order)",
                 given.len(),
                 inputs.len()
-            );
+            )));
         }
     }
     let spheres = match args.markers {
@@ -270,23 +282,11 @@ pub fn run(args: &Args) -> Result<()> {
         None => target.iter().all(|t| t.diameter.is_some()),
     };
     if spheres && target.iter().any(|t| t.diameter.is_none()) {
-        bail!(
+        return Err(Usage::error(format!(
             "{}: --markers sphere needs a diameter for every marker",
             args.target.display()
-        );
+        )));
     }
-    let options = Options {
-        model: match args.model {
-            ModelArg::Pinhole => Model::Pinhole,
-            ModelArg::K1k2 => Model::K1K2,
-            ModelArg::K1k2p1p2 => Model::K1K2P1P2,
-        },
-        k3: args.k3,
-        skew: args.skew,
-        outlier_k: (!args.keep_outliers).then_some(args.outlier_k),
-        ..Options::default()
-    };
-    options.validate()?;
     let sphere_set = match &args.spheres {
         Some(path) => read_spheres(path)?
             .into_iter()

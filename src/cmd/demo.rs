@@ -223,7 +223,9 @@ pub fn run(args: &Args) -> Result<()> {
         cmd::calibrate::run,
     )?;
     let points = path(&out.join("points.csv"));
-    step::<cmd::measure::Args>(
+    // A measurement that finished with problems (instants lacking a sphere,
+    // say) is evaluated all the same; the demo then ends with its status.
+    let measured = step::<cmd::measure::Args>(
         "3/4 measure every instant",
         "measure",
         vec![
@@ -238,7 +240,17 @@ pub fn run(args: &Args) -> Result<()> {
         ],
         args.force,
         cmd::measure::run,
-    )?;
+    );
+    let unmeasured = match measured {
+        Err(e) if e.downcast_ref::<cmd::Finished>().is_some() => {
+            eprintln!("trinocular: note: {e:#}");
+            Some(e)
+        }
+        other => {
+            other?;
+            None
+        }
+    };
     let report_dir = out.join("report");
     step::<cmd::evaluate::Args>(
         "4/4 evaluate (ISO 230-2, straightness, flatness, angular)",
@@ -286,5 +298,5 @@ pub fn run(args: &Args) -> Result<()> {
         start.elapsed().as_secs_f64(),
         report_dir.join("report.html").display()
     );
-    Ok(())
+    unmeasured.map_or(Ok(()), Err)
 }

@@ -7,6 +7,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
+use crate::cmd::Usage;
+
 /// Arguments of `trinocular evaluate`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -35,7 +37,11 @@ pub fn run(args: &Args) -> Result<()> {
         sphere: args.sphere.clone(),
         vdi3441: args.vdi3441,
     };
-    let report = evaluate::evaluate_file(&args.points, &options)?;
+    let report = evaluate::evaluate_file(&args.points, &options).map_err(|e| match e {
+        // --sphere naming a sphere the points do not have.
+        evaluate::EvaluateError::Option { .. } => Usage::error(e),
+        e => e.into(),
+    })?;
     let mut output = formats::OutputPlan::new(args.force);
     output.input(&args.points);
     let written = evaluate::write_outputs(&report, &args.out, &mut output)

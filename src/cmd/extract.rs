@@ -9,7 +9,7 @@ use extract::{Backend, Denoise, ExtractParams, Threshold, Weighting};
 use formats::{BlobRow, OutputPlan, ProblemRow};
 
 use crate::cmd::backend::{BackendChoice, select_backend};
-use crate::cmd::{Finished, progress, values};
+use crate::cmd::{Finished, OrUsage, progress};
 
 /// Centroid weighting.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -39,7 +39,7 @@ pub struct ExtractOptions {
     #[arg(long, default_value = "auto", value_parser = threshold_arg)]
     threshold: String,
     /// k of the automatic thresholds.
-    #[arg(long, default_value_t = extract::threshold::DEFAULT_K, value_parser = values::positive)]
+    #[arg(long, default_value_t = extract::threshold::DEFAULT_K, value_parser = crate::cmd::values::positive)]
     k: f64,
     /// Box size of the local background mesh (px).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(
@@ -52,7 +52,7 @@ pub struct ExtractOptions {
     #[arg(long, value_enum, default_value_t = DenoiseArg::None)]
     denoise: DenoiseArg,
     /// σ of the Gaussian denoising (px).
-    #[arg(long, default_value_t = 1.0, value_parser = values::positive_f32)]
+    #[arg(long, default_value_t = 1.0, value_parser = crate::cmd::values::positive_f32)]
     sigma: f32,
     /// Smallest blob kept (px).
     #[arg(long, default_value_t = extract::backend::DEFAULT_MIN_AREA)]
@@ -94,9 +94,13 @@ impl ExtractOptions {
                 k: self.k,
                 mesh: self.mesh,
             },
-            t => Threshold::Fixed(t.parse().with_context(|| {
-                format!("--threshold {t}: expected a level in DN, 'auto' or 'local'")
-            })?),
+            t => Threshold::Fixed(
+                t.parse()
+                    .with_context(|| {
+                        format!("--threshold {t}: expected a level in DN, 'auto' or 'local'")
+                    })
+                    .or_usage()?,
+            ),
         };
         let params = ExtractParams {
             threshold,
@@ -114,7 +118,7 @@ impl ExtractOptions {
             max_pixels: self.max_pixels,
             ..ExtractParams::default()
         };
-        params.validate()?;
+        params.validate().or_usage()?;
         Ok(params)
     }
 
@@ -267,6 +271,7 @@ pub fn run(args: &Args) -> Result<()> {
     let mut out = plan.create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);
     let mut problems: Vec<ProblemRow> = Vec::new();
+    let mut failed_frames = 0usize;
     let mut write_error: Option<anyhow::Error> = None;
     let bar = progress::bar(files.len() as u64, "extract");
     let sink = |_: usize, path: &Path, result: extract::Result<extract::FrameBlobs>| {
@@ -317,6 +322,7 @@ pub fn run(args: &Args) -> Result<()> {
                 }
             }
             Err(e) => {
+                failed_frames += 1;
                 bar.suspend(|| eprintln!("trinocular: warning: {e}"));
                 problems.push(ProblemRow {
                     item: name,
@@ -343,16 +349,43 @@ pub fn run(args: &Args) -> Result<()> {
         return Ok(());
     }
     plan.write_records(&problems_file, &problems)?;
-    let images: std::collections::BTreeSet<&str> = problems
+    if failed_frames == files.len() {
+        // Nothing usable is a failure, not a batch with a few bad items.
+        bail!(
+            "none of the {} images could be used; listed in {}",
+            files.len(),
+            problems_file.display()
+        );
+    }
+    let mut what = Vec::new();
+    if failed_frames > 0 {
+        what.push(format!(
+            "{failed_frames} of {} images could not be used",
+            files.len()
+        ));
+    }
+    let saturated = problems
         .iter()
-        .map(|p| p.item.split_once('#').map_or(p.item.as_str(), |(image, _)| image))
-        .collect();
+        .filter(|p| !p.item.contains('#'))
+        .count()
+        - failed_frames;
+    if saturated > 0 {
+        what.push(format!(
+            "{saturated} image{} with saturated blobs",
+            if saturated == 1 { "" } else { "s" }
+        ));
+    }
+    let uncorrected = problems.len() - failed_frames - saturated;
+    if uncorrected > 0 {
+        what.push(format!(
+            "{uncorrected} blob{} kept {} plain centroid",
+            if uncorrected == 1 { "" } else { "s" },
+            if uncorrected == 1 { "its" } else { "their" }
+        ));
+    }
     Err(Finished::with_problems(format!(
-        "{} problem{} in {} of {} images (listed in {})",
-        problems.len(),
-        if problems.len() == 1 { "" } else { "s" },
-        images.len(),
-        files.len(),
+        "{}; listed in {}",
+        what.join("; "),
         problems_file.display()
     )))
 }

@@ -105,9 +105,17 @@ pub fn run(args: &Args) -> Result<()> {
         );
     }
     eprintln!(
-        "measured {} of {} instants{} → {}",
+        "measured {} of {} instants{}{} → {}",
         summary.measured,
         summary.instants,
+        if summary.partial > 0 {
+            format!(
+                " ({} without a sphere and so without the table pose)",
+                summary.partial
+            )
+        } else {
+            String::new()
+        },
         if summary.resumed > 0 {
             format!(" ({} resumed from an interrupted run)", summary.resumed)
         } else {
@@ -115,13 +123,43 @@ pub fn run(args: &Args) -> Result<()> {
         },
         summary.points.display()
     );
-    match &summary.problems_file {
-        Some(p) => Err(Finished::with_problems(format!(
-            "{} of {} instants could not be measured (listed in {})",
-            summary.problems,
+    let Some(problems) = &summary.problems_file else {
+        return Ok(());
+    };
+    let failed = summary.instants - summary.measured;
+    let refused = if summary.implausible > 0 {
+        format!(
+            " ({} of them implausible against the campaign's residuals, {})",
+            summary.implausible,
+            summary.gate.map(|g| g.describe()).unwrap_or_default()
+        )
+    } else {
+        String::new()
+    };
+    if summary.measured == 0 {
+        // Nothing measured is a failure, not a batch with a few bad items.
+        anyhow::bail!(
+            "none of the {} instants could be measured{refused}; listed in {}",
             summary.instants,
-            p.display()
-        ))),
-        None => Ok(()),
+            problems.display()
+        );
     }
+    let mut what = Vec::new();
+    if failed > 0 {
+        what.push(format!(
+            "{failed} of {} instants could not be measured{refused}",
+            summary.instants
+        ));
+    }
+    if summary.partial > 0 {
+        what.push(format!("{} lack a sphere and their pose", summary.partial));
+    }
+    if summary.without_pose > 0 {
+        what.push(format!("{} lack their pose", summary.without_pose));
+    }
+    Err(Finished::with_problems(format!(
+        "{}; listed in {}",
+        what.join("; "),
+        problems.display()
+    )))
 }

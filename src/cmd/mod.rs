@@ -38,3 +38,49 @@ impl std::fmt::Display for Finished {
 }
 
 impl std::error::Error for Finished {}
+
+/// A command-line usage error found after parsing — an option's value out of
+/// its domain, options that do not fit together or do not fit the inputs
+/// they describe (three images for a two-camera rig): reported like clap's
+/// own usage errors, with exit status [`Usage::EXIT_STATUS`].
+#[derive(Debug)]
+pub struct Usage {
+    message: String,
+}
+
+impl Usage {
+    /// Exit status of a usage error (as clap uses).
+    pub const EXIT_STATUS: u8 = 2;
+
+    /// The error to return from `run`.
+    pub fn error(message: impl std::fmt::Display) -> anyhow::Error {
+        anyhow::Error::new(Usage {
+            message: message.to_string(),
+        })
+    }
+
+    /// Whether an error (or one of its causes) is a usage error.
+    pub fn is(err: &anyhow::Error) -> bool {
+        err.chain().any(|c| c.is::<Usage>())
+    }
+}
+
+impl std::fmt::Display for Usage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for Usage {}
+
+/// Errors of a step that checks only what the command line says, as usage errors.
+pub trait OrUsage<T> {
+    /// The error, with its causes on one line, as a [`Usage`] error.
+    fn or_usage(self) -> anyhow::Result<T>;
+}
+
+impl<T, E: Into<anyhow::Error>> OrUsage<T> for std::result::Result<T, E> {
+    fn or_usage(self) -> anyhow::Result<T> {
+        self.map_err(|e| Usage::error(format!("{:#}", e.into())))
+    }
+}

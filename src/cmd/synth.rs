@@ -10,6 +10,7 @@ use indicatif::ProgressBar;
 use synth::{Config, Overrides};
 
 use crate::cmd::extract::print_notes;
+use crate::cmd::OrUsage;
 
 /// Arguments of `trinocular synth`.
 #[derive(Debug, clap::Args)]
@@ -93,12 +94,16 @@ fn load(args: &ConfigArgs, overrides: Overrides) -> Result<Config> {
         Some(path) => Config::from_file(path)?,
         None => Config::default(),
     };
-    config.apply(&Overrides {
-        width: args.width,
-        height: args.height,
-        seed: args.seed,
-        ..overrides
-    })?;
+    // The file's configuration is valid (from_file checks it): what the
+    // overrides break is a usage error.
+    config
+        .apply(&Overrides {
+            width: args.width,
+            height: args.height,
+            seed: args.seed,
+            ..overrides
+        })
+        .or_usage()?;
     Ok(config)
 }
 

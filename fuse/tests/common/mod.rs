@@ -9,7 +9,20 @@ use formats::{Rig, RigCamera, SphereRow, Truth, read_csv, read_json};
 /// Render a campaign of the seed rig at `width` px (same field of view), with
 /// `targets` per axis, `runs` runs, one capture.
 pub fn campaign(dir: &Path, width: u32, targets: u32, runs: u32, seed: u64) {
+    campaign_with(dir, width, targets, runs, seed, |_| {});
+}
+
+/// As [`campaign`], with the seed's configuration changed by `edit` first.
+pub fn campaign_with(
+    dir: &Path,
+    width: u32,
+    targets: u32,
+    runs: u32,
+    seed: u64,
+    edit: impl FnOnce(&mut synth::Config),
+) {
     let mut config = synth::Config::default();
+    edit(&mut config);
     config
         .apply(&synth::Overrides {
             width: Some(width),
@@ -44,6 +57,42 @@ pub fn true_rig(dir: &Path) -> Rig {
 /// The campaign's spheres.
 pub fn spheres(dir: &Path) -> Vec<SphereRow> {
     read_csv(&dir.join("spheres.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
+}
+
+/// Measure a campaign with the true rig and default options into `dir/out`.
+pub fn measure(dir: &Path, out: &str) -> fuse::Result<fuse::Summary> {
+    measure_with(dir, out, &fuse::MeasureOptions::default(), &|_, _| {})
+}
+
+/// Measure a campaign with the true rig into `dir/out`.
+pub fn measure_with(
+    dir: &Path,
+    out: &str,
+    options: &fuse::MeasureOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> fuse::Result<fuse::Summary> {
+    let (rig, spheres) = (true_rig(dir), spheres(dir));
+    fuse::measure(
+        &fuse::Inputs {
+            manifest: &dir.join("manifest.csv"),
+            rig: &rig,
+            spheres: &spheres,
+        },
+        &dir.join(out),
+        options,
+        &extract::CpuBackend,
+        &mut formats::OutputPlan::new(false),
+        progress,
+    )
+}
+
+/// The records of a CSV file.
+pub fn records<T: formats::Record>(path: &Path) -> Vec<T> {
+    read_csv(path)
         .unwrap()
         .into_iter()
         .map(|r| r.record)

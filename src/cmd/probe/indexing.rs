@@ -6,11 +6,13 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use formats::FormatError;
 use formats::probe::indexing::{CentreRow, IndexingRow, read_centres};
 use probe::indexing::{self as method, Position, layout};
 use synth::probe::indexing::{DEFAULT_TOML, IndexingConfig, generate};
+
+use crate::cmd::{OrUsage, Usage};
 
 /// Arguments of `trinocular probe indexing`.
 #[derive(Debug, clap::Args)]
@@ -22,10 +24,10 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Nominal head-centre-to-stylus-ball length, to compare the fitted radius with.
-    #[arg(long, value_name = "MM", value_parser = crate::cmd::values::finite)]
+    #[arg(long, value_name = "MM", value_parser = crate::cmd::values::positive)]
     nominal_radius: Option<f64>,
     /// List the positions whose |ΔθA| or |ΔθB| exceed this many arc-seconds.
-    #[arg(long, value_name = "ARCSEC", value_parser = crate::cmd::values::finite)]
+    #[arg(long, value_name = "ARCSEC", value_parser = crate::cmd::values::non_negative)]
     tolerance: Option<f64>,
     /// Replace output files that already exist.
     #[arg(long)]
@@ -195,7 +197,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         return Ok(());
     }
     let Some(out) = &args.out else {
-        bail!("--out DIR is required");
+        return Err(Usage::error("--out DIR is required"));
     };
     let mut config = match &args.config {
         Some(path) => IndexingConfig::from_file(path)?,
@@ -207,6 +209,9 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     config.b_step_deg = args.b_step.unwrap_or(config.b_step_deg);
     config.stylus_mm = args.stylus.unwrap_or(config.stylus_mm);
     config.noise_um = args.noise_um.unwrap_or(config.noise_um);
+    // The file's configuration is valid (from_file checks it): what the
+    // options break is a usage error.
+    config.validate().or_usage()?;
     let (output, [centres, truth]) =
         super::outputs_n(out, ["centres.csv", "truth.json"], &args.config, args.force)?;
     let generated = generate(&config)?;

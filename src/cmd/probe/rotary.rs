@@ -11,7 +11,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 use formats::probe::rotary::{
     CentreRow, ErrorRow, RotaryInput, SphereFitRow, read_centres, read_points,
 };
@@ -19,6 +19,8 @@ use probe::ProbeError;
 use probe::rotary::report::Report;
 use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
 use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
+
+use crate::cmd::{OrUsage, Usage};
 
 /// Arguments of `trinocular probe rotary`.
 #[derive(Debug, clap::Args)]
@@ -164,7 +166,7 @@ pub fn run(args: &Args) -> Result<()> {
     let (path, points) = match (&args.centres, &args.points) {
         (Some(c), None) => (c, false),
         (None, Some(p)) => (p, true),
-        _ => bail!("give exactly one of --centres and --points"),
+        _ => return Err(Usage::error("give exactly one of --centres and --points")),
     };
     let input = if points {
         read_points(path)?
@@ -186,7 +188,7 @@ pub fn run(args: &Args) -> Result<()> {
         .iter()
         .map(|a| solution.at(*a))
         .collect::<probe::Result<_>>()
-        .map_err(|e| anyhow!("--at: {e}"))?;
+        .map_err(|e| Usage::error(format!("--at: {e}")))?;
     let source = path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
@@ -260,7 +262,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         return Ok(());
     }
     let Some(out) = &args.out else {
-        bail!("--out is required");
+        return Err(Usage::error("--out is required"));
     };
     let mut config = match &args.config {
         Some(path) => RotaryConfig::from_file(path)?,
@@ -276,7 +278,9 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         config.noise_um = n;
         config.probe_noise_um = n;
     }
-    config.validate()?;
+    // The file's configuration is valid (from_file checks it): what the
+    // options break is a usage error.
+    config.validate().or_usage()?;
     let data = synth::probe::rotary::generate(&config)?;
     let (output, files) = super::outputs(
         out,

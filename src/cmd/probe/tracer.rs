@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use formats::FormatError;
 use formats::probe::tracer::{
     CorrectedRow, CorrectionRow, Grid, QueryRow, ResidualRow, StationRow, read_grid, read_query,
@@ -17,6 +17,8 @@ use geom::nalgebra::Point3;
 use probe::ProbeError;
 use probe::tracer::{self, CorrectionGrid, Network, Options};
 use synth::probe::tracer::{TracerConfig, generate};
+
+use crate::cmd::OrUsage;
 
 const UM: f64 = 1e3;
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -38,11 +40,11 @@ pub struct Args {
     #[arg(long, value_name = "Q.csv")]
     query: Option<PathBuf>,
     /// Flag a reading when its normalised residual exceeds k.
-    #[arg(long, default_value_t = tracer::OUTLIER_K, value_parser = crate::cmd::values::finite)]
+    #[arg(long, default_value_t = tracer::OUTLIER_K, value_parser = crate::cmd::values::positive)]
     k: f64,
     /// Standard deviation of a reading (µm) to use for the uncertainties, instead of the one
     /// estimated from the residuals.
-    #[arg(long, value_name = "UM", value_parser = crate::cmd::values::finite)]
+    #[arg(long, value_name = "UM", value_parser = crate::cmd::values::positive)]
     sigma_um: Option<f64>,
     /// Replace output files that already exist.
     #[arg(long)]
@@ -166,13 +168,6 @@ pub fn run(args: &Args) -> Result<()> {
     inputs.extend(args.query.as_deref());
     let (output, _) = super::outputs(&args.out, &names, inputs, args.force)?;
 
-    if let Some(v) = args.sigma_um
-        && (v.is_nan() || v <= 0.0)
-    {
-        bail!(
-            "--sigma-um {v}: the standard deviation of a reading must be a positive number of µm"
-        );
-    }
     let options = Options {
         outlier_k: args.k,
         sigma_mm: args.sigma_um.map(|s| s / UM),
@@ -348,6 +343,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         seed: args.seed,
         noise_seed: args.noise_seed,
     };
+    config.check().or_usage()?;
     let data = generate(&config)?;
     let names = ["grid.csv", "readings.csv", "truth.json"];
     let (output, [grid, readings, truth]) =

@@ -20,6 +20,8 @@ use probe::volumetric::{
     measured_axes,
 };
 
+use crate::cmd::OrUsage;
+
 /// Arguments of `trinocular probe volumetric`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -136,7 +138,7 @@ fn curves_from_file(path: &Path) -> Result<Vec<(MeasuredAxis, (u64, u64))>> {
 
 /// Run the method.
 pub fn run(args: &Args) -> Result<()> {
-    let chain = Chain::parse(&args.chain)?;
+    let chain = Chain::parse(&args.chain).or_usage()?;
     let mut inputs: Vec<PathBuf> = Vec::new();
     let mut curves: Vec<MeasuredAxis> = Vec::new();
     let mut sources = Vec::new();
@@ -430,6 +432,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         config.seed = s;
     }
     if let Some(c) = &args.chain {
+        Chain::parse(c).or_usage()?;
         config.chain = c.clone();
     }
     let data = synth::probe::volumetric::generate(&config)?;

@@ -103,7 +103,8 @@ pub struct TracerData {
 }
 
 impl TracerConfig {
-    fn check(&self) -> Result<()> {
+    /// Check every value; errors name the key.
+    pub fn check(&self) -> Result<()> {
         let bad = |key: &str, why: String| Err(SynthError::config(format!("tracer.{key}: {why}")));
         if self.counts.iter().any(|c| *c < 2) {
             return bad(

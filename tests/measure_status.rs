@@ -1,0 +1,165 @@
+//! `trinocular measure`'s exit status tells the truth: 0 when every instant
+//! was measured, 3 when some were not (each in problems.csv), 1 when none
+//! was, 2 for a usage error. The campaign is tiny (384×288 px, 3 targets,
+//! 2 runs) and the rig is the renderer's true one.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use formats::{InstantProblemRow, ManifestRow, Missing, PointRow, Rig, RigCamera, Truth};
+
+fn trinocular<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_trinocular"))
+        .args(args)
+        .env("TRINOCULAR_NO_GPU", "1")
+        .output()
+        .expect("run trinocular")
+}
+
+fn records<T: formats::Record>(p: &Path) -> Vec<T> {
+    formats::read_csv(p)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
+}
+
+/// Render the campaign into `dir/c` and write the true rig as `dir/rig.json`.
+fn campaign(dir: &Path) -> usize {
+    let c = dir.join("c");
+    let out = trinocular(&[
+        "synth",
+        "campaign",
+        "--out",
+        c.to_str().unwrap(),
+        "--width",
+        "384",
+        "--height",
+        "288",
+        "--targets",
+        "3",
+        "--runs",
+        "2",
+        "--captures",
+        "1",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let truth: Truth = formats::read_json(&c.join("truth.json")).unwrap();
+    let rig = Rig {
+        cameras: truth
+            .cameras
+            .iter()
+            .map(|t| RigCamera::new(t.model.id, &t.model.to_camera().unwrap(), 0.0, 0))
+            .collect(),
+    };
+    formats::write_json(&dir.join("rig.json"), &rig).unwrap();
+    truth.instants.len()
+}
+
+/// Run measure into `dir/NAME/points.csv` with `spheres`; (status, last stderr line).
+fn measure(dir: &Path, name: &str, spheres: &Path, extra: &[&str]) -> (i32, String) {
+    let out_dir = dir.join(name);
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let mut args: Vec<std::ffi::OsString> = vec![
+        "measure".into(),
+        "--rig".into(),
+        dir.join("rig.json").into(),
+        "--manifest".into(),
+        dir.join("c/manifest.csv").into(),
+        "--spheres".into(),
+        spheres.into(),
+        "--out".into(),
+        out_dir.join("points.csv").into(),
+        "--backend".into(),
+        "cpu".into(),
+    ];
+    args.extend(extra.iter().map(Into::into));
+    let out = trinocular(&args);
+    let err = String::from_utf8(out.stderr).unwrap();
+    (
+        out.status.code().unwrap(),
+        err.trim_end().lines().last().unwrap_or("").to_string(),
+    )
+}
+
+#[test]
+fn exit_status_counts_the_instants_measured() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let instants = campaign(d);
+    let spheres = d.join("c/spheres.csv");
+
+    // All measured: 0, no problems.csv.
+    let (status, last) = measure(d, "all", &spheres, &[]);
+    assert_eq!(status, 0, "{last}");
+    assert_eq!(
+        last,
+        format!(
+            "measured {instants} of {instants} instants → {}",
+            d.join("all/points.csv").display()
+        )
+    );
+    assert!(!d.join("all/problems.csv").exists());
+    assert_eq!(
+        records::<PointRow>(&d.join("all/points.csv")).len(),
+        3 * instants
+    );
+
+    // Usage error: 2, nothing written.
+    let (status, last) = measure(d, "usage", &spheres, &["--k", "nan"]);
+    assert_eq!(status, 2, "{last}");
+    assert!(
+        last.starts_with("trinocular: error: invalid value 'nan' for '--k <K>'"),
+        "{last}"
+    );
+    assert!(!d.join("usage/points.csv").exists());
+
+    // One frame unreadable: 3, the instant in problems.csv, the rest measured.
+    let manifest: Vec<ManifestRow> = records(&d.join("c/manifest.csv"));
+    let broken = d.join("c").join(&manifest[4].image);
+    std::fs::write(&broken, b"II*\0not a tiff").unwrap();
+    let (status, last) = measure(d, "some", &spheres, &[]);
+    assert_eq!(status, 3, "{last}");
+    let problems_csv = d.join("some/problems.csv");
+    assert_eq!(
+        last,
+        format!(
+            "trinocular: finished with problems: 1 of {instants} instants could not be measured; listed in {}",
+            problems_csv.display()
+        )
+    );
+    let problems: Vec<InstantProblemRow> = records(&problems_csv);
+    assert_eq!(problems.len(), 1);
+    assert_eq!(problems[0].missing, Missing::Instant);
+    assert_eq!(problems[0].instant(), manifest[4].instant());
+    assert_eq!(problems[0].image.as_deref(), Some(broken.to_str().unwrap()));
+    assert_eq!(
+        records::<PointRow>(&d.join("some/points.csv")).len(),
+        3 * (instants - 1)
+    );
+
+    // Spheres three times the size of those in the images: nothing matches,
+    // none measured: 1, with every instant in problems.csv.
+    let big = d.join("big_spheres.csv");
+    std::fs::write(&big, "name,diameter\nA,60\nB,45\nC,30\n").unwrap();
+    let (status, last) = measure(d, "none", &big, &[]);
+    assert_eq!(status, 1, "{last}");
+    let problems_csv = d.join("none/problems.csv");
+    assert_eq!(
+        last,
+        format!(
+            "trinocular: error: none of the {instants} instants could be measured; listed in {}",
+            problems_csv.display()
+        )
+    );
+    let problems: Vec<InstantProblemRow> = records(&problems_csv);
+    assert_eq!(problems.len(), instants);
+    assert!(problems.iter().all(|p| p.missing == Missing::Instant));
+    assert!(records::<PointRow>(&d.join("none/points.csv")).is_empty());
+}

@@ -1,0 +1,263 @@
+//! Usage errors exit with status 2 on every command, with one line naming the
+//! option and its fault, before any file is read or written: values out of
+//! an option's domain (checked while parsing, or by the configuration the
+//! options override) and options that do not fit together.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::process::Command;
+
+/// (command line, fragment of the one-line message).
+const CASES: &[(&[&str], &str)] = &[
+    (
+        &["synth", "campaign", "--out", "{out}", "--width", "0"],
+        "--width: must be positive",
+    ),
+    (
+        &["synth", "campaign", "--out", "{out}", "--targets", "1"],
+        "--targets: 1: at least 2 targets",
+    ),
+    (
+        &["synth", "campaign", "--out", "{out}", "--runs", "0"],
+        "procedure.runs",
+    ),
+    (
+        &["synth", "target", "--out", "{out}", "--height", "8"],
+        "sensor.width/height",
+    ),
+    (
+        &[
+            "synth",
+            "probe",
+            "rotary",
+            "--out",
+            "{out}",
+            "--step-deg",
+            "400",
+        ],
+        "step_deg: 400",
+    ),
+    (
+        &[
+            "synth", "probe", "indexing", "--out", "{out}", "--a-step", "0",
+        ],
+        "a_step_deg",
+    ),
+    (
+        &[
+            "synth", "probe", "tracer", "--out", "{out}", "--counts", "1,2,2",
+        ],
+        "tracer.counts",
+    ),
+    (
+        &[
+            "synth",
+            "probe",
+            "volumetric",
+            "--out",
+            "{out}",
+            "--chain",
+            "WQF",
+        ],
+        "--chain 'WQF'",
+    ),
+    (
+        &[
+            "calibrate",
+            "--target",
+            "t.csv",
+            "--nominal",
+            "n.json",
+            "--images",
+            "a.tif",
+            "--outlier-k",
+            "0.5",
+            "--out",
+            "{out}/rig.json",
+        ],
+        "outlier k: 0.5",
+    ),
+    (
+        &["extract", "--k", "nan", "--out", "{out}/b.csv", "a.tif"],
+        "invalid value 'nan' for '--k <K>'",
+    ),
+    (
+        &[
+            "extract",
+            "--threshold",
+            "bright",
+            "--out",
+            "{out}/b.csv",
+            "a.tif",
+        ],
+        "--threshold bright",
+    ),
+    (
+        &[
+            "extract",
+            "--min-area",
+            "100",
+            "--max-area",
+            "10",
+            "--out",
+            "{out}/b.csv",
+            "a.tif",
+        ],
+        "min_area 100 exceeds max_area 10",
+    ),
+    (
+        &[
+            "extract",
+            "--denoise",
+            "gaussian",
+            "--sigma=-1",
+            "--out",
+            "{out}/b.csv",
+            "a.tif",
+        ],
+        "'--sigma <SIGMA>'",
+    ),
+    (
+        &[
+            "measure",
+            "--rig",
+            "r.json",
+            "--manifest",
+            "m.csv",
+            "--spheres",
+            "s.csv",
+            "--out",
+            "{out}/p.csv",
+            "--k=-2",
+        ],
+        "invalid value '-2' for '--k <K>'",
+    ),
+    (
+        &[
+            "probe",
+            "rotary",
+            "--centres",
+            "c.csv",
+            "--out",
+            "{out}",
+            "--at",
+            "nan",
+        ],
+        "'--at <DEG>...'",
+    ),
+    (
+        &[
+            "probe",
+            "indexing",
+            "--centres",
+            "c.csv",
+            "--out",
+            "{out}",
+            "--tolerance=-1",
+        ],
+        "'--tolerance <ARCSEC>'",
+    ),
+    (
+        &[
+            "probe",
+            "indexing",
+            "--centres",
+            "c.csv",
+            "--out",
+            "{out}",
+            "--nominal-radius",
+            "0",
+        ],
+        "'--nominal-radius <MM>'",
+    ),
+    (
+        &[
+            "probe",
+            "tracer",
+            "--nominal",
+            "g.csv",
+            "--readings",
+            "r.csv",
+            "--out",
+            "{out}",
+            "--k",
+            "0",
+        ],
+        "'--k <K>'",
+    ),
+    (
+        &[
+            "probe",
+            "tracer",
+            "--nominal",
+            "g.csv",
+            "--readings",
+            "r.csv",
+            "--out",
+            "{out}",
+            "--sigma-um",
+            "inf",
+        ],
+        "'--sigma-um <UM>'",
+    ),
+    (
+        &[
+            "probe",
+            "volumetric",
+            "--errors",
+            "e.csv",
+            "--out",
+            "{out}",
+            "--chain",
+            "XYZ",
+        ],
+        "--chain 'XYZ'",
+    ),
+    (
+        &["bench", "extract", "--repeat", "0"],
+        "'--repeat <REPEAT>'",
+    ),
+    (
+        &["demo", "--out", "{out}/demo", "--targets", "1"],
+        "--targets: 1",
+    ),
+];
+
+#[test]
+fn usage_errors_exit_2_with_one_line_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut failures = Vec::new();
+    for (i, (args, fragment)) in CASES.iter().enumerate() {
+        let out = dir.path().join(format!("case{i}"));
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| a.replace("{out}", out.to_str().unwrap()))
+            .collect();
+        let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
+            .args(&args)
+            .current_dir(dir.path())
+            .env("TRINOCULAR_NO_GPU", "1")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&run.stderr);
+        let lines: Vec<&str> = err.trim_end().lines().collect();
+        // The demo prints each step before running it; the others say one line.
+        let demo = args[0] == "demo";
+        let last = lines.last().copied().unwrap_or("");
+        let ok = run.status.code() == Some(2)
+            && (lines.len() == 1 || demo)
+            && last.starts_with("trinocular: error: ")
+            && last.contains(fragment)
+            // The demo makes its output folder before its first step.
+            && (!out.exists()
+                || demo && std::fs::read_dir(out.join("demo")).is_ok_and(|d| d.count() == 0));
+        if !ok {
+            failures.push(format!(
+                "{}: status {:?}, stderr {err:?}",
+                args.join(" "),
+                run.status.code()
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
