@@ -117,7 +117,8 @@ fn describe(i: &Instant) -> String {
 pub struct CampaignSummary {
     /// Instants (exposures of all cameras together).
     pub instants: usize,
-    /// Image files of the campaign (instants × cameras), calibration images excluded.
+    /// Image files of the campaign (instants × cameras, or every frame the
+    /// cameras saved), calibration images excluded.
     pub frames: usize,
     /// Bytes of all image files written, calibration images included.
     pub image_bytes: u64,
@@ -180,7 +181,10 @@ fn write_instant(
     Ok(())
 }
 
-/// Write a whole campaign under `out` (created if needed).
+/// Write a whole campaign under `out` (created if needed): in the renderer's
+/// layout with `manifest.csv`, or, with a `[capture]` mode, as the cameras
+/// save the frames (`crate::capture`), with `truth_manifest.csv` and
+/// `program.toml` instead of `manifest.csv`.
 pub fn write_campaign(
     config: &Config,
     out: &Path,
@@ -200,9 +204,12 @@ pub fn write_campaign(
     progress.finish();
 
     create_dir(out)?;
-    let dirs: BTreeSet<String> = plan.instants.iter().map(Instant::image_dir).collect();
-    for d in &dirs {
-        create_dir(&out.join(d))?;
+    let captured = !config.capture.is_manifest();
+    if !captured {
+        let dirs: BTreeSet<String> = plan.instants.iter().map(Instant::image_dir).collect();
+        for d in &dirs {
+            create_dir(&out.join(d))?;
+        }
     }
     formats::write_atomic(out.join("config.toml"), config.to_toml()?.as_bytes())?;
     let sphere_rows: Vec<SphereRow> = plan
@@ -225,17 +232,23 @@ pub fn write_campaign(
     progress.advance(rig.cameras.len() as u64);
     progress.finish();
 
-    let frames = plan.instants.len() * rig.cameras.len();
-    progress.begin("rendering frames", frames as u64);
-    let batch = BATCH_PER_THREAD * rayon::current_num_threads().max(1);
-    for chunk in plan.instants.chunks(batch) {
-        chunk.par_iter().try_for_each(|i| -> Result<()> {
-            write_instant(config, &rig, &plan, i, out, &bytes)?;
-            progress.advance(rig.cameras.len() as u64);
-            Ok(())
-        })?;
-    }
-    progress.finish();
+    let (frames, captured) = if captured {
+        let c = crate::capture::write_frames(config, &rig, &plan, out, progress, &bytes)?;
+        (c.frames, Some(c))
+    } else {
+        let frames = plan.instants.len() * rig.cameras.len();
+        progress.begin("rendering frames", frames as u64);
+        let batch = BATCH_PER_THREAD * rayon::current_num_threads().max(1);
+        for chunk in plan.instants.chunks(batch) {
+            chunk.par_iter().try_for_each(|i| -> Result<()> {
+                write_instant(config, &rig, &plan, i, out, &bytes)?;
+                progress.advance(rig.cameras.len() as u64);
+                Ok(())
+            })?;
+        }
+        progress.finish();
+        (frames, None)
+    };
 
     progress.begin("truth and manifest", 1);
     let points = plan.truth_points();
@@ -250,14 +263,29 @@ pub fn write_campaign(
             "worst_separation": scene.worst_separation,
         }),
     );
-    write_json(&out.join("truth.json"), &truth)?;
-    let ext = config.output.format.extension();
-    let manifest: Vec<ManifestRow> = plan
-        .instants
-        .iter()
-        .flat_map(|i| rig.cameras.iter().map(move |c| i.manifest_row(c.id, ext)))
-        .collect();
-    write_csv(&out.join("manifest.csv"), &manifest)?;
+    match captured {
+        Some(c) => {
+            // What the cameras saved carries no manifest: the renderer's own
+            // goes beside the frames, with the motion program the machine ran.
+            truth.extra.insert("capture".into(), c.info);
+            write_json(&out.join("truth.json"), &truth)?;
+            formats::write_atomic(
+                out.join("program.toml"),
+                crate::capture::program_toml(config)?.as_bytes(),
+            )?;
+            write_csv(&out.join("truth_manifest.csv"), &c.manifest)?;
+        }
+        None => {
+            write_json(&out.join("truth.json"), &truth)?;
+            let ext = config.output.format.extension();
+            let manifest: Vec<ManifestRow> = plan
+                .instants
+                .iter()
+                .flat_map(|i| rig.cameras.iter().map(move |c| i.manifest_row(c.id, ext)))
+                .collect();
+            write_csv(&out.join("manifest.csv"), &manifest)?;
+        }
+    }
     progress.advance(1);
     progress.finish();
 
