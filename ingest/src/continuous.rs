@@ -37,14 +37,15 @@ use rayon::prelude::*;
 use crate::align::{AlignParams, Event, align};
 use crate::triggered::{CameraFrames, Fault, Placed, Placement, TimedFrame, describe};
 
-/// A blob of a frame: sub-pixel centre and equivalent diameter (px).
+/// A blob of a frame: sub-pixel centre and size (px; a smooth measure such
+/// as the mean axis of the moment ellipse, not the whole-pixel area).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Spot {
     /// Centre u (px).
     pub u: f64,
     /// Centre v (px).
     pub v: f64,
-    /// Equivalent diameter (px).
+    /// Diameter (px).
     pub diameter: f64,
 }
 
@@ -141,6 +142,10 @@ impl Cache<'_> {
         r
     }
 
+    fn decoded(&self) -> usize {
+        self.seen.lock().map_or(0, |s| s.len())
+    }
+
     fn failed(&self) -> Vec<(usize, String)> {
         self.seen.lock().map_or_else(
             |_| Vec::new(),
@@ -178,6 +183,7 @@ fn stream(cam: &CameraFrames, fps: f64, faults: &mut Vec<Fault>) -> Stream {
                              the previous frame",
                             cam.camera, x
                         ),
+                        related: Vec::new(),
                     });
                     continue;
                 }
@@ -236,6 +242,7 @@ pub fn place_continuous(
                 dwell: None,
                 capture: None,
                 reason: format!("camera {} has no frames", cam.camera),
+                related: Vec::new(),
             });
             continue;
         }
@@ -384,6 +391,7 @@ pub fn place_continuous(
                             "camera {c}'s frames cannot be put on camera {reference}'s frame \
                              clock: too few of the dwells found in both line up"
                         ),
+                        related: Vec::new(),
                     });
                 }
             }
@@ -418,6 +426,7 @@ pub fn place_continuous(
                      with it)",
                     describe(d)
                 ),
+                related: Vec::new(),
             });
             continue;
         };
@@ -445,6 +454,7 @@ pub fn place_continuous(
                     describe(d),
                     settle_frames + i64::from(captures) - 1
                 ),
+                related: Vec::new(),
             });
             continue;
         }
@@ -473,6 +483,7 @@ pub fn place_continuous(
                             k + 1,
                             s.camera
                         ),
+                        related: Vec::new(),
                     }),
                 }
             }
@@ -489,8 +500,10 @@ pub fn place_continuous(
             dwell: None,
             capture: None,
             reason: format!("blobs unreadable: {why}"),
+            related: Vec::new(),
         });
     }
+    placed.decoded = cache.decoded();
     let bad: BTreeSet<usize> = placed.faults.iter().filter_map(|f| f.file).collect();
     placed.placements.retain(|p| !bad.contains(&p.file));
     placed

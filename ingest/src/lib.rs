@@ -117,6 +117,8 @@ pub struct Summary {
     pub not_at_instants: usize,
     /// Per camera, how much slower than programmed the campaign ran (gaps ÷ programmed gaps).
     pub scales: Vec<(u8, f64)>,
+    /// Frames whose pixels were decoded (continuous capture only).
+    pub decoded: usize,
 }
 
 /// The manifest, the problems and the counts.
@@ -198,10 +200,15 @@ impl Signatures for ImageSignatures<'_> {
                 .blobs
                 .iter()
                 .filter(|b| !b.touches_border)
-                .map(|b| Spot {
-                    u: b.u,
-                    v: b.v,
-                    diameter: b.diameter_px(),
+                .map(|b| {
+                    // The moment ellipse's mean axis: weighted by the pixel values, it
+                    // is free of the whole-pixel steps of the area.
+                    let e = b.ellipse();
+                    Spot {
+                        u: b.u,
+                        v: b.v,
+                        diameter: 0.5 * (e.major_px + e.minor_px),
+                    }
                 })
                 .collect())
         })
@@ -356,7 +363,16 @@ pub fn build(inputs: &Inputs<'_>, options: &Options) -> Result<Built> {
             run: d.map(|d| d.run),
             target: d.map(|d| d.target),
             capture: fault.capture,
-            reason: fault.reason.clone(),
+            reason: if fault.related.is_empty() {
+                fault.reason.clone()
+            } else {
+                let names: Vec<&str> = fault
+                    .related
+                    .iter()
+                    .filter_map(|&i| rels.get(i).map(String::as_str))
+                    .collect();
+                format!("{} [{}]", fault.reason, names.join(", "))
+            },
         });
     }
 
@@ -395,6 +411,7 @@ pub fn build(inputs: &Inputs<'_>, options: &Options) -> Result<Built> {
         dwells: dwells.len(),
         not_at_instants,
         scales: placed.scales,
+        decoded: placed.decoded,
     };
     Ok(Built {
         rows,

@@ -64,6 +64,8 @@ pub struct Fault {
     pub capture: Option<u32>,
     /// What is wrong.
     pub reason: String,
+    /// Files that bear on it (e.g. the rest of a burst that lost a frame).
+    pub related: Vec<usize>,
 }
 
 /// Placements and faults.
@@ -75,6 +77,8 @@ pub struct Placed {
     pub faults: Vec<Fault>,
     /// Per camera, the slowness of the campaign its alignment found.
     pub scales: Vec<(u8, f64)>,
+    /// Frames whose pixels were decoded (continuous capture).
+    pub decoded: usize,
 }
 
 /// A dwell in words: `X line 1 run 2 + target 3`.
@@ -193,6 +197,7 @@ pub fn place_triggered(
                         resolution as f64 / NS,
                         timing.cut_s
                     ),
+                    related: Vec::new(),
                 });
             }
             continue;
@@ -230,6 +235,7 @@ pub fn place_triggered(
                             name(x.alternative),
                             x.margin
                         ),
+                        related: Vec::new(),
                     });
                 }
                 continue;
@@ -270,6 +276,7 @@ pub fn place_triggered(
                                 "frame in no dwell (a stray trigger?): a burst of {} frame(s) {place}",
                                 frames.len()
                             ),
+                            related: Vec::new(),
                         });
                     }
                 }
@@ -352,6 +359,7 @@ fn assign_captures(
                 dwell: Some(j),
                 capture,
                 reason,
+                related: Vec::new(),
             });
         };
         let what = format!(
@@ -507,6 +515,7 @@ fn report_missing(
                         cam.frames.len()
                     )
                 },
+                related: Vec::new(),
             });
         }
     }
@@ -516,9 +525,12 @@ fn report_missing(
                 continue;
             };
             for c in placing.iter().filter(|c| !present.contains(c)) {
-                let why = match bursts.get(&(*c, j)) {
-                    Some(b) => format!("its burst at this dwell has {} frame(s)", b.frames.len()),
-                    None => "it has no burst placed at this dwell".into(),
+                let (why, related) = match bursts.get(&(*c, j)) {
+                    Some(b) => (
+                        format!("its burst at this dwell has {} frame(s)", b.frames.len()),
+                        b.frames.iter().map(|f| f.file).collect(),
+                    ),
+                    None => ("it has no burst placed at this dwell".into(), Vec::new()),
                 };
                 placed.faults.push(Fault {
                     file: None,
@@ -529,6 +541,7 @@ fn report_missing(
                         "instant {} capture {k} has no frame of camera {c} ({why})",
                         describe(d)
                     ),
+                    related,
                 });
             }
         }
