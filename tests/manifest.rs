@@ -79,10 +79,16 @@ fn captured_folders_to_the_same_points() {
     let built = tmp.path().join("built");
     std::fs::create_dir(&built).unwrap();
     let manifest = built.join("manifest.csv");
+    let program = c.join("program.toml");
+    let (cam1, cam2, cam3) = (
+        c.join("TRN-SYN-0001"),
+        c.join("TRN-SYN-0002"),
+        c.join("TRN-SYN-0003"),
+    );
     let args = [
         "manifest",
         "--program",
-        s(&c.join("program.toml")),
+        s(&program),
         "--camera",
         "TRN-SYN-0001=1",
         "--camera",
@@ -91,7 +97,9 @@ fn captured_folders_to_the_same_points() {
         "TRN-SYN-0003=3",
         "--out",
         s(&manifest),
-        s(&c),
+        s(&cam1),
+        s(&cam2),
+        s(&cam3),
     ];
     let out = trinocular(&args);
     let err = String::from_utf8_lossy(&out.stderr);

@@ -13,7 +13,8 @@
 //! camera's gap is longer (an operator pause, a slow move) but not when it
 //! is shorter (nothing makes a machine faster than its program by much).
 //! A match costs `size_cost` per frame the event has more or fewer than the
-//! program's captures (capped at half a stray's cost). `s` starts as the
+//! program's captures (capped at half a stray's cost), and half a stray's
+//! cost more when its frames are not on the `1/fps` grid. `s` starts as the
 //! ratio of the median gaps and is refined from the matched single steps.
 //!
 //! Ambiguity is measured, not guessed: forward and backward passes give, for
@@ -33,6 +34,9 @@ pub struct Event {
     pub time_s: f64,
     /// Frames in it.
     pub size: usize,
+    /// Its frames are not on a `1/fps` grid (two closer than that, or a gap
+    /// off a whole number of periods): unlike a burst of captures.
+    pub irregular: bool,
 }
 
 /// Costs and limits of the alignment.
@@ -46,7 +50,8 @@ pub struct AlignParams {
     pub skip_event: f64,
     /// Cost of a dwell matched to no event.
     pub skip_dwell: f64,
-    /// Cost per frame an event has more or fewer than expected.
+    /// Cost per frame an event has more or fewer than expected; an
+    /// irregular event costs as much as half a stray more.
     pub size_cost: f64,
     /// Cost difference below which another placement is an ambiguity.
     pub margin: f64,
@@ -189,8 +194,14 @@ struct Costs<'a> {
 
 impl Costs<'_> {
     fn matched(&self, i: usize) -> f64 {
-        let d = self.events[i].size.abs_diff(self.expected) as f64;
+        let e = &self.events[i];
+        let d = e.size.abs_diff(self.expected) as f64;
         (d * self.p.size_cost).min(0.5 * self.p.skip_event)
+            + if e.irregular {
+                0.5 * self.p.skip_event
+            } else {
+                0.0
+            }
     }
 
     /// Transition (i − di, j − dj) → (i, j).

@@ -304,6 +304,7 @@ pub fn place_continuous(
                     Some(Event {
                         time_s: s.time_s(st.first_sample)?,
                         size: captures as usize,
+                        irregular: false,
                     })
                 })
                 .collect();

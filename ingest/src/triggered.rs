@@ -208,6 +208,7 @@ pub fn place_triggered(
             .map(|r| Event {
                 time_s: (cam.frames[r.start].ns - first.ns) as f64 / NS,
                 size: r.len(),
+                irregular: !on_grid(&cam.frames[r.clone()], period),
             })
             .collect();
         let a = align(&events, &program, captures as usize, params);
@@ -289,6 +290,18 @@ pub fn place_triggered(
         .placements
         .sort_by_key(|p| (p.dwell, p.capture, p.camera));
     Ok(placed)
+}
+
+/// Whether frames lie on a `1/fps` grid: every gap a whole number (≥ 1) of
+/// periods, within the tolerance (time stamps too coarse to tell pass).
+fn on_grid(frames: &[TimedFrame], period: f64) -> bool {
+    let tol = tolerance_ns(period, frames) as f64 / NS;
+    frames.windows(2).all(|w| {
+        let gap = (w[1].ns - w[0].ns) as f64 / NS;
+        let n = (gap / period).round();
+        gap + tol >= 0.75 * period && (gap - n * period).abs() <= tol
+            || w[1].resolution_ns.max(w[0].resolution_ns) as f64 / NS > 0.25 * period
+    })
 }
 
 /// Tolerance (ns) of a frame's place on a burst's grid.
