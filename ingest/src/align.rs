@@ -448,7 +448,14 @@ mod tests {
     }
 
     fn events(times: &[f64], size: usize) -> Vec<Event> {
-        times.iter().map(|&t| Event { time_s: t, size }).collect()
+        times
+            .iter()
+            .map(|&t| Event {
+                time_s: t,
+                size,
+                irregular: false,
+            })
+            .collect()
     }
 
     #[test]

@@ -113,6 +113,9 @@ struct Stay {
     anchor: Vec<Spot>,
 }
 
+/// One camera's stays matched to dwells: dwell → (arrival, stay).
+type Found = BTreeMap<usize, (Arrival, Stay)>;
+
 /// A dwell's arrival in one camera.
 #[derive(Debug, Clone, Copy)]
 struct Arrival {
@@ -250,7 +253,7 @@ pub fn place_continuous(
     }
 
     // Per camera: sampled stays, aligned with the program, arrivals refined.
-    let per_camera: Vec<(u8, BTreeMap<usize, (Arrival, Stay)>, f64)> = streams
+    let per_camera: Vec<(u8, Found, f64)> = streams
         .par_iter()
         .map(|s| {
             let (lo, hi) = match (s.by_slot.keys().next(), s.by_slot.keys().next_back()) {
@@ -339,8 +342,7 @@ pub fn place_continuous(
     let Some(reference) = reference else {
         return placed;
     };
-    let found: BTreeMap<u8, &BTreeMap<usize, (Arrival, Stay)>> =
-        per_camera.iter().map(|(c, f, _)| (*c, f)).collect();
+    let found: BTreeMap<u8, &Found> = per_camera.iter().map(|(c, f, _)| (*c, f)).collect();
     let mut offsets: BTreeMap<u8, i64> = BTreeMap::new();
     offsets.insert(reference, 0);
     let pair = |c: u8, r: u8, sharp_only: bool| -> Option<i64> {
