@@ -31,6 +31,8 @@ enum Command {
     Extract(cmd::extract::Args),
     /// Fit a geometric element (least squares and minimum zone) to a point file.
     Fit(cmd::fit::Args),
+    /// manifest.csv from captured camera folders and the motion program (problems.csv beside it).
+    Manifest(cmd::manifest::Args),
     /// Sphere centres of every instant of a campaign into points.csv (problems.csv, poses.csv beside it).
     Measure(cmd::measure::Args),
     /// Probe-based methods: rotary table, probe-head indexing, laser-tracer multilateration, volumetric model.
@@ -95,6 +97,7 @@ fn main() -> ExitCode {
         Command::Evaluate(args) => cmd::evaluate::run(&args),
         Command::Extract(args) => cmd::extract::run(&args),
         Command::Fit(args) => cmd::fit::run(&args),
+        Command::Manifest(args) => cmd::manifest::run(&args),
         Command::Measure(args) => cmd::measure::run(&args),
         Command::Probe(args) => cmd::probe::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),

@@ -20,6 +20,7 @@ mod error;
 pub mod atomic;
 pub mod blobs;
 pub mod campaign;
+pub mod capture;
 pub mod interrupt;
 pub mod json;
 pub mod limits;
@@ -38,6 +39,7 @@ pub use blobs::{BlobRow, ProblemRow};
 pub use campaign::{
     Axis, Direction, InstantKey, LineKey, ManifestRow, SphereRow, check_sphere_set, read_spheres,
 };
+pub use capture::{AxisProcedure, Dwell, ManifestProblemRow, ProcedureConfig};
 pub use error::{FormatError, Result};
 pub use json::{read_json, write_json};
 pub use lock::OutputLock;

@@ -33,6 +33,8 @@ enum What {
     Extract(ExtractArgs),
     /// Laser-tracer multilateration: solve time of 10⁴ grid points × 8 stations.
     Tracer(crate::cmd::probe::tracer::BenchArgs),
+    /// `trinocular manifest` on thousands of full-size frames per camera (metadata only).
+    Manifest(crate::cmd::manifest::BenchArgs),
 }
 
 /// Arguments of `trinocular bench extract`.
@@ -261,5 +263,6 @@ pub fn run(args: &Args) -> Result<()> {
     match &args.what {
         What::Extract(a) => bench_extract(a),
         What::Tracer(a) => crate::cmd::probe::tracer::bench(a),
+        What::Manifest(a) => crate::cmd::manifest::bench(a),
     }
 }

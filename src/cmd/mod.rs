@@ -7,6 +7,7 @@ pub mod demo;
 pub mod evaluate;
 pub mod extract;
 pub mod fit;
+pub mod manifest;
 pub mod measure;
 pub mod probe;
 pub mod progress;

@@ -70,6 +70,13 @@ struct CampaignArgs {
     /// Captures per target and approach.
     #[arg(long)]
     captures: Option<u32>,
+    /// Write the frames as triggered cameras save them: a folder per camera serial,
+    /// numbered files, camera clocks in EXIF ([capture] table; truth_manifest.csv, program.toml).
+    #[arg(long)]
+    as_captured: bool,
+    /// Write the continuous stream of free-running cameras (frames during moves too).
+    #[arg(long)]
+    continuous: bool,
 }
 
 /// Arguments of `trinocular synth target`.
@@ -135,7 +142,7 @@ impl synth::progress::Progress for Bars {
 }
 
 fn campaign(args: &CampaignArgs) -> Result<()> {
-    let config = load(
+    let mut config = load(
         &args.config,
         Overrides {
             targets: args.targets,
@@ -144,6 +151,12 @@ fn campaign(args: &CampaignArgs) -> Result<()> {
             ..Overrides::default()
         },
     )?;
+    if args.continuous {
+        config.capture.mode = synth::capture::CaptureMode::Continuous;
+    } else if args.as_captured && config.capture.is_manifest() {
+        config.capture.mode = synth::capture::CaptureMode::Triggered;
+    }
+    config.validate()?;
     let bars = Bars(Mutex::new(None));
     let mut output = output_plan(&args.config);
     let written = synth::campaign::write_campaign(&config, &args.out, &mut output, &bars);

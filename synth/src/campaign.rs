@@ -121,7 +121,8 @@ fn describe(i: &Instant) -> String {
 pub struct CampaignSummary {
     /// Instants (exposures of all cameras together).
     pub instants: usize,
-    /// Image files of the campaign (instants × cameras), calibration images excluded.
+    /// Image files of the campaign (instants × cameras, or every frame the
+    /// cameras saved), calibration images excluded.
     pub frames: usize,
     /// Bytes of all image files written, calibration images included.
     pub image_bytes: u64,
@@ -181,14 +182,15 @@ fn write_instant(
     Ok(())
 }
 
-/// Files of a campaign beside its images and calibration files.
-const CAMPAIGN_FILES: [&str; 6] = [
+/// Files of a campaign beside its images and calibration files; the
+/// manifest (renderer's layout) or the program and the renderer's own
+/// manifest (captured) follow.
+const CAMPAIGN_FILES: [&str; 5] = [
     "config.toml",
     "spheres.csv",
     "nominal.json",
     "truth_points.csv",
     "truth.json",
-    "manifest.csv",
 ];
 
 /// Plan the calibration files under `out` ([`crate::target::target_files`]),
@@ -211,7 +213,10 @@ fn plan_target(
 
 /// Write a whole campaign under `out` (created if needed) through `output`,
 /// where the caller declared its inputs (the configuration file) and
-/// whether an existing campaign may be replaced (`--force`).
+/// whether an existing campaign may be replaced (`--force`): in the
+/// renderer's layout with `manifest.csv`, or, with a `[capture]` mode, as the
+/// cameras save the frames (`crate::capture`), with `truth_manifest.csv` and
+/// `program.toml` instead of `manifest.csv`.
 pub fn write_campaign(
     config: &Config,
     out: &Path,
@@ -230,15 +235,31 @@ pub fn write_campaign(
     for f in CAMPAIGN_FILES {
         output.file(out.join(f));
     }
-    let dirs: BTreeSet<String> = plan.instants.iter().map(Instant::image_dir).collect();
-    for d in &dirs {
-        output.folder(out.join(d));
-    }
-    for i in &plan.instants {
-        for cam in &rig.cameras {
-            output.file(out.join(i.image_path(cam.id, ext)));
+    let frame_jobs = if config.capture.is_manifest() {
+        output.file(out.join("manifest.csv"));
+        let dirs: BTreeSet<String> = plan.instants.iter().map(Instant::image_dir).collect();
+        for d in &dirs {
+            output.folder(out.join(d));
         }
-    }
+        for i in &plan.instants {
+            for cam in &rig.cameras {
+                output.file(out.join(i.image_path(cam.id, ext)));
+            }
+        }
+        None
+    } else {
+        output
+            .file(out.join("program.toml"))
+            .file(out.join("truth_manifest.csv"));
+        for cam in &rig.cameras {
+            output.folder(out.join(&cam.serial));
+        }
+        let jobs = crate::capture::plan_frames(config, &rig, &plan)?;
+        for p in jobs.paths() {
+            output.file(out.join(p));
+        }
+        Some(jobs)
+    };
     plan_target(config, &rig, out, output, "synth campaign")?;
 
     progress.begin("checking scenes", 1);
@@ -267,17 +288,28 @@ pub fn write_campaign(
     progress.advance(rig.cameras.len() as u64);
     progress.finish();
 
-    let frames = plan.instants.len() * rig.cameras.len();
-    progress.begin("rendering frames", frames as u64);
-    let batch = BATCH_PER_THREAD * rayon::current_num_threads().max(1);
-    for chunk in plan.instants.chunks(batch) {
-        chunk.par_iter().try_for_each(|i| -> Result<()> {
-            write_instant(config, &rig, &plan, i, out, &bytes, output)?;
-            progress.advance(rig.cameras.len() as u64);
-            Ok(())
-        })?;
-    }
-    progress.finish();
+    let (frames, captured) = match &frame_jobs {
+        Some(jobs) => {
+            let c = crate::capture::write_frames(
+                config, &rig, &plan, jobs, out, output, progress, &bytes,
+            )?;
+            (c.frames, Some(c))
+        }
+        None => {
+            let frames = plan.instants.len() * rig.cameras.len();
+            progress.begin("rendering frames", frames as u64);
+            let batch = BATCH_PER_THREAD * rayon::current_num_threads().max(1);
+            for chunk in plan.instants.chunks(batch) {
+                chunk.par_iter().try_for_each(|i| -> Result<()> {
+                    write_instant(config, &rig, &plan, i, out, &bytes, output)?;
+                    progress.advance(rig.cameras.len() as u64);
+                    Ok(())
+                })?;
+            }
+            progress.finish();
+            (frames, None)
+        }
+    };
 
     progress.begin("truth and manifest", 1);
     let points = plan.truth_points();
@@ -292,13 +324,28 @@ pub fn write_campaign(
             "worst_separation": scene.worst_separation,
         }),
     );
-    output.write_json(&out.join("truth.json"), &truth)?;
-    let manifest: Vec<ManifestRow> = plan
-        .instants
-        .iter()
-        .flat_map(|i| rig.cameras.iter().map(move |c| i.manifest_row(c.id, ext)))
-        .collect();
-    output.write_csv(&out.join("manifest.csv"), &manifest)?;
+    match captured {
+        Some(c) => {
+            // What the cameras saved carries no manifest: the renderer's own
+            // goes beside the frames, with the motion program the machine ran.
+            truth.extra.insert("capture".into(), c.info);
+            output.write_json(&out.join("truth.json"), &truth)?;
+            output.write_bytes(
+                &out.join("program.toml"),
+                crate::capture::program_toml(config)?.as_bytes(),
+            )?;
+            output.write_csv(&out.join("truth_manifest.csv"), &c.manifest)?;
+        }
+        None => {
+            output.write_json(&out.join("truth.json"), &truth)?;
+            let manifest: Vec<ManifestRow> = plan
+                .instants
+                .iter()
+                .flat_map(|i| rig.cameras.iter().map(move |c| i.manifest_row(c.id, ext)))
+                .collect();
+            output.write_csv(&out.join("manifest.csv"), &manifest)?;
+        }
+    }
     progress.advance(1);
     progress.finish();
 

@@ -12,8 +12,11 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use formats::Axis;
+/// The `[procedure]` table: one record shared with `program.toml` (`formats::capture`).
+pub use formats::capture::{AxisProcedure, ProcedureConfig};
 use serde::{Deserialize, Serialize};
 
+use crate::capture::CaptureConfig;
 use crate::{Result, SynthError};
 
 /// The documented default configuration (the seed's rig and procedure), as
@@ -47,6 +50,10 @@ pub struct Config {
     pub output: OutputConfig,
     /// Rendering accuracy.
     pub render: RenderConfig,
+    /// How the frames are written: the renderer's layout with `manifest.csv`
+    /// (default), or as triggered or free-running cameras save them.
+    #[serde(skip_serializing_if = "CaptureConfig::is_manifest")]
+    pub capture: CaptureConfig,
 }
 
 /// The image sensor.
@@ -228,69 +235,6 @@ impl Default for SphereConfig {
             position_mm: [0.0; 3],
             radiance_e: 12_000.0,
         }
-    }
-}
-
-/// The measurement procedure (ISO 230-2 linear test cycle).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ProcedureConfig {
-    /// Axes to test, in order.
-    pub axes: Vec<AxisProcedure>,
-    /// Runs (each run approaches every target once in + and once in −).
-    pub runs: u32,
-    /// Frames captured at each target per approach.
-    pub captures: u32,
-    /// Overshoot beyond the end targets before reversing (mm), taking up backlash.
-    pub overshoot_mm: f64,
-    /// Frame rate of the captures at one target (frames per second).
-    pub fps: f64,
-    /// Feed rate between targets (mm/s), for the time stamps.
-    pub feed_mm_per_s: f64,
-    /// Dwell after arriving at a target before the first capture (s).
-    pub settle_s: f64,
-    /// Date and time of the campaign start, `YYYY-MM-DDTHH:MM:SS[.fff]`.
-    pub start_time: String,
-}
-
-/// The targets and lines of one axis.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct AxisProcedure {
-    /// Axis moved: X or Y.
-    pub axis: Axis,
-    /// First target (commanded position, mm).
-    pub start_mm: f64,
-    /// Travel from the first to the last target (mm).
-    pub length_mm: f64,
-    /// Number of segments; there are `segments + 1` equally spaced targets.
-    pub segments: u32,
-    /// Lines: commanded position of the other horizontal axis during the
-    /// sweeps (Y for an X sweep, X for a Y sweep), mm; one sweep set per line.
-    pub lines_mm: Vec<f64>,
-}
-
-impl Default for AxisProcedure {
-    fn default() -> Self {
-        Self {
-            axis: Axis::X,
-            start_mm: 0.0,
-            length_mm: 100.0,
-            segments: 10,
-            lines_mm: vec![0.0],
-        }
-    }
-}
-
-impl AxisProcedure {
-    /// Number of targets.
-    pub fn targets(&self) -> u32 {
-        self.segments + 1
-    }
-
-    /// Commanded position of target `k` (mm).
-    pub fn target_position(&self, k: u32) -> f64 {
-        self.start_mm + self.length_mm * f64::from(k) / f64::from(self.segments.max(1))
     }
 }
 
@@ -503,9 +447,7 @@ pub struct Overrides {
     pub seed: Option<u64>,
 }
 
-/// Most instants a campaign may have (≈ 90 times the seed's 11 300): the
-/// list of instants and their true centres is held in memory.
-pub const MAX_INSTANTS: usize = 1_000_000;
+pub use formats::capture::MAX_INSTANTS;
 
 /// Largest target grid (markers per side of the Latin square; 49 by default).
 pub const MAX_GRID: u32 = 101;
@@ -761,66 +703,8 @@ impl Config {
             })?;
 
         let p = &self.procedure;
-        if p.runs < 1 {
-            return Err(bad("procedure.runs", "at least one run is needed"));
-        }
-        if p.captures < 1 {
-            return Err(bad("procedure.captures", "at least one capture is needed"));
-        }
-        non_negative("procedure.overshoot_mm", p.overshoot_mm)?;
-        positive("procedure.fps", p.fps)?;
-        positive("procedure.feed_mm_per_s", p.feed_mm_per_s)?;
-        non_negative("procedure.settle_s", p.settle_s)?;
+        p.validate().map_err(|e| bad(&e.key, e.message))?;
         crate::datetime::parse(&p.start_time).map_err(|m| bad("procedure.start_time", m))?;
-        for (i, a) in p.axes.iter().enumerate() {
-            let key = format!("procedure.axes[{i}]");
-            if a.axis == Axis::Z {
-                return Err(bad(&format!("{key}.axis"), "only X and Y are moved"));
-            }
-            if p.axes[..i].iter().any(|o| o.axis == a.axis) {
-                return Err(bad(
-                    &format!("{key}.axis"),
-                    format!("axis {} listed twice", a.axis),
-                ));
-            }
-            finite(&format!("{key}.start_mm"), &[a.start_mm])?;
-            positive(&format!("{key}.length_mm"), a.length_mm)?;
-            if a.segments < 1 {
-                return Err(bad(
-                    &format!("{key}.segments"),
-                    "at least one segment is needed",
-                ));
-            }
-            if a.lines_mm.is_empty() {
-                return Err(bad(
-                    &format!("{key}.lines_mm"),
-                    "at least one line is needed",
-                ));
-            }
-            finite(&format!("{key}.lines_mm"), &a.lines_mm)?;
-        }
-        // Counts multiply into the list of instants held in memory: checked
-        // before anything is sized from them.
-        let instants: u128 = p
-            .axes
-            .iter()
-            .map(|a| {
-                a.lines_mm.len() as u128
-                    * (u128::from(a.segments) + 1)
-                    * 2
-                    * u128::from(p.runs)
-                    * u128::from(p.captures)
-            })
-            .sum();
-        if instants > MAX_INSTANTS as u128 {
-            return Err(bad(
-                "procedure",
-                format!(
-                    "lines × (segments + 1) × 2 directions × runs × captures = {instants} instants, \
-                     more than {MAX_INSTANTS} (the seed's campaign has 11300)"
-                ),
-            ));
-        }
 
         for (axis, e) in [(Axis::X, &self.machine.x), (Axis::Y, &self.machine.y)] {
             let key = format!("machine.{axis}");
@@ -898,6 +782,7 @@ impl Config {
                 "applies to TIFF only (PNG is always deflated)",
             ));
         }
+        self.capture.validate(self)?;
         if !(1..=8).contains(&self.render.max_depth) {
             return Err(bad(
                 "render.max_depth",
@@ -967,6 +852,7 @@ impl Default for Config {
             target: TargetConfig::default(),
             output: OutputConfig::default(),
             render: RenderConfig::default(),
+            capture: CaptureConfig::default(),
         }
     }
 }
@@ -1080,36 +966,6 @@ impl Default for CameraConfig {
             principal_point_offset_um: [0.0; 2],
             distortion: DistortionConfig::default(),
             stray_light: Vec::new(),
-        }
-    }
-}
-
-impl Default for ProcedureConfig {
-    fn default() -> Self {
-        Self {
-            axes: vec![
-                AxisProcedure {
-                    axis: Axis::X,
-                    start_mm: -75.0,
-                    length_mm: 150.0,
-                    segments: 50,
-                    lines_mm: vec![0.0, 10.0],
-                },
-                AxisProcedure {
-                    axis: Axis::Y,
-                    start_mm: -50.0,
-                    length_mm: 100.0,
-                    segments: 10,
-                    lines_mm: vec![0.0],
-                },
-            ],
-            runs: 5,
-            captures: 10,
-            overshoot_mm: 10.0,
-            fps: 180.0,
-            feed_mm_per_s: 20.0,
-            settle_s: 0.3,
-            start_time: "2025-06-02T08:00:00".into(),
         }
     }
 }

@@ -17,7 +17,9 @@
 //! - [`encode`]: 8/16-bit TIFF and PNG with EXIF metadata.
 //! - [`machine`], [`procedure`], [`campaign`], [`target`], [`truth`]: the
 //!   simulated machine with injected errors, the measurement procedure, the
-//!   streamed campaign writer, the calibration target and the truth files.
+//!   streamed campaign writer, the calibration target and the truth files;
+//!   [`capture`]: the frames written as cameras save them (folders per
+//!   serial, camera clocks, real move times, faults, continuous streams).
 //!
 //! # Conventions
 //! - Lengths in millimetres, angles in radians, all geometry in `f64`;
@@ -36,6 +38,7 @@
 mod error;
 
 pub mod campaign;
+pub mod capture;
 pub mod config;
 pub mod coverage;
 pub mod datetime;

@@ -1,11 +1,12 @@
 //! The measurement procedure: every instant of a campaign, in the order the
 //! machine runs it, with its time stamp and the table's true pose error.
 //!
-//! Per axis, per line, per run (ISO 230-2 linear cycle): go to the first
-//! target minus the overshoot, approach every target upward (+) taking
-//! `captures` frames at each; go past the last target by the overshoot and
-//! approach every target downward (−). The overshoot takes up the backlash, so
-//! the approach direction decides the reversal error.
+//! Per axis, per line, per run (ISO 230-2 linear cycle, the dwells of
+//! [`formats::capture::ProcedureConfig::dwells`]): go to the first target
+//! minus the overshoot, approach every target upward (+) taking `captures`
+//! frames at each; go past the last target by the overshoot and approach
+//! every target downward (−). The overshoot takes up the backlash, so the
+//! approach direction decides the reversal error.
 
 use formats::{Axis, Direction, ManifestRow, PointRow};
 use geom::nalgebra::{Point3, Vector3};
@@ -114,78 +115,34 @@ impl Plan {
         let p = &config.procedure;
         let start_time_s = crate::datetime::parse(&p.start_time).map_err(SynthError::config)?;
         let mut instants = Vec::new();
-        let mut time = 0.0;
-        let mut at: Option<[f64; 3]> = None;
-        let mut move_to = |to: [f64; 3], time: &mut f64| {
-            if let Some(from) = at {
-                let d = Vector3::from(to) - Vector3::from(from);
-                *time += d.norm() / p.feed_mm_per_s;
-            }
-            at = Some(to);
-        };
-        for travel in &p.axes {
-            let axis = travel.axis;
-            let Some(errors) = config.machine.axis(axis) else {
+        for dwell in p.dwells() {
+            let Some(errors) = config.machine.axis(dwell.axis) else {
                 continue;
             };
-            let other = match axis {
-                Axis::X => Axis::Y,
-                _ => Axis::X,
+            let key = ApproachKey {
+                axis: dwell.axis,
+                line: dwell.line,
+                run: dwell.run,
+                direction: dwell.direction,
+                target: dwell.target,
             };
-            let targets: Vec<f64> = (0..travel.targets())
-                .map(|k| travel.target_position(k))
-                .collect();
-            let (first, last) = (targets[0], targets[targets.len() - 1]);
-            for (line, &offset) in travel.lines_mm.iter().enumerate() {
-                let position = |q: f64| {
-                    let mut n = [0.0; 3];
-                    n[axis.index()] = q;
-                    n[other.index()] = offset;
-                    n
-                };
-                for run in 1..=p.runs {
-                    for direction in [Direction::Up, Direction::Down] {
-                        let (approach, order): (f64, Vec<u32>) = match direction {
-                            Direction::Up => {
-                                (first - p.overshoot_mm, (0..travel.targets()).collect())
-                            }
-                            Direction::Down => {
-                                (last + p.overshoot_mm, (0..travel.targets()).rev().collect())
-                            }
-                        };
-                        move_to(position(approach), &mut time);
-                        for k in order {
-                            let nominal = position(targets[k as usize]);
-                            move_to(nominal, &mut time);
-                            time += p.settle_s;
-                            let key = ApproachKey {
-                                axis,
-                                line: line as u32,
-                                run,
-                                direction,
-                                target: k,
-                            };
-                            let approach_d = approach_offset(config.seed, &key, errors);
-                            for capture in 1..=p.captures {
-                                let random =
-                                    approach_d + capture_offset(config.seed, &key, capture, errors);
-                                instants.push(Instant {
-                                    index: instants.len() as u64,
-                                    axis,
-                                    line: line as u32,
-                                    direction,
-                                    run,
-                                    target: k,
-                                    capture,
-                                    nominal,
-                                    time_s: time,
-                                    error: table_error(config, axis, direction, nominal, random),
-                                });
-                                time += 1.0 / p.fps;
-                            }
-                        }
-                    }
-                }
+            let approach_d = approach_offset(config.seed, &key, errors);
+            let mut time = dwell.time_s;
+            for capture in 1..=p.captures {
+                let random = approach_d + capture_offset(config.seed, &key, capture, errors);
+                instants.push(Instant {
+                    index: instants.len() as u64,
+                    axis: dwell.axis,
+                    line: dwell.line,
+                    direction: dwell.direction,
+                    run: dwell.run,
+                    target: dwell.target,
+                    capture,
+                    nominal: dwell.nominal,
+                    time_s: time,
+                    error: table_error(config, dwell.axis, dwell.direction, dwell.nominal, random),
+                });
+                time += 1.0 / p.fps;
             }
         }
         let spheres = config
@@ -216,8 +173,16 @@ impl Plan {
 
     /// The spheres as the renderer needs them at an instant.
     pub fn spheres_at(&self, instant: &Instant) -> Vec<Sphere> {
-        self.centres(instant)
-            .into_iter()
+        self.spheres_at_pose(instant.nominal, &instant.error)
+    }
+
+    /// The spheres at a commanded position `nominal` with the table error
+    /// `error` (a pose between instants: in a move, or still between captures).
+    pub fn spheres_at_pose(&self, nominal: [f64; 3], error: &SmallError) -> Vec<Sphere> {
+        let n = Vector3::from(nominal);
+        self.spheres
+            .iter()
+            .map(|s| error.apply(&s.position) + n)
             .zip(&self.spheres)
             .map(|(centre, s)| Sphere {
                 centre,

@@ -1,0 +1,712 @@
+//! Continuous capture: the cameras run free at `fps` through the whole
+//! campaign, on one frame clock (synchronised sensors), each stamping frames
+//! with its own clock. The dwells are found in the images: where the
+//! spheres' blobs stop moving.
+//!
+//! Per camera: frames get slot numbers on the frame clock from their local
+//! gaps (a gap of n periods is n − 1 dropped frames; local gaps keep clock
+//! drift out). Every `stride`-th frame is decoded (at least three samples
+//! fall in the shortest stay the program allows: `settle_s` plus the
+//! captures); runs of samples whose blobs stay within `still_px` of the
+//! run's first sample are candidate stays, aligned with the program's dwells
+//! by [`crate::align`] (pauses at reversals and before the first move are
+//! strays there). The first still frame of each matched stay is found by
+//! bisection between the last moving sample and the first still one
+//! (`log₂ stride` decodes); it is *sharp* when the frame before it is at
+//! least `3·still_px` from rest.
+//!
+//! Across cameras: the slot offset of each camera from a reference (the one
+//! with the most sharp arrivals) is the most frequent difference of sharp
+//! arrivals at the same dwells; a camera looking along the motion sees it
+//! only as a change of scale and finds arrivals early, so the arrival of a
+//! dwell is the latest sharp one of all cameras, on the reference clock. The
+//! instant is the `captures` frames from `⌈settle_s·fps⌉` frames after it, in
+//! every camera through its offset; that the table is still through the last
+//! of them is checked in the image. Frames at no instant (in motion, or
+//! still but not taken) are counted, not listed.
+//!
+//! Pure but for [`Signatures`], which the caller implements (decoding and
+//! extraction), so the logic is tested with synthetic blobs.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::sync::Mutex;
+
+use formats::Dwell;
+use rayon::prelude::*;
+
+use crate::align::{AlignParams, Event, align};
+use crate::triggered::{CameraFrames, Fault, Placed, Placement, TimedFrame, describe};
+
+/// A blob of a frame: sub-pixel centre and size (px; a smooth measure such
+/// as the mean axis of the moment ellipse, not the whole-pixel area).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spot {
+    /// Centre u (px).
+    pub u: f64,
+    /// Centre v (px).
+    pub v: f64,
+    /// Diameter (px).
+    pub diameter: f64,
+}
+
+/// The blobs of frames, by the caller's file index (decoding is the caller's).
+pub trait Signatures: Sync {
+    /// The blobs of `file`, or why they cannot be had.
+    fn spots(&self, file: usize) -> Result<Vec<Spot>, String>;
+}
+
+/// Settings of continuous capture.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContinuousParams {
+    /// Blobs within this of a stay's first sample (px, in u, v and diameter) are at rest.
+    pub still_px: f64,
+    /// Alignment of stays with the program's dwells.
+    pub align: AlignParams,
+}
+
+impl Default for ContinuousParams {
+    fn default() -> Self {
+        Self {
+            still_px: 0.1,
+            align: AlignParams::default(),
+        }
+    }
+}
+
+/// How far apart two frames' blobs are: the largest change of a blob's
+/// centre or diameter, blobs paired in order of size; infinite when the
+/// counts differ.
+pub fn distance(a: &[Spot], b: &[Spot]) -> f64 {
+    if a.len() != b.len() || a.is_empty() {
+        return f64::INFINITY;
+    }
+    let sorted = |s: &[Spot]| {
+        let mut v = s.to_vec();
+        v.sort_by(|x, y| y.diameter.total_cmp(&x.diameter));
+        v
+    };
+    sorted(a)
+        .iter()
+        .zip(sorted(b).iter())
+        .map(|(x, y)| {
+            (x.u - y.u)
+                .abs()
+                .max((x.v - y.v).abs())
+                .max((x.diameter - y.diameter).abs())
+        })
+        .fold(0.0, f64::max)
+}
+
+/// One camera's stream on the frame clock.
+struct Stream {
+    camera: u8,
+    frames: Vec<TimedFrame>,
+    /// Slot of each kept frame, and the frame at each slot.
+    by_slot: BTreeMap<i64, usize>,
+}
+
+/// A stay found in one camera.
+#[derive(Debug, Clone)]
+struct Stay {
+    first_sample: i64,
+    before: Option<i64>,
+    anchor: Vec<Spot>,
+}
+
+/// One camera's stays matched to dwells: dwell → (arrival, stay).
+type Found = BTreeMap<usize, (Arrival, Stay)>;
+
+/// A dwell's arrival in one camera.
+#[derive(Debug, Clone, Copy)]
+struct Arrival {
+    slot: i64,
+    sharp: bool,
+}
+
+const NS: f64 = 1e9;
+
+/// Cached blobs.
+struct Cache<'a> {
+    source: &'a dyn Signatures,
+    seen: Mutex<HashMap<usize, Result<Vec<Spot>, String>>>,
+}
+
+impl Cache<'_> {
+    fn get(&self, file: usize) -> Result<Vec<Spot>, String> {
+        if let Ok(seen) = self.seen.lock()
+            && let Some(r) = seen.get(&file)
+        {
+            return r.clone();
+        }
+        let r = self.source.spots(file);
+        if let Ok(mut seen) = self.seen.lock() {
+            seen.insert(file, r.clone());
+        }
+        r
+    }
+
+    fn decoded(&self) -> usize {
+        self.seen.lock().map_or(0, |s| s.len())
+    }
+
+    fn failed(&self) -> Vec<(usize, String)> {
+        self.seen.lock().map_or_else(
+            |_| Vec::new(),
+            |s| {
+                let mut v: Vec<(usize, String)> = s
+                    .iter()
+                    .filter_map(|(f, r)| r.as_ref().err().map(|e| (*f, e.clone())))
+                    .collect();
+                v.sort();
+                v
+            },
+        )
+    }
+}
+
+/// Slot numbers from local gaps; frames off the clock are faults.
+fn stream(cam: &CameraFrames, fps: f64, faults: &mut Vec<Fault>) -> Stream {
+    let mut by_slot = BTreeMap::new();
+    let mut last: Option<(i64, i64)> = None;
+    for (i, f) in cam.frames.iter().enumerate() {
+        let slot = match last {
+            None => 0,
+            Some((ns, slot)) => {
+                let x = (f.ns - ns) as f64 / NS * fps;
+                let n = x.round();
+                let tol = 0.25 + f.resolution_ns as f64 / NS * fps;
+                if n < 1.0 || (x - n).abs() > tol {
+                    faults.push(Fault {
+                        file: Some(f.file),
+                        camera: Some(cam.camera),
+                        dwell: None,
+                        capture: None,
+                        reason: format!(
+                            "frame time off camera {}'s frame clock: {:.3} frame periods after \
+                             the previous frame",
+                            cam.camera, x
+                        ),
+                        related: Vec::new(),
+                    });
+                    continue;
+                }
+                slot + n as i64
+            }
+        };
+        by_slot.insert(slot, i);
+        last = Some((f.ns, slot));
+    }
+    Stream {
+        camera: cam.camera,
+        frames: cam.frames.clone(),
+        by_slot,
+    }
+}
+
+impl Stream {
+    fn file(&self, slot: i64) -> Option<usize> {
+        self.by_slot.get(&slot).map(|&i| self.frames[i].file)
+    }
+
+    fn time_s(&self, slot: i64) -> Option<f64> {
+        let first = self.frames.first()?.ns;
+        self.by_slot
+            .get(&slot)
+            .map(|&i| (self.frames[i].ns - first) as f64 / NS)
+    }
+}
+
+/// Place the frames of continuous capture.
+pub fn place_continuous(
+    cameras: &[CameraFrames],
+    dwells: &[Dwell],
+    captures: u32,
+    settle_s: f64,
+    fps: f64,
+    source: &dyn Signatures,
+    params: &ContinuousParams,
+) -> Placed {
+    let mut placed = Placed::default();
+    let settle_frames = (settle_s * fps - 1e-9).ceil().max(0.0) as i64;
+    let stay_frames = settle_frames + i64::from(captures);
+    let stride = (stay_frames / 3).max(1);
+    let eps = params.still_px;
+    let cache = Cache {
+        source,
+        seen: Mutex::new(HashMap::new()),
+    };
+    let program: Vec<f64> = dwells.iter().map(|d| d.time_s).collect();
+    let mut streams = Vec::new();
+    for cam in cameras {
+        if cam.frames.is_empty() {
+            placed.faults.push(Fault {
+                file: None,
+                camera: Some(cam.camera),
+                dwell: None,
+                capture: None,
+                reason: format!("camera {} has no frames", cam.camera),
+                related: Vec::new(),
+            });
+            continue;
+        }
+        streams.push(stream(cam, fps, &mut placed.faults));
+    }
+
+    // Per camera: sampled stays, aligned with the program, arrivals refined.
+    let per_camera: Vec<(u8, Found, f64)> = streams
+        .par_iter()
+        .map(|s| {
+            let (lo, hi) = match (s.by_slot.keys().next(), s.by_slot.keys().next_back()) {
+                (Some(&a), Some(&b)) => (a, b),
+                _ => return (s.camera, BTreeMap::new(), 1.0),
+            };
+            let samples: Vec<i64> = (0..)
+                .map(|k| lo + k * stride)
+                .take_while(|&slot| slot <= hi)
+                .filter_map(|slot| s.by_slot.range(slot..slot + stride).next().map(|(k, _)| *k))
+                .collect();
+            let spots: Vec<Option<Vec<Spot>>> = samples
+                .par_iter()
+                .map(|&slot| s.file(slot).and_then(|f| cache.get(f).ok()))
+                .collect();
+            let mut stays: Vec<Stay> = Vec::new();
+            let mut run: Option<(usize, usize)> = None;
+            let close = |run: Option<(usize, usize)>, stays: &mut Vec<Stay>| {
+                if let Some((a, b)) = run
+                    && b > a
+                    && let Some(anchor) = spots[a].clone()
+                {
+                    stays.push(Stay {
+                        first_sample: samples[a],
+                        before: a.checked_sub(1).map(|p| samples[p]),
+                        anchor,
+                    });
+                }
+            };
+            for k in 0..samples.len() {
+                match (&run, &spots[k]) {
+                    (Some((a, _)), Some(sp))
+                        if spots[*a].as_ref().is_some_and(|an| distance(an, sp) <= eps) =>
+                    {
+                        run = run.map(|(a, _)| (a, k));
+                    }
+                    (_, Some(_)) => {
+                        close(run, &mut stays);
+                        run = Some((k, k));
+                    }
+                    (_, None) => {
+                        close(run, &mut stays);
+                        run = None;
+                    }
+                }
+            }
+            close(run, &mut stays);
+            let events: Vec<Event> = stays
+                .iter()
+                .filter_map(|st| {
+                    Some(Event {
+                        time_s: s.time_s(st.first_sample)?,
+                        size: captures as usize,
+                        irregular: false,
+                    })
+                })
+                .collect();
+            let a = align(&events, &program, captures as usize, &params.align);
+            let ambiguous: BTreeSet<usize> = a.ambiguous.iter().map(|x| x.event).collect();
+            let mut found = BTreeMap::new();
+            for (e, st) in stays.iter().enumerate() {
+                let Some(j) = a.dwell_of[e] else { continue };
+                if ambiguous.contains(&e) {
+                    continue;
+                }
+                let arrival = refine(s, st, stride, eps, &cache);
+                found.insert(j, (arrival, st.clone()));
+            }
+            (s.camera, found, a.scale)
+        })
+        .collect();
+    for (c, _, scale) in &per_camera {
+        placed.scales.push((*c, *scale));
+    }
+
+    // Offsets of the cameras' slots from the reference camera's.
+    let reference = per_camera
+        .iter()
+        .max_by_key(|(c, found, _)| {
+            (
+                found.values().filter(|(a, _)| a.sharp).count(),
+                std::cmp::Reverse(*c),
+            )
+        })
+        .map(|(c, _, _)| *c);
+    let Some(reference) = reference else {
+        return placed;
+    };
+    let found: BTreeMap<u8, &Found> = per_camera.iter().map(|(c, f, _)| (*c, f)).collect();
+    let mut offsets: BTreeMap<u8, i64> = BTreeMap::new();
+    offsets.insert(reference, 0);
+    let pair = |c: u8, r: u8, sharp_only: bool| -> Option<i64> {
+        let (fc, fr) = (found.get(&c)?, found.get(&r)?);
+        let mut votes: BTreeMap<i64, usize> = BTreeMap::new();
+        let mut total = 0;
+        for (j, (a, _)) in fc.iter() {
+            if let Some((b, _)) = fr.get(j)
+                && (!sharp_only || (a.sharp && b.sharp))
+            {
+                *votes.entry(a.slot - b.slot).or_default() += 1;
+                total += 1;
+            }
+        }
+        let (&d, &n) = votes
+            .iter()
+            .max_by_key(|(d, n)| (**n, std::cmp::Reverse(**d)))?;
+        (n >= 3 && 2 * n > total).then_some(d)
+    };
+    for s in &streams {
+        let c = s.camera;
+        if c == reference {
+            continue;
+        }
+        let direct = pair(c, reference, true).or_else(|| pair(c, reference, false));
+        let via = || {
+            streams
+                .iter()
+                .map(|k| k.camera)
+                .filter(|&k| k != c && k != reference)
+                .find_map(|k| {
+                    let a = pair(c, k, true).or_else(|| pair(c, k, false))?;
+                    let b = pair(k, reference, true).or_else(|| pair(k, reference, false))?;
+                    Some(a + b)
+                })
+        };
+        match direct.or_else(via) {
+            Some(o) => {
+                offsets.insert(c, o);
+            }
+            None => {
+                for f in &s.frames {
+                    placed.faults.push(Fault {
+                        file: Some(f.file),
+                        camera: Some(c),
+                        dwell: None,
+                        capture: None,
+                        reason: format!(
+                            "camera {c}'s frames cannot be put on camera {reference}'s frame \
+                             clock: too few of the dwells found in both line up"
+                        ),
+                        related: Vec::new(),
+                    });
+                }
+            }
+        }
+    }
+
+    // Arrivals on the reference clock; the instants; the check that the table stays still.
+    for (j, d) in dwells.iter().enumerate() {
+        let candidates: Vec<(u8, Arrival, &Stay)> = found
+            .iter()
+            .filter(|(c, _)| offsets.contains_key(c))
+            .filter_map(|(c, f)| f.get(&j).map(|(a, st)| (*c, *a, st)))
+            .collect();
+        let sharp: Vec<&(u8, Arrival, &Stay)> =
+            candidates.iter().filter(|(_, a, _)| a.sharp).collect();
+        let chosen: Vec<&(u8, Arrival, &Stay)> = if sharp.is_empty() {
+            candidates.iter().collect()
+        } else {
+            sharp
+        };
+        let Some(&&(judge, _, stay)) = chosen
+            .iter()
+            .max_by_key(|(c, a, _)| (a.slot - offsets[c], std::cmp::Reverse(*c)))
+        else {
+            placed.faults.push(Fault {
+                file: None,
+                camera: None,
+                dwell: Some(j),
+                capture: None,
+                reason: format!(
+                    "dwell {} not found in any camera's images (no stay of the spheres lines up \
+                     with it)",
+                    describe(d)
+                ),
+                related: Vec::new(),
+            });
+            continue;
+        };
+        let arrival = chosen
+            .iter()
+            .map(|(c, a, _)| a.slot - offsets[c])
+            .max()
+            .unwrap_or(0);
+        let first = arrival + settle_frames;
+        let last = first + i64::from(captures) - 1;
+        // The table must still be at rest at the last capture (in the judging camera).
+        let judge_stream = streams.iter().find(|s| s.camera == judge);
+        let at_rest = judge_stream
+            .and_then(|s| s.file(last + offsets[&judge]))
+            .map(|f| cache.get(f).map(|sp| distance(&stay.anchor, &sp) <= eps));
+        if let Some(Ok(false)) = at_rest {
+            placed.faults.push(Fault {
+                file: None,
+                camera: Some(judge),
+                dwell: Some(j),
+                capture: Some(captures),
+                reason: format!(
+                    "dwell {}: the spheres move again before the last capture, {} frames after \
+                     the arrival (settle_s and the captures do not fit in the stay)",
+                    describe(d),
+                    settle_frames + i64::from(captures) - 1
+                ),
+                related: Vec::new(),
+            });
+            continue;
+        }
+        for s in &streams {
+            let Some(o) = offsets.get(&s.camera) else {
+                continue;
+            };
+            for k in 0..captures {
+                let slot = first + i64::from(k) + o;
+                match s.file(slot) {
+                    Some(file) => placed.placements.push(Placement {
+                        file,
+                        camera: s.camera,
+                        dwell: j,
+                        capture: k + 1,
+                    }),
+                    None => placed.faults.push(Fault {
+                        file: None,
+                        camera: Some(s.camera),
+                        dwell: Some(j),
+                        capture: Some(k + 1),
+                        reason: format!(
+                            "instant {} capture {} has no frame of camera {} (its stream has no \
+                             frame at that time: a dropped frame)",
+                            describe(d),
+                            k + 1,
+                            s.camera
+                        ),
+                        related: Vec::new(),
+                    }),
+                }
+            }
+        }
+    }
+    for (file, why) in cache.failed() {
+        let camera = streams
+            .iter()
+            .find(|s| s.frames.iter().any(|f| f.file == file))
+            .map(|s| s.camera);
+        placed.faults.push(Fault {
+            file: Some(file),
+            camera,
+            dwell: None,
+            capture: None,
+            reason: format!("blobs unreadable: {why}"),
+            related: Vec::new(),
+        });
+    }
+    placed.decoded = cache.decoded();
+    let bad: BTreeSet<usize> = placed.faults.iter().filter_map(|f| f.file).collect();
+    placed.placements.retain(|p| !bad.contains(&p.file));
+    placed
+        .placements
+        .sort_by_key(|p| (p.dwell, p.capture, p.camera));
+    placed
+}
+
+/// The first still slot of a stay, by bisection between the moving sample
+/// before it and its first still sample.
+fn refine(s: &Stream, st: &Stay, stride: i64, eps: f64, cache: &Cache<'_>) -> Arrival {
+    let lo = st.before.unwrap_or(st.first_sample - stride);
+    let between: Vec<i64> = s
+        .by_slot
+        .range(lo + 1..st.first_sample)
+        .map(|(k, _)| *k)
+        .collect();
+    let dist = |slot: i64| -> f64 {
+        s.file(slot)
+            .and_then(|f| cache.get(f).ok())
+            .map_or(f64::INFINITY, |sp| distance(&st.anchor, &sp))
+    };
+    // Smallest index whose frame is at rest (still frames follow moving ones).
+    let (mut a, mut b) = (0usize, between.len());
+    while a < b {
+        let mid = (a + b) / 2;
+        if dist(between[mid]) <= eps {
+            b = mid;
+        } else {
+            a = mid + 1;
+        }
+    }
+    let slot = between.get(a).copied().unwrap_or(st.first_sample);
+    let previous = if a > 0 {
+        Some(between[a - 1])
+    } else {
+        st.before.filter(|&p| p < slot)
+    };
+    let sharp = previous.is_some_and(|p| dist(p) >= 3.0 * eps);
+    Arrival { slot, sharp }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use formats::{Axis, AxisProcedure, ProcedureConfig};
+
+    /// The program and a renderer-like timeline: moves 15 % slow, ending
+    /// half-way between frames; the instant `⌈settle·fps⌉` frames after arrival.
+    struct World {
+        dwells: Vec<Dwell>,
+        captures: u32,
+        fps: f64,
+        settle: f64,
+        /// Per slot: the table's x (mm).
+        x: BTreeMap<i64, f64>,
+        /// Per dwell: the true instant slots.
+        instants: Vec<i64>,
+    }
+
+    fn world() -> World {
+        let p = ProcedureConfig {
+            axes: vec![AxisProcedure {
+                axis: Axis::X,
+                start_mm: 0.0,
+                length_mm: 20.0,
+                segments: 2,
+                lines_mm: vec![0.0],
+            }],
+            runs: 2,
+            captures: 2,
+            overshoot_mm: 5.0,
+            fps: 20.0,
+            feed_mm_per_s: 20.0,
+            settle_s: 0.2,
+            start_time: String::new(),
+        };
+        let dwells = p.dwells();
+        let period = 1.0 / p.fps;
+        let settle_frames = (p.settle_s * p.fps - 1e-9).ceil() as i64;
+        let mut x = BTreeMap::new();
+        let mut instants = Vec::new();
+        let mut slot = -5i64;
+        let mut pos = -5.0;
+        for d in &dwells {
+            // Move to the dwell (through its path) at 20/1.15 mm/s, sampled per slot.
+            let mut path = vec![pos];
+            path.extend(d.path.iter().map(|q| q[0]));
+            let length: f64 = path.windows(2).map(|w| (w[1] - w[0]).abs()).sum();
+            let t0 = slot as f64 * period;
+            let dur = length / 20.0 * 1.15;
+            let k_s = ((t0 + dur) / period + 0.5).ceil() as i64;
+            let arrive = (k_s as f64 - 0.5) * period;
+            while slot < k_s {
+                let f = ((slot as f64 * period - t0) / (arrive - t0)).clamp(0.0, 1.0);
+                let mut along = f * length;
+                let mut at = path[0];
+                for w in path.windows(2) {
+                    let l = (w[1] - w[0]).abs();
+                    if along <= l {
+                        at = w[0] + (w[1] - w[0]).signum() * along;
+                        break;
+                    }
+                    along -= l;
+                    at = w[1];
+                }
+                x.insert(slot, at);
+                slot += 1;
+            }
+            instants.push(k_s + settle_frames);
+            let last = k_s + settle_frames + i64::from(p.captures) - 1;
+            while slot <= last {
+                x.insert(slot, d.nominal[0]);
+                slot += 1;
+            }
+            pos = d.nominal[0];
+        }
+        for _ in 0..5 {
+            x.insert(slot, pos);
+            slot += 1;
+        }
+        World {
+            dwells,
+            captures: p.captures,
+            fps: p.fps,
+            settle: p.settle_s,
+            x,
+            instants,
+        }
+    }
+
+    /// Camera 1 looks along X: an off-axis sphere moves 0.3 px per mm (half a
+    /// frame's travel is below the sharpness bound), cameras 2 and 3 see 1 px per mm.
+    struct Blobs {
+        x: Vec<f64>,
+    }
+
+    impl Signatures for Blobs {
+        fn spots(&self, file: usize) -> Result<Vec<Spot>, String> {
+            let n = self.x.len();
+            let (camera, slot) = (file / n, file % n);
+            let x = self.x[slot];
+            let gain = if camera == 0 { 0.3 } else { 1.0 };
+            Ok(vec![
+                Spot {
+                    u: 100.0 + gain * x,
+                    v: 80.0,
+                    diameter: 20.0,
+                },
+                Spot {
+                    u: 40.0 + gain * x,
+                    v: 50.0,
+                    diameter: 10.0,
+                },
+            ])
+        }
+    }
+
+    #[test]
+    fn instants_are_found_through_the_cameras_that_see_the_motion() {
+        let w = world();
+        let slots: Vec<i64> = w.x.keys().copied().collect();
+        let n = slots.len();
+        let offsets = [0.0, 7.31, -2.77];
+        let cams: Vec<CameraFrames> = (0..3)
+            .map(|c| CameraFrames {
+                camera: c as u8 + 1,
+                frames: slots
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &k)| TimedFrame {
+                        file: c * n + i,
+                        ns: ((offsets[c] + k as f64 / w.fps) * NS).round() as i64,
+                        resolution_ns: 100_000,
+                    })
+                    .collect(),
+            })
+            .collect();
+        let blobs = Blobs {
+            x: w.x.values().copied().collect(),
+        };
+        let p = place_continuous(
+            &cams,
+            &w.dwells,
+            w.captures,
+            w.settle,
+            w.fps,
+            &blobs,
+            &ContinuousParams::default(),
+        );
+        assert!(p.faults.is_empty(), "{:?}", p.faults);
+        assert_eq!(p.placements.len(), w.dwells.len() * 2 * 3);
+        let first = slots[0];
+        for pl in &p.placements {
+            let slot = (pl.file % n) as i64 + first;
+            assert_eq!(
+                slot,
+                w.instants[pl.dwell] + i64::from(pl.capture) - 1,
+                "{pl:?}"
+            );
+        }
+    }
+}

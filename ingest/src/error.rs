@@ -1,0 +1,60 @@
+//! The one error type of `ingest`: what stops a manifest from being built at
+//! all. Frames that cannot be placed are not errors but problems (see
+//! [`crate::Problem`]); every message names the file and what is wrong.
+
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+/// Why no manifest could be built.
+#[derive(Debug, Error)]
+pub enum IngestError {
+    /// The motion program cannot be read or breaks its rules.
+    #[error("{}: {message}", path.display())]
+    Program {
+        /// The program file.
+        path: PathBuf,
+        /// What is wrong (with the key or line at fault).
+        message: String,
+    },
+    /// The command's inputs contradict each other (a serial mapped twice,
+    /// a camera number outside 1..=3, no folder to search).
+    #[error("{0}")]
+    Input(String),
+    /// Operating-system error on a file or folder.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// An image's metadata could not be read.
+    #[error("{}: {message}", path.display())]
+    Metadata {
+        /// The image file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The program cannot be cut into bursts or dwells as captured
+    /// (e.g. dwells closer together than a burst lasts).
+    #[error("{0}")]
+    Capture(String),
+    /// A file of the contract could not be read or written.
+    #[error(transparent)]
+    Format(#[from] formats::FormatError),
+}
+
+impl IngestError {
+    /// An I/O error on `path`.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Self::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// Result alias for `ingest`.
+pub type Result<T> = std::result::Result<T, IngestError>;

@@ -1,0 +1,454 @@
+//! From what the cameras saved to a campaign manifest: the frames under
+//! captured folders (each camera's serial and time of exposure from EXIF),
+//! the motion program (`program.toml`), and the rows of `manifest.csv` with
+//! every frame at its instant — or, for a frame that cannot be placed, a
+//! [`Problem`] with the reason. Nothing is placed by guess.
+//!
+//! - [`program`]: `program.toml`, the renderer's `[procedure]` table.
+//! - [`stamp`]: serial and time of a frame from its metadata alone.
+//! - [`scan`]: the frames under the folders, mapped to camera numbers.
+//! - [`align`]: a camera's events matched to the program's dwells by order
+//!   and relative gaps (dynamic programming, ambiguity measured).
+//! - [`triggered`]: bursts of `captures` frames at each dwell.
+//! - [`continuous`]: free-running cameras; dwells found in the images.
+//!
+//! # Conventions
+//! - Camera clocks are never trusted to agree with each other or with the
+//!   program: only each camera's own time differences are used, and moves
+//!   need not last distance/feed.
+//! - Times are nanoseconds of the camera's civil clock (no time zone).
+//! - Image paths in the manifest are relative to its folder, `/`-separated.
+//! - Deterministic: the same folders give the same manifest and problems.
+//! - The library never prints and decodes pixels only in continuous mode.
+
+#![deny(missing_docs)]
+
+mod error;
+
+pub mod align;
+pub mod continuous;
+pub mod program;
+pub mod scan;
+pub mod stamp;
+pub mod triggered;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Component, Path, PathBuf};
+
+use extract::{Backend, CpuBackend, ExtractParams, FrameReader};
+use formats::{ManifestProblemRow, ManifestRow, ProcedureConfig};
+
+pub use align::AlignParams;
+pub use continuous::{ContinuousParams, Signatures, Spot};
+pub use error::{IngestError, Result};
+pub use program::{parse_program, read_program};
+pub use triggered::{CameraFrames, Fault, Placed, Placement, TimedFrame};
+
+/// A frame, camera or instant left out of the manifest, and why.
+pub type Problem = ManifestProblemRow;
+
+/// How the cameras took the frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Capture {
+    /// `captures` frames at each dwell, on a trigger.
+    #[default]
+    Triggered,
+    /// Free-running through the whole campaign.
+    Continuous,
+}
+
+/// What the manifest is built from.
+#[derive(Debug, Clone, Copy)]
+pub struct Inputs<'a> {
+    /// The motion program.
+    pub program: &'a ProcedureConfig,
+    /// Camera serial → camera number (1, 2, 3).
+    pub cameras: &'a [(String, u8)],
+    /// Folders (or files) holding the frames.
+    pub dirs: &'a [PathBuf],
+    /// The manifest to be written; image paths are relative to its folder,
+    /// which must exist.
+    pub manifest: &'a Path,
+}
+
+/// How the manifest is built.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Triggered or continuous capture.
+    pub capture: Capture,
+    /// Leave out every instant that lacks a camera (each of its frames a problem).
+    pub complete_only: bool,
+    /// Alignment of bursts or stays with the program's dwells.
+    pub align: AlignParams,
+    /// Continuous: blobs within this of rest (px) are still.
+    pub still_px: f64,
+    /// Continuous: blob extraction.
+    pub extract: ExtractParams,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            capture: Capture::Triggered,
+            complete_only: false,
+            align: AlignParams::default(),
+            still_px: ContinuousParams::default().still_px,
+            extract: ExtractParams::default(),
+        }
+    }
+}
+
+/// Counts of a build.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Summary {
+    /// Image files found (TIFF or PNG).
+    pub files: usize,
+    /// Files skipped for not being TIFF or PNG.
+    pub other_files: usize,
+    /// Frames placed at instants (manifest rows).
+    pub placed: usize,
+    /// Instants with at least one frame.
+    pub instants: usize,
+    /// Instants with a frame of every camera.
+    pub complete_instants: usize,
+    /// Dwells of the program.
+    pub dwells: usize,
+    /// Continuous: usable frames at no instant (in motion, or still but not taken).
+    pub not_at_instants: usize,
+    /// Per camera, how much slower than programmed the campaign ran (gaps ÷ programmed gaps).
+    pub scales: Vec<(u8, f64)>,
+    /// Frames whose pixels were decoded (continuous capture only).
+    pub decoded: usize,
+}
+
+/// The manifest, the problems and the counts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Built {
+    /// Manifest rows in program order (dwell, capture, camera).
+    pub rows: Vec<ManifestRow>,
+    /// Everything left out, with the reason.
+    pub problems: Vec<Problem>,
+    /// Counts.
+    pub summary: Summary,
+}
+
+/// Check the serial → camera map.
+fn check_cameras(cameras: &[(String, u8)]) -> Result<()> {
+    if cameras.is_empty() {
+        return Err(IngestError::Input(
+            "no camera given (--camera SERIAL=ID)".into(),
+        ));
+    }
+    for (i, (serial, id)) in cameras.iter().enumerate() {
+        if serial.trim().is_empty() {
+            return Err(IngestError::Input(format!("camera {id}: empty serial")));
+        }
+        if !(1..=3).contains(id) {
+            return Err(IngestError::Input(format!(
+                "camera {serial}={id}: camera numbers are 1, 2 or 3"
+            )));
+        }
+        if let Some((s, _)) = cameras[..i].iter().find(|(_, o)| o == id) {
+            return Err(IngestError::Input(format!(
+                "camera {id} is given twice ({s} and {serial})"
+            )));
+        }
+        if cameras[..i].iter().any(|(s, _)| s == serial) {
+            return Err(IngestError::Input(format!(
+                "serial {serial} is given twice"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// `path` relative to the folder `base` (both absolute), `/`-separated.
+fn relative(base: &Path, path: &Path) -> Option<String> {
+    let b: Vec<Component<'_>> = base.components().collect();
+    let p: Vec<Component<'_>> = path.components().collect();
+    let common = b.iter().zip(&p).take_while(|(x, y)| x == y).count();
+    let mut parts: Vec<String> = vec!["..".to_string(); b.len() - common];
+    for c in &p[common..] {
+        parts.push(c.as_os_str().to_str()?.to_string());
+    }
+    Some(parts.join("/"))
+}
+
+/// Blobs of image files through `extract` (continuous capture).
+struct ImageSignatures<'a> {
+    paths: &'a [PathBuf],
+    params: &'a ExtractParams,
+}
+
+thread_local! {
+    static READER: std::cell::RefCell<FrameReader> = std::cell::RefCell::new(FrameReader::new());
+}
+
+impl Signatures for ImageSignatures<'_> {
+    fn spots(&self, file: usize) -> std::result::Result<Vec<Spot>, String> {
+        let path = self
+            .paths
+            .get(file)
+            .ok_or_else(|| format!("no file {file}"))?;
+        READER.with(|r| {
+            let mut reader = r.borrow_mut();
+            let (frame, _) = reader.read(path).map_err(|e| e.to_string())?;
+            let ex = CpuBackend
+                .extract(frame, self.params)
+                .map_err(|e| e.to_string())?;
+            Ok(ex
+                .blobs
+                .iter()
+                .filter(|b| !b.touches_border)
+                .map(|b| {
+                    // The moment ellipse's mean axis: weighted by the pixel values, it
+                    // is free of the whole-pixel steps of the area.
+                    let e = b.ellipse();
+                    Spot {
+                        u: b.u,
+                        v: b.v,
+                        diameter: 0.5 * (e.major_px + e.minor_px),
+                    }
+                })
+                .collect())
+        })
+    }
+}
+
+/// Build the manifest of the frames under `inputs.dirs`.
+pub fn build(inputs: &Inputs<'_>, options: &Options) -> Result<Built> {
+    check_cameras(inputs.cameras)?;
+    if inputs.dirs.is_empty() {
+        return Err(IngestError::Input("no folder of frames given".into()));
+    }
+    let program = inputs.program;
+    program.validate().map_err(|e| IngestError::Program {
+        path: PathBuf::from("program"),
+        message: format!("{}: {}", e.key, e.message),
+    })?;
+    let dwells = program.dwells();
+    let folder = inputs
+        .manifest
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let base = std::fs::canonicalize(folder).map_err(|e| IngestError::io(folder, e))?;
+
+    let found = scan::scan(inputs.dirs, inputs.cameras)?;
+    let rel = |p: &Path| -> String {
+        std::fs::canonicalize(p)
+            .ok()
+            .and_then(|a| relative(&base, &a))
+            .unwrap_or_else(|| p.to_string_lossy().into_owned())
+    };
+    let serial_of = |c: u8| {
+        inputs
+            .cameras
+            .iter()
+            .find(|(_, id)| *id == c)
+            .map(|(s, _)| s.clone())
+    };
+    let frames = &found.frames;
+    let rels: Vec<String> = frames.iter().map(|f| rel(&f.path)).collect();
+    let mut problems: Vec<Problem> = found
+        .unusable
+        .iter()
+        .map(|u| Problem {
+            image: Some(rel(&u.path)),
+            serial: u.serial.clone(),
+            camera: u.camera,
+            time: u.time.clone(),
+            axis: None,
+            direction: None,
+            run: None,
+            target: None,
+            capture: None,
+            reason: u.reason.clone(),
+        })
+        .collect();
+
+    // Frames per camera in time order (ties: natural path order, the scan's order).
+    let mut cameras: Vec<CameraFrames> = inputs
+        .cameras
+        .iter()
+        .map(|(_, c)| CameraFrames {
+            camera: *c,
+            frames: Vec::new(),
+        })
+        .collect();
+    cameras.sort_by_key(|c| c.camera);
+    for (i, f) in frames.iter().enumerate() {
+        if let Some(c) = cameras.iter_mut().find(|c| c.camera == f.camera) {
+            c.frames.push(TimedFrame {
+                file: i,
+                ns: f.time.ns,
+                resolution_ns: f.time.resolution_ns,
+            });
+        }
+    }
+    for c in &mut cameras {
+        c.frames.sort_by_key(|f| (f.ns, f.file));
+    }
+
+    let placed = match options.capture {
+        Capture::Triggered => triggered::place_triggered(
+            &cameras,
+            &dwells,
+            program.captures,
+            program.fps,
+            &options.align,
+        )
+        .map_err(IngestError::Capture)?,
+        Capture::Continuous => {
+            let paths: Vec<PathBuf> = frames.iter().map(|f| f.path.clone()).collect();
+            let source = ImageSignatures {
+                paths: &paths,
+                params: &options.extract,
+            };
+            continuous::place_continuous(
+                &cameras,
+                &dwells,
+                program.captures,
+                program.settle_s,
+                program.fps,
+                &source,
+                &ContinuousParams {
+                    still_px: options.still_px,
+                    align: options.align,
+                },
+            )
+        }
+    };
+
+    let mut placements = placed.placements;
+    if options.complete_only {
+        let mapped: BTreeSet<u8> = inputs.cameras.iter().map(|(_, c)| *c).collect();
+        let mut at: BTreeMap<(usize, u32), BTreeSet<u8>> = BTreeMap::new();
+        for p in &placements {
+            at.entry((p.dwell, p.capture)).or_default().insert(p.camera);
+        }
+        let (keep, out): (Vec<Placement>, Vec<Placement>) = placements
+            .into_iter()
+            .partition(|p| at[&(p.dwell, p.capture)] == mapped);
+        for p in &out {
+            let f = &frames[p.file];
+            let d = &dwells[p.dwell];
+            problems.push(Problem {
+                image: Some(rels[p.file].clone()),
+                serial: serial_of(p.camera),
+                camera: Some(p.camera),
+                time: Some(f.time.text.clone()),
+                axis: Some(d.axis),
+                direction: Some(d.direction),
+                run: Some(d.run),
+                target: Some(d.target),
+                capture: Some(p.capture),
+                reason: "left out: its instant lacks a camera (--complete-instants)".into(),
+            });
+        }
+        placements = keep;
+    }
+
+    for fault in &placed.faults {
+        let f = fault.file.and_then(|i| frames.get(i));
+        let d = fault.dwell.and_then(|j| dwells.get(j));
+        let camera = fault.camera.or(f.map(|f| f.camera));
+        problems.push(Problem {
+            image: fault.file.and_then(|i| rels.get(i).cloned()),
+            serial: camera.and_then(serial_of),
+            camera,
+            time: f.map(|f| f.time.text.clone()),
+            axis: d.map(|d| d.axis),
+            direction: d.map(|d| d.direction),
+            run: d.map(|d| d.run),
+            target: d.map(|d| d.target),
+            capture: fault.capture,
+            reason: if fault.related.is_empty() {
+                fault.reason.clone()
+            } else {
+                let names: Vec<&str> = fault
+                    .related
+                    .iter()
+                    .filter_map(|&i| rels.get(i).map(String::as_str))
+                    .collect();
+                format!("{} [{}]", fault.reason, names.join(", "))
+            },
+        });
+    }
+
+    let mut rows = Vec::with_capacity(placements.len());
+    let mut per_instant: BTreeMap<(usize, u32), usize> = BTreeMap::new();
+    for p in &placements {
+        let d = &dwells[p.dwell];
+        *per_instant.entry((p.dwell, p.capture)).or_default() += 1;
+        rows.push(ManifestRow {
+            image: rels[p.file].clone(),
+            camera: p.camera,
+            axis: d.axis,
+            direction: d.direction,
+            run: d.run,
+            target: d.target,
+            capture: p.capture,
+            nominal_x: d.nominal[0],
+            nominal_y: d.nominal[1],
+            nominal_z: d.nominal[2],
+        });
+    }
+    let placed_files: BTreeSet<usize> = placements.iter().map(|p| p.file).collect();
+    let listed: BTreeSet<&str> = problems.iter().filter_map(|p| p.image.as_deref()).collect();
+    let not_at_instants = (0..frames.len())
+        .filter(|i| !placed_files.contains(i) && !listed.contains(rels[*i].as_str()))
+        .count();
+    let summary = Summary {
+        files: frames.len() + found.unusable.len(),
+        other_files: found.other_files,
+        placed: rows.len(),
+        instants: per_instant.len(),
+        complete_instants: per_instant
+            .values()
+            .filter(|&&n| n == inputs.cameras.len())
+            .count(),
+        dwells: dwells.len(),
+        not_at_instants,
+        scales: placed.scales,
+        decoded: placed.decoded,
+    };
+    Ok(Built {
+        rows,
+        problems,
+        summary,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_paths() {
+        assert_eq!(
+            relative(Path::new("/a/b"), Path::new("/a/b/c/d.tif")).unwrap(),
+            "c/d.tif"
+        );
+        assert_eq!(
+            relative(Path::new("/a/b"), Path::new("/a/x/d.tif")).unwrap(),
+            "../x/d.tif"
+        );
+    }
+
+    #[test]
+    fn camera_map_is_checked() {
+        let e = |c: &[(&str, u8)]| {
+            check_cameras(
+                &c.iter()
+                    .map(|(s, i)| (s.to_string(), *i))
+                    .collect::<Vec<_>>(),
+            )
+            .unwrap_err()
+            .to_string()
+        };
+        assert!(e(&[("A", 1), ("B", 1)]).contains("twice"));
+        assert!(e(&[("A", 4)]).contains("1, 2 or 3"));
+        assert!(e(&[("A", 1), ("A", 2)]).contains("twice"));
+    }
+}
