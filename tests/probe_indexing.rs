@@ -1,5 +1,5 @@
 //! `trinocular probe indexing` and `trinocular synth probe indexing`: the
-//! INTERFACES.md contract (files, columns, report keys), the check data
+//! docs/formats.md contract (files, columns, report keys), the check data
 //! reproduced through the command line, `--force`, never writing over an
 //! input, and every bad input refused with exit status 1 and one line that
 //! names the file, the line and the column.

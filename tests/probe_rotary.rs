@@ -1,5 +1,5 @@
 //! `trinocular probe rotary` and `trinocular synth probe rotary` as
-//! INTERFACES.md states them: the output files and their columns, `--at`,
+//! docs/formats.md states them: the output files and their columns, `--at`,
 //! `--points`, refusal to overwrite without `--force` (and ever over an
 //! input), one bad input per case of the issue, each a one-line error
 //! naming the file, line and column with exit status 1, usage errors with

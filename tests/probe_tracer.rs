@@ -1,5 +1,5 @@
 //! `trinocular probe tracer` and `trinocular synth probe tracer`: the
-//! INTERFACES.md contract (files, columns, report keys), the check data
+//! docs/formats.md contract (files, columns, report keys), the check data
 //! through the command line, `--query`, `--force`, and bad input — exit
 //! status 1 with one line naming the file, line and column (2 for usage).
 

@@ -1,5 +1,5 @@
 //! `trinocular probe volumetric` and `trinocular synth probe volumetric`
-//! through the binary: the INTERFACES.md contract (files, columns,
+//! through the binary: the docs/formats.md contract (files, columns,
 //! `report.json` keys), the LinuxCNC compensation files against the format's
 //! documented rules, bad input (exit status and a message naming the file,
 //! line, column or flag), `--force`, and `--from-report` on vision campaigns

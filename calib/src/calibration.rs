@@ -1,6 +1,6 @@
 //! One camera from 3-D ↔ 2-D correspondences: normalised DLT → RQ → K, R, t,
 //! then Levenberg–Marquardt on reprojection error with the chosen distortion
-//! model, iterated with k·σ outlier rejection (METHODS.md §1, Calibration).
+//! model, iterated with k·σ outlier rejection (docs/methods.md, Calibration).
 
 use std::collections::{HashMap, HashSet};
 

@@ -1,5 +1,5 @@
 //! Rig commissioning: is the calibrated rig fit for the trinocular method
-//! (METHODS.md §1, Rig; Matching and fusion)?
+//! (docs/methods.md, Rig; Matching and fusion)?
 //!
 //! - Angles between the three optical axes (the method needs them
 //!   perpendicular) and of each optical axis against its machine axis
@@ -253,7 +253,7 @@ pub struct Report {
     pub warnings: Vec<String>,
 }
 
-/// Machine axis of a camera number (INTERFACES.md: 1 ∥ X, 2 ∥ Y, 3 ∥ Z).
+/// Machine axis of a camera number (docs/formats.md: 1 ∥ X, 2 ∥ Y, 3 ∥ Z).
 pub fn machine_axis(id: u8) -> Option<(char, Vector3<f64>)> {
     match id {
         1 => Some(('X', Vector3::x())),
@@ -774,7 +774,7 @@ mod tests {
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
         assert!((Vector3::from(r.working_point_mm) - Vector3::new(0.0, 0.0, 30.0)).norm() < 1e-9);
         for c in &r.cameras {
-            // ≈ 58 µm per pixel at 460 mm (METHODS.md §1).
+            // ≈ 58 µm per pixel at 460 mm (docs/methods.md).
             assert!((c.pixel_size_mm - 460.0 / 7966.0).abs() < 1e-12);
             assert!(c.axis_angle_deg.abs() < 1e-6);
             let d = c.depth_of_field.unwrap();

@@ -1,4 +1,4 @@
-//! Camera calibration from a 3-D target (METHODS.md §1, Calibration).
+//! Camera calibration from a 3-D target (docs/methods.md, Calibration).
 //!
 //! - [`dlt`]: Hartley-normalised DLT and the non-coplanarity check.
 //! - [`refine`]: Levenberg–Marquardt on reprojection error (pinhole, k1 k2,

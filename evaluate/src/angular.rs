@@ -1,4 +1,4 @@
-//! Angular errors of a line (METHODS.md §1, "beyond the source"): the rigid
+//! Angular errors of a line (docs/methods.md, "beyond the source"): the rigid
 //! motion of the sphere set from the first target to each target (Kabsch fit,
 //! `geom::transform::rigid_fit`) gives the table's rotation vector
 //! `ω = (εx, εy, εz)`; roll is the rotation about the moving axis, pitch and

@@ -1,4 +1,4 @@
-//! Flatness of the combined X- and Y-run points (METHODS.md §1): the
+//! Flatness of the combined X- and Y-run points (docs/methods.md): the
 //! least-squares plane `z = aX + bY + c` and the range `η = h_max − h_min` of
 //! the vertical deviations from it; and the minimum zone (ISO 12781, vertical
 //! Chebyshev plane, exact: `geom::min_zone::flatness`).

@@ -1,6 +1,6 @@
 //! ISO 230-2 (2014) §2–§4: positioning accuracy and repeatability of a
 //! linear axis from the positional deviations `xᵢⱼ` of `n` approaches per
-//! direction at each target (METHODS.md §1, "Positioning error").
+//! direction at each target (docs/methods.md, "Positioning error").
 //!
 //! Unit-agnostic: the figures come out in the unit of the deviations.
 //!

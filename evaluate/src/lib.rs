@@ -1,8 +1,8 @@
-//! Evaluation of linear-axis measurements (METHODS.md §1): ISO 230-2
+//! Evaluation of linear-axis measurements (docs/methods.md): ISO 230-2
 //! positioning, VDI/DGQ 3441, straightness, flatness and angular errors, and
 //! the report people read (`report.json`, CSV tables, `report.html`).
 //!
-//! The input is `points.csv` (INTERFACES.md): one row per sphere per instant.
+//! The input is `points.csv` (docs/formats.md): one row per sphere per instant.
 //! [`evaluate`] takes the rows in memory; [`evaluate_file`] reads the file
 //! first, so that every error names its line and column; [`write_outputs`]
 //! writes the report files, each atomically.

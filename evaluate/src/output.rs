@@ -1,4 +1,4 @@
-//! Writing the report: `report.json` (INTERFACES.md), CSV tables per axis
+//! Writing the report: `report.json` (docs/formats.md), CSV tables per axis
 //! (`positioning_X.csv`, `straightness_X.csv`, `angular_X.csv`,
 //! `flatness.csv`) and `report.html`, written as one set: into a fresh
 //! staging folder that then takes the place of the old report in one

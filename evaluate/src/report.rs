@@ -1,4 +1,4 @@
-//! The evaluation report: the `report.json` shape of INTERFACES.md (µm, µrad),
+//! The evaluation report: the `report.json` shape of docs/formats.md (µm, µrad),
 //! with extra keys for the per-target tables and plots.
 //!
 //! Figures of an axis or direction not present in the data are `None` and

@@ -1,4 +1,4 @@
-//! Straightness of a line in one perpendicular direction (METHODS.md §1,
+//! Straightness of a line in one perpendicular direction (docs/methods.md,
 //! ISO 230-1 §3.4.8): the profile is the per-target mean points in the plane
 //! spanned by the axis direction and that perpendicular direction; the
 //! least-squares figure is the range of the orthogonal residuals from the

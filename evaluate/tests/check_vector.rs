@@ -1,4 +1,4 @@
-//! The ISO 230-2 check vector of METHODS.md (`testdata/iso230-2/`): 5 targets
+//! The ISO 230-2 check vector of docs/methods.md (`testdata/iso230-2/`): 5 targets
 //! × 5 runs each way, reproduced to 1e-9 mm for every figure.
 
 #![allow(clippy::unwrap_used)]
@@ -48,7 +48,7 @@ fn check_vector_figures() {
     let r = iso230_2(&check_vector()).unwrap();
     let (up, down, bi) = (r.up.unwrap(), r.down.unwrap(), r.bidirectional.unwrap());
     // Exact figures (mm): rational arithmetic on the file's decimals, square
-    // roots to 40 digits, with the formulas of METHODS.md (an independent
+    // roots to 40 digits, with the formulas of docs/methods.md (an independent
     // computation; the README's figures are these rounded to 1e-6 mm).
     let exact = [
         ("B", bi.b, 0.004564, 0.004564),

@@ -32,7 +32,7 @@ fn seed_frame() -> Vec<u16> {
     img.into_raw()
 }
 
-/// The seed's fixed threshold on 16-bit frames (METHODS.md §1).
+/// The seed's fixed threshold on 16-bit frames (docs/methods.md).
 fn seed_params() -> ExtractParams {
     ExtractParams {
         threshold: Threshold::Fixed(6000),

@@ -1,5 +1,5 @@
 //! Blobs and their moments: the thresholded gray centroid
-//! `u0 = Σu·F/ΣF`, `v0 = Σv·F/ΣF` (METHODS.md §1), area, equivalent diameter,
+//! `u0 = Σu·F/ΣF`, `v0 = Σv·F/ΣF` (docs/methods.md), area, equivalent diameter,
 //! second moments (ellipse axes and orientation), circularity, peak, flags.
 //!
 //! The sums are kept as exact integers (u128), so a blob's moments do not

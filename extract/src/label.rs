@@ -21,7 +21,7 @@ const CHUNK: usize = 32;
 /// Rows per band of the parallel scan (at least).
 const MIN_BAND_ROWS: u32 = 32;
 
-/// How a pixel above the threshold is weighted in the centroid (METHODS.md §1).
+/// How a pixel above the threshold is weighted in the centroid (docs/methods.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum Weighting {
     /// `F = f − T` (the seed's default).

@@ -8,7 +8,7 @@
 //!   right, v down. A blob covering pixels 0..=9 in u has its centre at 4.5.
 //! - Values in native DN: 8-bit frames keep 0..=255 (stored as `u16`);
 //!   thresholds are in the frame's own DN. A pixel is above the threshold when f ≥ T.
-//! - Centroid (METHODS.md §1): `u0 = Σu·F/ΣF`, `v0 = Σv·F/ΣF` with `F = f − T`
+//! - Centroid (docs/methods.md): `u0 = Σu·F/ΣF`, `v0 = Σv·F/ΣF` with `F = f − T`
 //!   (default) or `F = f` over each 8-connected blob of pixels with f ≥ T.
 //! - Results are exact integer sums: the same on any number of threads.
 //! - Corrected centroids ([`correction`]) re-weight a blob's pixels with the

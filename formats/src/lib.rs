@@ -1,4 +1,4 @@
-//! The trinocular file contract (INTERFACES.md): typed records of every CSV
+//! The trinocular file contract (docs/formats.md): typed records of every CSV
 //! and JSON file the tools read or write, validation whose errors name the
 //! file, row and column, and atomic output (write, then rename).
 //!

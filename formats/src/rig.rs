@@ -22,7 +22,7 @@ const ROTATION_TOLERANCE: f64 = 1e-6;
 /// digits (≈ 0.001 px), far below any real difference between two cameras.
 pub const P_TOLERANCE_PX: f64 = 0.05;
 
-/// Camera ids of the contract (INTERFACES.md: cameras `1`, `2`, `3`).
+/// Camera ids of the contract (docs/formats.md: cameras `1`, `2`, `3`).
 const CAMERA_IDS: std::ops::RangeInclusive<u8> = 1..=3;
 
 /// Fails unless the camera ids are 1, 2 or 3 and each occurs once.

@@ -1,4 +1,4 @@
-//! Matching blobs to spheres by diameter (METHODS.md §1, matching).
+//! Matching blobs to spheres by diameter (docs/methods.md, matching).
 //!
 //! A blob of apparent diameter a (px) imaging a sphere of diameter D lies at
 //! distance `d ≈ f·D/a` from a camera of focal length f (px). The spheres sit

@@ -1,4 +1,4 @@
-//! The table's pose at each instant from the three spheres (METHODS.md §1,
+//! The table's pose at each instant from the three spheres (docs/methods.md,
 //! angular errors): the rigid motion of the sphere triplet since the first
 //! instant of the line, by least squares (Kabsch), as roll, pitch and yaw of
 //! the moving axis.

@@ -5,7 +5,7 @@
 //! centre in the camera frame and r its radius, the ellipse centre in
 //! normalised coordinates is `e = (Cx, Cy)·Cz/(Cz² − r²)` (geom::sphere_image),
 //! not the projection `(Cx, Cy)/Cz` — the perspective bias that, ignored,
-//! scales displacements by ≈ 480 ppm for the 20 mm sphere (METHODS.md §1).
+//! scales displacements by ≈ 480 ppm for the 20 mm sphere (docs/methods.md).
 //! Linear triangulation (DLT on the uncorrected centres) starts
 //! Levenberg–Marquardt on the reprojection error of this model; with the
 //! correction switched off (r = 0) the model is the plain pinhole projection.
@@ -147,7 +147,7 @@ pub fn triangulate(views: &[View<'_>], radius: f64) -> Result<Triangulated> {
     })
 }
 
-/// The seed's pixel-scale fusion (METHODS.md §1): the displacement of a sphere
+/// The seed's pixel-scale fusion (docs/methods.md): the displacement of a sphere
 /// since a reference instant from each camera's image displacement, scaled by
 /// the camera's mm per pixel at the sphere's depth. Each camera sees the
 /// displacement's components along its image axes, `[x̂_c; ŷ_c]·Δ = Z_c·Δn`

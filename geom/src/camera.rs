@@ -13,7 +13,7 @@ use nalgebra::{
 
 use crate::{Distortion, GeomError, Result};
 
-/// Pixel tolerance of [`Camera::undistort_pixel`] (METHODS: converged ≤ 1e-10 px).
+/// Pixel tolerance of [`Camera::undistort_pixel`] (docs/methods.md: converged ≤ 1e-10 px).
 pub const UNDISTORT_TOLERANCE_PX: f64 = 1e-10;
 
 /// Linear intrinsic parameters (pixels).

@@ -6,7 +6,7 @@
 //! is the conic `xᵀ·Q·x = 0`, `Q = C·Cᵀ − (‖C‖² − R²)·I` (homogeneous x), an
 //! ellipse with centre `e = (Cx, Cy)·Cz/(Cz² − R²)` — pushed radially outward
 //! from the projected centre `c = (Cx, Cy)/Cz` by the factor `Cz²/(Cz² − R²)`
-//! (METHODS.md §1, perspective bias: `Δ = r_c·R²/(Z² − R²)`).
+//! (docs/methods.md, perspective bias: `Δ = r_c·R²/(Z² − R²)`).
 
 use nalgebra::{Matrix3, Point3, Vector2};
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The reference a user would otherwise reach for: the same least squares as
-`trinocular probe tracer` (METHODS.md §4) solved by a general sparse solver,
+`trinocular probe tracer` (docs/probe-tracer.md) solved by a general sparse solver,
 scipy.optimize.least_squares (trust-region reflective, LSMR on a sparse
 Jacobian), timed on files that `trinocular synth probe tracer` writes.
 

@@ -1,5 +1,5 @@
 //! Probe-head (PH10-type) indexing errors from the reference-sphere centre
-//! measured at each indexed head position (METHODS.md §3, seed 002).
+//! measured at each indexed head position (docs/probe-indexing.md, seed 002).
 //!
 //! A CMM measures one fixed reference sphere with the head indexed to every
 //! (A, B) position, always with the probe offset of one qualification. The

@@ -1,4 +1,4 @@
-//! Rotary-table error identification with a standard ball (METHODS.md §2,
+//! Rotary-table error identification with a standard ball (docs/probe-rotary.md,
 //! seed 000): the six error motions of a C axis per measured angle, from
 //! the centres of a ball mounted at three (or more) places on the table and
 //! measured through a turn; their standard uncertainties; interpolation at
@@ -283,7 +283,7 @@ pub struct Interpolated {
     pub uncertainty: SixErrors,
 }
 
-/// Run the method (METHODS.md §2): validate, check the layout, the six
+/// Run the method (docs/probe-rotary.md): validate, check the layout, the six
 /// errors per angle by least squares, then the axis average line.
 ///
 /// # Example

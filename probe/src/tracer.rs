@@ -1,4 +1,4 @@
-//! CMM volumetric correction by laser-tracer multilateration (METHODS.md §4,
+//! CMM volumetric correction by laser-tracer multilateration (docs/probe-tracer.md,
 //! seed 003).
 //!
 //! A laser tracer at m stations Pⱼ reads, interferometrically, its distance
@@ -152,7 +152,7 @@ impl Network {
         }
     }
 
-    /// Unknowns after the datum: `3n + 4m − 6` (METHODS.md §4).
+    /// Unknowns after the datum: `3n + 4m − 6` (docs/probe-tracer.md).
     pub fn unknowns(&self) -> usize {
         (3 * self.points.len() + 4 * self.station_names.len()).saturating_sub(6)
     }
@@ -277,7 +277,7 @@ pub struct Solution {
 
 /// Solve the network: check the layout, start the stations by the seed's
 /// linearised least squares, run Gauss–Newton with the Schur complement,
-/// align to the nominal grid and propagate the covariance (METHODS.md §4).
+/// align to the nominal grid and propagate the covariance (docs/probe-tracer.md).
 pub fn solve(network: &Network, options: &Options) -> Result<Solution> {
     check_options(options)?;
     let structure = normal::Structure::new(network)?;

@@ -1,4 +1,4 @@
-//! The 21-error volumetric model of a three-axis machine (METHODS.md §5,
+//! The 21-error volumetric model of a three-axis machine (docs/probe-volumetric.md,
 //! seed 004): per linear axis six error motions (positioning, two
 //! straightnesses, roll, pitch, yaw) — eighteen curves — plus three
 //! squareness errors; each curve modelled by a Fourier series and by a

@@ -1,4 +1,4 @@
-//! The indexing method (METHODS.md §3) against independent truth: the check
+//! The indexing method (docs/probe-indexing.md) against independent truth: the check
 //! data's expected results (to their rounding) and injected errors (within
 //! the noise), the generator's truth for several seeds and grids, an exact
 //! noise-free round trip, and every bad input named.

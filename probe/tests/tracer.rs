@@ -1,4 +1,4 @@
-//! Laser-tracer multilateration (METHODS.md §4) against independent truth:
+//! Laser-tracer multilateration (docs/probe-tracer.md) against independent truth:
 //! the check data's reference solution and truth, generator round trips over
 //! layouts, a dense reference of the covariance and redundancy numbers,
 //! Monte-Carlo re-solves against the predicted uncertainties,

@@ -1,5 +1,5 @@
 //! The volumetric model against independent truth: the check vector of
-//! METHODS.md §5 (`testdata/probe/volumetric/`, copied from the shared check
+//! docs/probe-volumetric.md (`testdata/probe/volumetric/`, copied from the shared check
 //! data: fit figures, volumetric errors of the three models, the predicted
 //! circle and its figures), the exact chain against §5's first-order formula
 //! (the difference is of second order), the generator's known machine for

@@ -9,7 +9,7 @@
 //! folder of such frames written as uncompressed 16-bit TIFF. The last line
 //! compares the in-memory rate with the camera rate of the rig.
 
-/// Frames per second a rig of three 180 fps cameras delivers (METHODS.md §1).
+/// Frames per second a rig of three 180 fps cameras delivers (docs/methods.md).
 const CAMERA_RATE_FPS: f64 = 3.0 * 180.0;
 
 use std::path::{Path, PathBuf};
@@ -121,7 +121,7 @@ fn write_tiff(output: &formats::OutputPlan, path: &Path, img: &synth::Image16) -
 
 fn bench_extract(args: &ExtractArgs) -> Result<()> {
     let backend = select_backend(args.backend)?;
-    // The seed threshold on 16-bit frames (METHODS.md §1).
+    // The seed threshold on 16-bit frames (docs/methods.md).
     let params = ExtractParams {
         threshold: Threshold::Fixed(6000),
         ..ExtractParams::default()

@@ -1,4 +1,4 @@
-//! `trinocular calibrate`: each camera from a 3-D target (METHODS.md §1,
+//! `trinocular calibrate`: each camera from a 3-D target (docs/methods.md,
 //! Calibration). From one calibration image per camera (markers extracted,
 //! then assigned to target ids automatically from the nominal rig,
 //! `calib::calibrate_detections`) or from `id,u,v` correspondence files.
@@ -9,7 +9,7 @@
 //! undistorted pixel positions, flat-field corrected (`extract::correction`) —
 //! and the camera refitted.
 //! Writes, all atomically, once every camera is calibrated:
-//! - `--out` (`rig.json`, INTERFACES.md), with each camera's model, parameter
+//! - `--out` (`rig.json`, docs/formats.md), with each camera's model, parameter
 //!   standard deviations, outliers and DLT figures under extra keys;
 //! - `<stem>.cam<ID>.opencv.yml` beside it: OpenCV `FileStorage` YAML;
 //! - `<stem>.residuals.csv`: per-point residuals of every camera;

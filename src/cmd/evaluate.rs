@@ -12,7 +12,7 @@ use crate::cmd::Usage;
 /// Arguments of `trinocular evaluate`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Measured sphere centres (`points.csv`, INTERFACES.md).
+    /// Measured sphere centres (`points.csv`, docs/formats.md).
     #[arg(long)]
     points: PathBuf,
     /// Output directory (created if missing), written as one set: an

@@ -1,4 +1,4 @@
-//! Writing a campaign (INTERFACES.md, `trinocular synth campaign`): images,
+//! Writing a campaign (docs/formats.md, `trinocular synth campaign`): images,
 //! `manifest.csv`, `spheres.csv`, `nominal.json`, `target.csv`, calibration
 //! images (target, flat field and dark frame per camera), `truth.json`,
 //! `truth_points.csv` and the effective `config.toml`.

@@ -3,7 +3,7 @@
 //! The table is a rigid body carrying the spheres at positions s relative to
 //! its reference point, which sits at the world origin at the nominal zero.
 //! At a commanded position `n`, a table point s is at
-//! `P = n + s + δ + ε × s` (first-order small-error transform, METHODS §2),
+//! `P = n + s + δ + ε × s` (first-order small-error transform, docs/methods.md),
 //! where δ and ε add up the error motions of every axis that has a travel in
 //! the procedure, each evaluated at its commanded coordinate:
 //! positioning (+ reversal ±B/2 for the moving axis, by approach direction)

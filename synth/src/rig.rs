@@ -249,7 +249,7 @@ mod tests {
         let rig = SynthRig::from_config(&Config::default()).unwrap();
         assert_eq!(rig.cameras.len(), 3);
         for c in &rig.cameras {
-            // ≈ 58 µm per pixel at 460 mm (METHODS §1).
+            // ≈ 58 µm per pixel at 460 mm (docs/methods.md).
             let mm_per_px = 460.0 / c.camera.intrinsics.fx;
             assert!(
                 (mm_per_px - 0.0578).abs() < 0.0005,

@@ -163,7 +163,7 @@ pub fn outline_bounds(camera: &Camera, sphere: &Sphere) -> Result<[f64; 4]> {
 }
 
 /// Centre of the sphere's outline ellipse in the ideal (undistorted) image, px:
-/// `K·(Cx, Cy)·Cz/(Cz² − R²)` (METHODS §1, perspective bias). This is the area
+/// `K·(Cx, Cy)·Cz/(Cz² − R²)` (docs/methods.md, perspective bias). This is the area
 /// centroid of the silhouette after undistortion.
 pub fn ellipse_centre_px(camera: &Camera, sphere: &Sphere) -> Result<Point2<f64>> {
     let c = camera.to_camera(&sphere.centre);

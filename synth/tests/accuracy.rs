@@ -129,7 +129,7 @@ fn quantised_frame_centroid_is_the_ellipse_centre() {
 }
 
 /// Offset of the centroid from the projected centre against
-/// Δ = r_c·R²/(Z² − R²) (METHODS §1), radially outward, within 2 %.
+/// Δ = r_c·R²/(Z² − R²) (docs/methods.md), radially outward, within 2 %.
 fn check_bias(camera: &Camera, sphere: &Sphere, centroid: Vector2<f64>) {
     let proj = camera.project_pinhole(&sphere.centre).unwrap();
     let pp = Vector2::new(camera.intrinsics.cx, camera.intrinsics.cy);
@@ -170,7 +170,7 @@ fn perspective_bias_matches_the_formula() {
 
 /// With the camera's Brown distortion on: the centroid over undistorted pixel
 /// positions, weighted by intensity × area Jacobian of the undistortion
-/// (METHODS §1), is the ellipse centre, and its bias matches the formula.
+/// (docs/methods.md), is the ellipse centre, and its bias matches the formula.
 #[test]
 fn undistorted_centroid_is_the_ellipse_centre() {
     let cam = seed_camera(true);

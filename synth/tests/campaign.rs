@@ -1,4 +1,4 @@
-//! A small campaign written to disk follows INTERFACES.md; the default
+//! A small campaign written to disk follows docs/formats.md; the default
 //! campaign's scenes keep every sphere in every frame and never overlap.
 
 #![allow(clippy::unwrap_used)]

@@ -1,4 +1,4 @@
-//! Files of `trinocular probe indexing` (METHODS.md §3): the measured
+//! Files of `trinocular probe indexing` (docs/probe-indexing.md): the measured
 //! reference-sphere centre per head position `centres.csv`, the result
 //! `indexing.csv`, and the generator's `truth.json`.
 

@@ -1,4 +1,4 @@
-//! Files of `trinocular probe rotary` (INTERFACES.md, METHODS.md §2).
+//! Files of `trinocular probe rotary` (docs/formats.md, docs/probe-rotary.md).
 //!
 //! - Input `ball,angle_deg,x,y,z` (mm, table frame): one row per ball and
 //!   angle ([`read_centres`]) or several, the probed points of each ball at

@@ -1,5 +1,5 @@
 //! Files of `trinocular probe tracer` (laser-tracer multilateration of a CMM,
-//! METHODS.md §4): the nominal grid `grid.csv` (`point,x,y,z`), the
+//! docs/probe-tracer.md): the nominal grid `grid.csv` (`point,x,y,z`), the
 //! interferometric readings `readings.csv` (`station,point,l`), query points
 //! `x,y,z`; the outputs `corrections.csv`, `stations.csv`, `residuals.csv`,
 //! `corrected.csv`; and the generator's `truth.json`.

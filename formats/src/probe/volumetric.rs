@@ -1,4 +1,4 @@
-//! Files of `trinocular probe volumetric` (METHODS.md §5, INTERFACES.md):
+//! Files of `trinocular probe volumetric` (docs/probe-volumetric.md, docs/formats.md):
 //! the error curves `E.csv` (`axis,position,ex,ey,ez,ea,eb,ec`, mm and rad),
 //! carriage positions `at.csv` (`x,y,z`), the outputs `fits.csv`,
 //! `volumetric.csv`, `circle.csv`, LinuxCNC compensation files, the
@@ -408,7 +408,7 @@ pub struct SetupJson {
     pub circle: CircleJson,
 }
 
-/// The three squareness errors of METHODS.md §5 (rad in files and in the
+/// The three squareness errors of docs/probe-volumetric.md (rad in files and in the
 /// model; µrad where a report says so): Y against X in the XY plane, Z
 /// against X, Z against Y.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -434,7 +434,7 @@ pub struct CircleJson {
 }
 
 /// The parts of `trinocular evaluate`'s `report.json` that `--from-report`
-/// reads (INTERFACES.md; other keys are ignored).
+/// reads (docs/formats.md; other keys are ignored).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 pub struct EvaluateReport {
     /// Per axis (`X`, `Y`, `Z`): the main line's figures.

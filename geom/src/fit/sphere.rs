@@ -114,7 +114,7 @@ mod tests {
 
     #[test]
     fn sphere_recovers_a_cap() {
-        // Five probed points as in METHODS.md §2: north pole plus four on a
+        // Five probed points as in docs/probe-rotary.md: north pole plus four on a
         // small circle, on a 12.5 mm ball far from the origin.
         let c = Point3::new(250.0, -100.0, 75.0);
         let r = 12.5;

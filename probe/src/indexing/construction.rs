@@ -1,4 +1,4 @@
-//! The construction of METHODS.md §3 and its first-order uncertainty.
+//! The construction of docs/probe-indexing.md and its first-order uncertainty.
 //!
 //! O: geometric least-squares sphere through all centres; Q: mean of the
 //! A = 0° centres; z = unit(Q − O); y = unit(z × Σ unit(Oᵢ − O)) over the

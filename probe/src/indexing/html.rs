@@ -19,7 +19,7 @@ pub fn render(r: &Report) -> Result<String> {
         "Probe-head indexing errors",
     );
     h.meta(&format!(
-        "Source: {} · {} positions · A {}…{}° · B turn of {} positions every {}° · construction of METHODS.md §3",
+        "Source: {} · {} positions · A {}…{}° · B turn of {} positions every {}° · construction of docs/probe-indexing.md",
         escape(&r.source),
         r.positions,
         r.grid.a_deg.first().copied().unwrap_or(0.0),

@@ -290,7 +290,7 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
     let a_detents = a_detents(ind);
     let b_detents = b_detents(ind);
     Ok(Report {
-        method: "probe-head indexing errors (METHODS.md §3)".into(),
+        method: "probe-head indexing errors (docs/probe-indexing.md)".into(),
         source: options.source.clone(),
         positions: a.len(),
         rotation_centre: [f.origin.x, f.origin.y, f.origin.z],
@@ -445,7 +445,7 @@ fn conventions() -> Vec<String> {
     [
         "O: geometric least-squares sphere through all centres; Q: mean of the A = 0° centres; \
          z = unit(Q − O) (B axis); y = unit(z × Σ unit(Oᵢ − O)) over the B = 0°, A > 0° centres \
-         (A axis); x = y × z (METHODS.md §3).",
+         (A axis); x = y × z (docs/probe-indexing.md).",
         "θA = arccos n, θB = atan2(m, l) from the direction cosines (l, m, n) of O→Oᵢ; \
          ΔθA = θA − A; ΔθB = θB − B wrapped to (−180°, 180°], undefined at A = 0°.",
         "Centres and radius in mm (machine frame); angles in degrees; ΔθA, ΔθB in arc-seconds; \

@@ -107,7 +107,7 @@ pub fn render(report: &Report) -> Result<String> {
     let angles: Vec<f64> = report.errors.iter().map(|e| e.angle_deg).collect();
     h.meta(&format!(
         "Source: {} ({}) · {} balls ({}) · {} angles from {}° to {}° · layout condition number \
-         <b>{:.2}</b> (limit {}) · residual RMS {:.3} µm · METHODS.md §2, ISO 230-7 names",
+         <b>{:.2}</b> (limit {}) · residual RMS {:.3} µm · docs/probe-rotary.md, ISO 230-7 names",
         escape(&report.source),
         match report.input {
             super::report::InputKind::Centres => "ball centres",

@@ -1,5 +1,5 @@
 //! The layout check and the per-angle least squares of the six errors
-//! (METHODS.md §2): for each angle θ and ball i, `Pᵢ = Rz(θ)·P0ᵢ` and the
+//! (docs/probe-rotary.md): for each angle θ and ball i, `Pᵢ = Rz(θ)·P0ᵢ` and the
 //! three rows of `ΔPᵢ = δ + ε × Pᵢ` (`geom::transform::SmallError`); the
 //! stacked system `A·X = b` (3 rows per ball) is solved by least squares,
 //! `X = (AᵀA)⁻¹Aᵀb`, through the Householder QR decomposition of `A`
@@ -146,7 +146,7 @@ fn check_displacement(ball: &str, angle_deg: f64, p0: &Point3<f64>, p: &Point3<f
     })
 }
 
-/// The six errors at every measured angle (METHODS.md §2), after the
+/// The six errors at every measured angle (docs/probe-rotary.md), after the
 /// displacement check of every centre.
 pub fn errors_per_angle(m: &Measurement, layout: &Layout) -> Result<Vec<AngleErrors>> {
     let reference = m.reference();

@@ -1,4 +1,4 @@
-//! `report.json` of `trinocular probe rotary` (INTERFACES.md): the errors
+//! `report.json` of `trinocular probe rotary` (docs/formats.md): the errors
 //! per angle in µm and µrad (`errors`), the location errors of the axis
 //! average line (`location`: `X0C_um`, `Y0C_um`, `A0C_urad`, `B0C_urad`),
 //! the layout's condition number (`condition`), and beyond the contract the
@@ -250,7 +250,7 @@ pub fn conventions() -> Vec<String> {
     [
         "table frame: Z on the nominal rotation axis, origin on it at the table surface; angles counter-clockwise seen from +Z",
         "errors EXC, EYC, EZC, EAC, EBC, ECC = δx, δy, δz (µm), εx, εy, εz (µrad) of ΔP = δ + ε × Rz(θ)·P0, P0 = each ball's centre at 0° (all six are zero there)",
-        "per-angle least squares X = (AᵀA)⁻¹Aᵀb (METHODS.md §2); standard uncertainties √diag(s²(AᵀA)⁻¹), s² = Σr²/(3n − 6)",
+        "per-angle least squares X = (AᵀA)⁻¹Aᵀb (docs/probe-rotary.md); standard uncertainties √diag(s²(AᵀA)⁻¹), s² = Σr²/(3n − 6)",
         "location errors (ISO 230-7): X0C, Y0C where the axis average line crosses Z = 0; A0C, B0C right-hand rotations about X, Y turning +Z onto its direction ≈ (B0C, −A0C, 1); the mean location over the turn (least squares of a − Rz(θ)·b per pair)",
         "component errors = errors − (I − Rz(θ))·(X0C, Y0C, 0) and (I − Rz(θ))·(A0C, B0C, 0); ranges are max − min over the measured angles",
         "interpolation: linear between the two nearest measured angles, wrapping at 360°",

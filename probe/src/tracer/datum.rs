@@ -1,4 +1,4 @@
-//! The datum of METHODS.md §4 and the covariance through it.
+//! The datum of docs/probe-tracer.md and the covariance through it.
 //!
 //! The network fixes shape and scale, not position and orientation: `JᵀJ`
 //! has the six rigid motions as its null space. Corrections are formed after

@@ -62,7 +62,7 @@ fn input(what: String, message: String) -> ProbeError {
 
 impl Structure {
     /// Check the network (names, finite values, indices, duplicates) and the
-    /// counts of METHODS.md §4, then arrange the readings by point.
+    /// counts of docs/probe-tracer.md, then arrange the readings by point.
     pub fn new(net: &Network) -> Result<Structure> {
         let (n, m) = (net.points.len(), net.station_names.len());
         if net.point_names.len() != n {

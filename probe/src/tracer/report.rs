@@ -1,4 +1,4 @@
-//! `report.json` of `probe tracer`: the keys INTERFACES.md lists
+//! `report.json` of `probe tracer`: the keys docs/formats.md lists
 //! (`residual_rms_um`, `iterations`, `points`, `stations`, `unknowns`,
 //! `equations`, `condition`) and what else a user needs to judge the result,
 //! in micrometres.

@@ -1,6 +1,6 @@
 //! Error curves from a vision campaign (`--from-report DIR`): the figures
 //! `trinocular evaluate` writes for each swept axis, converted to the
-//! conventions of METHODS.md §5.
+//! conventions of docs/probe-volumetric.md.
 //!
 //! What evaluate reports for the main line of an axis j, per target k at
 //! commanded position `q_k`: the positional deviation `d_j` of the

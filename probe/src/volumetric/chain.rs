@@ -1,4 +1,4 @@
-//! The kinematic chain and the volumetric error (METHODS.md §5): carriage
+//! The kinematic chain and the volumetric error (docs/probe-volumetric.md): carriage
 //! transforms `T_j(q) = Trans(q·a_j + δ_j(q))·Rot(ε_j(q))` (Rot by Rodrigues'
 //! formula), squareness directions `a_X = (1, 0, 0)`,
 //! `a_Y = (−sin EC0Y, cos EC0Y, 0)`, `a_Z = Ry(EB0Z)·Rx(EA0Z)·(0, 0, 1)`, the

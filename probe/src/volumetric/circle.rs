@@ -1,4 +1,4 @@
-//! The predicted circular test (ISO 230-4, METHODS.md §5) in the workpiece
+//! The predicted circular test (ISO 230-4, docs/probe-volumetric.md) in the workpiece
 //! frame, where a ballbar sits: nominal path `w₀(θ) = c + R(cos θ, sin θ, 0)`
 //! in 1° steps, each carriage at `q_L = s_L·(w₀_L − t_L)`, radial deviation
 //! `Δ·(cos θ, sin θ, 0)`, and the circular deviation: the range of the radial

@@ -1,4 +1,4 @@
-//! The eighteen error curves (METHODS.md §5): per linear axis its six error
+//! The eighteen error curves (docs/probe-volumetric.md): per linear axis its six error
 //! motions at the measured carriage positions, checked, with the
 //! least-squares line removed from the two straightness curves.
 

@@ -1,5 +1,5 @@
 //! The whole analysis of `trinocular probe volumetric` and its `report.json`
-//! (INTERFACES.md: `circle.radial_range_um`, `circle.circular_deviation_um`;
+//! (docs/formats.md: `circle.radial_range_um`, `circle.circular_deviation_um`;
 //! µm and µrad, mm for positions).
 
 use formats::Axis;
@@ -517,7 +517,7 @@ impl Report {
 /// The conventions written into every report.
 pub fn conventions() -> Vec<String> {
     [
-        "METHODS.md §5: error motions of each carriage relative to the body it rides on, translations along and rotations about the machine X, Y, Z, rotations about the machine origin carried by the carriage",
+        "docs/probe-volumetric.md: error motions of each carriage relative to the body it rides on, translations along and rotations about the machine X, Y, Z, rotations about the machine origin carried by the carriage",
         "T_j(q) = Trans(q·a_j + δ_j(q))·Rot(ε_j(q)), Rot by Rodrigues' formula; a_X = (1,0,0), a_Y = (−sin EC0Y, cos EC0Y, 0), a_Z = Ry(EB0Z)·Rx(EA0Z)·(0,0,1)",
         "chain W a1…ak F b1…bl T: T_W = T_ak⋯T_a1, T_T = T_b1⋯T_bl, w = T_W⁻¹·T_T·t; volumetric error = w − w(no errors, no squareness), workpiece frame",
         "straightness curves: least-squares line v = k·q + b removed, slopes reported",

@@ -1,4 +1,4 @@
-//! Models of one error curve (METHODS.md §5): a Fourier series of order N,
+//! Models of one error curve (docs/probe-volumetric.md): a Fourier series of order N,
 //! `Δ(p) = a0 + Σ_{n=1..N} (aₙ sin(nωp) + bₙ cos(nωp))`, `ω = 2π/L` over the
 //! measured travel L, and a polynomial of degree 2N (the same 2N + 1
 //! coefficients), fitted by linear least squares; their figures R², SSE,

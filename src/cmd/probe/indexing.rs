@@ -1,5 +1,5 @@
 //! `trinocular probe indexing --centres C.csv --out DIR`: probe-head indexing
-//! errors ΔθA, ΔθB by the construction of METHODS.md §3 (the `probe` crate),
+//! errors ΔθA, ΔθB by the construction of docs/probe-indexing.md (the `probe` crate),
 //! writing `DIR/indexing.csv`, `DIR/report.json` and `DIR/report.html`; and
 //! `trinocular synth probe indexing --out DIR`: centres of a head with known
 //! indexing errors (the `synth` crate), `DIR/centres.csv` and `DIR/truth.json`.

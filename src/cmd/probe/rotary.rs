@@ -1,6 +1,6 @@
 //! `trinocular probe rotary (--centres C.csv | --points P.csv) --out DIR
 //! [--at DEG …] [--force]`: rotary-table errors from a standard ball
-//! (METHODS.md §2); writes `DIR/rotary.csv`, `DIR/report.json`,
+//! (docs/probe-rotary.md); writes `DIR/rotary.csv`, `DIR/report.json`,
 //! `DIR/report.html`, with `--at` `DIR/rotary_at.csv`, with `--points`
 //! `DIR/spheres.csv`, and prints the sign-off figures.
 //!

@@ -1,5 +1,5 @@
 //! `trinocular probe tracer` (CMM volumetric correction by laser-tracer
-//! multilateration, METHODS.md §4) and `trinocular synth probe tracer` (its
+//! multilateration, docs/probe-tracer.md) and `trinocular synth probe tracer` (its
 //! check data with truth). Thin: flags, files through `formats`, the work in
 //! `probe::tracer` and `synth::probe::tracer`.
 

@@ -1,4 +1,4 @@
-//! `trinocular probe volumetric`: the 21-error volumetric model (METHODS.md
+//! `trinocular probe volumetric`: the 21-error volumetric model (docs/methods.md
 //! §5) from error curves (`--errors E.csv`) or from a vision campaign
 //! evaluated by `trinocular evaluate` (`--from-report DIR`); writes
 //! `fits.csv`, `volumetric.csv` (with `--at`), `circle.csv` (with

@@ -1,4 +1,4 @@
-//! Check data for the probe-head indexing method (METHODS.md §3) with known
+//! Check data for the probe-head indexing method (docs/probe-indexing.md) with known
 //! truth: the reference-sphere centre a CMM reports at every indexed (A, B)
 //! position of a PH10-type head, and the injected indexing errors.
 //!

@@ -1,4 +1,4 @@
-//! Check data for the rotary-table method (METHODS.md §2) with known truth:
+//! Check data for the rotary-table method (docs/probe-rotary.md) with known truth:
 //! a C axis whose axis average line is offset and tilted (ISO 230-7
 //! location errors), with component error motions, carrying a standard ball
 //! at several places; the ball centres and the probed points a CMM reports
@@ -54,7 +54,7 @@ pub const NAMES: [&str; 6] = ["EXC", "EYC", "EZC", "EAC", "EBC", "ECC"];
 /// `data/rotary/`), as `trinocular synth probe rotary --print-config` prints
 /// it. Parses to [`RotaryConfig::default`].
 pub const DEFAULT_TOML: &str = r#"# trinocular synth probe rotary: a C axis with known errors, a standard ball at
-# several places, measured through a turn (METHODS.md §2). Every key is optional.
+# several places, measured through a turn (docs/probe-rotary.md). Every key is optional.
 # Lengths in mm unless the key says _um (micrometres); angles _deg, _urad.
 
 seed = 0                 # random seed of the noise: same seed, same files

@@ -1,4 +1,4 @@
-//! Check data of laser-tracer multilateration (METHODS.md §4) with known
+//! Check data of laser-tracer multilateration (docs/probe-tracer.md) with known
 //! truth: a lattice grid of nominal CMM points, a smooth error field that
 //! moves the true points off it, m tracer stations around the grid, and the
 //! interferometric readings a tracer reports — each station zeroed at the

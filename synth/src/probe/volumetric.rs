@@ -1,4 +1,4 @@
-//! Check data of the 21-error volumetric model (METHODS.md §5) with known
+//! Check data of the 21-error volumetric model (docs/probe-volumetric.md) with known
 //! truth: the eighteen error motions of a machine as a 6D interferometer
 //! reports them (`errors.csv`, with measurement noise and, in the
 //! straightness curves, the axis misalignment the instrument sees), the
