@@ -39,6 +39,15 @@ struct Case {
     /// Files the run must not leave in `{out}`.
     #[serde(default)]
     absent: Vec<String>,
+    /// Fragments that must each stand somewhere in stderr (notes on lines
+    /// of their own, beside the `stderr` line).
+    #[serde(default)]
+    notes: Vec<String>,
+    /// Files of the case's `out/` folder — copied into `{out}` before the
+    /// run, as an earlier run left them — that the run must leave byte for
+    /// byte as they were.
+    #[serde(default)]
+    unchanged: Vec<String>,
     /// Address-space limit of the run (MiB): a huge allocation fails there
     /// (an abort) instead of swapping.
     #[serde(default = "default_memory_mib")]
@@ -97,6 +106,19 @@ fn run(dir: &Path) -> Result<(), String> {
         .iter()
         .map(|a| a.replace("{out}", out_text))
         .collect();
+    // What an earlier run left in the output folder.
+    let earlier = dir.join("out");
+    if earlier.is_dir() {
+        for (path, bytes) in snapshot(&earlier) {
+            let to = out
+                .path()
+                .join(path.strip_prefix(&earlier).map_err(|e| e.to_string())?);
+            if let Some(parent) = to.parent() {
+                std::fs::create_dir_all(parent).map_err(|e| e.to_string())?;
+            }
+            std::fs::write(&to, bytes).map_err(|e| e.to_string())?;
+        }
+    }
     let before = snapshot(dir);
     // The limit is set by the shell that then becomes the binary.
     let mut child = Command::new("sh")
@@ -152,6 +174,20 @@ fn run(dir: &Path) -> Result<(), String> {
             .any(|l| case.stderr.iter().all(|f| l.contains(f.as_str())))
     {
         faults.push(format!("no line of stderr holds all of {:?}", case.stderr));
+    }
+    for f in &case.notes {
+        if !stderr.contains(f.as_str()) {
+            faults.push(format!("stderr does not hold «{f}»"));
+        }
+    }
+    for name in &case.unchanged {
+        let (was, is) = (
+            std::fs::read(earlier.join(name)).map_err(|e| format!("out/{name}: {e}"))?,
+            std::fs::read(out.path().join(name)),
+        );
+        if is.ok().as_ref() != Some(&was) {
+            faults.push(format!("{name} of the earlier run was replaced or removed"));
+        }
     }
     for f in &case.not_stderr {
         if stderr.contains(f.as_str()) {

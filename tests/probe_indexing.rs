@@ -309,12 +309,14 @@ fn usage_errors_exit_2_and_options_are_checked() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--centres"));
     let dir = tempfile::tempdir().unwrap();
-    let e = refused(&probe(
+    let out = probe(
         &testdata("centres.csv"),
         &dir.path().join("r"),
         &["--tolerance=-2"],
-    ));
-    assert!(e.contains("--tolerance"), "{e}");
+    );
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("--tolerance") && e.contains("-2"), "{e}");
 }
 
 #[test]

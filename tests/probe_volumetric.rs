@@ -373,7 +373,8 @@ fn bad_input_is_one_clear_line() {
         ("WXYFXT", "axis X appears 2 times"),
     ] {
         let (code, err) = fails(&probe(&full, &["--chain", chain]));
-        assert_eq!(code, 1);
+        // A bad option value is a usage error.
+        assert_eq!(code, 2);
         assert!(
             err.contains(&format!("--chain '{chain}'")) && err.contains(says),
             "{err}"

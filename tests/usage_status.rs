@@ -90,7 +90,7 @@ const CASES: &[(&[&str], &str)] = &[
             "{out}/b.csv",
             "a.tif",
         ],
-        "--threshold bright",
+        "'bright' for '--threshold",
     ),
     (
         &[

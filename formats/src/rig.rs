@@ -479,7 +479,10 @@ pub fn check_projection(p: &[[f64; 4]; 3], camera: &Camera) -> Result<(), String
     })?;
     let k = camera.intrinsics;
     let depth = camera.translation().norm().max(1.0);
-    let (w, h) = (f64::from(camera.width) - 1.0, f64::from(camera.height) - 1.0);
+    let (w, h) = (
+        f64::from(camera.width) - 1.0,
+        f64::from(camera.height) - 1.0,
+    );
     for scale in [0.5, 2.0] {
         for (u, v) in [(w / 2.0, h / 2.0), (0.0, 0.0), (w, 0.0), (0.0, h), (w, h)] {
             let n = k.to_normalized(Point2::new(u, v));
@@ -624,7 +627,9 @@ mod tests {
         scaled.validate().unwrap();
         // Seven significant digits are enough.
         let mut rounded = good.clone();
-        rounded.p = good.p.map(|r| r.map(|v| format!("{v:.6e}").parse().unwrap()));
+        rounded.p = good
+            .p
+            .map(|r| r.map(|v| format!("{v:.6e}").parse().unwrap()));
         rounded.validate().unwrap();
         // A focal length 0.1 % off is not.
         let mut wrong = good.clone();

@@ -13,7 +13,6 @@
 
 mod common;
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use formats::{PointRow, SphereRow, read_csv};
@@ -88,7 +87,8 @@ fn triangulated_displacements_match_the_truth() {
         rms * 1e3,
         errs.len()
     );
-    assert!(rms < 4e-3, "{} µm RMS", rms * 1e3);
+    // README: 1.57 µm RMS (seed 11); twice that.
+    assert!(rms < 3.2e-3, "{} µm RMS", rms * 1e3);
 
     // Without the bias correction sphere A's displacements are scaled.
     let biased = run(
@@ -107,80 +107,26 @@ fn triangulated_displacements_match_the_truth() {
         let with = scale(&measured, axis);
         let without = scale(&biased, axis);
         println!("{axis}: scale error {with:+.0} ppm corrected, {without:+.0} ppm uncorrected");
+        // README: +478 (X) and +473 (Y) ppm without the correction, the
+        // ≈ 480 ppm the sphere-image model predicts for sphere A (r²/Z² at its
+        // depth); +2 and −3 ppm with it. Within 10 % of the prediction, and
+        // twice the larger corrected figure.
         assert!(
-            without.abs() >= 300.0,
-            "{axis}: only {without} ppm without the correction"
+            (without - 480.0).abs() < 48.0,
+            "{axis}: {without} ppm without the correction"
         );
-        assert!(with.abs() < 60.0, "{axis}: {with} ppm with the correction");
+        assert!(with.abs() < 6.0, "{axis}: {with} ppm with the correction");
     }
 }
 
-/// Exact (noise-free) view of the centre of a sphere at x, bias removed.
-fn view<'c>(camera: &'c geom::Camera, x: &geom::Point3<f64>) -> fuse::triangulate::View<'c> {
-    let (q, _) = fuse::triangulate::predict(camera, x, 0.0).unwrap();
-    fuse::triangulate::View {
-        camera,
-        ideal_px: geom::Point2::new(q.x, q.y),
-    }
-}
-
-/// What the seed's pixel-scale model gives for exact, noise-free images of the
-/// true positions: the truth plus the model's own approximation (it neglects
-/// the change of depth that camera misalignment gives a displacement).
-fn seed_model(dir: &Path, truth: &[PointRow]) -> Vec<PointRow> {
-    let rig = true_rig(dir);
-    let cams: BTreeMap<u8, geom::Camera> = rig
-        .cameras
-        .iter()
-        .map(|c| (c.model.id, c.model.to_camera().unwrap()))
-        .collect();
-    let mut first: BTreeMap<(formats::LineKey, String), geom::Point3<f64>> = BTreeMap::new();
-    truth
-        .iter()
-        .map(|p| {
-            let x = geom::Point3::from(p.position());
-            let x0 = *first
-                .entry((p.instant().line(), p.sphere.clone()))
-                .or_insert(x);
-            // Default cameras: those not looking along the motion.
-            let mut e = geom::Vector3::zeros();
-            e[p.axis.index()] = 1.0;
-            let used: Vec<&geom::Camera> = cams
-                .values()
-                .filter(|c| c.optical_axis().dot(&e).abs() <= 0.7)
-                .collect();
-            let r: Vec<_> = used.iter().map(|c| view(c, &x0)).collect();
-            let now: Vec<_> = used.iter().map(|c| view(c, &x)).collect();
-            let depths: Vec<f64> = used.iter().map(|c| c.to_camera(&x0).z).collect();
-            let (d, _) = fuse::triangulate::seed_displacement(&r, &now, &depths).unwrap();
-            let m = x0 + d;
-            PointRow {
-                x: m.x,
-                y: m.y,
-                z: m.z,
-                ..p.clone()
-            }
-        })
-        .collect()
-}
-
+/// The seed's pixel-scale fusion against the truth where its model holds: a
+/// rig whose cameras look exactly along the axes (no mounting rotation), so a
+/// displacement across a camera's view changes no depth and the pixel scale
+/// f/Z is exact. On the seed rig's tilted cameras the same fusion is off by
+/// tens of µm (its model error, printed), which is why triangulation is the
+/// default.
 #[test]
-fn seed_fusion_matches_its_model() {
-    let dir = tempfile::tempdir().unwrap();
-    campaign(dir.path(), 12);
-    let truth: Vec<PointRow> = read_csv(&dir.path().join("truth_points.csv"))
-        .unwrap()
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
-    let measured = run(
-        dir.path(),
-        &MeasureOptions {
-            fusion: Fusion::Seed,
-            ..MeasureOptions::default()
-        },
-        "points.csv",
-    );
+fn seed_fusion_matches_the_truth_where_its_model_holds() {
     let rms = |errs: &[(f64, [f64; 3])]| {
         (errs
             .iter()
@@ -189,16 +135,42 @@ fn seed_fusion_matches_its_model() {
             / errs.len() as f64)
             .sqrt()
     };
-    let model = seed_model(dir.path(), &truth);
-    let against_truth = rms(&displacement_errors(&measured, &truth));
-    let model_error = rms(&displacement_errors(&model, &truth));
-    let against_model = rms(&displacement_errors(&measured, &model));
+    let seed = MeasureOptions {
+        fusion: Fusion::Seed,
+        ..MeasureOptions::default()
+    };
+    let truth_of = |dir: &Path| -> Vec<PointRow> {
+        read_csv(&dir.join("truth_points.csv"))
+            .unwrap()
+            .into_iter()
+            .map(|r| r.record)
+            .collect()
+    };
+
+    let aligned = tempfile::tempdir().unwrap();
+    common::campaign_with(aligned.path(), 1024, 6, 2, 12, |c| {
+        for cam in &mut c.rig.cameras {
+            cam.rotation_error_deg = [0.0; 3];
+        }
+    });
+    let measured = run(aligned.path(), &seed, "points.csv");
+    let against_truth = rms(&displacement_errors(&measured, &truth_of(aligned.path())));
+
+    let tilted = tempfile::tempdir().unwrap();
+    campaign(tilted.path(), 12);
+    let measured = run(tilted.path(), &seed, "points.csv");
+    let tilted_error = rms(&displacement_errors(&measured, &truth_of(tilted.path())));
     println!(
-        "seed fusion, sphere A: {:.1} µm RMS against the truth, of which the model's own error is {:.1} µm; {:.2} µm RMS against the model",
+        "seed fusion, sphere A: {:.2} µm RMS against the truth with aligned cameras, {:.1} µm with the seed rig's tilted ones",
         against_truth * 1e3,
-        model_error * 1e3,
-        against_model * 1e3
+        tilted_error * 1e3
     );
-    // Measured against what the seed's model gives on exact images: the same 4 µm as triangulation.
-    assert!(against_model < 4e-3, "{} µm RMS", against_model * 1e3);
+    // README: 1.34 µm RMS (seed 12); twice that.
+    assert!(against_truth < 2.7e-3, "{} µm RMS", against_truth * 1e3);
+    // The tilt's model error dominates there: more than ten times the aligned figure.
+    assert!(
+        tilted_error > 10.0 * against_truth,
+        "{} µm RMS",
+        tilted_error * 1e3
+    );
 }

@@ -364,11 +364,7 @@ pub fn run(args: &Args) -> Result<()> {
             files.len()
         ));
     }
-    let saturated = problems
-        .iter()
-        .filter(|p| !p.item.contains('#'))
-        .count()
-        - failed_frames;
+    let saturated = problems.iter().filter(|p| !p.item.contains('#')).count() - failed_frames;
     if saturated > 0 {
         what.push(format!(
             "{saturated} image{} with saturated blobs",

@@ -32,7 +32,7 @@ pub fn positive(text: &str) -> Result<f64, String> {
     number(
         text,
         |v: &f64| v.is_finite() && *v > 0.0,
-        "a positive finite number",
+        "a finite number > 0",
     )
 }
 
@@ -41,7 +41,7 @@ pub fn positive_f32(text: &str) -> Result<f32, String> {
     number(
         text,
         |v: &f32| v.is_finite() && *v > 0.0,
-        "a positive finite number",
+        "a finite number > 0",
     )
 }
 
@@ -69,7 +69,7 @@ mod tests {
         for bad in ["0", "-1", "nan", "inf", "x", ""] {
             assert!(positive(bad).is_err(), "{bad}");
         }
-        assert_eq!(positive("0").unwrap_err(), "0 is not a positive finite number");
+        assert_eq!(positive("0").unwrap_err(), "0 is not a finite number > 0");
         assert_eq!(non_negative("0"), Ok(0.0));
         assert!(non_negative("-0.5").unwrap_err().contains("≥ 0"));
         assert_eq!(positive_f32("1"), Ok(1.0));
