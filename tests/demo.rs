@@ -8,10 +8,13 @@
 //! pixels is the same at both scales, so errors in mm grow by 4: the
 //! full-resolution requirements (sphere-A displacements ≤ 1 µm RMS; ISO 230-2
 //! A, E, R and straightness within 0.5 µm of the truth figures; roll, pitch,
-//! yaw within 5 µrad) become 4 µm, 2 µm and 20 µrad here. The angular figures
-//! of a short campaign are also limited by noise, so their tolerance adds
-//! three standard errors of the per-target means, estimated from the scatter
-//! of the instants' poses.
+//! yaw within 5 µrad) become 4 µm, 2 µm and 20 µrad here.
+//!
+//! The demo is deterministic (its seed is fixed), so each tolerance is twice
+//! what this campaign measured (printed by the test, quoted in the README):
+//! 1.59 µm RMS; ISO 230-2 within 0.73 µm; straightness within 0.70 µm; roll,
+//! pitch, yaw per target within 30.3 µrad (a short campaign: 8 instants per
+//! target, σ ≈ 25–28 µrad per instant, the sphere set's shortest lever 8 mm).
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -109,18 +112,19 @@ fn demo_measures_the_injected_errors() {
         errors.len()
     );
     assert_eq!(errors.len() * 3, measured.len());
-    assert!(rms_um <= 1.0 * SCALE, "{rms_um} µm");
+    assert!(rms_um <= 2.0 * 1.59, "{rms_um} µm");
 
     // ISO 230-2 and straightness against the figures of the exact positions.
     let report: Value = read_json(&out.join("report/report.json")).unwrap();
     let truth_json: Value = read_json(&out.join("campaign/truth.json")).unwrap();
     let figures = &truth_json["figures"];
+    let (mut iso, mut straightness) = (0.0_f64, 0.0_f64);
     for axis in ["X", "Y"] {
         for k in ["A_um", "E_um", "R_um"] {
             let p = format!("/axes/{axis}/positioning/{k}");
             let (m, t) = (get(&report, &p), get(figures, &p));
             println!("{axis} {k}: measured {m:.2}, true {t:.2}");
-            assert!((m - t).abs() <= 0.5 * SCALE, "{p}: {m} vs {t}");
+            iso = iso.max((m - t).abs());
         }
         let dirs: Vec<String> = report
             .pointer(&format!("/axes/{axis}/straightness"))
@@ -135,15 +139,23 @@ fn demo_measures_the_injected_errors() {
             for k in ["lsq_um", "min_zone_um"] {
                 let p = format!("/axes/{axis}/straightness/{d}/{k}");
                 let (m, t) = (get(&report, &p), get(figures, &p));
-                assert!((m - t).abs() <= 0.5 * SCALE, "{p}: {m} vs {t}");
+                straightness = straightness.max((m - t).abs());
             }
         }
     }
 
-    // Roll, pitch, yaw per target against the truth. Noise allowance: the
-    // scatter of the instants' poses at a target gives σ of one instant; a
-    // per-target value is a mean minus the first target's mean.
+    println!("ISO 230-2 within {iso:.2} µm, straightness within {straightness:.2} µm");
+    assert!(iso <= 2.0 * 0.73, "ISO 230-2 off by {iso} µm");
+    assert!(
+        straightness <= 2.0 * 0.70,
+        "straightness off by {straightness} µm"
+    );
+    assert!(iso <= 0.5 * SCALE && straightness <= 0.5 * SCALE);
+
+    // Roll, pitch, yaw per target against the truth; the scatter of the
+    // instants' poses at a target (σ of one instant) is printed beside.
     let poses: Vec<PoseRow> = rows(&out.join("poses.csv"));
+    let mut angular = 0.0_f64;
     for axis in ["X", "Y"] {
         let main = report
             .pointer(&format!("/axes/{axis}/angular/targets"))
@@ -186,19 +198,19 @@ fn demo_measures_the_injected_errors() {
             per = v.len();
         }
         let sigma_urad = (var / dof as f64).sqrt() * 1e6;
-        let allowance = 5.0 * SCALE + 3.0 * sigma_urad * (2.0 / per as f64).sqrt();
+        let mut worst = 0.0_f64;
         for (m, t) in main.iter().zip(&exact) {
             for k in ["roll_urad", "pitch_urad", "yaw_urad"] {
-                let d = (m[k].as_f64().unwrap() - t[k].as_f64().unwrap()).abs();
-                assert!(
-                    d <= allowance,
-                    "{axis} target {}: {k} off by {d:.1} µrad (allowed {allowance:.1})",
-                    m["target"]
-                );
+                worst = worst.max((m[k].as_f64().unwrap() - t[k].as_f64().unwrap()).abs());
             }
         }
         println!(
-            "{axis}: angular σ per instant {sigma_urad:.1} µrad, allowance {allowance:.1} µrad"
+            "{axis}: roll, pitch, yaw per target within {worst:.1} µrad; σ per instant {sigma_urad:.1} µrad ({per} instants per target)"
         );
+        angular = angular.max(worst);
     }
+    assert!(
+        angular <= 2.0 * 30.3,
+        "roll, pitch or yaw off by {angular} µrad"
+    );
 }
