@@ -143,7 +143,10 @@ impl Extraction {
                 self.weightless,
                 self.level.describe(),
                 if self.weightless_saturated > 0 {
-                    format!(", the saturation level ({} of them saturated)", self.weightless_saturated)
+                    format!(
+                        ", the saturation level ({} of them saturated)",
+                        self.weightless_saturated
+                    )
                 } else {
                     String::new()
                 }

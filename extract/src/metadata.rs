@@ -49,10 +49,7 @@ fn ascii(fields: &[Field], tag: Tag) -> Option<String> {
 fn iso_datetime(raw: &str, subsec: Option<String>) -> Option<String> {
     let b = raw.as_bytes();
     const DIGITS: [usize; 14] = [0, 1, 2, 3, 5, 6, 8, 9, 11, 12, 14, 15, 17, 18];
-    if b.len() < 19
-        || !b[..19].is_ascii()
-        || !DIGITS.iter().all(|&i| b[i].is_ascii_digit())
-    {
+    if b.len() < 19 || !b[..19].is_ascii() || !DIGITS.iter().all(|&i| b[i].is_ascii_digit()) {
         return None;
     }
     let mut s = format!(

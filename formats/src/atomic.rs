@@ -44,6 +44,16 @@ pub fn folder_of(path: &Path) -> &Path {
     }
 }
 
+/// A file next to `path` named `<stem><suffix>`, the stem being `path`'s
+/// file name without its extension (`rig.json`, `.residuals.csv` →
+/// `rig.residuals.csv`); `default_stem` when `path` has no file name.
+pub fn beside(path: &Path, default_stem: &str, suffix: &str) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map_or_else(|| default_stem.into(), |s| s.to_string_lossy().into_owned());
+    path.with_file_name(format!("{stem}{suffix}"))
+}
+
 /// Permissions asked for new files and folders: everyone may read (and
 /// write) as the umask allows, as for any file a program creates —
 /// `tempfile`'s own default (owner only) would carry over to the outputs.
@@ -206,6 +216,15 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
+
+    #[test]
+    fn beside_names_a_sibling_after_the_stem() {
+        assert_eq!(
+            beside(Path::new("out/rig.json"), "rig", ".cam1.opencv.yml"),
+            Path::new("out/rig.cam1.opencv.yml")
+        );
+        assert_eq!(beside(Path::new("a"), "rig", ".csv"), Path::new("a.csv"));
+    }
 
     #[test]
     fn uncommitted_file_leaves_target_untouched() {

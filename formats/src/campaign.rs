@@ -276,17 +276,19 @@ pub fn check_sphere_set<'a>(
 /// ([`check_sphere_set`]); errors name the file, line and column.
 pub fn read_spheres(path: &Path) -> Result<Vec<Row<SphereRow>>> {
     let rows: Vec<Row<SphereRow>> = read_csv(path)?;
-    check_sphere_set(rows.iter().map(|r| (r.record.name.as_str(), r.record.diameter))).map_err(
-        |(i, column, message)| match rows.get(i) {
-            Some(r) => FormatError::Row {
-                path: path.to_path_buf(),
-                line: r.line,
-                column: Some(column.into()),
-                message,
-            },
-            None => FormatError::file(path, format!("{message}: the file has a header only")),
+    check_sphere_set(
+        rows.iter()
+            .map(|r| (r.record.name.as_str(), r.record.diameter)),
+    )
+    .map_err(|(i, column, message)| match rows.get(i) {
+        Some(r) => FormatError::Row {
+            path: path.to_path_buf(),
+            line: r.line,
+            column: Some(column.into()),
+            message,
         },
-    )?;
+        None => FormatError::file(path, format!("{message}: the file has a header only")),
+    })?;
     Ok(rows)
 }
 
@@ -297,12 +299,17 @@ mod tests {
     #[test]
     fn sphere_sets_that_cannot_be_matched_are_refused() {
         assert!(check_sphere_set([("A", 20.0), ("B", 15.0), ("C", 10.0)]).is_ok());
-        let (i, column, m) =
-            check_sphere_set([("A", 20.0), ("B", 15.0), ("C", 15.0)]).unwrap_err();
+        let (i, column, m) = check_sphere_set([("A", 20.0), ("B", 15.0), ("C", 15.0)]).unwrap_err();
         assert_eq!((i, column), (2, "diameter"));
-        assert!(m.contains("B (15 mm) and C (15 mm) share a diameter"), "{m}");
+        assert!(
+            m.contains("B (15 mm) and C (15 mm) share a diameter"),
+            "{m}"
+        );
         let (i, column, m) = check_sphere_set([("A", 20.0), ("A", 15.0)]).unwrap_err();
-        assert_eq!((i, column, m.as_str()), (1, "name", "sphere A is listed twice"));
+        assert_eq!(
+            (i, column, m.as_str()),
+            (1, "name", "sphere A is listed twice")
+        );
         assert!(check_sphere_set([]).is_err());
         // One part in 10⁵ apart is still two spheres.
         assert!(check_sphere_set([("A", 20.0), ("B", 20.0002)]).is_ok());

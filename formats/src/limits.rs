@@ -98,11 +98,17 @@ mod tests {
         let e = check_image_size(u64::from(u32::MAX), u64::from(u32::MAX), DEFAULT_MAX_PIXELS)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("4294967295×4294967295") && e.contains("a side"), "{e}");
+        assert!(
+            e.contains("4294967295×4294967295") && e.contains("a side"),
+            "{e}"
+        );
         let e = check_image_size(20000, 20000, DEFAULT_MAX_PIXELS)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("400000000 pixels") && e.contains("268435456"), "{e}");
+        assert!(
+            e.contains("400000000 pixels") && e.contains("268435456"),
+            "{e}"
+        );
         assert!(check_image_size(0, 5, DEFAULT_MAX_PIXELS).is_err());
         assert!(check_image_size(3, 3, 8).is_err());
         assert!(check_image_size(2, 4, 8).is_ok());

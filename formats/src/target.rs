@@ -88,7 +88,10 @@ fn unique_ids<T>(rows: &[Row<T>], id: impl Fn(&T) -> u32, path: &Path) -> Result
                 path: path.to_path_buf(),
                 line: r.line,
                 column: Some("id".into()),
-                message: format!("marker id {} appears twice (first on line {line})", id(&r.record)),
+                message: format!(
+                    "marker id {} appears twice (first on line {line})",
+                    id(&r.record)
+                ),
             });
         }
     }
@@ -106,7 +109,9 @@ mod tests {
         std::fs::write(&path, "id,x,y,z\n1,0,0,0\n2,1,0,0\n1,0,1,0\n").unwrap();
         let e = read_target(&path).unwrap_err().to_string();
         assert!(
-            e.contains("target.csv: line 4, column 'id': marker id 1 appears twice (first on line 2)"),
+            e.contains(
+                "target.csv: line 4, column 'id': marker id 1 appears twice (first on line 2)"
+            ),
             "{e}"
         );
     }

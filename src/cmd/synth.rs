@@ -9,8 +9,8 @@ use formats::OutputPlan;
 use indicatif::ProgressBar;
 use synth::{Config, Overrides};
 
-use crate::cmd::extract::print_notes;
 use crate::cmd::OrUsage;
+use crate::cmd::extract::print_notes;
 
 /// Arguments of `trinocular synth`.
 #[derive(Debug, clap::Args)]

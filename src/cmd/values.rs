@@ -69,7 +69,10 @@ mod tests {
         for bad in ["0", "-1", "nan", "inf", "x", ""] {
             assert!(positive(bad).is_err(), "{bad}");
         }
-        assert_eq!(positive("0").unwrap_err(), "0 is not a positive finite number");
+        assert_eq!(
+            positive("0").unwrap_err(),
+            "0 is not a positive finite number"
+        );
         assert_eq!(non_negative("0"), Ok(0.0));
         assert!(non_negative("-0.5").unwrap_err().contains("≥ 0"));
         assert_eq!(positive_f32("1"), Ok(1.0));

@@ -696,11 +696,19 @@ impl Config {
         }
         // The set as `trinocular measure` checks it: spheres one diameter
         // cannot be told apart.
-        formats::check_sphere_set(self.spheres.iter().map(|s| (s.name.as_str(), s.diameter_mm)))
-            .map_err(|(i, column, message)| {
-                let field = if column == "diameter" { "diameter_mm" } else { column };
-                bad(&format!("spheres[{i}].{field}"), message)
-            })?;
+        formats::check_sphere_set(
+            self.spheres
+                .iter()
+                .map(|s| (s.name.as_str(), s.diameter_mm)),
+        )
+        .map_err(|(i, column, message)| {
+            let field = if column == "diameter" {
+                "diameter_mm"
+            } else {
+                column
+            };
+            bad(&format!("spheres[{i}].{field}"), message)
+        })?;
 
         let p = &self.procedure;
         p.validate().map_err(|e| bad(&e.key, e.message))?;
@@ -735,8 +743,7 @@ impl Config {
         }
 
         let t = &self.target;
-        if t.grid < 2 || t.grid.is_multiple_of(2) || t.grid.is_multiple_of(3) || t.grid > MAX_GRID
-        {
+        if t.grid < 2 || t.grid.is_multiple_of(2) || t.grid.is_multiple_of(3) || t.grid > MAX_GRID {
             return Err(bad(
                 "target.grid",
                 format!(
