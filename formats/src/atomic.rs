@@ -36,6 +36,21 @@ pub(crate) fn is_temp_name(name: &str, target_name: &str) -> bool {
         .is_some_and(|r| r.len() == TEMP_RANDOM && r.bytes().all(|b| b.is_ascii_alphanumeric()))
 }
 
+/// How every temporary file and folder is made: `<prefix>` + random
+/// characters + [`TEMP_SUFFIX`], with the permissions of a new `folder` or file.
+pub(crate) fn temp_builder(prefix: &str, folder: bool) -> tempfile::Builder<'_, 'static> {
+    let mut builder = tempfile::Builder::new();
+    builder
+        .prefix(prefix)
+        .suffix(TEMP_SUFFIX)
+        .rand_bytes(TEMP_RANDOM);
+    #[cfg(unix)]
+    builder.permissions(new_permissions(folder));
+    #[cfg(not(unix))]
+    let _ = folder;
+    builder
+}
+
 /// The folder of `path` (`.` for a bare name).
 pub fn folder_of(path: &Path) -> &Path {
     match path.parent() {
@@ -117,14 +132,7 @@ impl AtomicFile {
         let prefix = temp_prefix(target)?;
         let folder = folder_of(target);
         let (temp, listed) = create_listed(Kind::File, || {
-            let mut builder = tempfile::Builder::new();
-            builder
-                .prefix(&prefix)
-                .suffix(TEMP_SUFFIX)
-                .rand_bytes(TEMP_RANDOM);
-            #[cfg(unix)]
-            builder.permissions(new_permissions(false));
-            let temp = builder.tempfile_in(folder)?;
+            let temp = temp_builder(&prefix, false).tempfile_in(folder)?;
             let path = temp.path().to_path_buf();
             Ok((temp, path))
         })

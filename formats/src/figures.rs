@@ -70,23 +70,17 @@ pub struct ZoneFigures {
 /// Roll, pitch and yaw of a line (µrad).
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 pub struct AngularFigures {
-    /// Range of roll.
-    #[serde(default)]
-    pub roll_urad: Option<f64>,
-    /// Range of pitch.
-    #[serde(default)]
-    pub pitch_urad: Option<f64>,
-    /// Range of yaw.
-    #[serde(default)]
-    pub yaw_urad: Option<f64>,
+    /// Ranges of roll, pitch and yaw over the line.
+    #[serde(flatten)]
+    pub range: RollPitchYaw,
     /// The angles at each target, in target order.
     #[serde(default)]
-    pub targets: Vec<AngularTargetFigures>,
+    pub targets: Vec<RollPitchYaw>,
 }
 
-/// Roll, pitch and yaw at one target (µrad).
+/// Roll, pitch and yaw (µrad).
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
-pub struct AngularTargetFigures {
+pub struct RollPitchYaw {
     /// Roll.
     #[serde(default)]
     pub roll_urad: Option<f64>,
@@ -98,22 +92,20 @@ pub struct AngularTargetFigures {
     pub yaw_urad: Option<f64>,
 }
 
-impl AngularFigures {
-    /// The range of roll, pitch or yaw by name (`roll_urad`, `pitch_urad`, `yaw_urad`).
-    pub fn range(&self, key: &str) -> Option<f64> {
+impl RollPitchYaw {
+    /// Roll, pitch and yaw, in that order.
+    pub fn angles(&self) -> [Option<f64>; 3] {
+        [self.roll_urad, self.pitch_urad, self.yaw_urad]
+    }
+
+    /// One of them by its key (`roll_urad`, `pitch_urad`, `yaw_urad`).
+    pub fn get(&self, key: &str) -> Option<f64> {
         match key {
             "roll_urad" => self.roll_urad,
             "pitch_urad" => self.pitch_urad,
             "yaw_urad" => self.yaw_urad,
             _ => None,
         }
-    }
-}
-
-impl AngularTargetFigures {
-    /// Roll, pitch and yaw, in that order.
-    pub fn angles(&self) -> [Option<f64>; 3] {
-        [self.roll_urad, self.pitch_urad, self.yaw_urad]
     }
 }
 
@@ -135,7 +127,7 @@ mod tests {
         assert_eq!(x.positioning.e_um, None);
         assert_eq!(x.straightness["Y"].min_zone_um, Some(0.9));
         let a = x.angular.as_ref().unwrap();
-        assert_eq!(a.range("yaw_urad"), Some(0.5));
+        assert_eq!(a.range.get("yaw_urad"), Some(0.5));
         assert_eq!(a.targets[0].angles(), [Some(0.1), Some(0.2), Some(0.3)]);
         assert_eq!(f.flatness.unwrap().lsq_um, Some(4.0));
     }

@@ -158,7 +158,7 @@ fn compare(report: &ReportFigures, truth: &ReportFigures) {
         for key in ["roll_urad", "pitch_urad", "yaw_urad"] {
             row(
                 format!("{axis} {} range", key.trim_end_matches("_urad")),
-                &|f| of(f)?.angular?.range(key),
+                &|f| of(f)?.angular?.range.get(key),
             );
         }
     }
