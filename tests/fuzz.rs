@@ -57,68 +57,14 @@ impl Rng {
 /// Text that breaks readers: extreme numbers, separators, quotes, bytes
 /// that are not UTF-8.
 const TOKENS: &[&str] = &[
-    "0",
-    "-0",
-    "1e300",
-    "-1e300",
-    "1e-320",
-    "NaN",
-    "inf",
-    "-inf",
-    "4294967295",
-    "4294967296",
-    "18446744073709551615",
-    "18446744073709551616",
-    "-1",
-    "65536",
-    "255",
-    ",",
-    ",,",
-    "\n",
-    "\r\n",
-    "\r",
-    "\"",
-    "\"\"",
-    " ",
-    "\t",
-    ";",
-    "{",
-    "}",
-    "[",
-    "]",
-    ":",
-    "=",
-    "#",
-    "\u{feff}",
-    "\u{0}",
-    "\u{ff}",
-    "µ",
-    "[[spheres]]",
-    "[procedure]",
-    "true",
-    "null",
-    "\"P\"",
+    "0", "-0", "1e300", "-1e300", "1e-320", "NaN", "inf", "-inf", "4294967295", "4294967296",
+    "18446744073709551615", "18446744073709551616", "-1", "65536", "255", ",", ",,", "\n",
+    "\r\n", "\r", "\"", "\"\"", " ", "\t", ";", "{", "}", "[", "]", ":", "=", "#", "\u{feff}",
+    "\u{0}", "\u{ff}", "µ", "[[spheres]]", "[procedure]", "true", "null", "\"P\"",
 ];
 
 /// Binary values that break headers (as little- and big-endian u16/u32).
-const WORDS: &[u32] = &[
-    0,
-    1,
-    2,
-    3,
-    7,
-    8,
-    16,
-    0xFF,
-    0x100,
-    0x7FFF,
-    0x8000,
-    0xFFFF,
-    0x1_0000,
-    0x7FFF_FFFF,
-    0x8000_0000,
-    0xFFFF_FFFF,
-];
+const WORDS: &[u32] = &[0, 1, 2, 3, 7, 8, 16, 0xFF, 0x100, 0x7FFF, 0x8000, 0xFFFF, 0x1_0000, 0x7FFF_FFFF, 0x8000_0000, 0xFFFF_FFFF];
 
 /// One mutation of `input` (the corpus gives `other` to splice from).
 fn mutate_once(rng: &mut Rng, data: &mut Vec<u8>, other: &[u8]) {
@@ -242,11 +188,7 @@ fn frames() -> Vec<Vec<u8>> {
     let pixels: Vec<u16> = (0..w * h)
         .map(|i| {
             let (x, y) = (f64::from(i % w) - 11.5, f64::from(i / w) - 7.5);
-            if x.hypot(y) < 5.0 {
-                50_000
-            } else {
-                1000 + (i % 7) as u16
-            }
+            if x.hypot(y) < 5.0 { 50_000 } else { 1000 + (i % 7) as u16 }
         })
         .collect();
     let image = synth::Image16::from_raw(w, h, pixels).unwrap();
@@ -271,9 +213,9 @@ fn frames() -> Vec<Vec<u8>> {
             let mut bytes = std::io::Cursor::new(Vec::new());
             let path = Path::new("frame");
             match format {
-                ImageFormat::Tiff => {
-                    synth::encode::encode_tiff(&mut bytes, &image, bits, &meta, compression, path)
-                }
+                ImageFormat::Tiff => synth::encode::encode_tiff(
+                    &mut bytes, &image, bits, &meta, compression, path,
+                ),
                 ImageFormat::Png => {
                     synth::encode::encode_png(&mut bytes, &image, bits, &meta, path)
                 }
@@ -285,7 +227,10 @@ fn frames() -> Vec<Vec<u8>> {
     out
 }
 
-fn csv_target<T: formats::Record + 'static>(name: &'static str, corpus: Vec<Vec<u8>>) -> Target {
+fn csv_target<T: formats::Record + 'static>(
+    name: &'static str,
+    corpus: Vec<Vec<u8>>,
+) -> Target {
     Target {
         name,
         file: "input.csv",
@@ -328,9 +273,7 @@ fn targets() -> Vec<Target> {
             name: "points.csv (evaluate)",
             file: "points.csv",
             corpus: vec![shared("points.csv")],
-            read: Box::new(|p, _| {
-                evaluate::evaluate_file(p, &evaluate::Options::default()).is_ok()
-            }),
+            read: Box::new(|p, _| evaluate::evaluate_file(p, &evaluate::Options::default()).is_ok()),
         },
         Target {
             name: "target.csv",

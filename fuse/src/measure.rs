@@ -28,7 +28,8 @@ use std::sync::Mutex;
 
 use extract::{Backend, ExtractParams, FrameReader};
 use formats::{
-    InstantKey, InstantProblemRow, LineKey, Missing, OutputPlan, PointRow, SphereRow, read_csv_from,
+    InstantKey, InstantProblemRow, LineKey, Missing, OutputPlan, PointRow, SphereRow,
+    read_csv_from,
 };
 use geom::{Point2, Point3};
 use rayon::prelude::*;
