@@ -79,6 +79,6 @@ impl Truth {
     pub fn figures(&self) -> Option<serde_json::Result<ReportFigures>> {
         self.extra
             .get("figures")
-            .map(|f| ReportFigures::deserialize(f))
+            .map(ReportFigures::deserialize)
     }
 }
