@@ -369,7 +369,7 @@ exposure_s\nimages/a.tif,0,96.9,68.3,343,20.9,52000,false,false,A,1.5e7,21.0,20.
             name: "synth config.toml",
             file: "config.toml",
             corpus: vec![
-                default_config,
+                default_config.clone(),
                 b"seed = 3\n[sensor]\nwidth = 64\nheight = 48\n[procedure]\nruns = 2\n".to_vec(),
             ],
             read: Box::new(|_, bytes| {
@@ -473,6 +473,19 @@ exposure_s\nimages/a.tif,0,96.9,68.3,343,20.9,52000,false,false,A,1.5e7,21.0,20.
             }
         }),
     });
+    // Added after the others: their inputs keep the streams of earlier runs.
+    t.push(Target {
+        name: "program.toml (manifest)",
+        file: "program.toml",
+        corpus: vec![default_config.clone()],
+        read: Box::new(|p, _| ingest::read_program(p).is_ok()),
+    });
+    t.push(Target {
+        name: "frame metadata alone (manifest)",
+        file: "frame.tif",
+        corpus: frames(),
+        read: Box::new(|p, _| ingest::stamp::read_metadata(p).is_ok()),
+    });
     t
 }
 
@@ -495,7 +508,12 @@ fn fuzz(count: u64, seed: u64) -> (Vec<String>, Vec<String>) {
     let failures_dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-panics");
     let mut summary = Vec::new();
     let mut panics = Vec::new();
+    // One reader or a few: TRINOCULAR_FUZZ_ONLY=<part of their names>.
+    let only = std::env::var("TRINOCULAR_FUZZ_ONLY").ok();
     for (t, target) in targets().iter().enumerate() {
+        if only.as_deref().is_some_and(|o| !target.name.contains(o)) {
+            continue;
+        }
         let start = Instant::now();
         let mut rng = Rng(seed ^ (t as u64).wrapping_mul(0xA076_1D64_78BD_642F));
         let path = dir.path().join(target.file);

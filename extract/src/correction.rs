@@ -212,6 +212,29 @@ pub fn mapped_centroid(
     (sw > 0.0).then(|| [su / sw, sv / sw])
 }
 
+/// The corrected centroids of `blobs` with `camera`'s model and its lens's
+/// `illumination` ([`mapped_centroid`] through a [`CameraMap`]), mapped back
+/// through the lens distortion to observed pixels: where the camera model
+/// says the centre of each blob's radiance image is seen. `None` for a blob
+/// whose corrected centroid is undefined.
+pub fn observed_centroids(
+    frame: &FrameView<'_>,
+    blobs: &[&Blob],
+    level: &Level,
+    weighting: Weighting,
+    camera: &Camera,
+    illumination: &Illumination,
+) -> Vec<Option<Point2<f64>>> {
+    let map = CameraMap::new(camera, illumination);
+    blobs
+        .iter()
+        .map(|b| {
+            mapped_centroid(frame, b, level, weighting, &map)
+                .map(|q| camera.distort_pixel(Point2::new(q[0], q[1])))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -70,6 +70,19 @@ impl<'a> FrameView<'a> {
         let w = self.width as usize;
         &self.pixels[y as usize * w..(y as usize + 1) * w]
     }
+
+    /// The image centre (px, pixel-centre convention): `((W − 1)/2, (H − 1)/2)`.
+    pub fn centre_px(&self) -> [f64; 2] {
+        [
+            (f64::from(self.width) - 1.0) / 2.0,
+            (f64::from(self.height) - 1.0) / 2.0,
+        ]
+    }
+
+    /// Half the image diagonal (px): `√(W² + H²)/2`.
+    pub fn half_diagonal_px(&self) -> f64 {
+        f64::from(self.width).hypot(f64::from(self.height)) / 2.0
+    }
 }
 
 /// An owned grayscale frame.

@@ -33,7 +33,9 @@ pub mod threshold;
 pub use backend::{Backend, CpuBackend, ExtractParams, Extraction};
 pub use batch::{FrameBlobs, extract_file, extract_files, extract_files_flat};
 pub use blob::{Blob, BoundingBox, Moments};
-pub use correction::{CameraMap, FlatFieldMap, Mapped, PixelMap, mapped_centroid};
+pub use correction::{
+    CameraMap, FlatFieldMap, Mapped, PixelMap, mapped_centroid, observed_centroids,
+};
 pub use decode::FrameReader;
 pub use denoise::Denoise;
 pub use error::{ExtractError, Result};

@@ -36,12 +36,37 @@ pub(crate) fn is_temp_name(name: &str, target_name: &str) -> bool {
         .is_some_and(|r| r.len() == TEMP_RANDOM && r.bytes().all(|b| b.is_ascii_alphanumeric()))
 }
 
+/// How every temporary file and folder is made: `<prefix>` + random
+/// characters + [`TEMP_SUFFIX`], with the permissions of a new `folder` or file.
+pub(crate) fn temp_builder(prefix: &str, folder: bool) -> tempfile::Builder<'_, 'static> {
+    let mut builder = tempfile::Builder::new();
+    builder
+        .prefix(prefix)
+        .suffix(TEMP_SUFFIX)
+        .rand_bytes(TEMP_RANDOM);
+    #[cfg(unix)]
+    builder.permissions(new_permissions(folder));
+    #[cfg(not(unix))]
+    let _ = folder;
+    builder
+}
+
 /// The folder of `path` (`.` for a bare name).
 pub fn folder_of(path: &Path) -> &Path {
     match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     }
+}
+
+/// A file next to `path` named `<stem><suffix>`, the stem being `path`'s
+/// file name without its extension (`rig.json`, `.residuals.csv` →
+/// `rig.residuals.csv`); `default_stem` when `path` has no file name.
+pub fn beside(path: &Path, default_stem: &str, suffix: &str) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map_or_else(|| default_stem.into(), |s| s.to_string_lossy().into_owned());
+    path.with_file_name(format!("{stem}{suffix}"))
 }
 
 /// Permissions asked for new files and folders: everyone may read (and
@@ -107,14 +132,7 @@ impl AtomicFile {
         let prefix = temp_prefix(target)?;
         let folder = folder_of(target);
         let (temp, listed) = create_listed(Kind::File, || {
-            let mut builder = tempfile::Builder::new();
-            builder
-                .prefix(&prefix)
-                .suffix(TEMP_SUFFIX)
-                .rand_bytes(TEMP_RANDOM);
-            #[cfg(unix)]
-            builder.permissions(new_permissions(false));
-            let temp = builder.tempfile_in(folder)?;
+            let temp = temp_builder(&prefix, false).tempfile_in(folder)?;
             let path = temp.path().to_path_buf();
             Ok((temp, path))
         })
@@ -206,6 +224,15 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
+
+    #[test]
+    fn beside_names_a_sibling_after_the_stem() {
+        assert_eq!(
+            beside(Path::new("out/rig.json"), "rig", ".cam1.opencv.yml"),
+            Path::new("out/rig.cam1.opencv.yml")
+        );
+        assert_eq!(beside(Path::new("a"), "rig", ".csv"), Path::new("a.csv"));
+    }
 
     #[test]
     fn uncommitted_file_leaves_target_untouched() {

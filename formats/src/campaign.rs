@@ -104,6 +104,23 @@ pub struct InstantKey {
 }
 
 impl InstantKey {
+    /// The key of (axis, direction), [run, target, capture] and the commanded
+    /// position (mm), compared bit for bit.
+    pub fn new(
+        (axis, direction): (Axis, Direction),
+        [run, target, capture]: [u32; 3],
+        nominal: [f64; 3],
+    ) -> Self {
+        Self {
+            axis,
+            direction,
+            run,
+            target,
+            capture,
+            nominal_bits: nominal.map(f64::to_bits),
+        }
+    }
+
     /// Commanded position (mm).
     pub fn nominal(&self) -> [f64; 3] {
         self.nominal_bits.map(f64::from_bits)
@@ -158,14 +175,11 @@ pub struct ManifestRow {
 impl ManifestRow {
     /// The instant this image belongs to.
     pub fn instant(&self) -> InstantKey {
-        InstantKey {
-            axis: self.axis,
-            direction: self.direction,
-            run: self.run,
-            target: self.target,
-            capture: self.capture,
-            nominal_bits: [self.nominal_x, self.nominal_y, self.nominal_z].map(f64::to_bits),
-        }
+        InstantKey::new(
+            (self.axis, self.direction),
+            [self.run, self.target, self.capture],
+            [self.nominal_x, self.nominal_y, self.nominal_z],
+        )
     }
 }
 

@@ -21,11 +21,13 @@ pub mod atomic;
 pub mod blobs;
 pub mod campaign;
 pub mod capture;
+pub mod figures;
 pub mod interrupt;
 pub mod json;
 pub mod limits;
 pub mod lock;
 pub mod measure;
+pub mod nist;
 pub mod output;
 pub mod points;
 pub mod probe;
@@ -40,15 +42,16 @@ pub use campaign::{
     Axis, Direction, InstantKey, LineKey, ManifestRow, SphereRow, check_sphere_set, read_spheres,
 };
 pub use capture::{AxisProcedure, Dwell, ManifestProblemRow, ProcedureConfig};
-pub use error::{FormatError, Result};
+pub use error::{FormatError, Result, RigError};
+pub use figures::ReportFigures;
 pub use json::{read_json, write_json};
 pub use lock::OutputLock;
 pub use measure::{InstantProblemRow, Missing, PoseRow};
 pub use output::{OutputPlan, Stage};
 pub use points::PointRow;
 pub use rig::{
-    CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalRig, Rig, RigCamera,
-    read_nominal, read_rig,
+    CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalOptics, NominalRig, Rig,
+    RigCamera, read_nominal, read_rig,
 };
 pub use table::{Invalid, Record, Row, read_csv, read_csv_from, write_csv, write_records};
 pub use target::{CorrespondenceRow, TargetRow, read_correspondences, read_target};

@@ -91,14 +91,11 @@ impl InstantProblemRow {
 
     /// The instant this row belongs to.
     pub fn instant(&self) -> InstantKey {
-        InstantKey {
-            axis: self.axis,
-            direction: self.direction,
-            run: self.run,
-            target: self.target,
-            capture: self.capture,
-            nominal_bits: [self.nominal_x, self.nominal_y, self.nominal_z].map(f64::to_bits),
-        }
+        InstantKey::new(
+            (self.axis, self.direction),
+            [self.run, self.target, self.capture],
+            [self.nominal_x, self.nominal_y, self.nominal_z],
+        )
     }
 }
 

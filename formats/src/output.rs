@@ -463,14 +463,7 @@ impl OutputPlan {
         let parent = folder_of(folder);
         std::fs::create_dir_all(parent).map_err(|e| FormatError::io(parent, e))?;
         let (temp, listed) = create_listed(Kind::Folder, || {
-            let mut builder = tempfile::Builder::new();
-            builder
-                .prefix(&prefix)
-                .suffix(TEMP_SUFFIX)
-                .rand_bytes(TEMP_RANDOM);
-            #[cfg(unix)]
-            builder.permissions(crate::atomic::new_permissions(true));
-            let temp = builder.tempdir_in(parent)?;
+            let temp = crate::atomic::temp_builder(&prefix, true).tempdir_in(parent)?;
             let path = temp.path().to_path_buf();
             Ok((temp, path))
         })

@@ -12,7 +12,7 @@ use geom::{
 use serde::{Deserialize, Serialize};
 
 use crate::limits::MAX_IMAGE_SIDE_PX;
-use crate::{FormatError, Result as FormatResult, read_json};
+use crate::{FormatError, Result as FormatResult, RigError, read_json};
 
 /// Tolerance on ‖RᵀR − I‖ for a rotation read from a file.
 const ROTATION_TOLERANCE: f64 = 1e-6;
@@ -26,30 +26,28 @@ pub const P_TOLERANCE_PX: f64 = 0.05;
 const CAMERA_IDS: std::ops::RangeInclusive<u8> = 1..=3;
 
 /// Fails unless the camera ids are 1, 2 or 3 and each occurs once.
-fn check_ids(ids: impl IntoIterator<Item = u8>) -> Result<(), String> {
+fn check_ids(ids: impl IntoIterator<Item = u8>) -> Result<(), RigError> {
     let mut seen = [false; 4];
     let mut count = 0;
     for id in ids {
         count += 1;
         if !CAMERA_IDS.contains(&id) {
-            return Err(format!("camera id {id} is not 1, 2 or 3"));
+            return Err(RigError::CameraId(id));
         }
         if std::mem::replace(&mut seen[usize::from(id)], true) {
-            return Err(format!("camera {id} appears twice"));
+            return Err(RigError::Duplicate(id));
         }
     }
     if count == 0 {
-        return Err("no cameras".into());
+        return Err(RigError::NoCameras);
     }
     Ok(())
 }
 
 /// Fails unless a sensor size is 1..=[`MAX_IMAGE_SIDE_PX`] a side.
-fn check_sensor(id: u8, width: u32, height: u32) -> Result<(), String> {
+fn check_sensor(id: u8, width: u32, height: u32) -> Result<(), RigError> {
     if width == 0 || height == 0 || width > MAX_IMAGE_SIDE_PX || height > MAX_IMAGE_SIDE_PX {
-        return Err(format!(
-            "camera {id}: image size {width}×{height} px is not 1..={MAX_IMAGE_SIDE_PX} px a side"
-        ));
+        return Err(RigError::SensorSize { id, width, height });
     }
     Ok(())
 }
@@ -73,22 +71,65 @@ pub struct NominalCamera {
     pub width: u32,
     /// Sensor height (px).
     pub height: u32,
-    /// Further keys, kept as written (optics for the commissioning report:
-    /// `f_number`, `coc_px`, `lens_focal_mm`, `focus_distance_mm`).
+    /// The lens as built, for the commissioning report's depth of field (optional keys).
+    #[serde(flatten)]
+    pub optics: NominalOptics,
+    /// Further keys, kept as written.
     #[serde(flatten)]
     pub extra: serde_json::Map<String, serde_json::Value>,
 }
 
+/// The optional lens keys of a `nominal.json` camera: each, when present, a
+/// positive finite number ([`NominalCamera::to_camera`] refuses others);
+/// absent keys take the commissioning report's defaults.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct NominalOptics {
+    /// Diameter of the acceptable circle of confusion (px).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coc_px: Option<f64>,
+    /// Working f-number.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub f_number: Option<f64>,
+    /// Distance at which the lens is focused (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub focus_distance_mm: Option<f64>,
+    /// The lens's focal length (mm), as opposed to the principal distance `focal_mm`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lens_focal_mm: Option<f64>,
+}
+
+impl NominalOptics {
+    /// Fails on a key that is present but not a positive finite number.
+    fn check(&self, id: u8) -> Result<(), RigError> {
+        for (key, value) in [
+            ("coc_px", self.coc_px),
+            ("f_number", self.f_number),
+            ("focus_distance_mm", self.focus_distance_mm),
+            ("lens_focal_mm", self.lens_focal_mm),
+        ] {
+            if let Some(value) = value
+                && !(value.is_finite() && value > 0.0)
+            {
+                return Err(RigError::OpticsKey { id, key, value });
+            }
+        }
+        Ok(())
+    }
+}
+
 impl NominalCamera {
-    /// The pinhole camera this describes: square pixels, centred principal point, no distortion.
-    pub fn to_camera(&self) -> Result<Camera, String> {
+    /// The pinhole camera this describes: square pixels, centred principal
+    /// point, no distortion. Also checks the optional lens keys ([`NominalOptics`]).
+    pub fn to_camera(&self) -> Result<Camera, RigError> {
         if !(self.focal_mm > 0.0 && self.pixel_mm > 0.0) {
-            return Err(format!(
-                "camera {}: focal_mm and pixel_mm must be positive (got {} and {})",
-                self.id, self.focal_mm, self.pixel_mm
-            ));
+            return Err(RigError::Optics {
+                id: self.id,
+                focal_mm: self.focal_mm,
+                pixel_mm: self.pixel_mm,
+            });
         }
         check_sensor(self.id, self.width, self.height)?;
+        self.optics.check(self.id)?;
         if !self
             .position
             .iter()
@@ -96,10 +137,7 @@ impl NominalCamera {
             .chain(&self.up)
             .all(|v| v.is_finite())
         {
-            return Err(format!(
-                "camera {}: position, look_at and up must be finite numbers",
-                self.id
-            ));
+            return Err(RigError::NonFinitePlacement { id: self.id });
         }
         let k = Intrinsics::centred(self.focal_mm / self.pixel_mm, self.width, self.height);
         Camera::look_at(
@@ -110,7 +148,10 @@ impl NominalCamera {
             self.width,
             self.height,
         )
-        .map_err(|e| format!("camera {}: {e}", self.id))
+        .map_err(|source| RigError::Placement {
+            id: self.id,
+            source,
+        })
     }
 }
 
@@ -124,7 +165,7 @@ pub struct NominalRig {
 impl NominalRig {
     /// Check the rig as a whole: camera ids 1, 2 or 3, each once, and every
     /// camera a pinhole camera ([`NominalCamera::to_camera`]).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), RigError> {
         check_ids(self.cameras.iter().map(|c| c.id))?;
         for c in &self.cameras {
             c.to_camera()?;
@@ -136,7 +177,10 @@ impl NominalRig {
 /// Read `nominal.json` and check it ([`NominalRig::validate`]); errors name the file.
 pub fn read_nominal(path: &Path) -> FormatResult<NominalRig> {
     let rig: NominalRig = read_json(path)?;
-    rig.validate().map_err(|m| FormatError::file(path, m))?;
+    rig.validate().map_err(|source| FormatError::Rig {
+        path: path.into(),
+        source,
+    })?;
     Ok(rig)
 }
 
@@ -221,23 +265,24 @@ impl CameraJson {
     }
 
     /// The camera described; fails on a non-rotation R, a malformed K or non-finite values.
-    pub fn to_camera(&self) -> Result<Camera, String> {
+    pub fn to_camera(&self) -> Result<Camera, RigError> {
+        let id = self.id;
         let k = Matrix3::from_fn(|i, j| self.k[i][j]);
         let r = Matrix3::from_fn(|i, j| self.r[i][j]);
         let t = Vector3::from(self.t);
         if !(r.iter().chain(t.iter()).all(|v| v.is_finite())) {
-            return Err(format!("camera {}: non-finite R or t", self.id));
+            return Err(RigError::NonFiniteExtrinsics { id });
         }
         let intrinsics =
-            Intrinsics::from_matrix(&k).map_err(|e| format!("camera {}: K: {e}", self.id))?;
+            Intrinsics::from_matrix(&k).map_err(|source| RigError::Intrinsics { id, source })?;
         if (r.transpose() * r - Matrix3::identity()).norm() > ROTATION_TOLERANCE
             || r.determinant() <= 0.0
         {
-            return Err(format!("camera {}: R is not a rotation matrix", self.id));
+            return Err(RigError::NotRotation { id });
         }
         let d = self.distortion;
         if ![d.k1, d.k2, d.k3, d.p1, d.p2].iter().all(|v| v.is_finite()) {
-            return Err(format!("camera {}: non-finite distortion", self.id));
+            return Err(RigError::NonFiniteDistortion { id });
         }
         check_sensor(self.id, self.width, self.height)?;
         let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r));
@@ -323,7 +368,7 @@ impl IlluminationJson {
     /// The model, checked over a `width` × `height` image: finite
     /// coefficients, a positive scale, and RI positive at the centre, the
     /// edge midpoints and the corners.
-    pub fn to_model(&self, width: u32, height: u32) -> Result<Illumination, String> {
+    pub fn to_model(&self, width: u32, height: u32) -> Result<Illumination, RigError> {
         match self {
             IlluminationJson::Ideal { .. } => Ok(Illumination::Ideal),
             IlluminationJson::Uniform { .. } => Ok(Illumination::Uniform),
@@ -334,9 +379,7 @@ impl IlluminationJson {
                 ..
             } => {
                 if !(scale_px.is_finite() && *scale_px > 0.0) {
-                    return Err(format!(
-                        "relative_illumination: scale_px {scale_px} must be positive"
-                    ));
+                    return Err(RigError::IlluminationScale(*scale_px));
                 }
                 if coefficients.is_empty()
                     || !coefficients
@@ -344,10 +387,7 @@ impl IlluminationJson {
                         .chain(centre_px.iter())
                         .all(|v| v.is_finite())
                 {
-                    return Err(
-                        "relative_illumination: centre_px and coefficients must be finite numbers, at least one coefficient"
-                            .into(),
-                    );
+                    return Err(RigError::IlluminationValues);
                 }
                 let r = RadialIllumination {
                     centre: *centre_px,
@@ -366,9 +406,7 @@ impl IlluminationJson {
                 ] {
                     let ri = r.at(u, v);
                     if !(ri.is_finite() && ri > 0.0) {
-                        return Err(format!(
-                            "relative_illumination: RI = {ri} at pixel ({u}, {v}) is not positive"
-                        ));
+                        return Err(RigError::IlluminationNotPositive { ri, u, v });
                     }
                 }
                 Ok(Illumination::Radial(r))
@@ -404,17 +442,22 @@ impl RigCamera {
     /// ([`CameraJson::to_camera`]), `P` consistent with them
     /// ([`check_projection`]), the relative illumination over the image and
     /// finite figures.
-    pub fn validate(&self) -> Result<Camera, String> {
+    pub fn validate(&self) -> Result<Camera, RigError> {
+        let id = self.model.id;
+        let in_camera = |source| RigError::Camera {
+            id,
+            source: Box::new(source),
+        };
         let camera = self.model.to_camera()?;
-        check_projection(&self.p, &camera).map_err(|m| format!("camera {}: {m}", self.model.id))?;
+        check_projection(&self.p, &camera).map_err(in_camera)?;
         self.relative_illumination
             .to_model(self.model.width, self.model.height)
-            .map_err(|m| format!("camera {}: {m}", self.model.id))?;
+            .map_err(in_camera)?;
         if !(self.rms_px.is_finite() && self.rms_px >= 0.0) {
-            return Err(format!(
-                "camera {}: rms_px {} is not a finite number ≥ 0",
-                self.model.id, self.rms_px
-            ));
+            return Err(RigError::RmsPx {
+                id,
+                rms_px: self.rms_px,
+            });
         }
         Ok(camera)
     }
@@ -448,7 +491,7 @@ impl Rig {
 
     /// Check the rig as a whole: camera ids 1, 2 or 3, each once, and every
     /// camera ([`RigCamera::validate`]).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), RigError> {
         check_ids(self.cameras.iter().map(|c| c.model.id))?;
         for c in &self.cameras {
             c.validate()?;
@@ -460,7 +503,10 @@ impl Rig {
 /// Read `rig.json` and check it ([`Rig::validate`]); errors name the file.
 pub fn read_rig(path: &Path) -> FormatResult<Rig> {
     let rig: Rig = read_json(path)?;
-    rig.validate().map_err(|m| FormatError::file(path, m))?;
+    rig.validate().map_err(|source| FormatError::Rig {
+        path: path.into(),
+        source,
+    })?;
     Ok(rig)
 }
 
@@ -469,14 +515,12 @@ pub fn read_rig(path: &Path) -> FormatResult<Rig> {
 /// points seen at the image centre and corners, at half and twice the
 /// distance of the world origin, must project through `p` within
 /// [`P_TOLERANCE_PX`] of where the camera's pinhole model puts them.
-pub fn check_projection(p: &[[f64; 4]; 3], camera: &Camera) -> Result<(), String> {
+pub fn check_projection(p: &[[f64; 4]; 3], camera: &Camera) -> Result<(), RigError> {
     let m = Matrix3x4::from_fn(|i, j| p[i][j]);
     if !m.iter().all(|v| v.is_finite()) {
-        return Err("P holds a value that is not a finite number".into());
+        return Err(RigError::ProjectionNonFinite);
     }
-    let m = normalize_projection(&m).map_err(|_| {
-        "P is singular (its left 3×3 block has no inverse): not a projection".to_string()
-    })?;
+    let m = normalize_projection(&m).map_err(|_| RigError::ProjectionSingular)?;
     let k = camera.intrinsics;
     let depth = camera.translation().norm().max(1.0);
     let (w, h) = (
@@ -493,12 +537,14 @@ pub fn check_projection(p: &[[f64; 4]; 3], camera: &Camera) -> Result<(), String
             let (pu, pv) = (q.x / q.z, q.y / q.z);
             let off = (pu - u).hypot(pv - v);
             if !(q.z > 0.0 && off <= P_TOLERANCE_PX) {
-                return Err(format!(
-                    "P contradicts K, R and t: a point K, R, t image at pixel ({u}, {v}) at \
-                     {z:.1} mm depth projects through P to ({pu:.3}, {pv:.3}){} (tolerance \
-                     {P_TOLERANCE_PX} px)",
-                    if q.z > 0.0 { "" } else { " behind the camera" }
-                ));
+                return Err(RigError::ProjectionContradicts {
+                    u,
+                    v,
+                    depth_mm: z,
+                    pu,
+                    pv,
+                    behind: q.z <= 0.0 || q.z.is_nan(),
+                });
             }
         }
     }
@@ -520,6 +566,7 @@ mod tests {
             pixel_mm: 0.0055,
             width: 4096,
             height: 3072,
+            optics: NominalOptics::default(),
             extra: serde_json::Map::new(),
         };
         let mut cam = nominal.to_camera().unwrap();
@@ -543,6 +590,7 @@ mod tests {
             pixel_mm: 0.0055,
             width: 400,
             height: 300,
+            optics: NominalOptics::default(),
             extra: serde_json::Map::new(),
         };
         let cam = nominal.to_camera().unwrap();
@@ -574,6 +622,7 @@ mod tests {
             bad.relative_illumination
                 .to_model(400, 300)
                 .unwrap_err()
+                .to_string()
                 .contains("not positive")
         );
     }
@@ -588,6 +637,7 @@ mod tests {
             pixel_mm: 0.0055,
             width: 4096,
             height: 3072,
+            optics: NominalOptics::default(),
             extra: serde_json::Map::new(),
         }
     }
@@ -597,14 +647,17 @@ mod tests {
         let rig = NominalRig {
             cameras: vec![nominal(1), nominal(2), nominal(1)],
         };
-        assert_eq!(rig.validate().unwrap_err(), "camera 1 appears twice");
+        assert_eq!(rig.validate().unwrap_err(), RigError::Duplicate(1));
         let rig = NominalRig {
             cameras: vec![nominal(4)],
         };
-        assert_eq!(rig.validate().unwrap_err(), "camera id 4 is not 1, 2 or 3");
+        assert_eq!(rig.validate().unwrap_err(), RigError::CameraId(4));
         let mut bad = nominal(2);
         bad.up = [f64::NAN, 1.0, 0.0];
-        let e = NominalRig { cameras: vec![bad] }.validate().unwrap_err();
+        let e = NominalRig { cameras: vec![bad] }
+            .validate()
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("camera 2") && e.contains("finite"), "{e}");
         let cam = nominal(3).to_camera().unwrap();
         let rig = Rig {
@@ -613,7 +666,7 @@ mod tests {
                 RigCamera::new(3, &cam, 0.01, 40),
             ],
         };
-        assert_eq!(rig.validate().unwrap_err(), "camera 3 appears twice");
+        assert_eq!(rig.validate().unwrap_err(), RigError::Duplicate(3));
     }
 
     #[test]
@@ -634,15 +687,20 @@ mod tests {
         // A focal length 0.1 % off is not.
         let mut wrong = good.clone();
         wrong.p[0][0] *= 1.001;
-        let e = wrong.validate().unwrap_err();
+        let e = wrong.validate().unwrap_err().to_string();
         assert!(e.starts_with("camera 3: P contradicts K, R and t"), "{e}");
         let mut zero = good.clone();
         zero.p = [[0.0; 4]; 3];
-        let e = zero.validate().unwrap_err();
+        let e = zero.validate().unwrap_err().to_string();
         assert!(e.contains("P is singular"), "{e}");
         let mut nan = good;
         nan.p[1][3] = f64::NAN;
-        assert!(nan.validate().unwrap_err().contains("not a finite number"));
+        assert!(
+            nan.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("not a finite number")
+        );
     }
 
     #[test]
@@ -660,6 +718,6 @@ mod tests {
             .unwrap(),
         );
         j.r[0][0] = 2.0;
-        assert!(j.to_camera().unwrap_err().contains("not a rotation"));
+        assert_eq!(j.to_camera().unwrap_err(), RigError::NotRotation { id: 1 });
     }
 }

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::{Axis, Direction, SphereRow};
+use crate::figures::ReportFigures;
 use crate::rig::CameraJson;
 
 /// A true camera in `truth.json`: K, R, t, distortion, size (as in
@@ -70,4 +71,14 @@ pub struct Truth {
     /// Further keys (error functions, figures), kept as JSON.
     #[serde(flatten)]
     pub extra: serde_json::Map<String, serde_json::Value>,
+}
+
+impl Truth {
+    /// The reference figures (the evaluation on the exact positions, key
+    /// `figures`), when the renderer could compute them.
+    pub fn figures(&self) -> Option<serde_json::Result<ReportFigures>> {
+        self.extra
+            .get("figures")
+            .map(ReportFigures::deserialize)
+    }
 }

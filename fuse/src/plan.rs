@@ -64,16 +64,16 @@ impl RigModel {
         let mut cameras = BTreeMap::new();
         let mut illumination = BTreeMap::new();
         for c in &rig.cameras {
-            let cam = c.model.to_camera().map_err(|message| FuseError::Rig {
+            let cam = c.model.to_camera().map_err(|e| FuseError::Rig {
                 camera: c.model.id,
-                message,
+                message: e.to_string(),
             })?;
             let ri = c
                 .relative_illumination
                 .to_model(c.model.width, c.model.height)
-                .map_err(|message| FuseError::Rig {
+                .map_err(|e| FuseError::Rig {
                     camera: c.model.id,
-                    message,
+                    message: e.to_string(),
                 })?;
             illumination.insert(c.model.id, ri);
             if cameras.insert(c.model.id, cam).is_some() {

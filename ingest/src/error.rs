@@ -17,10 +17,36 @@ pub enum IngestError {
         /// What is wrong (with the key or line at fault).
         message: String,
     },
-    /// The command's inputs contradict each other (a serial mapped twice,
-    /// a camera number outside 1..=3, no folder to search).
-    #[error("{0}")]
-    Input(String),
+    /// No camera was given.
+    #[error("no camera given (--camera SERIAL=ID)")]
+    NoCamera,
+    /// A camera with an empty serial.
+    #[error("camera {0}: empty serial")]
+    EmptySerial(u8),
+    /// A camera number outside 1..=3.
+    #[error("camera {serial}={id}: camera numbers are 1, 2 or 3")]
+    CameraId {
+        /// The serial.
+        serial: String,
+        /// The number given.
+        id: u8,
+    },
+    /// A camera number given to two serials.
+    #[error("camera {id} is given twice ({first} and {second})")]
+    CameraTwice {
+        /// The camera number.
+        id: u8,
+        /// The first serial given it.
+        first: String,
+        /// The second.
+        second: String,
+    },
+    /// A serial mapped twice.
+    #[error("serial {0} is given twice")]
+    SerialTwice(String),
+    /// No folder of frames to search.
+    #[error("no folder of frames given")]
+    NoFolder,
     /// Operating-system error on a file or folder.
     #[error("{}: {source}", path.display())]
     Io {

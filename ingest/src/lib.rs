@@ -135,28 +135,27 @@ pub struct Built {
 /// Check the serial → camera map.
 fn check_cameras(cameras: &[(String, u8)]) -> Result<()> {
     if cameras.is_empty() {
-        return Err(IngestError::Input(
-            "no camera given (--camera SERIAL=ID)".into(),
-        ));
+        return Err(IngestError::NoCamera);
     }
     for (i, (serial, id)) in cameras.iter().enumerate() {
         if serial.trim().is_empty() {
-            return Err(IngestError::Input(format!("camera {id}: empty serial")));
+            return Err(IngestError::EmptySerial(*id));
         }
         if !(1..=3).contains(id) {
-            return Err(IngestError::Input(format!(
-                "camera {serial}={id}: camera numbers are 1, 2 or 3"
-            )));
+            return Err(IngestError::CameraId {
+                serial: serial.clone(),
+                id: *id,
+            });
         }
         if let Some((s, _)) = cameras[..i].iter().find(|(_, o)| o == id) {
-            return Err(IngestError::Input(format!(
-                "camera {id} is given twice ({s} and {serial})"
-            )));
+            return Err(IngestError::CameraTwice {
+                id: *id,
+                first: s.clone(),
+                second: serial.clone(),
+            });
         }
         if cameras[..i].iter().any(|(s, _)| s == serial) {
-            return Err(IngestError::Input(format!(
-                "serial {serial} is given twice"
-            )));
+            return Err(IngestError::SerialTwice(serial.clone()));
         }
     }
     Ok(())
@@ -219,7 +218,7 @@ impl Signatures for ImageSignatures<'_> {
 pub fn build(inputs: &Inputs<'_>, options: &Options) -> Result<Built> {
     check_cameras(inputs.cameras)?;
     if inputs.dirs.is_empty() {
-        return Err(IngestError::Input("no folder of frames given".into()));
+        return Err(IngestError::NoFolder);
     }
     let program = inputs.program;
     program.validate().map_err(|e| IngestError::Program {

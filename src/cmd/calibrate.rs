@@ -1,7 +1,8 @@
 //! `trinocular calibrate`: each camera from a 3-D target (docs/methods.md,
 //! Calibration). From one calibration image per camera (markers extracted,
 //! then assigned to target ids automatically from the nominal rig,
-//! `calib::calibrate_detections`) or from `id,u,v` correspondence files.
+//! `calib::calibrate_detections`) or from `id,u,v` correspondence files
+//! (without a nominal rig: cameras 1, 2, … of the image size given).
 //! With a flat field and a dark frame per camera, the lens's relative
 //! illumination is fitted (`calib::fit_flat_field`) and stored in `rig.json`;
 //! without them the ideal lens is assumed. With images, once a camera
@@ -16,15 +17,16 @@
 //! - `commissioning.txt` and `commissioning.json`: the rig commissioning report.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use calib::commission::{CameraInput, CommissionOptions, Optics};
 use calib::{Calibration, CorrespondOptions, FlatFieldFit, Model, Options};
 use clap::ValueEnum;
-use extract::{Blob, CameraMap, FrameReader, mapped_centroid};
+use extract::{Blob, FrameReader, observed_centroids};
 use formats::{
     CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, Rig, RigCamera,
-    TargetRow, read_correspondences, read_json, read_nominal, read_spheres, read_target,
+    TargetRow, read_correspondences, read_nominal, read_spheres, read_target,
 };
 use geom::{Illumination, Point2};
 use serde::Serialize;
@@ -61,18 +63,26 @@ pub struct Args {
     /// Calibration target `target.csv` (`id,x,y,z[,diameter]`, mm).
     #[arg(long)]
     target: PathBuf,
-    /// Nominal rig `nominal.json`: starts the calibration and finds the correspondences.
+    /// Nominal rig `nominal.json`: starts the calibration and finds the
+    /// correspondences (needed with --images and --flat-fields).
     #[arg(long)]
-    nominal: PathBuf,
+    nominal: Option<PathBuf>,
+    /// Image width (px) of every camera, with --points and no --nominal.
+    #[arg(long, conflicts_with = "nominal", requires = "height", value_parser = clap::value_parser!(u32).range(1..=i64::from(formats::limits::MAX_IMAGE_SIDE_PX)))]
+    width: Option<u32>,
+    /// Image height (px) of every camera, with --points and no --nominal.
+    #[arg(long, conflicts_with = "nominal", requires = "width", value_parser = clap::value_parser!(u32).range(1..=i64::from(formats::limits::MAX_IMAGE_SIDE_PX)))]
+    height: Option<u32>,
     /// One calibration image per camera, in camera order (the nominal rig's ids, ascending).
-    #[arg(long, num_args = 1..)]
+    #[arg(long, num_args = 1.., requires = "nominal")]
     images: Vec<PathBuf>,
-    /// Correspondence files `id,u,v`, one per camera in camera order, instead of images.
+    /// Correspondence files `id,u,v`, one per camera in camera order, instead
+    /// of images (without --nominal: cameras 1, 2, 3 in this order).
     #[arg(long, num_args = 1..)]
     points: Vec<PathBuf>,
     /// Flat-field frames, one per camera in camera order: a uniform radiance
     /// source filling the view, same lens settings and exposure as the measurement.
-    #[arg(long, num_args = 1.., requires = "dark_frames")]
+    #[arg(long, num_args = 1.., requires = "dark_frames", requires = "nominal")]
     flat_fields: Vec<PathBuf>,
     /// Dark frames (lens capped), one per camera in camera order.
     #[arg(long, num_args = 1.., requires = "flat_fields")]
@@ -136,33 +146,27 @@ struct ResidualRow {
     outlier: bool,
 }
 
-/// A file beside `out` named `<stem><suffix>`.
-fn beside(out: &Path, suffix: &str) -> PathBuf {
-    let stem = out
-        .file_stem()
-        .map_or_else(|| "rig".into(), |s| s.to_string_lossy().into_owned());
-    out.with_file_name(format!("{stem}{suffix}"))
+/// `--nominal` (empty when not given: only used in messages of steps that need it).
+fn nominal_path(args: &Args) -> &Path {
+    args.nominal.as_deref().unwrap_or(Path::new(""))
 }
 
-/// Optics for the depth of field: pixel pitch from nominal.json, and the
-/// optional keys `f_number`, `coc_px`, `lens_focal_mm`, `focus_distance_mm`
-/// of its camera entry (defaults: f/8, 2 px, focal length from the lens
-/// equation, focus at the working point).
-fn optics(raw: &Value, id: u8, pixel_mm: f64) -> Optics {
-    let entry = raw["cameras"]
-        .as_array()
-        .and_then(|a| a.iter().find(|c| c["id"].as_u64() == Some(u64::from(id))));
-    let key = |k: &str| {
-        entry
-            .and_then(|e| e[k].as_f64())
-            .filter(|v| v.is_finite() && *v > 0.0)
-    };
+/// A file beside `out` named `<stem><suffix>`.
+fn beside(out: &Path, suffix: &str) -> PathBuf {
+    formats::atomic::beside(out, "rig", suffix)
+}
+
+/// Optics for the depth of field: pixel pitch and the lens keys of a
+/// nominal.json camera (checked when read; defaults: f/8, 2 px, focal length
+/// from the lens equation, focus at the working point).
+fn optics(nominal: &NominalCamera) -> Optics {
+    let o = nominal.optics;
     Optics {
-        pixel_mm,
-        f_number: key("f_number").unwrap_or(calib::commission::DEFAULT_F_NUMBER),
-        coc_px: key("coc_px").unwrap_or(calib::commission::DEFAULT_COC_PX),
-        focal_mm: key("lens_focal_mm"),
-        focus_distance_mm: key("focus_distance_mm"),
+        pixel_mm: nominal.pixel_mm,
+        f_number: o.f_number.unwrap_or(calib::commission::DEFAULT_F_NUMBER),
+        coc_px: o.coc_px.unwrap_or(calib::commission::DEFAULT_COC_PX),
+        focal_mm: o.lens_focal_mm,
+        focus_distance_mm: o.focus_distance_mm,
     }
 }
 
@@ -208,7 +212,7 @@ fn illumination(
     };
     let start = nominal
         .to_camera()
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.nominal.display()))?;
+        .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path(args).display()))?;
     let k = start.intrinsics;
     let fit = calib::fit_flat_field(&flat_pixels, &dark_pixels, [k.cx, k.cy], k.fx).with_context(
         || {
@@ -223,8 +227,73 @@ fn illumination(
     Ok((Illumination::Radial(fit.model.clone()), Some(fit)))
 }
 
-/// Run the command.
+/// One camera to calibrate: its id and sensor size, and its nominal
+/// description when `--nominal` was given.
+struct CameraSpec {
+    id: u8,
+    width: u32,
+    height: u32,
+    nominal: Option<NominalCamera>,
+}
+
+/// What every camera's calibration shares: the fit options, the target and
+/// its marker type, the cameras, the commissioning report's sphere set.
+struct Setup {
+    options: Options,
+    target: Vec<TargetRow>,
+    cameras: Vec<CameraSpec>,
+    spheres: bool,
+    sphere_set: Vec<(String, f64)>,
+}
+
+/// One camera calibrated: its `rig.json` entry, residual rows, commissioning
+/// input and OpenCV YAML (path, text).
+struct Calibrated {
+    entry: RigCamera,
+    residuals: Vec<ResidualRow>,
+    commissioning: CameraInput,
+    yaml: (PathBuf, String),
+}
+
+/// Run the command: (1) read and check the inputs, (2) plan the outputs,
+/// (3) calibrate each camera, (4) write the outputs once all are calibrated.
 pub fn run(args: &Args) -> Result<()> {
+    let setup = setup(args)?;
+    let cameras = &setup.cameras;
+    let inputs = inputs(args);
+    let extraction = if args.images.is_empty() {
+        None
+    } else {
+        Some((args.extract.backend()?, args.extract.params()?))
+    };
+    let mut output = plan_outputs(args, &cameras[..inputs.len()])?;
+    if args.flat_fields.is_empty() {
+        eprintln!(
+            "trinocular: note: no flat fields given: every camera records the ideal-lens assumption \
+             (cos⁴θ relative illumination, energy-conserving under distortion); measure a flat field \
+             and a dark frame per camera (--flat-fields, --dark-frames) for a real lens"
+        );
+    }
+    let mut reader = FrameReader::new().limit_pixels(args.extract.params()?.max_pixels);
+    let mut calibrated = Vec::new();
+    for (k, (camera, input)) in cameras.iter().zip(inputs).enumerate() {
+        calibrated.push(calibrate_camera(
+            args,
+            &setup,
+            k,
+            camera,
+            input,
+            extraction.as_ref(),
+            &mut reader,
+        )?);
+    }
+    write_outputs(args, &mut output, calibrated, setup.sphere_set)
+}
+
+/// Step 1: the fit options, the target (checked as a whole: its problems are
+/// the target file's, not the first camera's), the cameras (one input each),
+/// the marker type and the commissioning report's sphere set.
+fn setup(args: &Args) -> Result<Setup> {
     let options = Options {
         model: match args.model {
             ModelArg::Pinhole => Model::Pinhole,
@@ -241,42 +310,9 @@ pub fn run(args: &Args) -> Result<()> {
         .into_iter()
         .map(|r| r.record)
         .collect();
-    // Problems of the target are the target file's, not the first camera's.
     calib::check_target(&target).with_context(|| format!("{}", args.target.display()))?;
-    let nominal: NominalRig = read_nominal(&args.nominal)?;
-    let raw_nominal: Value = read_json(&args.nominal)?;
-    let mut cameras = nominal.cameras.clone();
-    cameras.sort_by_key(|c| c.id);
-    let inputs = if args.images.is_empty() {
-        &args.points
-    } else {
-        &args.images
-    };
-    if inputs.len() > cameras.len() || (!args.images.is_empty() && inputs.len() != cameras.len()) {
-        return Err(Usage::error(format!(
-            "{} has {} cameras but {} {} were given (one per camera, in camera order)",
-            args.nominal.display(),
-            cameras.len(),
-            inputs.len(),
-            if args.images.is_empty() {
-                "correspondence files"
-            } else {
-                "images"
-            }
-        )));
-    }
-    for (flag, given) in [
-        ("--flat-fields", &args.flat_fields),
-        ("--dark-frames", &args.dark_frames),
-    ] {
-        if !given.is_empty() && given.len() != inputs.len() {
-            return Err(Usage::error(format!(
-                "{flag}: {} files for {} cameras (one per camera, in camera order)",
-                given.len(),
-                inputs.len()
-            )));
-        }
-    }
+    let cameras = cameras(args)?;
+    check_counts(args, cameras.len(), inputs(args).len())?;
     let spheres = match args.markers {
         Some(m) => m == MarkerArg::Sphere,
         None => target.iter().all(|t| t.diameter.is_some()),
@@ -294,15 +330,103 @@ pub fn run(args: &Args) -> Result<()> {
             .collect(),
         None => CommissionOptions::default().spheres,
     };
+    Ok(Setup {
+        options,
+        target,
+        cameras,
+        spheres,
+        sphere_set,
+    })
+}
 
-    let extraction = if args.images.is_empty() {
-        None
-    } else {
-        Some((args.extract.backend()?, args.extract.params()?))
+/// The cameras in camera order: the nominal rig's (ids ascending), or
+/// without one, cameras 1, 2, … of the correspondence files with the image
+/// size of `--width` and `--height`.
+fn cameras(args: &Args) -> Result<Vec<CameraSpec>> {
+    if let Some(path) = &args.nominal {
+        let nominal: NominalRig = read_nominal(path)?;
+        let mut cameras: Vec<CameraSpec> = nominal
+            .cameras
+            .into_iter()
+            .map(|c| CameraSpec {
+                id: c.id,
+                width: c.width,
+                height: c.height,
+                nominal: Some(c),
+            })
+            .collect();
+        cameras.sort_by_key(|c| c.id);
+        return Ok(cameras);
+    }
+    let (Some(width), Some(height)) = (args.width, args.height) else {
+        return Err(Usage::error(
+            "--points without --nominal needs the image size: give --width and --height",
+        ));
     };
+    if args.points.len() > 3 {
+        return Err(Usage::error(format!(
+            "--points: {} correspondence files without --nominal; at most 3 cameras (1, 2, 3)",
+            args.points.len()
+        )));
+    }
+    Ok((1..=3)
+        .take(args.points.len())
+        .map(|id| CameraSpec {
+            id,
+            width,
+            height,
+            nominal: None,
+        })
+        .collect())
+}
+
+/// The calibration images, else the correspondence files.
+fn inputs(args: &Args) -> &[PathBuf] {
+    if args.images.is_empty() {
+        &args.points
+    } else {
+        &args.images
+    }
+}
+
+/// One input per camera (images: exactly; correspondence files: at most),
+/// and as many flat fields and dark frames as inputs.
+fn check_counts(args: &Args, cameras: usize, inputs: usize) -> Result<()> {
+    if inputs > cameras || (!args.images.is_empty() && inputs != cameras) {
+        return Err(Usage::error(format!(
+            "{} has {} cameras but {} {} were given (one per camera, in camera order)",
+            nominal_path(args).display(),
+            cameras,
+            inputs,
+            if args.images.is_empty() {
+                "correspondence files"
+            } else {
+                "images"
+            }
+        )));
+    }
+    for (flag, given) in [
+        ("--flat-fields", &args.flat_fields),
+        ("--dark-frames", &args.dark_frames),
+    ] {
+        if !given.is_empty() && given.len() != inputs {
+            return Err(Usage::error(format!(
+                "{flag}: {} files for {} cameras (one per camera, in camera order)",
+                given.len(),
+                inputs
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Step 2: every output declared and checked against the inputs and the
+/// files that exist, before any work.
+fn plan_outputs(args: &Args, cameras: &[CameraSpec]) -> Result<OutputPlan> {
     let mut output = OutputPlan::new(args.force);
     output
-        .inputs([&args.target, &args.nominal])
+        .inputs([&args.target])
+        .inputs(&args.nominal)
         .inputs(&args.images)
         .inputs(&args.points)
         .inputs(&args.flat_fields)
@@ -313,139 +437,198 @@ pub fn run(args: &Args) -> Result<()> {
         .file(beside(&args.out, ".residuals.csv"))
         .file(args.out.with_file_name("commissioning.txt"))
         .file(args.out.with_file_name("commissioning.json"));
-    for c in cameras.iter().take(inputs.len()) {
+    for c in cameras {
         output.file(beside(&args.out, &format!(".cam{}.opencv.yml", c.id)));
     }
     output.check()?;
-    if args.flat_fields.is_empty() {
-        eprintln!(
-            "trinocular: note: no flat fields given: every camera records the ideal-lens assumption \
-             (cos⁴θ relative illumination, energy-conserving under distortion); measure a flat field \
-             and a dark frame per camera (--flat-fields, --dark-frames) for a real lens"
+    Ok(output)
+}
+
+/// Step 3, one camera (index `k` in camera order): its relative
+/// illumination, its calibration from its image or correspondence file, a
+/// summary on stdout, and what the outputs hold of it.
+fn calibrate_camera(
+    args: &Args,
+    setup: &Setup,
+    k: usize,
+    camera: &CameraSpec,
+    input: &Path,
+    extraction: Option<&(Arc<dyn extract::Backend>, extract::ExtractParams)>,
+    reader: &mut FrameReader,
+) -> Result<Calibrated> {
+    let id = camera.id;
+    let (illumination, flat_fit) = match &camera.nominal {
+        Some(nominal) => illumination(args, k, nominal, reader)?,
+        None => (Illumination::Ideal, None),
+    };
+    let (observations, cal, matching) = match (extraction, &camera.nominal) {
+        (Some((backend, params)), Some(nominal)) => from_image(
+            args,
+            setup,
+            nominal,
+            input,
+            backend.as_ref(),
+            params,
+            &illumination,
+            reader,
+        )?,
+        _ => from_points(setup, camera, input)?,
+    };
+    summarise(id, &cal, &matching);
+    if let Some(fit) = &flat_fit {
+        println!(
+            "camera {id}: relative illumination {:.4}…{:.4} of the centre, fit residual {:.4} % RMS (noise {:.4} %)",
+            fit.ri_range[0],
+            fit.ri_range[1],
+            100.0 * fit.residual_rms,
+            100.0 * fit.noise_rms
         );
     }
-    let mut reader = FrameReader::new().limit_pixels(args.extract.params()?.max_pixels);
-    let mut yaml = Vec::new();
+    let residuals = observations
+        .iter()
+        .zip(&cal.residuals)
+        .map(|(o, r)| ResidualRow {
+            camera: id,
+            id: o.id,
+            x: o.world.x,
+            y: o.world.y,
+            z: o.world.z,
+            u: o.pixel.x,
+            v: o.pixel.y,
+            du: r.du,
+            dv: r.dv,
+            outlier: r.outlier,
+        })
+        .collect();
+    let mut entry = RigCamera::new(id, &cal.camera, cal.rms_px, cal.points_used());
+    entry.relative_illumination = illumination_json(&illumination, flat_fit.as_ref(), args, k);
+    entry.extra = extra(&cal, input, setup.spheres, matching);
+    let yaml = (
+        beside(&args.out, &format!(".cam{id}.opencv.yml")),
+        calib::opencv_yaml(id, &cal.camera, cal.rms_px, None),
+    );
+    Ok(Calibrated {
+        entry,
+        residuals,
+        commissioning: CameraInput {
+            id,
+            camera: cal.camera.clone(),
+            rms_px: cal.rms_px,
+            optics: camera.nominal.as_ref().map(optics),
+            illumination,
+            flat_field: flat_fit,
+        },
+        yaml,
+    })
+}
+
+/// A camera from its calibration image: markers extracted, assigned to the
+/// target from the nominal camera, centroids recomputed with each camera
+/// estimate (undistorted, flat-field corrected) and the camera refitted.
+#[allow(clippy::too_many_arguments)]
+fn from_image(
+    args: &Args,
+    setup: &Setup,
+    nominal: &NominalCamera,
+    input: &Path,
+    backend: &dyn extract::Backend,
+    params: &extract::ExtractParams,
+    illumination: &Illumination,
+    reader: &mut FrameReader,
+) -> Result<(Vec<calib::Observation>, Calibration, Value)> {
+    let id = nominal.id;
+    let context = || format!("camera {id} ({})", input.display());
+    let nominal_path = nominal_path(args);
+    let start = nominal
+        .to_camera()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path.display()))?;
+    let (frame, _) = reader.read(input).with_context(context)?;
+    if frame.width != nominal.width || frame.height != nominal.height {
+        bail!(
+            "{}: the image is {}×{} px, but {} gives this camera {}×{} px",
+            context(),
+            frame.width,
+            frame.height,
+            nominal_path.display(),
+            nominal.width,
+            nominal.height
+        );
+    }
+    let ex = backend.extract(frame, params).with_context(context)?;
+    let blobs: Vec<&Blob> = ex.blobs.iter().filter(|b| !b.touches_border).collect();
+    let detections: Vec<Point2<f64>> = blobs.iter().map(|b| Point2::new(b.u, b.v)).collect();
+    let denoised = extract::denoise::apply(&frame, params.denoise);
+    let view = denoised.as_ref().map_or(frame, |f| f.view());
+    let recentroid = |camera: &geom::Camera| {
+        observed_centroids(
+            &view,
+            &blobs,
+            &ex.level,
+            params.weighting,
+            camera,
+            illumination,
+        )
+    };
+    let result = calib::calibrate_detections(
+        &setup.target,
+        setup.spheres,
+        &detections,
+        &start,
+        &setup.options,
+        &CorrespondOptions::default(),
+        &recentroid,
+    )
+    .with_context(context)?;
+    let c = &result.correspondence;
+    let info = json!({
+        "detections": detections.len(),
+        "matched": c.matches.len(),
+        "unmatched_detections": c.unmatched_detections.len(),
+        "missing_markers": c.missing_markers,
+        "assignment_sigma_px": c.sigma_px,
+        "corrected_centroids": calib::RECENTROID_ROUNDS,
+    });
+    Ok((result.observations, result.calibration, info))
+}
+
+/// A camera from its correspondence file `id,u,v`.
+fn from_points(
+    setup: &Setup,
+    camera: &CameraSpec,
+    input: &Path,
+) -> Result<(Vec<calib::Observation>, Calibration, Value)> {
+    let context = || format!("camera {} ({})", camera.id, input.display());
+    let rows: Vec<CorrespondenceRow> = read_correspondences(input)?
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    let obs = calib::observations(&setup.target, &rows, setup.spheres).with_context(context)?;
+    let cal = calib::calibrate(&obs, camera.width, camera.height, &setup.options)
+        .with_context(context)?;
+    Ok((obs, cal, json!({ "points": rows.len() })))
+}
+
+/// Step 4: every camera is calibrated; only now write the outputs (YAML,
+/// `rig.json`, residuals, the commissioning report) and print the summary.
+fn write_outputs(
+    args: &Args,
+    output: &mut OutputPlan,
+    calibrated: Vec<Calibrated>,
+    sphere_set: Vec<(String, f64)>,
+) -> Result<()> {
+    for c in &calibrated {
+        output.write_bytes(&c.yaml.0, c.yaml.1.as_bytes())?;
+    }
     let mut rig = Rig {
         cameras: Vec::new(),
     };
     let mut residual_rows = Vec::new();
     let mut commissioning = Vec::new();
-    for (k, (nominal_camera, input)) in cameras.iter().zip(inputs).enumerate() {
-        let id = nominal_camera.id;
-        let context = || format!("camera {id} ({})", input.display());
-        let start = nominal_camera
-            .to_camera()
-            .map_err(|e| anyhow::anyhow!("{}: {e}", args.nominal.display()))?;
-        let (illumination, flat_fit) = illumination(args, k, nominal_camera, &mut reader)?;
-        let (observations, cal, matching) = if let Some((backend, params)) = &extraction {
-            let (frame, _) = reader.read(input).with_context(context)?;
-            if frame.width != nominal_camera.width || frame.height != nominal_camera.height {
-                bail!(
-                    "{}: the image is {}×{} px, but {} gives this camera {}×{} px",
-                    context(),
-                    frame.width,
-                    frame.height,
-                    args.nominal.display(),
-                    nominal_camera.width,
-                    nominal_camera.height
-                );
-            }
-            let ex = backend.extract(frame, params).with_context(context)?;
-            let blobs: Vec<&Blob> = ex.blobs.iter().filter(|b| !b.touches_border).collect();
-            let detections: Vec<Point2<f64>> =
-                blobs.iter().map(|b| Point2::new(b.u, b.v)).collect();
-            // Centroids with a camera's model: undistorted, flat-field
-            // corrected, mapped back through the distortion.
-            let denoised = extract::denoise::apply(&frame, params.denoise);
-            let view = denoised.as_ref().map_or(frame, |f| f.view());
-            let recentroid = |camera: &geom::Camera| -> Vec<Option<Point2<f64>>> {
-                let map = CameraMap::new(camera, &illumination);
-                blobs
-                    .iter()
-                    .map(|b| {
-                        mapped_centroid(&view, b, &ex.level, params.weighting, &map)
-                            .map(|q| camera.distort_pixel(Point2::new(q[0], q[1])))
-                    })
-                    .collect()
-            };
-            let result = calib::calibrate_detections(
-                &target,
-                spheres,
-                &detections,
-                &start,
-                &options,
-                &CorrespondOptions::default(),
-                &recentroid,
-            )
-            .with_context(context)?;
-            let c = &result.correspondence;
-            let info = json!({
-                "detections": detections.len(),
-                "matched": c.matches.len(),
-                "unmatched_detections": c.unmatched_detections.len(),
-                "missing_markers": c.missing_markers,
-                "assignment_sigma_px": c.sigma_px,
-                "corrected_centroids": calib::RECENTROID_ROUNDS,
-            });
-            (result.observations, result.calibration, info)
-        } else {
-            let rows: Vec<CorrespondenceRow> = read_correspondences(input)?
-                .into_iter()
-                .map(|r| r.record)
-                .collect();
-            let obs = calib::observations(&target, &rows, spheres).with_context(context)?;
-            let cal = calib::calibrate(&obs, nominal_camera.width, nominal_camera.height, &options)
-                .with_context(context)?;
-            (obs, cal, json!({ "points": rows.len() }))
-        };
-        summarise(id, &cal, &matching);
-        if let Some(fit) = &flat_fit {
-            println!(
-                "camera {id}: relative illumination {:.4}…{:.4} of the centre, fit residual {:.4} % RMS (noise {:.4} %)",
-                fit.ri_range[0],
-                fit.ri_range[1],
-                100.0 * fit.residual_rms,
-                100.0 * fit.noise_rms
-            );
-        }
-        for (o, r) in observations.iter().zip(&cal.residuals) {
-            residual_rows.push(ResidualRow {
-                camera: id,
-                id: o.id,
-                x: o.world.x,
-                y: o.world.y,
-                z: o.world.z,
-                u: o.pixel.x,
-                v: o.pixel.y,
-                du: r.du,
-                dv: r.dv,
-                outlier: r.outlier,
-            });
-        }
-        let mut entry = RigCamera::new(id, &cal.camera, cal.rms_px, cal.points_used());
-        entry.relative_illumination = illumination_json(&illumination, flat_fit.as_ref(), args, k);
-        entry.extra = extra(&cal, input, spheres, matching);
-        rig.cameras.push(entry);
-        commissioning.push(CameraInput {
-            id,
-            camera: cal.camera.clone(),
-            rms_px: cal.rms_px,
-            optics: Some(optics(&raw_nominal, id, nominal_camera.pixel_mm)),
-            illumination,
-            flat_field: flat_fit,
-        });
-        yaml.push((
-            beside(&args.out, &format!(".cam{id}.opencv.yml")),
-            calib::opencv_yaml(id, &cal.camera, cal.rms_px, None),
-        ));
+    for c in calibrated {
+        rig.cameras.push(c.entry);
+        residual_rows.extend(c.residuals);
+        commissioning.push(c.commissioning);
     }
-
-    // Every camera is calibrated: only now write the outputs.
-    for (path, text) in &yaml {
-        output.write_bytes(path, text.as_bytes())?;
-    }
-
     output.write_json(&args.out, &rig)?;
     output.write_csv(&beside(&args.out, ".residuals.csv"), &residual_rows)?;
     let report = calib::commission(

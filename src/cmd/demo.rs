@@ -10,8 +10,8 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Args as ClapArgs, FromArgMatches};
-use formats::PointRow;
-use serde_json::Value;
+use formats::figures::{AxisFigures, PositioningFigures, ReportFigures, ZoneFigures};
+use formats::{PointRow, Truth};
 
 use crate::cmd;
 
@@ -88,41 +88,54 @@ fn step<A: ClapArgs + FromArgMatches>(
     Ok(())
 }
 
-fn figure(v: &Value, path: &[&str]) -> Option<f64> {
-    path.iter()
-        .try_fold(v, |v, k| v.get(*k))
-        .and_then(Value::as_f64)
-}
-
 /// Largest |measured − true| of roll, pitch and yaw over the targets of an axis's main line (µrad).
-fn angular_worst(report: &Value, truth: &Value, axis: &str) -> Option<f64> {
-    let targets = |v: &Value| -> Option<Vec<Value>> {
-        v.pointer(&format!("/axes/{axis}/angular/targets"))?
-            .as_array()
-            .cloned()
-    };
+fn angular_worst(report: &ReportFigures, truth: &ReportFigures, axis: &str) -> Option<f64> {
+    let targets = |f: &ReportFigures| Some(f.axes.get(axis)?.angular.as_ref()?.targets.clone());
     let (m, t) = (targets(report)?, targets(truth)?);
     let mut worst: f64 = 0.0;
     for (a, b) in m.iter().zip(&t) {
-        for k in ["roll_urad", "pitch_urad", "yaw_urad"] {
-            worst = worst.max((a.get(k)?.as_f64()? - b.get(k)?.as_f64()?).abs());
+        for (a, b) in a.angles().into_iter().zip(b.angles()) {
+            worst = worst.max((a? - b?).abs());
         }
     }
     Some(worst)
 }
 
+/// The positioning value of an axis by its report.json key.
+fn positioning(p: &PositioningFigures, key: &str) -> Option<f64> {
+    match key {
+        "A_um" => p.a_um,
+        "E_um" => p.e_um,
+        "R_um" => p.r_um,
+        "B_um" => p.b_um,
+        "M_um" => p.m_um,
+        "seed_3sigma_um" => p.seed_3sigma_um,
+        _ => None,
+    }
+}
+
+/// A zone's width by its report.json key.
+fn zone(z: &ZoneFigures, key: &str) -> Option<f64> {
+    match key {
+        "lsq_um" => z.lsq_um,
+        "min_zone_um" => z.min_zone_um,
+        _ => None,
+    }
+}
+
 /// Print measured against true figures.
-fn compare(report: &Value, truth: &Value) {
+fn compare(report: &ReportFigures, truth: &ReportFigures) {
     println!(
         "\n{:<34} {:>12} {:>12} {:>10}",
         "figure (µm, µrad)", "measured", "true", "difference"
     );
-    let row = |label: String, path: Vec<&str>| {
-        if let (Some(m), Some(t)) = (figure(report, &path), figure(truth, &path)) {
+    let row = |label: String, figure: &dyn Fn(&ReportFigures) -> Option<f64>| {
+        if let (Some(m), Some(t)) = (figure(report), figure(truth)) {
             println!("{label:<34} {m:>12.2} {t:>12.2} {:>+10.2}", m - t);
         }
     };
     for axis in ["X", "Y"] {
+        let of = |f: &ReportFigures| -> Option<AxisFigures> { f.axes.get(axis).cloned() };
         for (key, label) in [
             ("A_um", "A  positioning accuracy"),
             ("E_um", "E  systematic deviation"),
@@ -131,28 +144,28 @@ fn compare(report: &Value, truth: &Value) {
             ("M_um", "M  mean deviation"),
             ("seed_3sigma_um", "seed 3σ positioning error"),
         ] {
-            row(
-                format!("{axis} {label}"),
-                vec!["axes", axis, "positioning", key],
-            );
+            row(format!("{axis} {label}"), &|f| {
+                positioning(&of(f)?.positioning, key)
+            });
         }
         for dir in ["X", "Y", "Z"] {
             for (key, what) in [("lsq_um", "LSQ"), ("min_zone_um", "min zone")] {
-                row(
-                    format!("{axis} straightness in {dir}, {what}"),
-                    vec!["axes", axis, "straightness", dir, key],
-                );
+                row(format!("{axis} straightness in {dir}, {what}"), &|f| {
+                    zone(of(f)?.straightness.get(dir)?, key)
+                });
             }
         }
         for key in ["roll_urad", "pitch_urad", "yaw_urad"] {
             row(
                 format!("{axis} {} range", key.trim_end_matches("_urad")),
-                vec!["axes", axis, "angular", key],
+                &|f| of(f)?.angular?.range.get(key),
             );
         }
     }
-    row("flatness, LSQ".into(), vec!["flatness", "lsq_um"]);
-    row("flatness, min zone".into(), vec!["flatness", "min_zone_um"]);
+    row("flatness, LSQ".into(), &|f| f.flatness.as_ref()?.lsq_um);
+    row("flatness, min zone".into(), &|f| {
+        f.flatness.as_ref()?.min_zone_um
+    });
 }
 
 /// Run the command.
@@ -260,15 +273,14 @@ pub fn run(args: &Args) -> Result<()> {
         cmd::evaluate::run,
     )?;
 
-    let report: Value = formats::read_json(&report_dir.join("report.json"))?;
-    let truth: Value = formats::read_json(&campaign.join("truth.json"))?;
-    let truth_figures = truth.get("figures").with_context(|| {
-        format!(
-            "{}: no reference figures",
-            campaign.join("truth.json").display()
-        )
-    })?;
-    compare(&report, truth_figures);
+    let report: ReportFigures = formats::read_json(&report_dir.join("report.json"))?;
+    let truth_path = campaign.join("truth.json");
+    let truth: Truth = formats::read_json(&truth_path)?;
+    let truth_figures = truth
+        .figures()
+        .with_context(|| format!("{}: no reference figures", truth_path.display()))?
+        .with_context(|| format!("{}: figures", truth_path.display()))?;
+    compare(&report, &truth_figures);
     let read = |p: &Path| -> Result<Vec<PointRow>> {
         Ok(formats::read_csv(p)?
             .into_iter()
@@ -286,7 +298,7 @@ pub fn run(args: &Args) -> Result<()> {
         );
     }
     for axis in ["X", "Y"] {
-        if let Some(w) = angular_worst(&report, truth_figures, axis) {
+        if let Some(w) = angular_worst(&report, &truth_figures, axis) {
             println!(
                 "{axis}: roll, pitch, yaw per target: largest difference from the truth {w:.1} µrad"
             );

@@ -194,6 +194,7 @@ fn fit_flat_field(flat: &Path, dark: &Path, max_pixels: u64) -> Result<geom::Rad
     let mut reader = extract::FrameReader::new().limit_pixels(max_pixels);
     let (f, _) = reader.read(flat)?;
     let (values, width, height, saturation) = (f.pixels.to_vec(), f.width, f.height, f.max_value());
+    let (centre, half_diagonal) = (f.centre_px(), f.half_diagonal_px());
     let (d, _) = reader.read(dark)?;
     let flat_px = calib::Pixels {
         values: &values,
@@ -207,20 +208,14 @@ fn fit_flat_field(flat: &Path, dark: &Path, max_pixels: u64) -> Result<geom::Rad
         height: d.height,
         saturation: d.max_value(),
     };
-    let (w, h) = (f64::from(width), f64::from(height));
-    let fit = calib::fit_flat_field(
-        &flat_px,
-        &dark_px,
-        [(w - 1.0) / 2.0, (h - 1.0) / 2.0],
-        w.hypot(h) / 2.0,
-    )
-    .with_context(|| {
-        format!(
-            "flat field {} with dark frame {}",
-            flat.display(),
-            dark.display()
-        )
-    })?;
+    let fit =
+        calib::fit_flat_field(&flat_px, &dark_px, centre, half_diagonal).with_context(|| {
+            format!(
+                "flat field {} with dark frame {}",
+                flat.display(),
+                dark.display()
+            )
+        })?;
     eprintln!(
         "trinocular: flat field: relative illumination {:.4}…{:.4} of its centre ({:.1}, {:.1}) px, \
          fit residual {:.4} % RMS (noise {:.4} %)",

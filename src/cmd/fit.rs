@@ -62,52 +62,10 @@ impl Record for XyzRow {
     }
 }
 
-/// Read a NIST `.ds` file: a count, then one tab-separated point per line.
-fn read_ds(path: &Path) -> Result<Vec<Point3<f64>>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let (_, first) = lines
-        .next()
-        .with_context(|| format!("{}: the file is empty", path.display()))?;
-    let n: usize = first
-        .trim()
-        .parse()
-        .with_context(|| format!("{}: line 1: expected the number of points", path.display()))?;
-    // The count is checked against the points the file holds, never used to
-    // size a buffer: a header may announce 10¹⁹ points.
-    let mut points = Vec::new();
-    for (i, line) in lines {
-        let v: Vec<f64> = line
-            .split_whitespace()
-            .map(str::parse)
-            .collect::<std::result::Result<_, _>>()
-            .with_context(|| format!("{}: line {}: not a number", path.display(), i + 1))?;
-        if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
-            bail!(
-                "{}: line {}: expected three finite coordinates",
-                path.display(),
-                i + 1
-            );
-        }
-        points.push(Point3::new(v[0], v[1], v[2]));
-    }
-    if points.len() != n {
-        bail!(
-            "{}: header announces {n} points but the file holds {}",
-            path.display(),
-            points.len()
-        );
-    }
-    Ok(points)
-}
-
 /// Points as 3-D (z = 0 where a CSV has no z column).
 fn read_points(path: &Path, need_z: bool) -> Result<Vec<Point3<f64>>> {
     if path.extension().is_some_and(|e| e == "ds") {
-        return read_ds(path);
+        return Ok(formats::nist::read_ds(path)?);
     }
     let rows = read_csv::<XyzRow>(path)?;
     rows.iter()

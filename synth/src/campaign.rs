@@ -159,26 +159,57 @@ fn write_instant(
             config.render.max_depth,
         )?;
         let path = out.join(i.image_path(cam.id, ext));
-        let meta = FrameMetadata {
-            make: config.output.make.clone(),
-            model: config.output.model.clone(),
-            serial: cam.serial.clone(),
+        let frame = Frame {
+            path: &path,
+            serial: &cam.serial,
             time_s: plan.start_time_s + i.time_s,
-            exposure_s: config.sensor.exposure_s,
-            f_number: config.optics.f_number,
-            focal_mm: config.optics.focal_mm,
             description: format!("camera {} {}", cam.id, describe(i)),
         };
-        write_image_into(
-            output.create(&path)?,
-            &img,
-            config.sensor.bits,
-            &meta,
-            config.output.format,
-            config.output.compression,
-        )?;
-        bytes.fetch_add(file_len(&path)?, Ordering::Relaxed);
+        write_frame(config, output, &img, frame, bytes)?;
     }
+    Ok(())
+}
+
+/// One rendered frame's file and the metadata that differ between frames.
+pub(crate) struct Frame<'a> {
+    /// The image file.
+    pub path: &'a Path,
+    /// The camera's serial number.
+    pub serial: &'a str,
+    /// Capture time (s since 1970-01-01T00:00:00).
+    pub time_s: f64,
+    /// EXIF image description.
+    pub description: String,
+}
+
+/// Write a rendered frame through the output plan, with the EXIF metadata
+/// of the configured camera, sensor and lens, and count its bytes.
+pub(crate) fn write_frame(
+    config: &Config,
+    output: &OutputPlan,
+    img: &crate::sensor::Image16,
+    frame: Frame<'_>,
+    bytes: &AtomicU64,
+) -> Result<()> {
+    let meta = FrameMetadata {
+        make: config.output.make.clone(),
+        model: config.output.model.clone(),
+        serial: frame.serial.to_string(),
+        time_s: frame.time_s,
+        exposure_s: config.sensor.exposure_s,
+        f_number: config.optics.f_number,
+        focal_mm: config.optics.focal_mm,
+        description: frame.description,
+    };
+    write_image_into(
+        output.create(frame.path)?,
+        img,
+        config.sensor.bits,
+        &meta,
+        config.output.format,
+        config.output.compression,
+    )?;
+    bytes.fetch_add(file_len(frame.path)?, Ordering::Relaxed);
     Ok(())
 }
 

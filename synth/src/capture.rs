@@ -21,7 +21,7 @@
 //! leaves half a frame after the last of them (plus `dwell_extra_frames`).
 
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::AtomicU64;
 
 use formats::{Dwell, ManifestRow, OutputPlan};
 use geom::nalgebra::Vector3;
@@ -30,7 +30,6 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
-use crate::encode::{FrameMetadata, write_image_into};
 use crate::machine::{ApproachKey, approach_offset, table_error};
 use crate::procedure::Plan;
 use crate::progress::Progress;
@@ -759,30 +758,15 @@ fn write_job(
         }
     };
     let path = out.join(&job.path);
-    let meta = FrameMetadata {
-        make: config.output.make.clone(),
-        model: config.output.model.clone(),
-        serial: cam.serial.clone(),
+    let frame = crate::campaign::Frame {
+        path: &path,
+        serial: &cam.serial,
         time_s: plan.start_time_s
             + job.time_s
             + config.capture.clock_offset_s[usize::from(cam.id - 1)],
-        exposure_s: config.sensor.exposure_s,
-        f_number: config.optics.f_number,
-        focal_mm: config.optics.focal_mm,
         description: String::new(),
     };
-    write_image_into(
-        output.create(&path)?,
-        &img,
-        config.sensor.bits,
-        &meta,
-        config.output.format,
-        config.output.compression,
-    )?;
-    let len = std::fs::metadata(&path)
-        .map_err(|e| SynthError::io(&path, e))?
-        .len();
-    bytes.fetch_add(len, Ordering::Relaxed);
+    crate::campaign::write_frame(config, output, &img, frame, bytes)?;
     Ok(())
 }
 

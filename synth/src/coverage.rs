@@ -147,9 +147,7 @@ impl PixelFrame {
             .distortion
             .jacobian(n0)
             .try_inverse()
-            .ok_or_else(|| {
-                SynthError::Scene(format!("lens distortion is singular at pixel ({u}, {v})"))
-            })?;
+            .ok_or(SynthError::DistortionSingular(u, v))?;
         Ok(Self {
             n0,
             j: d_inv * k_inv,
@@ -372,11 +370,10 @@ pub fn coverage(
     max_depth: u8,
 ) -> Result<Coverage> {
     if occluders.len() + 1 > MAX_CONSTRAINTS {
-        return Err(SynthError::Scene(format!(
-            "{} spheres overlap one silhouette; at most {} are supported",
-            occluders.len() + 1,
-            MAX_CONSTRAINTS
-        )));
+        return Err(SynthError::TooManyOverlaps {
+            overlapping: occluders.len() + 1,
+            max: MAX_CONSTRAINTS,
+        });
     }
     let focal = camera.intrinsics.fx.min(camera.intrinsics.fy);
     let mut cons = vec![Constraint::new(sphere, 1.0, focal)];

@@ -16,10 +16,46 @@ pub enum SynthError {
         /// The key at fault and what is wrong with it.
         message: String,
     },
-    /// The scene cannot be rendered as asked (spheres intersect, a sphere
-    /// leaves the frame, a camera is inside a sphere, ...).
-    #[error("scene: {0}")]
-    Scene(String),
+    /// A sphere's radius is not a positive number (mm).
+    #[error("scene: sphere radius {0} mm is not positive")]
+    SphereRadius(f64),
+    /// A camera's projection centre lies inside a sphere (centre, world mm).
+    #[error("scene: camera centre lies inside the sphere at {0:?}")]
+    CameraInsideSphere([f64; 3]),
+    /// A sphere's silhouette cone is not wholly in front of a camera (centre, world mm).
+    #[error("scene: sphere at {0:?} is not in front of the camera")]
+    BehindCamera([f64; 3]),
+    /// A sphere's outline is not an ellipse in a camera.
+    #[error("scene: outline is not an ellipse")]
+    NotAnEllipse,
+    /// Two spheres intersect (centres, world mm).
+    #[error("scene: spheres at {0:?} and {1:?} intersect")]
+    SpheresIntersect([f64; 3], [f64; 3]),
+    /// More spheres overlap one silhouette than the coverage integrator supports.
+    #[error("scene: {overlapping} spheres overlap one silhouette; at most {max} are supported")]
+    TooManyOverlaps {
+        /// Spheres over the silhouette (itself included).
+        overlapping: usize,
+        /// The most supported.
+        max: usize,
+    },
+    /// A blur σ that is not finite (px).
+    #[error("scene: blur σ {0} px is not finite")]
+    BlurSigma(f64),
+    /// The sensor and the camera model differ in size.
+    #[error("scene: sensor is {}×{} px but the camera model is {}×{} px", sensor.0, sensor.1, camera.0, camera.1)]
+    SensorSize {
+        /// Sensor width and height (px).
+        sensor: (u32, u32),
+        /// Camera model width and height (px).
+        camera: (u32, u32),
+    },
+    /// The lens distortion's Jacobian is singular at an observed pixel (u, v).
+    #[error("scene: lens distortion is singular at pixel ({0}, {1})")]
+    DistortionSingular(f64, f64),
+    /// The lens distortion folds the image at an observed pixel (u, v).
+    #[error("scene: lens distortion folds the image at pixel ({0}, {1})")]
+    DistortionFolds(f64, f64),
     /// A geometric computation failed on degenerate input.
     #[error("{what}: {source}")]
     Geometry {
@@ -49,7 +85,10 @@ pub enum SynthError {
     },
     /// The reference figures could not be computed from the true positions.
     #[error("reference figures: {0}")]
-    Evaluate(String),
+    Evaluate(#[source] evaluate::EvaluateError),
+    /// The reference figures could not be turned into JSON.
+    #[error("reference figures: {0}")]
+    FiguresJson(#[source] serde_json::Error),
 }
 
 fn source_name(path: Option<&PathBuf>) -> String {

@@ -50,9 +50,7 @@ pub fn exact(camera: &Camera, v: [f64; 2], u: f64, w: f64) -> Result<f64> {
         .map_err(|e| SynthError::geometry(format!("undistorting pixel ({u}, {w})"), e))?;
     let det = camera.distortion.jacobian(n).determinant();
     if det.is_nan() || det <= 0.0 {
-        return Err(SynthError::Scene(format!(
-            "lens distortion folds the image at pixel ({u}, {w})"
-        )));
+        return Err(SynthError::DistortionFolds(u, w));
     }
     Ok(natural(n, 1.0 / det) * vignetting(v, n))
 }

@@ -39,9 +39,7 @@ pub fn sphere_signals(
             .collect();
         let sigma = optics.blur_sigma_px(v.centre.z);
         if !sigma.is_finite() {
-            return Err(SynthError::Scene(format!(
-                "blur σ {sigma} px is not finite"
-            )));
+            return Err(SynthError::BlurSigma(sigma));
         }
         let r = kernel_radius(sigma) as i64;
         let b = outline_bounds(camera, sphere)?;
@@ -77,10 +75,10 @@ pub fn render(
     lens: Option<&LensIllumination>,
 ) -> Result<Image16> {
     if sensor.width != camera.width || sensor.height != camera.height {
-        return Err(SynthError::Scene(format!(
-            "sensor is {}×{} px but the camera model is {}×{} px",
-            sensor.width, sensor.height, camera.width, camera.height
-        )));
+        return Err(SynthError::SensorSize {
+            sensor: (sensor.width, sensor.height),
+            camera: (camera.width, camera.height),
+        });
     }
     let signals = sphere_signals(camera, optics, spheres, max_depth, lens)?;
     let layers: Vec<Exposure<'_>> = signals

@@ -2,7 +2,7 @@
 //! cameras (what renders the images and goes to `truth.json`), each with its
 //! optics and sensor.
 
-use formats::{NominalCamera, NominalRig};
+use formats::{NominalCamera, NominalOptics, NominalRig};
 use geom::nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use geom::{Camera, Intrinsics};
 
@@ -162,14 +162,13 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
         width: s.width,
         height: s.height,
         // The lens as built, for the commissioning report's depth of field.
-        extra: serde_json::json!({
-            "lens_focal_mm": o.focal_mm,
-            "f_number": o.f_number,
-            "focus_distance_mm": o.focus_distance_mm,
-        })
-        .as_object()
-        .cloned()
-        .unwrap_or_default(),
+        optics: NominalOptics {
+            coc_px: None,
+            f_number: Some(o.f_number),
+            focus_distance_mm: Some(o.focus_distance_mm),
+            lens_focal_mm: Some(o.focal_mm),
+        },
+        extra: serde_json::Map::new(),
     };
     let nominal_camera = nominal
         .to_camera()

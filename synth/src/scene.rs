@@ -40,28 +40,19 @@ impl ViewedSphere {
     /// silhouette cone is not wholly in front of the image plane.
     pub fn new(camera: &Camera, sphere: &Sphere) -> Result<Self> {
         if !(sphere.radius.is_finite() && sphere.radius > 0.0) {
-            return Err(SynthError::Scene(format!(
-                "sphere radius {} mm is not positive",
-                sphere.radius
-            )));
+            return Err(SynthError::SphereRadius(sphere.radius));
         }
         let c = camera.to_camera(&sphere.centre).coords;
         let d = c.norm();
         if d.is_nan() || d <= sphere.radius {
-            return Err(SynthError::Scene(format!(
-                "camera centre lies inside the sphere at {:?}",
-                sphere.centre.coords.as_slice()
-            )));
+            return Err(SynthError::CameraInsideSphere(sphere.centre.into()));
         }
         let axis = c / d;
         let half_angle = (sphere.radius / d).asin();
         // Every silhouette ray must point forward: angle(axis, z) + α < 90°, with margin.
         let off_axis = axis.z.clamp(-1.0, 1.0).acos();
         if off_axis + half_angle >= 80f64.to_radians() {
-            return Err(SynthError::Scene(format!(
-                "sphere at {:?} is not in front of the camera",
-                sphere.centre.coords.as_slice()
-            )));
+            return Err(SynthError::BehindCamera(sphere.centre.into()));
         }
         Ok(Self {
             centre: c,
@@ -184,7 +175,7 @@ pub fn ellipse_area_px(camera: &Camera, sphere: &Sphere) -> Result<f64> {
     let a = q.fixed_view::<2, 2>(0, 0).into_owned();
     let det_a = a.determinant();
     if det_a <= 0.0 {
-        return Err(SynthError::Scene("outline is not an ellipse".into()));
+        return Err(SynthError::NotAnEllipse);
     }
     let area_n = std::f64::consts::PI * (-q.determinant() / det_a) / det_a.sqrt();
     Ok(area_n * camera.intrinsics.fx * camera.intrinsics.fy)
@@ -220,11 +211,10 @@ pub fn check_disjoint(spheres: &[Sphere]) -> Result<()> {
     for (i, a) in spheres.iter().enumerate() {
         for b in &spheres[i + 1..] {
             if (a.centre - b.centre).norm() <= a.radius + b.radius {
-                return Err(SynthError::Scene(format!(
-                    "spheres at {:?} and {:?} intersect",
-                    a.centre.coords.as_slice(),
-                    b.centre.coords.as_slice()
-                )));
+                return Err(SynthError::SpheresIntersect(
+                    a.centre.into(),
+                    b.centre.into(),
+                ));
             }
         }
     }

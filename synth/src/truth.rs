@@ -183,9 +183,9 @@ pub fn injected_errors(config: &Config) -> Value {
 
 /// The figures the evaluation gives on the exact positions (report.json shape).
 pub fn figures(points: &[PointRow]) -> Result<Value> {
-    let report = evaluate::evaluate(points, &evaluate::Options::default())
-        .map_err(|e| SynthError::Evaluate(e.to_string()))?;
-    serde_json::to_value(&report).map_err(|e| SynthError::Evaluate(e.to_string()))
+    let report =
+        evaluate::evaluate(points, &evaluate::Options::default()).map_err(SynthError::Evaluate)?;
+    serde_json::to_value(&report).map_err(SynthError::FiguresJson)
 }
 
 /// The whole `truth.json` of a campaign.

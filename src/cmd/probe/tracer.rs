@@ -13,7 +13,7 @@ use formats::probe::tracer::{
     read_readings,
 };
 use formats::{Row, write_records};
-use geom::nalgebra::Point3;
+use geom::Point3;
 use probe::ProbeError;
 use probe::tracer::{self, CorrectionGrid, Network, Options};
 use synth::probe::tracer::{TracerConfig, generate};
