@@ -28,8 +28,7 @@ use std::sync::Mutex;
 
 use extract::{Backend, ExtractParams, FrameReader};
 use formats::{
-    InstantKey, InstantProblemRow, LineKey, Missing, OutputPlan, PointRow, SphereRow,
-    read_csv_from,
+    InstantKey, InstantProblemRow, LineKey, Missing, OutputPlan, PointRow, SphereRow, read_csv_from,
 };
 use geom::{Point2, Point3};
 use rayon::prelude::*;
@@ -729,39 +728,23 @@ pub fn measure(
     output: &mut OutputPlan,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Summary> {
+    // The plan, checked in full before any work.
     options.extract.validate()?;
     let rig = RigModel::new(inputs.rig)?;
     let assumed_ideal = rig.assumed_ideal();
     let plans = plan(inputs.manifest, &rig, inputs.spheres, options.all_cameras)?;
-    let partial = with_suffix(out, ".partial");
-    let sidecar = with_suffix(out, ".resume.json");
-    let poses_path = beside(out, "poses.csv");
-    let problems_path = beside(out, "problems.csv");
+    let paths = Paths::of(out);
     output
         .input(inputs.manifest)
         .inputs(plans.iter().flat_map(|p| p.images.values()))
         .file(out)
-        .file(&poses_path)
-        .file(&problems_path)
-        .state(&partial)
-        .state(&sidecar);
+        .file(&paths.poses)
+        .file(&paths.problems)
+        .state(&paths.partial)
+        .state(&paths.sidecar);
     output.lock(formats::output::folder_of(out), "measure")?;
-    let print = fingerprint(inputs, options)?;
-
     // Resume or start afresh.
-    let mut done_rows: Vec<PointRow> = Vec::new();
-    if partial.exists() && !output.force() {
-        let previous: Option<Fingerprint> = formats::read_json(&sidecar).ok();
-        if previous.as_ref() != Some(&print) {
-            return Err(FuseError::ResumeMismatch(partial));
-        }
-        output.resume();
-        done_rows = load_partial(&partial, inputs.spheres.len())?;
-    }
-    output.check()?;
-    output.write_json(&sidecar, &print)?;
-    // Rewrite the partial with the complete instants only, then append to it.
-    output.write_records(&partial, &done_rows)?;
+    let done_rows = resume(inputs, options, &paths, output)?;
     let index_of: HashMap<InstantKey, usize> = plans.iter().map(|p| (p.key, p.index)).collect();
     let done: std::collections::HashSet<InstantKey> = done_rows
         .iter()
@@ -770,9 +753,9 @@ pub fn measure(
         .collect();
     let resumed = done.len();
 
-    let reach_mm = 0.5 * extent(&plans) + SPHERE_LAYOUT_MM;
+    // Every instant not done, in parallel chunks appended to the partial file.
     let ctx = Context {
-        reach_mm,
+        reach_mm: 0.5 * extent(&plans) + SPHERE_LAYOUT_MM,
         rig,
         spheres: inputs.spheres,
         diameters: inputs.spheres.iter().map(|s| s.diameter).collect(),
@@ -781,86 +764,28 @@ pub fn measure(
         readers: Mutex::new(Vec::new()),
     };
     let todo: Vec<&InstantPlan> = plans.iter().filter(|p| !done.contains(&p.key)).collect();
-
     let references = if options.fusion == Fusion::Seed {
         seed_references(&ctx, &plans)
     } else {
         HashMap::new()
     };
-
     let total = plans.len() as u64;
     progress(resumed as u64, total);
-    let mut appender = std::fs::OpenOptions::new()
-        .append(true)
-        .open(&partial)
-        .map_err(|e| formats::FormatError::io(&partial, e))?;
-    let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
-    let mut finished = resumed as u64;
-    for chunk in todo.chunks(CHUNK_INSTANTS) {
-        let results: Vec<Outcome> = chunk
-            .par_iter()
-            .map(|ip| measure_one(&ctx, ip, &references))
-            .collect();
-        let mut bytes = Vec::new();
-        {
-            let mut w = csv::WriterBuilder::new()
-                .has_headers(false)
-                .from_writer(&mut bytes);
-            for (ip, outcome) in chunk.iter().zip(results) {
-                for row in outcome.rows {
-                    w.serialize(row)
-                        .map_err(|e| formats::FormatError::file(&partial, e.to_string()))?;
-                }
-                problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
-            }
-            w.flush()
-                .map_err(|e| formats::FormatError::io(&partial, e))?;
-        }
-        appender
-            .write_all(&bytes)
-            .and_then(|()| appender.sync_data())
-            .map_err(|e| formats::FormatError::io(&partial, e))?;
-        finished += chunk.len() as u64;
-        progress(finished, total);
-    }
-    drop(appender);
+    let mut problems = measure_chunks(&ctx, &todo, &references, &paths.partial, |finished| {
+        progress(resumed as u64 + finished, total)
+    })?;
 
-    // Every row of this run and the resumed one, as written: the gate sees
-    // the same residuals whether or not the run was interrupted.
-    let mut rows = read_partial(&partial)?;
-    rows.retain(|r| index_of.contains_key(&r.instant()));
-    let residuals = instant_residuals(&rows);
-    let all: Vec<f64> = residuals.values().map(|r| r.0).collect();
-    let gate = ResidualGate::from_residuals(&all);
-    let refused = gate
-        .map(|g| implausible(&residuals, &g))
-        .unwrap_or_default();
-    rows.retain(|r| !refused.contains_key(&r.instant()));
+    // The plausibility gate over every row written, this run's and the resumed one's.
+    let (mut rows, gate, refused) = gated_rows(&paths.partial, &index_of)?;
     let implausible_count = refused.len();
     problems.extend(refused.into_iter().map(|(key, p)| (index_of[&key], p)));
 
     // Final outputs, in manifest order, atomically.
-    let sphere_rank: HashMap<&str, usize> = inputs
-        .spheres
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (s.name.as_str(), i))
-        .collect();
-    let rank = |p: &PointRow| {
-        let key = p.instant();
-        (
-            index_of.get(&key).copied().unwrap_or(usize::MAX),
-            sphere_rank
-                .get(p.sphere.as_str())
-                .copied()
-                .unwrap_or(usize::MAX),
-        )
-    };
-    rows.sort_by_key(rank);
+    sort_rows(&mut rows, &index_of, inputs.spheres);
     output.write_records(out, &rows)?;
     let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
     let fitted = poses(&rows, &names);
-    output.write_records(&poses_path, &fitted.rows)?;
+    output.write_records(&paths.poses, &fitted.rows)?;
     let without_pose = fitted.failed.len();
     problems.extend(fitted.failed.into_iter().map(|(key, reason)| {
         (
@@ -868,18 +793,9 @@ pub fn measure(
             InstantProblemRow::of(&key, Missing::Pose, None, None, None, reason),
         )
     }));
-    // Manifest order; within an instant, as found (a stable sort).
-    problems.sort_by_key(|(i, _)| *i);
-    let problems_file = if problems.is_empty() {
-        // One left by the interrupted run this one resumed, or replaced with --force.
-        output.remove(&problems_path)?;
-        None
-    } else {
-        let list: Vec<InstantProblemRow> = problems.iter().map(|(_, p)| p.clone()).collect();
-        output.write_records(&problems_path, &list)?;
-        Some(problems_path)
-    };
-    for f in [&partial, &sidecar] {
+    let problem_count = problems.len();
+    let problems_file = write_problems(problems, &paths.problems, output)?;
+    for f in [&paths.partial, &paths.sidecar] {
         std::fs::remove_file(f).map_err(|e| formats::FormatError::io(f, e))?;
     }
     let mut per_instant: HashMap<InstantKey, usize> = HashMap::new();
@@ -897,10 +813,169 @@ pub fn measure(
         resumed,
         implausible: implausible_count,
         gate,
-        problems: problems.len(),
+        problems: problem_count,
         points: out.to_path_buf(),
         problems_file,
-        poses: poses_path,
+        poses: paths.poses,
         assumed_ideal_lens: assumed_ideal,
     })
+}
+
+/// The files of a measure run beside its `points.csv`.
+struct Paths {
+    /// Rows so far (`points.csv.partial`).
+    partial: PathBuf,
+    /// Fingerprint of the inputs and options (`points.csv.resume.json`).
+    sidecar: PathBuf,
+    /// `poses.csv`.
+    poses: PathBuf,
+    /// `problems.csv`.
+    problems: PathBuf,
+}
+
+impl Paths {
+    fn of(out: &Path) -> Self {
+        Self {
+            partial: with_suffix(out, ".partial"),
+            sidecar: with_suffix(out, ".resume.json"),
+            poses: beside(out, "poses.csv"),
+            problems: beside(out, "problems.csv"),
+        }
+    }
+}
+
+/// The complete instants' rows of a partial output of the same inputs and
+/// options (none when starting afresh); the partial file rewritten with them
+/// and the fingerprint beside it.
+fn resume(
+    inputs: &Inputs<'_>,
+    options: &MeasureOptions,
+    paths: &Paths,
+    output: &mut OutputPlan,
+) -> Result<Vec<PointRow>> {
+    let print = fingerprint(inputs, options)?;
+    let mut done_rows: Vec<PointRow> = Vec::new();
+    if paths.partial.exists() && !output.force() {
+        let previous: Option<Fingerprint> = formats::read_json(&paths.sidecar).ok();
+        if previous.as_ref() != Some(&print) {
+            return Err(FuseError::ResumeMismatch(paths.partial.clone()));
+        }
+        output.resume();
+        done_rows = load_partial(&paths.partial, inputs.spheres.len())?;
+    }
+    output.check()?;
+    output.write_json(&paths.sidecar, &print)?;
+    // Rewrite the partial with the complete instants only, then append to it.
+    output.write_records(&paths.partial, &done_rows)?;
+    Ok(done_rows)
+}
+
+/// Measure `todo` a chunk at a time in parallel, appending each chunk's rows
+/// to `partial` (synced) and calling `finished(instants so far)`; returns the
+/// problems with their instants' manifest indices.
+fn measure_chunks(
+    ctx: &Context<'_>,
+    todo: &[&InstantPlan],
+    references: &HashMap<LineKey, Vec<SphereReference>>,
+    partial: &Path,
+    finished: impl Fn(u64),
+) -> Result<Vec<(usize, InstantProblemRow)>> {
+    let mut appender = std::fs::OpenOptions::new()
+        .append(true)
+        .open(partial)
+        .map_err(|e| formats::FormatError::io(partial, e))?;
+    let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
+    let mut count = 0u64;
+    for chunk in todo.chunks(CHUNK_INSTANTS) {
+        let results: Vec<Outcome> = chunk
+            .par_iter()
+            .map(|ip| measure_one(ctx, ip, references))
+            .collect();
+        let mut bytes = Vec::new();
+        {
+            let mut w = csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(&mut bytes);
+            for (ip, outcome) in chunk.iter().zip(results) {
+                for row in outcome.rows {
+                    w.serialize(row)
+                        .map_err(|e| formats::FormatError::file(partial, e.to_string()))?;
+                }
+                problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
+            }
+            w.flush()
+                .map_err(|e| formats::FormatError::io(partial, e))?;
+        }
+        appender
+            .write_all(&bytes)
+            .and_then(|()| appender.sync_data())
+            .map_err(|e| formats::FormatError::io(partial, e))?;
+        count += chunk.len() as u64;
+        finished(count);
+    }
+    Ok(problems)
+}
+
+/// Every row of the partial file of a planned instant, as written (the gate
+/// sees the same residuals whether or not the run was interrupted), less the
+/// instants the campaign's residual gate refuses; the gate and the refusals.
+#[allow(clippy::type_complexity)]
+fn gated_rows(
+    partial: &Path,
+    index_of: &HashMap<InstantKey, usize>,
+) -> Result<(
+    Vec<PointRow>,
+    Option<ResidualGate>,
+    BTreeMap<InstantKey, Failure>,
+)> {
+    let mut rows = read_partial(partial)?;
+    rows.retain(|r| index_of.contains_key(&r.instant()));
+    let residuals = instant_residuals(&rows);
+    let all: Vec<f64> = residuals.values().map(|r| r.0).collect();
+    let gate = ResidualGate::from_residuals(&all);
+    let refused = gate
+        .map(|g| implausible(&residuals, &g))
+        .unwrap_or_default();
+    rows.retain(|r| !refused.contains_key(&r.instant()));
+    Ok((rows, gate, refused))
+}
+
+/// Rows in manifest order, the spheres of an instant in the order of `spheres`.
+fn sort_rows(rows: &mut [PointRow], index_of: &HashMap<InstantKey, usize>, spheres: &[SphereRow]) {
+    let sphere_rank: HashMap<&str, usize> = spheres
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.name.as_str(), i))
+        .collect();
+    let rank = |p: &PointRow| {
+        let key = p.instant();
+        (
+            index_of.get(&key).copied().unwrap_or(usize::MAX),
+            sphere_rank
+                .get(p.sphere.as_str())
+                .copied()
+                .unwrap_or(usize::MAX),
+        )
+    };
+    rows.sort_by_key(rank);
+}
+
+/// Write `problems.csv` in manifest order (within an instant, as found), or
+/// remove one left by an interrupted run or replaced with `--force` when
+/// there is none; its path when written.
+fn write_problems(
+    mut problems: Vec<(usize, InstantProblemRow)>,
+    path: &Path,
+    output: &mut OutputPlan,
+) -> Result<Option<PathBuf>> {
+    // A stable sort.
+    problems.sort_by_key(|(i, _)| *i);
+    if problems.is_empty() {
+        output.remove(path)?;
+        Ok(None)
+    } else {
+        let list: Vec<InstantProblemRow> = problems.into_iter().map(|(_, p)| p).collect();
+        output.write_records(path, &list)?;
+        Ok(Some(path.to_path_buf()))
+    }
 }

@@ -116,9 +116,9 @@ fn triangulated_displacements_match_the_truth() {
 }
 
 /// Exact (noise-free) view of the centre of a sphere at x, bias removed.
-fn view<'c>(camera: &'c geom::Camera, x: &geom::Point3<f64>) -> fuse::triangulate::View<'c> {
-    let (q, _) = fuse::triangulate::predict(camera, x, 0.0).unwrap();
-    fuse::triangulate::View {
+fn view<'c>(camera: &'c geom::Camera, x: &geom::Point3<f64>) -> fuse::View<'c> {
+    let (q, _) = fuse::predict(camera, x, 0.0).unwrap();
+    fuse::View {
         camera,
         ideal_px: geom::Point2::new(q.x, q.y),
     }
@@ -152,7 +152,7 @@ fn seed_model(dir: &Path, truth: &[PointRow]) -> Vec<PointRow> {
             let r: Vec<_> = used.iter().map(|c| view(c, &x0)).collect();
             let now: Vec<_> = used.iter().map(|c| view(c, &x)).collect();
             let depths: Vec<f64> = used.iter().map(|c| c.to_camera(&x0).z).collect();
-            let (d, _) = fuse::triangulate::seed_displacement(&r, &now, &depths).unwrap();
+            let (d, _) = fuse::seed_displacement(&r, &now, &depths).unwrap();
             let m = x0 + d;
             PointRow {
                 x: m.x,

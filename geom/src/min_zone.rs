@@ -670,10 +670,7 @@ mod tests {
             Err(GeomError::OutOfRange { value, .. }) if value == 1e300
         ));
         bad[7].z = -1e200;
-        assert!(matches!(
-            flatness(&bad),
-            Err(GeomError::OutOfRange { .. })
-        ));
+        assert!(matches!(flatness(&bad), Err(GeomError::OutOfRange { .. })));
     }
 
     /// Points along a 150 mm axis with micrometre deviations and a small tilt.

@@ -18,13 +18,15 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use calib::commission::{CameraInput, CommissionOptions, Optics};
-use calib::{Calibration, CorrespondOptions, FlatFieldFit, Model, Options};
+use calib::{
+    Calibration, CameraInput, CommissionOptions, CorrespondOptions, FlatFieldFit, Model, Optics,
+    Options,
+};
 use clap::ValueEnum;
 use extract::{Blob, CameraMap, FrameReader, mapped_centroid};
 use formats::{
-    CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, Rig, RigCamera,
-    TargetRow, read_correspondences, read_json, read_nominal, read_spheres, read_target,
+    Axis, CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, Rig,
+    RigCamera, TargetRow, read_correspondences, read_json, read_nominal, read_spheres, read_target,
 };
 use geom::{Illumination, Point2};
 use serde::Serialize;
@@ -97,7 +99,7 @@ pub struct Args {
     #[arg(long)]
     skew: bool,
     /// Reject points whose residual exceeds k·σ (robust σ) and refit.
-    #[arg(long, default_value_t = calib::calibration::DEFAULT_OUTLIER_K, value_parser = values::positive)]
+    #[arg(long, default_value_t = calib::DEFAULT_OUTLIER_K, value_parser = values::positive)]
     outlier_k: f64,
     /// Keep every point (no outlier rejection).
     #[arg(long)]
@@ -159,8 +161,8 @@ fn optics(raw: &Value, id: u8, pixel_mm: f64) -> Optics {
     };
     Optics {
         pixel_mm,
-        f_number: key("f_number").unwrap_or(calib::commission::DEFAULT_F_NUMBER),
-        coc_px: key("coc_px").unwrap_or(calib::commission::DEFAULT_COC_PX),
+        f_number: key("f_number").unwrap_or(calib::DEFAULT_F_NUMBER),
+        coc_px: key("coc_px").unwrap_or(calib::DEFAULT_COC_PX),
         focal_mm: key("lens_focal_mm"),
         focus_distance_mm: key("focus_distance_mm"),
     }
@@ -451,7 +453,7 @@ pub fn run(args: &Args) -> Result<()> {
     let report = calib::commission(
         &commissioning,
         &CommissionOptions {
-            travel_mm: vec![('X', args.travel_x), ('Y', args.travel_y)],
+            travel_mm: vec![(Axis::X, args.travel_x), (Axis::Y, args.travel_y)],
             perpendicularity_tolerance_deg: args.perpendicularity_tolerance,
             alignment_tolerance_deg: args.alignment_tolerance,
             spheres: sphere_set,
