@@ -28,19 +28,8 @@ pub fn lever(points: &[Point3<f64>]) -> (f64, Vector3<f64>) {
         let r = p.coords - c;
         m + geom::Matrix3::identity() * r.norm_squared() - r * r.transpose()
     });
-    let eig = inertia.symmetric_eigen();
-    let (i, min) =
-        eig.eigenvalues
-            .iter()
-            .enumerate()
-            .fold(
-                (0, f64::INFINITY),
-                |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) },
-            );
-    (
-        (min.max(0.0) / n).sqrt(),
-        eig.eigenvectors.column(i).into_owned(),
-    )
+    let (min, axis) = geom::fit::smallest_eigenpair(inertia);
+    ((min.max(0.0) / n).sqrt(), axis)
 }
 
 #[cfg(test)]

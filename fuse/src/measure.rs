@@ -187,6 +187,26 @@ struct Context<'a> {
     readers: Mutex<Vec<FrameReader>>,
 }
 
+impl<'a> Context<'a> {
+    fn new(
+        rig: RigModel,
+        plans: &[InstantPlan],
+        spheres: &'a [SphereRow],
+        options: &MeasureOptions,
+        backend: &'a dyn Backend,
+    ) -> Self {
+        Self {
+            reach_mm: 0.5 * extent(plans) + SPHERE_LAYOUT_MM,
+            rig,
+            spheres,
+            diameters: spheres.iter().map(|s| s.diameter).collect(),
+            options: *options,
+            backend,
+            readers: Mutex::new(Vec::new()),
+        }
+    }
+}
+
 /// A row for problems.csv.
 type Failure = InstantProblemRow;
 
@@ -754,15 +774,7 @@ pub fn measure(
     let resumed = done.len();
 
     // Every instant not done, in parallel chunks appended to the partial file.
-    let ctx = Context {
-        reach_mm: 0.5 * extent(&plans) + SPHERE_LAYOUT_MM,
-        rig,
-        spheres: inputs.spheres,
-        diameters: inputs.spheres.iter().map(|s| s.diameter).collect(),
-        options: *options,
-        backend,
-        readers: Mutex::new(Vec::new()),
-    };
+    let ctx = Context::new(rig, &plans, inputs.spheres, options, backend);
     let todo: Vec<&InstantPlan> = plans.iter().filter(|p| !done.contains(&p.key)).collect();
     let references = if options.fusion == Fusion::Seed {
         seed_references(&ctx, &plans)
@@ -781,23 +793,8 @@ pub fn measure(
     problems.extend(refused.into_iter().map(|(key, p)| (index_of[&key], p)));
 
     // Final outputs, in manifest order, atomically.
-    sort_rows(&mut rows, &index_of, inputs.spheres);
-    output.write_records(out, &rows)?;
-    let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
-    let fitted = poses(&rows, &names);
-    output.write_records(&paths.poses, &fitted.rows)?;
-    let without_pose = fitted.failed.len();
-    problems.extend(fitted.failed.into_iter().map(|(key, reason)| {
-        (
-            index_of[&key],
-            InstantProblemRow::of(&key, Missing::Pose, None, None, None, reason),
-        )
-    }));
-    let problem_count = problems.len();
-    let problems_file = write_problems(problems, &paths.problems, output)?;
-    for f in [&paths.partial, &paths.sidecar] {
-        std::fs::remove_file(f).map_err(|e| formats::FormatError::io(f, e))?;
-    }
+    let (without_pose, problem_count, problems_file) =
+        write_outputs(&mut rows, problems, &index_of, inputs, out, &paths, output)?;
     let mut per_instant: HashMap<InstantKey, usize> = HashMap::new();
     for r in &rows {
         *per_instant.entry(r.instant()).or_default() += 1;
@@ -819,6 +816,39 @@ pub fn measure(
         poses: paths.poses,
         assumed_ideal_lens: assumed_ideal,
     })
+}
+
+/// Write `points.csv` (the rows sorted into manifest order), `poses.csv`
+/// and `problems.csv` (with the instants whose pose failed), and remove the
+/// partial files: the count of instants without a pose, of problems, and
+/// the problems file when written.
+fn write_outputs(
+    rows: &mut [PointRow],
+    mut problems: Vec<(usize, InstantProblemRow)>,
+    index_of: &HashMap<InstantKey, usize>,
+    inputs: &Inputs<'_>,
+    out: &Path,
+    paths: &Paths,
+    output: &mut OutputPlan,
+) -> Result<(usize, usize, Option<PathBuf>)> {
+    sort_rows(rows, index_of, inputs.spheres);
+    output.write_records(out, &*rows)?;
+    let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
+    let fitted = poses(rows, &names);
+    output.write_records(&paths.poses, &fitted.rows)?;
+    let without_pose = fitted.failed.len();
+    problems.extend(fitted.failed.into_iter().map(|(key, reason)| {
+        (
+            index_of[&key],
+            InstantProblemRow::of(&key, Missing::Pose, None, None, None, reason),
+        )
+    }));
+    let problem_count = problems.len();
+    let problems_file = write_problems(problems, &paths.problems, output)?;
+    for f in [&paths.partial, &paths.sidecar] {
+        std::fs::remove_file(f).map_err(|e| formats::FormatError::io(f, e))?;
+    }
+    Ok((without_pose, problem_count, problems_file))
 }
 
 /// The files of a measure run beside its `points.csv`.

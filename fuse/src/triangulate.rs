@@ -72,16 +72,7 @@ pub fn linear(views: &[View<'_>]) -> Result<Point3<f64>> {
         }
     }
     // Smallest eigenvector of AᵀA.
-    let eig = a.symmetric_eigen();
-    let (imin, _) =
-        eig.eigenvalues
-            .iter()
-            .enumerate()
-            .fold(
-                (0, f64::INFINITY),
-                |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) },
-            );
-    let h = eig.eigenvectors.column(imin);
+    let (_, h) = geom::fit::smallest_eigenpair(a);
     if h[3].abs() < 1e-12 * h.norm() {
         return Err(FuseError::ParallelViews);
     }
