@@ -8,6 +8,7 @@ use formats::{Axis, Direction};
 use geom::{Point2, Point3, Vector3};
 
 use crate::axis_frame::AxisFrame;
+use crate::iso230_2::TargetDeviations;
 use crate::points::{Located, measured_column, nominal_column, row_error};
 use crate::report::{
     ANGULAR_CONVENTION, AngularReport, AngularTarget, LineReport, PositioningReport,
@@ -262,6 +263,9 @@ fn captures<'a>(line: &Line<'a>) -> BTreeMap<&'a str, SphereData> {
     data
 }
 
+/// The seed's mean and sample deviation of every capture at a target (µm).
+type SeedStats = (f64, f64);
+
 /// The sphere carrying positioning and straightness on one line, in its axis frame.
 struct Sweep<'a> {
     /// Its captures.
@@ -284,11 +288,11 @@ impl Sweep<'_> {
 
     /// Per target: the deviation of each approach (its captures averaged) by
     /// direction, and the seed's mean and sample deviation over every capture (µm).
-    fn deviations(&self) -> Result<(Vec<iso230_2::TargetDeviations>, Vec<(f64, f64)>)> {
+    fn deviations(&self) -> Result<(Vec<TargetDeviations>, Vec<SeedStats>)> {
         let mut deviations = Vec::with_capacity(self.targets.len());
         let mut seed = Vec::with_capacity(self.targets.len());
         for (k, runs) in self.main.values().enumerate() {
-            let mut dev = iso230_2::TargetDeviations::default();
+            let mut dev = TargetDeviations::default();
             let mut all = Vec::new();
             for ((direction, _), captures) in runs {
                 let value = self.deviation(k, &mean_point(captures.iter().map(|(_, p)| p)));

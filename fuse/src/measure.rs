@@ -481,7 +481,9 @@ fn rows_for(
 /// from the rows of its spheres: the spheres that share a camera and a
 /// reason are named together (`spheres A, B not found among 1 blob`).
 fn whole_instant(key: &InstantKey, misses: Vec<Failure>) -> Failure {
-    let mut groups: Vec<(Option<u8>, Option<String>, String, Vec<String>)> = Vec::new();
+    // (camera, image, reason, spheres)
+    type Group = (Option<u8>, Option<String>, String, Vec<String>);
+    let mut groups: Vec<Group> = Vec::new();
     for m in misses {
         let name = m.sphere.unwrap_or_default();
         let tail = m
@@ -688,7 +690,11 @@ fn instant_residuals(rows: &[PointRow]) -> BTreeMap<InstantKey, (f64, &str, &str
         let w = worst
             .entry(r.instant())
             .or_insert((f64::NEG_INFINITY, "", ""));
-        if !(r.residual_px <= w.0) {
+        // Larger, or NaN: a NaN residual is the worst.
+        if !matches!(
+            r.residual_px.partial_cmp(&w.0),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        ) {
             *w = (r.residual_px, r.sphere.as_str(), r.cameras.as_str());
         }
     }
@@ -703,8 +709,9 @@ fn implausible(
     residuals: &BTreeMap<InstantKey, (f64, &str, &str)>,
     gate: &ResidualGate,
 ) -> BTreeMap<InstantKey, Failure> {
-    let mut at_position: BTreeMap<(formats::Axis, [u64; 3]), Vec<(InstantKey, f64)>> =
-        BTreeMap::new();
+    // (axis, commanded position bits) → the instants there with their residuals.
+    type AtPosition = BTreeMap<(formats::Axis, [u64; 3]), Vec<(InstantKey, f64)>>;
+    let mut at_position: AtPosition = BTreeMap::new();
     for (key, (r, ..)) in residuals {
         at_position
             .entry((key.axis, key.nominal_bits))
