@@ -44,7 +44,7 @@ pub struct Options {
     pub k3: bool,
     /// Also estimate the skew.
     pub skew: bool,
-    /// Reject points with `|r| > k·σ` (σ: [`robust_sigma`]) and refit; `None` keeps every point.
+    /// Reject points with `|r| > k·σ` (σ: the robust σ of the residuals) and refit; `None` keeps every point.
     pub outlier_k: Option<f64>,
     /// Most fit-and-reject rounds.
     pub max_rounds: usize,
@@ -192,8 +192,8 @@ pub fn validate(observations: &[Observation]) -> Result<()> {
 }
 
 /// Check a calibration target on its own, before any camera: at least
-/// [`dlt::MIN_POINTS`] markers, finite coordinates, each id once, and the
-/// markers spanning space (a DLT needs a 3-D target, [`dlt::Spread::check`]).
+/// [`MIN_POINTS`](crate::MIN_POINTS) markers, finite coordinates, each id once, and the
+/// markers spanning space (a DLT needs a 3-D target).
 pub fn check_target(target: &[TargetRow]) -> Result<()> {
     if target.len() < MIN_POINTS {
         return Err(CalibError::TooFewPoints {

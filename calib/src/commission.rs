@@ -23,6 +23,7 @@
 //!
 //! Past a tolerance the report carries a warning; it never fails.
 
+use formats::Axis;
 use geom::nalgebra::{Matrix3, Vector3};
 use geom::{Camera, Illumination, Point3};
 use serde::Serialize;
@@ -90,7 +91,7 @@ pub struct CommissionOptions {
     /// of the calibrated optical axes.
     pub working_point: Option<Point3<f64>>,
     /// Travel (mm) per machine axis, centred on the working point.
-    pub travel_mm: Vec<(char, f64)>,
+    pub travel_mm: Vec<(Axis, f64)>,
     /// Largest deviation from 90° between two optical axes (deg).
     pub perpendicularity_tolerance_deg: f64,
     /// Largest angle between an optical axis and its machine axis (deg).
@@ -108,7 +109,7 @@ impl Default for CommissionOptions {
     fn default() -> Self {
         Self {
             working_point: None,
-            travel_mm: vec![('X', 150.0), ('Y', 100.0)],
+            travel_mm: vec![(Axis::X, 150.0), (Axis::Y, 100.0)],
             perpendicularity_tolerance_deg: 1.0,
             alignment_tolerance_deg: 1.0,
             rms_tolerance_px: 0.1,
@@ -253,16 +254,6 @@ pub struct Report {
     pub warnings: Vec<String>,
 }
 
-/// Machine axis of a camera number (docs/formats.md: 1 ∥ X, 2 ∥ Y, 3 ∥ Z).
-pub fn machine_axis(id: u8) -> Option<(char, Vector3<f64>)> {
-    match id {
-        1 => Some(('X', Vector3::x())),
-        2 => Some(('Y', Vector3::y())),
-        3 => Some(('Z', Vector3::z())),
-        _ => None,
-    }
-}
-
 fn line_angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
     let c = (a.dot(b).abs() / (a.norm() * b.norm())).min(1.0);
     c.acos().to_degrees()
@@ -297,14 +288,6 @@ pub fn depth_of_field(focal_mm: f64, f_number: f64, coc_mm: f64, s: f64) -> Dept
     }
 }
 
-/// Unit vector of machine axis `axis` ('X', 'Y' or 'Z').
-fn axis_direction(axis: char) -> Option<Vector3<f64>> {
-    ['X', 'Y', 'Z']
-        .iter()
-        .position(|a| *a == axis)
-        .map(|i| Vector3::ith(i, 1.0))
-}
-
 /// The relative-illumination part of a camera's report: profile, and per
 /// travel the camera is used for, the scale costs at the travel's end that
 /// images farther from the principal point.
@@ -316,10 +299,8 @@ fn illumination_report(
     let cam = &c.camera;
     let mut scale_costs = Vec::new();
     for &(axis, length) in &options.travel_mm {
-        let Some(dir) = axis_direction(axis) else {
-            continue;
-        };
-        if machine_axis(c.id).is_none_or(|(n, _)| n == axis) {
+        let dir = axis.unit();
+        if Axis::of_camera(c.id).is_none_or(|n| n == axis) {
             continue;
         }
         let pp = geom::Point2::new(cam.intrinsics.cx, cam.intrinsics.cy);
@@ -367,7 +348,8 @@ fn illumination_report(
     }
 }
 
-/// Commission a calibrated rig (module docs).
+/// Commission a calibrated rig (module docs): the working point, each
+/// camera's figures, the angles between optical axes, and each travel.
 pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Report {
     let mut warnings = Vec::new();
     let axes: Vec<(Point3<f64>, Vector3<f64>)> = cameras
@@ -379,109 +361,151 @@ pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Repor
         .or_else(|| (cameras.len() >= 2).then(|| nearest_point(&axes)).flatten())
         .or_else(|| axes.first().map(|(p, d)| p + d))
         .unwrap_or_else(Point3::origin);
-
-    let mut reports = Vec::new();
-    for c in cameras {
-        let cam = &c.camera;
-        let k = cam.intrinsics;
-        let axis = cam.optical_axis().into_inner();
-        let (name, machine) = machine_axis(c.id).map_or(('?', None), |(n, v)| (n, Some(v)));
-        let axis_angle = machine.map_or(f64::NAN, |m| line_angle_deg(&axis, &m));
-        if machine.is_some() {
-            let closest = ['X', 'Y', 'Z']
-                .into_iter()
-                .zip([Vector3::x(), Vector3::y(), Vector3::z()])
-                .min_by(|a, b| line_angle_deg(&axis, &a.1).total_cmp(&line_angle_deg(&axis, &b.1)))
-                .map_or(name, |(n, _)| n);
-            if closest != name {
-                warnings.push(format!(
-                    "camera {}: its optical axis is closest to machine {closest}, but camera {} should look along {name}",
-                    c.id, c.id
-                ));
-            } else if axis_angle > options.alignment_tolerance_deg {
-                warnings.push(format!(
-                    "camera {}: optical axis {axis_angle:.3}° from machine {name} (tolerance {}°, cosine error {:.0} ppm)",
-                    c.id,
-                    options.alignment_tolerance_deg,
-                    (1.0 - axis_angle.to_radians().cos()) * 1e6
-                ));
-            }
-        } else {
-            warnings.push(format!(
-                "camera {}: no machine axis for this camera number (1 ∥ X, 2 ∥ Y, 3 ∥ Z)",
-                c.id
-            ));
-        }
-        let z = cam.to_camera(&wp).z;
-        if z <= 0.0 {
-            warnings.push(format!(
-                "camera {}: the working point is behind the camera",
-                c.id
-            ));
-        }
-        let centre = [
-            (f64::from(cam.width) - 1.0) / 2.0,
-            (f64::from(cam.height) - 1.0) / 2.0,
-        ];
-        let offset = [k.cx - centre[0], k.cy - centre[1]];
-        let diagonal = f64::from(cam.width).hypot(f64::from(cam.height));
-        if offset[0].hypot(offset[1]) > options.principal_point_tolerance * diagonal {
-            warnings.push(format!(
-                "camera {}: principal point ({:.1}, {:.1}) px is {:.1} px from the image centre (tolerance {:.1} px)",
-                c.id,
-                k.cx,
-                k.cy,
-                offset[0].hypot(offset[1]),
-                options.principal_point_tolerance * diagonal
-            ));
-        }
-        if c.rms_px > options.rms_tolerance_px {
-            warnings.push(format!(
-                "camera {}: reprojection RMS {:.4} px exceeds {} px",
-                c.id, c.rms_px, options.rms_tolerance_px
-            ));
-        }
-        let dof = c.optics.map(|o| {
-            let s = o.focus_distance_mm.unwrap_or(z);
-            let b = k.fx * o.pixel_mm;
-            let f = o.focal_mm.unwrap_or(s * b / (s + b));
-            depth_of_field(f, o.f_number, o.coc_px * o.pixel_mm, s)
-        });
-        let (pu, pv) = (z / k.fx, z / k.fy);
-        let relative_illumination = illumination_report(c, &wp, options);
-        if let Some(w) = c.flat_field.as_ref().and_then(|f| f.warning.as_ref()) {
-            warnings.push(format!("camera {}: {w}", c.id));
-        }
-        if let Some([du, dv]) = relative_illumination.centre_offset_px {
-            let diagonal = f64::from(cam.width).hypot(f64::from(cam.height));
-            if du.hypot(dv) > RI_CENTRE_TOLERANCE * diagonal {
-                warnings.push(format!(
-                    "camera {}: the flat field's fall-off is centred {:.0} px from the principal point: \
-                     a decentred lens, or a source that is not uniform",
-                    c.id,
-                    du.hypot(dv)
-                ));
-            }
-        }
-        reports.push(CameraReport {
-            id: c.id,
-            machine_axis: name.to_string(),
-            centre_mm: cam.centre().coords.into(),
-            optical_axis: axis.into(),
-            axis_angle_deg: axis_angle,
-            cosine_error_ppm: (1.0 - axis_angle.to_radians().cos()) * 1e6,
-            working_distance_mm: z,
-            pixel_size_u_mm: pu,
-            pixel_size_v_mm: pv,
-            pixel_size_mm: 0.5 * (pu + pv),
-            principal_point_px: [k.cx, k.cy],
-            principal_point_offset_px: offset,
-            rms_px: c.rms_px,
-            depth_of_field: dof,
-            relative_illumination,
-        });
+    let reports: Vec<CameraReport> = cameras
+        .iter()
+        .map(|c| camera_report(c, &wp, options, &mut warnings))
+        .collect();
+    let axis_pairs = axis_pairs(cameras, &axes, options, &mut warnings);
+    let travel = options
+        .travel_mm
+        .iter()
+        .map(|&(axis, length)| travel_report(cameras, &reports, &wp, axis, length, &mut warnings))
+        .collect();
+    Report {
+        working_point_mm: wp.coords.into(),
+        cameras: reports,
+        axis_pairs,
+        travel,
+        warnings,
     }
+}
 
+/// The machine axis of camera `c` by its number, and the angle of its
+/// optical axis to it (deg; NaN without one), with the warnings on its alignment.
+fn alignment(
+    c: &CameraInput,
+    options: &CommissionOptions,
+    warnings: &mut Vec<String>,
+) -> (Option<Axis>, f64) {
+    let axis = c.camera.optical_axis().into_inner();
+    let machine = Axis::of_camera(c.id);
+    let axis_angle = machine.map_or(f64::NAN, |m| line_angle_deg(&axis, &m.unit()));
+    if let Some(name) = machine {
+        let closest = [Axis::X, Axis::Y, Axis::Z]
+            .into_iter()
+            .min_by(|a, b| {
+                line_angle_deg(&axis, &a.unit()).total_cmp(&line_angle_deg(&axis, &b.unit()))
+            })
+            .unwrap_or(name);
+        if closest != name {
+            warnings.push(format!(
+                "camera {}: its optical axis is closest to machine {closest}, but camera {} should look along {name}",
+                c.id, c.id
+            ));
+        } else if axis_angle > options.alignment_tolerance_deg {
+            warnings.push(format!(
+                "camera {}: optical axis {axis_angle:.3}° from machine {name} (tolerance {}°, cosine error {:.0} ppm)",
+                c.id,
+                options.alignment_tolerance_deg,
+                (1.0 - axis_angle.to_radians().cos()) * 1e6
+            ));
+        }
+    } else {
+        warnings.push(format!(
+            "camera {}: no machine axis for this camera number (1 ∥ X, 2 ∥ Y, 3 ∥ Z)",
+            c.id
+        ));
+    }
+    (machine, axis_angle)
+}
+
+/// One camera's figures at the working point `wp`, its warnings appended.
+fn camera_report(
+    c: &CameraInput,
+    wp: &Point3<f64>,
+    options: &CommissionOptions,
+    warnings: &mut Vec<String>,
+) -> CameraReport {
+    let cam = &c.camera;
+    let k = cam.intrinsics;
+    let (machine, axis_angle) = alignment(c, options, warnings);
+    let z = cam.to_camera(wp).z;
+    if z <= 0.0 {
+        warnings.push(format!(
+            "camera {}: the working point is behind the camera",
+            c.id
+        ));
+    }
+    let centre = [
+        (f64::from(cam.width) - 1.0) / 2.0,
+        (f64::from(cam.height) - 1.0) / 2.0,
+    ];
+    let offset = [k.cx - centre[0], k.cy - centre[1]];
+    let diagonal = f64::from(cam.width).hypot(f64::from(cam.height));
+    if offset[0].hypot(offset[1]) > options.principal_point_tolerance * diagonal {
+        warnings.push(format!(
+            "camera {}: principal point ({:.1}, {:.1}) px is {:.1} px from the image centre (tolerance {:.1} px)",
+            c.id,
+            k.cx,
+            k.cy,
+            offset[0].hypot(offset[1]),
+            options.principal_point_tolerance * diagonal
+        ));
+    }
+    if c.rms_px > options.rms_tolerance_px {
+        warnings.push(format!(
+            "camera {}: reprojection RMS {:.4} px exceeds {} px",
+            c.id, c.rms_px, options.rms_tolerance_px
+        ));
+    }
+    let dof = c.optics.map(|o| {
+        let s = o.focus_distance_mm.unwrap_or(z);
+        let b = k.fx * o.pixel_mm;
+        let f = o.focal_mm.unwrap_or(s * b / (s + b));
+        depth_of_field(f, o.f_number, o.coc_px * o.pixel_mm, s)
+    });
+    let (pu, pv) = (z / k.fx, z / k.fy);
+    let relative_illumination = illumination_report(c, wp, options);
+    if let Some(w) = c.flat_field.as_ref().and_then(|f| f.warning.as_ref()) {
+        warnings.push(format!("camera {}: {w}", c.id));
+    }
+    if let Some([du, dv]) = relative_illumination.centre_offset_px
+        && du.hypot(dv) > RI_CENTRE_TOLERANCE * diagonal
+    {
+        warnings.push(format!(
+            "camera {}: the flat field's fall-off is centred {:.0} px from the principal point: \
+             a decentred lens, or a source that is not uniform",
+            c.id,
+            du.hypot(dv)
+        ));
+    }
+    CameraReport {
+        id: c.id,
+        machine_axis: machine.map_or("?", Axis::name).to_string(),
+        centre_mm: cam.centre().coords.into(),
+        optical_axis: cam.optical_axis().into_inner().into(),
+        axis_angle_deg: axis_angle,
+        cosine_error_ppm: (1.0 - axis_angle.to_radians().cos()) * 1e6,
+        working_distance_mm: z,
+        pixel_size_u_mm: pu,
+        pixel_size_v_mm: pv,
+        pixel_size_mm: 0.5 * (pu + pv),
+        principal_point_px: [k.cx, k.cy],
+        principal_point_offset_px: offset,
+        rms_px: c.rms_px,
+        depth_of_field: dof,
+        relative_illumination,
+    }
+}
+
+/// The angle between each pair of optical axes (`axes`: centre, direction
+/// per camera) and its deviation from 90°.
+fn axis_pairs(
+    cameras: &[CameraInput],
+    axes: &[(Point3<f64>, Vector3<f64>)],
+    options: &CommissionOptions,
+    warnings: &mut Vec<String>,
+) -> Vec<AxisPair> {
     let mut pairs = Vec::new();
     for i in 0..cameras.len() {
         for j in i + 1..cameras.len() {
@@ -500,68 +524,66 @@ pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Repor
             });
         }
     }
+    pairs
+}
 
-    let mut travel = Vec::new();
-    for &(axis, length) in &options.travel_mm {
-        let Some(dir) = axis_direction(axis) else {
-            warnings.push(format!("travel: unknown machine axis '{axis}'"));
+/// The travel of `length` mm along `axis` through the working point, seen by
+/// every camera used for the axis: depths, depth of field, field of view.
+fn travel_report(
+    cameras: &[CameraInput],
+    reports: &[CameraReport],
+    wp: &Point3<f64>,
+    axis: Axis,
+    length: f64,
+    warnings: &mut Vec<String>,
+) -> TravelReport {
+    let dir = axis.unit();
+    let ends = [wp - dir * (length / 2.0), wp + dir * (length / 2.0)];
+    let mut used = Vec::new();
+    for (c, r) in cameras.iter().zip(reports) {
+        if Axis::of_camera(c.id).is_none_or(|n| n == axis) {
             continue;
-        };
-        let ends = [wp - dir * (length / 2.0), wp + dir * (length / 2.0)];
-        let mut used = Vec::new();
-        for (c, r) in cameras.iter().zip(&reports) {
-            if machine_axis(c.id).is_none_or(|(n, _)| n == axis) {
-                continue;
-            }
-            let depths = ends.map(|p| c.camera.to_camera(&p).z);
-            let (lo, hi) = (depths[0].min(depths[1]), depths[0].max(depths[1]));
-            let within = r
-                .depth_of_field
-                .map(|d| lo >= d.near_mm && d.far_mm.is_none_or(|far| hi <= far));
-            let in_view = ends.iter().all(|p| {
-                c.camera.project(p).is_ok_and(|q| {
-                    q.x >= -0.5
-                        && q.y >= -0.5
-                        && q.x <= f64::from(c.camera.width) - 0.5
-                        && q.y <= f64::from(c.camera.height) - 0.5
-                })
-            });
-            if within == Some(false)
-                && let Some(d) = r.depth_of_field
-            {
-                warnings.push(format!(
-                    "axis {axis}: camera {} sees the {length} mm travel at depths {lo:.1}…{hi:.1} mm, outside its depth of field {:.1}…{} mm",
-                    c.id,
-                    d.near_mm,
-                    d.far_mm.map_or("∞".to_string(), |f| format!("{f:.1}"))
-                ));
-            }
-            if !in_view {
-                warnings.push(format!(
-                    "axis {axis}: the {length} mm travel leaves the image of camera {}",
-                    c.id
-                ));
-            }
-            used.push(TravelCamera {
-                id: c.id,
-                depth_mm: [lo, hi],
-                within_depth_of_field: within,
-                in_view,
-            });
         }
-        travel.push(TravelReport {
-            axis: axis.to_string(),
-            travel_mm: length,
-            cameras: used,
+        let depths = ends.map(|p| c.camera.to_camera(&p).z);
+        let (lo, hi) = (depths[0].min(depths[1]), depths[0].max(depths[1]));
+        let within = r
+            .depth_of_field
+            .map(|d| lo >= d.near_mm && d.far_mm.is_none_or(|far| hi <= far));
+        let in_view = ends.iter().all(|p| {
+            c.camera.project(p).is_ok_and(|q| {
+                q.x >= -0.5
+                    && q.y >= -0.5
+                    && q.x <= f64::from(c.camera.width) - 0.5
+                    && q.y <= f64::from(c.camera.height) - 0.5
+            })
+        });
+        if within == Some(false)
+            && let Some(d) = r.depth_of_field
+        {
+            warnings.push(format!(
+                "axis {axis}: camera {} sees the {length} mm travel at depths {lo:.1}…{hi:.1} mm, outside its depth of field {:.1}…{} mm",
+                c.id,
+                d.near_mm,
+                d.far_mm.map_or("∞".to_string(), |f| format!("{f:.1}"))
+            ));
+        }
+        if !in_view {
+            warnings.push(format!(
+                "axis {axis}: the {length} mm travel leaves the image of camera {}",
+                c.id
+            ));
+        }
+        used.push(TravelCamera {
+            id: c.id,
+            depth_mm: [lo, hi],
+            within_depth_of_field: within,
+            in_view,
         });
     }
-
-    Report {
-        working_point_mm: wp.coords.into(),
-        cameras: reports,
-        axis_pairs: pairs,
-        travel,
-        warnings,
+    TravelReport {
+        axis: axis.to_string(),
+        travel_mm: length,
+        cameras: used,
     }
 }
 
@@ -813,7 +835,7 @@ mod tests {
             geom::nalgebra::UnitQuaternion::from_rotation_matrix(&r),
         );
         let options = CommissionOptions {
-            travel_mm: vec![('X', 150.0), ('Y', 100.0), ('Z', 60.0)],
+            travel_mm: vec![(Axis::X, 150.0), (Axis::Y, 100.0), (Axis::Z, 60.0)],
             working_point: Some(Point3::new(0.0, 0.0, 30.0)),
             ..CommissionOptions::default()
         };

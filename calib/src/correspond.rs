@@ -31,6 +31,7 @@ use geom::nalgebra::{Matrix3, Vector3};
 use geom::{Camera, Matrix3x4, Point2, Point3, Vector2};
 
 use crate::dlt::{self, MIN_POINTS, Spread};
+use crate::error::Ambiguity;
 use crate::outliers::robust_sigma;
 use crate::{CalibError, Result};
 
@@ -229,6 +230,26 @@ fn assign(
     out
 }
 
+/// One re-estimation step: the robust σ of the residuals of `pairs` at the
+/// predicted `positions`, the gate `GATE_SIGMAS·σ` clamped to
+/// `[min(MIN_GATE_PX, gate0), gate0]` (px), and the assignment within it.
+/// Returns the assignment, σ and the gate.
+fn reassign(
+    pairs: &Assignment,
+    positions: &[Option<Point2<f64>>],
+    detections: &[Point2<f64>],
+    grid: &Grid,
+    gate0: f64,
+) -> (Assignment, f64, f64) {
+    let res: Vec<Vector2<f64>> = pairs
+        .iter()
+        .filter_map(|p| positions[p.0].map(|q| q - detections[p.1]))
+        .collect();
+    let sigma = robust_sigma(&res);
+    let gate = (GATE_SIGMAS * sigma).clamp(MIN_GATE_PX.min(gate0), gate0);
+    (assign(positions, detections, grid, gate), sigma, gate)
+}
+
 fn same_pairs(a: &Assignment, b: &Assignment) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.0 == y.0 && x.1 == y.1)
 }
@@ -291,12 +312,328 @@ pub fn correspond(
     nominal: &Camera,
     options: &CorrespondOptions,
 ) -> Result<Correspondence> {
-    let too_few = |matched: usize| CalibError::TooFewMatches {
+    let search = Search::new(markers, detections, nominal, options)?;
+    // 1. Global alignment.
+    let hypotheses = similarity_hypotheses(
+        &search.predicted,
+        &search.visible,
+        detections,
+        &search.grid,
+        search.gate0,
+        options,
+    );
+    // 2. Gated assignment, re-estimation, repeat.
+    let refined = search.refine(&hypotheses);
+    // 3. Decision.
+    let best = search.decide(refined.candidates, refined.started)?;
+    Ok(search.correspondence(&best, refined.starts))
+}
+
+/// What every step of [`correspond`] works on: the checked input, the
+/// nominal prediction and the search scale.
+struct Search<'a> {
+    markers: &'a [Marker],
+    detections: &'a [Point2<f64>],
+    nominal: &'a Camera,
+    options: &'a CorrespondOptions,
+    /// Marker centres (target frame, mm).
+    world: Vec<Point3<f64>>,
+    /// Marker images through the nominal camera (px), `None` behind it.
+    predicted: Vec<Option<Point2<f64>>>,
+    /// Markers with a prediction.
+    visible: Vec<usize>,
+    /// The first gate: `gate_fraction` of the detections' median spacing (px).
+    gate0: f64,
+    grid: Grid,
+}
+
+/// The candidates of step 2 and how many distinct starts were refined.
+struct Refined {
+    candidates: Vec<Candidate>,
+    /// Distinct starting assignments refined.
+    starts: usize,
+    /// Matches of the largest starting assignment.
+    started: usize,
+}
+
+impl<'a> Search<'a> {
+    /// Check the input and set up the search (nominal prediction, gate, grid).
+    fn new(
+        markers: &'a [Marker],
+        detections: &'a [Point2<f64>],
+        nominal: &'a Camera,
+        options: &'a CorrespondOptions,
+    ) -> Result<Self> {
+        check_input(markers, detections, options)?;
+        let world: Vec<Point3<f64>> = markers.iter().map(|m| m.centre).collect();
+        if markers.len() < MIN_POINTS {
+            return Err(CalibError::TooFewPoints {
+                what: "automatic correspondence",
+                needed: MIN_POINTS,
+                got: markers.len(),
+            });
+        }
+        Spread::of(&world).check()?;
+        if detections.len() < MIN_POINTS {
+            return Err(CalibError::TooFewDetections {
+                detections: detections.len(),
+                needed: MIN_POINTS,
+            });
+        }
+        let predicted: Vec<Option<Point2<f64>>> =
+            world.iter().map(|x| nominal.project(x).ok()).collect();
+        let visible: Vec<usize> = (0..markers.len())
+            .filter(|&i| predicted[i].is_some())
+            .collect();
+        if visible.len() < MIN_POINTS {
+            return Err(too_few(0, detections.len(), markers.len()));
+        }
+        let spacing = median_spacing(detections);
+        if spacing.is_nan() || spacing <= 0.0 {
+            return Err(CalibError::Option {
+                option: "detections",
+                message: "more than half of the detections coincide with another one".into(),
+            });
+        }
+        let gate0 = options.gate_fraction * spacing;
+        Ok(Search {
+            markers,
+            detections,
+            nominal,
+            options,
+            world,
+            predicted,
+            visible,
+            gate0,
+            grid: Grid::new(detections, gate0),
+        })
+    }
+
+    fn too_few(&self, matched: usize) -> CalibError {
+        too_few(matched, self.detections.len(), self.markers.len())
+    }
+
+    /// Step 2: refine the best distinct hypotheses into converged candidates.
+    fn refine(&self, hypotheses: &[Similarity]) -> Refined {
+        let mut starts: Vec<Assignment> = Vec::new();
+        let mut candidates: Vec<Candidate> = Vec::new();
+        for h in hypotheses {
+            if starts.len() >= CANDIDATES {
+                break;
+            }
+            let positions: Vec<Option<Point2<f64>>> = self
+                .predicted
+                .iter()
+                .map(|p| p.map(|p| h.apply(&p)))
+                .collect();
+            let start = assign(&positions, self.detections, &self.grid, self.gate0);
+            if start.len() < 3 || starts.iter().any(|s| same_pairs(s, &start)) {
+                continue;
+            }
+            starts.push(start.clone());
+            if let Some(c) = converge(
+                start,
+                &self.predicted,
+                &self.world,
+                self.detections,
+                &self.grid,
+                self.gate0,
+                self.options,
+            ) && !candidates.iter().any(|o| same_pairs(&o.pairs, &c.pairs))
+            {
+                candidates.push(c);
+            }
+        }
+        Refined {
+            candidates,
+            starts: starts.len(),
+            started: starts.iter().map(Vec::len).max().unwrap_or(0),
+        }
+    }
+
+    /// Step 3: the winning candidate — oriented as the nominal camera,
+    /// believable, not ambiguous — extended through a distorting camera.
+    fn decide(&self, mut candidates: Vec<Candidate>, started: usize) -> Result<Candidate> {
+        let best_count = candidates.iter().map(|c| c.pairs.len()).max().unwrap_or(0);
+        if best_count < MIN_POINTS {
+            return Err(self.too_few(if candidates.is_empty() {
+                started
+            } else {
+                best_count
+            }));
+        }
+        candidates.retain(|c| c.pairs.len() >= MIN_POINTS);
+        self.drop_turned(&mut candidates)?;
+        let floor = |s: f64| s.max(SIGMA_FLOOR_PX);
+        let sigma_min = candidates
+            .iter()
+            .map(|c| floor(c.sigma))
+            .fold(f64::INFINITY, f64::min);
+        let comparable: Vec<&Candidate> = candidates
+            .iter()
+            .filter(|c| floor(c.sigma) <= CONSISTENT_FACTOR * sigma_min)
+            .collect();
+        let Some(best) = comparable.iter().copied().max_by(|a, b| {
+            a.pairs
+                .len()
+                .cmp(&b.pairs.len())
+                .then(b.sigma.total_cmp(&a.sigma))
+        }) else {
+            return Err(self.too_few(best_count));
+        };
+        self.believable(best)?;
+        let best = self.unambiguous(best, &comparable)?;
+        self.believable(best)?;
+        check_local_ambiguity(best, self.markers, self.detections, &self.grid)?;
+        let extended = with_distortion(
+            best,
+            &self.world,
+            self.detections,
+            &self.grid,
+            self.gate0,
+            self.nominal.width,
+            self.nominal.height,
+        );
+        Ok(extended.unwrap_or_else(|| best.clone()))
+    }
+
+    /// A candidate is a camera: drop those turned more than `max_rotation`
+    /// from the nominal one; an error when that drops them all.
+    fn drop_turned(&self, candidates: &mut Vec<Candidate>) -> Result<()> {
+        let nominal_rotation = self.nominal.rotation();
+        let turn = |c: &Candidate| -> f64 {
+            geom::camera::decompose_projection(&c.projection).map_or(f64::INFINITY, |(_, r, _)| {
+                // Angle of R_nominalᵀ·R from its trace, clamped against round-off.
+                let m = (nominal_rotation.inverse() * r).into_inner();
+                ((m.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+            })
+        };
+        let smallest_turn = candidates.iter().map(turn).fold(f64::INFINITY, f64::min);
+        candidates.retain(|c| turn(c) <= self.options.max_rotation);
+        if candidates.is_empty() && smallest_turn.is_finite() {
+            return Err(CalibError::FarFromNominal {
+                angle_deg: smallest_turn.to_degrees(),
+                limit_deg: self.options.max_rotation.to_degrees(),
+            });
+        }
+        Ok(())
+    }
+
+    /// A winner must fit a camera: σ within the gate and most detections matched.
+    fn believable(&self, c: &Candidate) -> Result<()> {
+        let limit = self.gate0 / GATE_SIGMAS;
+        let expected = self.detections.len().min(self.markers.len());
+        if c.sigma > limit || (c.pairs.len() as f64) < MIN_MATCHED_FRACTION * expected as f64 {
+            return Err(CalibError::Inconsistent {
+                matched: c.pairs.len(),
+                detections: self.detections.len(),
+                sigma_px: c.sigma,
+                limit_px: limit,
+            });
+        }
+        Ok(())
+    }
+
+    /// How far a candidate moved the markers from the nominal prediction (median, px).
+    fn displacement(&self, c: &Candidate) -> f64 {
+        let mut d: Vec<f64> = c
+            .pairs
+            .iter()
+            .filter_map(|p| Some((c.positions[p.0]? - self.predicted[p.0]?).norm()))
+            .collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(f64::INFINITY)
+    }
+
+    /// The winner among rivals: the nominal rig decides between equally good
+    /// assignments when it is clearly nearer to one of them; otherwise a
+    /// rival is an ambiguity.
+    fn unambiguous<'c>(
+        &self,
+        mut best: &'c Candidate,
+        comparable: &[&'c Candidate],
+    ) -> Result<&'c Candidate> {
+        if let Some((nearer, _)) = rivals(best, comparable)
+            .into_iter()
+            .filter(|(o, _)| self.displacement(o) < NOMINAL_PREFERENCE * self.displacement(best))
+            .min_by(|a, b| self.displacement(a.0).total_cmp(&self.displacement(b.0)))
+        {
+            best = nearer;
+        }
+        let d_best = self.displacement(best);
+        if let Some((other, conflicts)) = rivals(best, comparable)
+            .into_iter()
+            .find(|(o, _)| d_best > NOMINAL_PREFERENCE * self.displacement(o))
+        {
+            return Err(CalibError::Ambiguous(Ambiguity::TwoAssignments {
+                best: best.pairs.len(),
+                best_sigma_px: best.sigma,
+                best_offset_px: d_best,
+                other: other.pairs.len(),
+                other_sigma_px: other.sigma,
+                other_offset_px: self.displacement(other),
+                conflicts,
+            }));
+        }
+        Ok(best)
+    }
+
+    /// The result: matches by id, unmatched detections, and the markers that
+    /// the winner predicts inside the image but nothing matched.
+    fn correspondence(&self, best: &Candidate, candidates: usize) -> Correspondence {
+        let (w, h) = (
+            f64::from(self.nominal.width),
+            f64::from(self.nominal.height),
+        );
+        let inside = |p: &Option<Point2<f64>>| {
+            p.is_some_and(|p| p.x >= -0.5 && p.y >= -0.5 && p.x <= w - 0.5 && p.y <= h - 0.5)
+        };
+        let matched_markers: HashSet<usize> = best.pairs.iter().map(|p| p.0).collect();
+        let matched_detections: HashSet<usize> = best.pairs.iter().map(|p| p.1).collect();
+        let mut matches: Vec<Match> = best
+            .pairs
+            .iter()
+            .map(|&(i, j, d)| Match {
+                id: self.markers[i].id,
+                detection: j,
+                residual_px: d,
+            })
+            .collect();
+        matches.sort_by_key(|m| m.id);
+        Correspondence {
+            matches,
+            projection: best.projection,
+            sigma_px: best.sigma,
+            gate_px: best.gate,
+            unmatched_detections: (0..self.detections.len())
+                .filter(|j| !matched_detections.contains(j))
+                .collect(),
+            missing_markers: (0..self.markers.len())
+                .filter(|i| !matched_markers.contains(i))
+                .filter(|&i| inside(&best.positions[i]))
+                .map(|i| self.markers[i].id)
+                .collect(),
+            candidates,
+        }
+    }
+}
+
+/// Fewer than [`MIN_POINTS`] matches found.
+fn too_few(matched: usize, detections: usize, markers: usize) -> CalibError {
+    CalibError::TooFewMatches {
         matched,
         needed: MIN_POINTS,
-        detections: detections.len(),
-        markers: markers.len(),
-    };
+        detections,
+        markers,
+    }
+}
+
+/// Finite, unique markers; finite detections; options in range.
+fn check_input(
+    markers: &[Marker],
+    detections: &[Point2<f64>],
+    options: &CorrespondOptions,
+) -> Result<()> {
     let mut ids = HashSet::new();
     for m in markers {
         for (field, value) in [("x", m.centre.x), ("y", m.centre.y), ("z", m.centre.z)] {
@@ -329,229 +666,33 @@ pub fn correspond(
             ),
         });
     }
-    let world: Vec<Point3<f64>> = markers.iter().map(|m| m.centre).collect();
-    if markers.len() < MIN_POINTS {
-        return Err(CalibError::TooFewPoints {
-            what: "automatic correspondence",
-            needed: MIN_POINTS,
-            got: markers.len(),
-        });
-    }
-    Spread::of(&world).check()?;
-    if detections.len() < MIN_POINTS {
-        return Err(CalibError::TooFewDetections {
-            detections: detections.len(),
-            needed: MIN_POINTS,
-        });
-    }
-    let predicted: Vec<Option<Point2<f64>>> =
-        world.iter().map(|x| nominal.project(x).ok()).collect();
-    let visible: Vec<usize> = (0..markers.len())
-        .filter(|&i| predicted[i].is_some())
-        .collect();
-    if visible.len() < MIN_POINTS {
-        return Err(too_few(0));
-    }
-    let spacing = median_spacing(detections);
-    if spacing.is_nan() || spacing <= 0.0 {
-        return Err(CalibError::Option {
-            option: "detections",
-            message: "more than half of the detections coincide with another one".into(),
-        });
-    }
-    let gate0 = options.gate_fraction * spacing;
-    let grid = Grid::new(detections, gate0);
+    Ok(())
+}
 
-    let hypotheses = similarity_hypotheses(&predicted, &visible, detections, &grid, gate0, options);
-
-    // Refine the best distinct hypotheses.
-    let mut starts: Vec<Assignment> = Vec::new();
-    let mut candidates: Vec<Candidate> = Vec::new();
-    for h in &hypotheses {
-        if starts.len() >= CANDIDATES {
-            break;
-        }
-        let positions: Vec<Option<Point2<f64>>> =
-            predicted.iter().map(|p| p.map(|p| h.apply(&p))).collect();
-        let start = assign(&positions, detections, &grid, gate0);
-        if start.len() < 3 || starts.iter().any(|s| same_pairs(s, &start)) {
-            continue;
-        }
-        starts.push(start.clone());
-        if let Some(c) = converge(start, &predicted, &world, detections, &grid, gate0, options)
-            && !candidates.iter().any(|o| same_pairs(&o.pairs, &c.pairs))
-        {
-            candidates.push(c);
-        }
-    }
-    let refined = starts.len();
-    let best_count = candidates.iter().map(|c| c.pairs.len()).max().unwrap_or(0);
-    if best_count < MIN_POINTS {
-        let started = starts.iter().map(Vec::len).max().unwrap_or(0);
-        return Err(too_few(if candidates.is_empty() {
-            started
-        } else {
-            best_count
-        }));
-    }
-    candidates.retain(|c| c.pairs.len() >= MIN_POINTS);
-    // A candidate is a camera: it must be oriented roughly as the nominal one.
-    let nominal_rotation = nominal.rotation();
-    let turn = |c: &Candidate| -> f64 {
-        geom::camera::decompose_projection(&c.projection).map_or(f64::INFINITY, |(_, r, _)| {
-            // Angle of R_nominalᵀ·R from its trace, clamped against round-off.
-            let m = (nominal_rotation.inverse() * r).into_inner();
-            ((m.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+/// Rivals of `of`: comparable candidates with nearly as many matches that
+/// assign most of their detections differently, with their conflict counts.
+fn rivals<'c>(of: &Candidate, comparable: &[&'c Candidate]) -> Vec<(&'c Candidate, usize)> {
+    let partner_of_marker: HashMap<usize, usize> = of.pairs.iter().map(|p| (p.0, p.1)).collect();
+    let partner_of_detection: HashMap<usize, usize> = of.pairs.iter().map(|p| (p.1, p.0)).collect();
+    comparable
+        .iter()
+        .filter(|o| !std::ptr::eq(**o, of))
+        .map(|o| {
+            let conflicts = o
+                .pairs
+                .iter()
+                .filter(|(i, j, _)| {
+                    partner_of_marker.get(i).is_some_and(|bj| bj != j)
+                        || partner_of_detection.get(j).is_some_and(|bi| bi != i)
+                })
+                .count();
+            (*o, conflicts)
         })
-    };
-    let smallest_turn = candidates.iter().map(turn).fold(f64::INFINITY, f64::min);
-    candidates.retain(|c| turn(c) <= options.max_rotation);
-    if candidates.is_empty() && smallest_turn.is_finite() {
-        return Err(CalibError::FarFromNominal {
-            angle_deg: smallest_turn.to_degrees(),
-            limit_deg: options.max_rotation.to_degrees(),
-        });
-    }
-    let floor = |s: f64| s.max(SIGMA_FLOOR_PX);
-    let sigma_min = candidates
-        .iter()
-        .map(|c| floor(c.sigma))
-        .fold(f64::INFINITY, f64::min);
-    let comparable: Vec<&Candidate> = candidates
-        .iter()
-        .filter(|c| floor(c.sigma) <= CONSISTENT_FACTOR * sigma_min)
-        .collect();
-    let Some(mut best) = comparable.iter().copied().max_by(|a, b| {
-        a.pairs
-            .len()
-            .cmp(&b.pairs.len())
-            .then(b.sigma.total_cmp(&a.sigma))
-    }) else {
-        return Err(too_few(best_count));
-    };
-    let (w, h) = (f64::from(nominal.width), f64::from(nominal.height));
-    let inside = |p: &Option<Point2<f64>>| {
-        p.is_some_and(|p| p.x >= -0.5 && p.y >= -0.5 && p.x <= w - 0.5 && p.y <= h - 0.5)
-    };
-    let limit = gate0 / GATE_SIGMAS;
-    let expected = detections.len().min(markers.len());
-    let believable = |c: &Candidate| -> Result<()> {
-        if c.sigma > limit || (c.pairs.len() as f64) < MIN_MATCHED_FRACTION * expected as f64 {
-            return Err(CalibError::Inconsistent {
-                matched: c.pairs.len(),
-                detections: detections.len(),
-                sigma_px: c.sigma,
-                limit_px: limit,
-            });
-        }
-        Ok(())
-    };
-    believable(best)?;
-    // How far a candidate moved the markers from the nominal prediction (median, px).
-    let displacement = |c: &Candidate| -> f64 {
-        let mut d: Vec<f64> = c
-            .pairs
-            .iter()
-            .filter_map(|p| Some((c.positions[p.0]? - predicted[p.0]?).norm()))
-            .collect();
-        d.sort_by(f64::total_cmp);
-        d.get(d.len() / 2).copied().unwrap_or(f64::INFINITY)
-    };
-    // Rivals: comparable candidates with nearly as many matches that assign
-    // most of their detections differently.
-    let rivals = |of: &Candidate| -> Vec<(&Candidate, usize)> {
-        let partner_of_marker: HashMap<usize, usize> =
-            of.pairs.iter().map(|p| (p.0, p.1)).collect();
-        let partner_of_detection: HashMap<usize, usize> =
-            of.pairs.iter().map(|p| (p.1, p.0)).collect();
-        comparable
-            .iter()
-            .filter(|o| !std::ptr::eq(**o, of))
-            .map(|o| {
-                let conflicts = o
-                    .pairs
-                    .iter()
-                    .filter(|(i, j, _)| {
-                        partner_of_marker.get(i).is_some_and(|bj| bj != j)
-                            || partner_of_detection.get(j).is_some_and(|bi| bi != i)
-                    })
-                    .count();
-                (*o, conflicts)
-            })
-            .filter(|(o, conflicts)| {
-                2 * conflicts > o.pairs.len()
-                    && o.pairs.len() as f64 >= AMBIGUOUS_FRACTION * of.pairs.len() as f64
-            })
-            .collect()
-    };
-    // The nominal rig decides between equally good assignments when it is
-    // clearly nearer to one of them.
-    if let Some((nearer, _)) = rivals(best)
-        .into_iter()
-        .filter(|(o, _)| displacement(o) < NOMINAL_PREFERENCE * displacement(best))
-        .min_by(|a, b| displacement(a.0).total_cmp(&displacement(b.0)))
-    {
-        best = nearer;
-    }
-    let d_best = displacement(best);
-    if let Some((other, conflicts)) = rivals(best)
-        .into_iter()
-        .find(|(o, _)| d_best > NOMINAL_PREFERENCE * displacement(o))
-    {
-        return Err(CalibError::Ambiguous(format!(
-            "two different assignments fit the image equally well ({} markers matched with \
-             σ = {:.3} px, {:.0} px from the nominal prediction; and {} with σ = {:.3} px, \
-             {:.0} px from it; {} of them matched differently); correct the nominal rig or \
-             use a target without repeating structure",
-            best.pairs.len(),
-            best.sigma,
-            d_best,
-            other.pairs.len(),
-            other.sigma,
-            displacement(other),
-            conflicts
-        )));
-    }
-    believable(best)?;
-    check_local_ambiguity(best, markers, detections, &grid)?;
-    let extended = with_distortion(
-        best,
-        &world,
-        detections,
-        &grid,
-        gate0,
-        nominal.width,
-        nominal.height,
-    );
-    let best = extended.as_ref().unwrap_or(best);
-
-    let matched_markers: HashSet<usize> = best.pairs.iter().map(|p| p.0).collect();
-    let matched_detections: HashSet<usize> = best.pairs.iter().map(|p| p.1).collect();
-    let mut matches: Vec<Match> = best
-        .pairs
-        .iter()
-        .map(|&(i, j, d)| Match {
-            id: markers[i].id,
-            detection: j,
-            residual_px: d,
+        .filter(|(o, conflicts)| {
+            2 * conflicts > o.pairs.len()
+                && o.pairs.len() as f64 >= AMBIGUOUS_FRACTION * of.pairs.len() as f64
         })
-        .collect();
-    matches.sort_by_key(|m| m.id);
-    Ok(Correspondence {
-        matches,
-        projection: best.projection,
-        sigma_px: best.sigma,
-        gate_px: best.gate,
-        unmatched_detections: (0..detections.len())
-            .filter(|j| !matched_detections.contains(j))
-            .collect(),
-        missing_markers: (0..markers.len())
-            .filter(|i| !matched_markers.contains(i))
-            .filter(|&i| inside(&best.positions[i]))
-            .map(|i| markers[i].id)
-            .collect(),
-        candidates: refined,
-    })
+        .collect()
 }
 
 /// Similarity hypotheses, best first: the identity, then every pairing of a
@@ -702,13 +843,7 @@ fn converge(
         let projection = dlt::dlt(&w, &d).ok()?;
         let positions: Vec<Option<Point2<f64>>> =
             world.iter().map(|x| dlt::project(&projection, x)).collect();
-        let res: Vec<Vector2<f64>> = pairs
-            .iter()
-            .filter_map(|p| positions[p.0].map(|q| q - detections[p.1]))
-            .collect();
-        let sigma = robust_sigma(&res);
-        let gate = (GATE_SIGMAS * sigma).clamp(MIN_GATE_PX.min(gate0), gate0);
-        let next = assign(&positions, detections, grid, gate);
+        let (next, sigma, gate) = reassign(&pairs, &positions, detections, grid, gate0);
         let stable = same_pairs(&next, &pairs);
         last = Some(Candidate {
             pairs: next.clone(),
@@ -763,13 +898,7 @@ fn with_distortion(
             .camera;
         let positions: Vec<Option<Point2<f64>>> =
             world.iter().map(|x| camera.project(x).ok()).collect();
-        let res: Vec<Vector2<f64>> = pairs
-            .iter()
-            .filter_map(|p| positions[p.0].map(|q| q - detections[p.1]))
-            .collect();
-        let sigma = robust_sigma(&res);
-        let gate = (GATE_SIGMAS * sigma).clamp(MIN_GATE_PX.min(gate0), gate0);
-        let next = assign(&positions, detections, grid, gate);
+        let (next, sigma, gate) = reassign(&pairs, &positions, detections, grid, gate0);
         let stable = same_pairs(&next, &pairs);
         if next.len() < pairs.len() {
             // A worse assignment than the DLT's: keep what we had.
@@ -809,10 +938,14 @@ fn check_local_ambiguity(
             .filter(|&(k, _)| k != j)
             .min_by(|a, b| a.1.total_cmp(&b.1))
         {
-            return Err(CalibError::Ambiguous(format!(
-                "marker {} has two detections within the {:.2} px gate: #{j} at {d:.2} px and #{k} at {dk:.2} px",
-                markers[i].id, best.gate
-            )));
+            return Err(CalibError::Ambiguous(Ambiguity::TwoDetections {
+                marker: markers[i].id,
+                gate_px: best.gate,
+                detection: j,
+                distance_px: d,
+                second: k,
+                second_px: dk,
+            }));
         }
         let q = detections[j];
         if let Some((k, _)) = best
@@ -823,10 +956,12 @@ fn check_local_ambiguity(
             .filter_map(|(k, p)| p.map(|p| (k, (p - q).norm())))
             .find(|&(_, dk)| dk <= best.gate)
         {
-            return Err(CalibError::Ambiguous(format!(
-                "detection #{j} lies within the {:.2} px gate of markers {} and {}",
-                best.gate, markers[i].id, markers[k].id
-            )));
+            return Err(CalibError::Ambiguous(Ambiguity::TwoMarkers {
+                detection: j,
+                gate_px: best.gate,
+                marker: markers[i].id,
+                second: markers[k].id,
+            }));
         }
     }
     Ok(())

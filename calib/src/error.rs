@@ -88,7 +88,7 @@ pub enum CalibError {
     },
     /// Two different assignments of detections to markers explain the image equally well.
     #[error("the marker assignment is ambiguous: {0}")]
-    Ambiguous(String),
+    Ambiguous(Ambiguity),
     /// A coordinate is NaN or infinite.
     #[error("point {id}: {field} = {value} is not a finite number")]
     NonFinite {
@@ -129,7 +129,7 @@ pub enum CalibError {
     },
     /// A flat-field or dark frame cannot give the relative illumination.
     #[error("{0}")]
-    FlatField(String),
+    FlatField(FlatFieldProblem),
     /// A geometric computation failed on degenerate data.
     #[error("{what}: {source}")]
     Geom {
@@ -138,6 +138,124 @@ pub enum CalibError {
         /// The geometric failure.
         source: geom::GeomError,
     },
+}
+
+/// How the assignment of detections to markers is ambiguous.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum Ambiguity {
+    /// Two assignments fit the image equally well and are about equally far
+    /// from the nominal prediction.
+    #[error(
+        "two different assignments fit the image equally well ({best} markers matched with \
+         σ = {best_sigma_px:.3} px, {best_offset_px:.0} px from the nominal prediction; and \
+         {other} with σ = {other_sigma_px:.3} px, {other_offset_px:.0} px from it; {conflicts} \
+         of them matched differently); correct the nominal rig or use a target without \
+         repeating structure"
+    )]
+    TwoAssignments {
+        /// Markers matched by the best assignment.
+        best: usize,
+        /// Its residual σ (px).
+        best_sigma_px: f64,
+        /// Its displacement from the nominal prediction (px).
+        best_offset_px: f64,
+        /// Markers matched by the rival assignment.
+        other: usize,
+        /// Its residual σ (px).
+        other_sigma_px: f64,
+        /// Its displacement from the nominal prediction (px).
+        other_offset_px: f64,
+        /// Markers the two match differently.
+        conflicts: usize,
+    },
+    /// A matched marker has a second detection within the gate.
+    #[error(
+        "marker {marker} has two detections within the {gate_px:.2} px gate: #{detection} at \
+         {distance_px:.2} px and #{second} at {second_px:.2} px"
+    )]
+    TwoDetections {
+        /// Marker id.
+        marker: u32,
+        /// The gate (px).
+        gate_px: f64,
+        /// The matched detection's index.
+        detection: usize,
+        /// Its distance from the predicted marker (px).
+        distance_px: f64,
+        /// The other detection's index.
+        second: usize,
+        /// Its distance (px).
+        second_px: f64,
+    },
+    /// A matched detection lies within the gate of a second marker.
+    #[error(
+        "detection #{detection} lies within the {gate_px:.2} px gate of markers {marker} and {second}"
+    )]
+    TwoMarkers {
+        /// The detection's index.
+        detection: usize,
+        /// The gate (px).
+        gate_px: f64,
+        /// The matched marker's id.
+        marker: u32,
+        /// The other marker's id.
+        second: u32,
+    },
+}
+
+/// Why a flat-field and dark frame pair cannot give the relative illumination.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum FlatFieldProblem {
+    /// The frames differ in size.
+    #[error("the dark frame is {}×{} px but the flat field {}×{} px", dark[0], dark[1], flat[0], flat[1])]
+    Sizes {
+        /// Dark frame width and height (px).
+        dark: [u32; 2],
+        /// Flat field width and height (px).
+        flat: [u32; 2],
+    },
+    /// A pixel buffer's length is not width × height (or is empty).
+    #[error("pixel buffers do not match the image size")]
+    Buffers,
+    /// Too many pixels of the flat field are saturated.
+    #[error(
+        "{pixels} pixels of the flat field are saturated ({saturation} DN): take it with a \
+         shorter exposure or a dimmer source"
+    )]
+    Saturated {
+        /// Saturated pixels.
+        pixels: usize,
+        /// The saturation level (DN).
+        saturation: u16,
+    },
+    /// The model's starting centre or scale is unusable.
+    #[error("model centre {centre:?} and scale {scale_px} px must be finite, the scale positive")]
+    Model {
+        /// Starting centre (px).
+        centre: [f64; 2],
+        /// Radial scale (px).
+        scale_px: f64,
+    },
+    /// The flat field is hardly above the dark frame.
+    #[error(
+        "the flat field is only {level_dn:.1} DN above the dark frame (noise {noise_dn:.1} DN): \
+         is it lit, and is the dark frame the right one?"
+    )]
+    Unlit {
+        /// Brightest block's level above the dark frame (DN).
+        level_dn: f64,
+        /// The dark frame's noise (DN).
+        noise_dn: f64,
+    },
+    /// The linear start of the fit failed.
+    #[error("flat-field fit: {0}")]
+    Solve(&'static str),
+    /// The fitted level at the model's centre is not positive.
+    #[error("flat-field fit: non-positive level {0} at the model's centre")]
+    Level(f64),
+    /// The fitted model is not positive everywhere in the image.
+    #[error("flat-field fit: the model falls to {0} in the image")]
+    Falls(f64),
 }
 
 impl CalibError {

@@ -23,6 +23,7 @@ use geom::nalgebra::{DMatrix, DVector};
 use geom::{Camera, Illumination, Point2, Point3, RadialIllumination};
 use serde::Serialize;
 
+use crate::error::FlatFieldProblem;
 use crate::{CalibError, Result};
 
 /// Highest power of ρ² in the model.
@@ -182,15 +183,13 @@ impl Residuals for RadialFit<'_> {
 fn check(flat: &Pixels<'_>, dark: &Pixels<'_>) -> Result<()> {
     let n = (flat.width as usize) * (flat.height as usize);
     if (dark.width, dark.height) != (flat.width, flat.height) {
-        return Err(CalibError::FlatField(format!(
-            "the dark frame is {}×{} px but the flat field {}×{} px",
-            dark.width, dark.height, flat.width, flat.height
-        )));
+        return Err(CalibError::FlatField(FlatFieldProblem::Sizes {
+            dark: [dark.width, dark.height],
+            flat: [flat.width, flat.height],
+        }));
     }
     if flat.values.len() != n || dark.values.len() != n || n == 0 {
-        return Err(CalibError::FlatField(
-            "pixel buffers do not match the image size".into(),
-        ));
+        return Err(CalibError::FlatField(FlatFieldProblem::Buffers));
     }
     let saturated = flat
         .values
@@ -198,10 +197,10 @@ fn check(flat: &Pixels<'_>, dark: &Pixels<'_>) -> Result<()> {
         .filter(|&&v| v >= flat.saturation)
         .count();
     if saturated as f64 > MAX_SATURATED_FRACTION * n as f64 {
-        return Err(CalibError::FlatField(format!(
-            "{saturated} pixels of the flat field are saturated ({} DN): take it with a shorter exposure or a dimmer source",
-            flat.saturation
-        )));
+        return Err(CalibError::FlatField(FlatFieldProblem::Saturated {
+            pixels: saturated,
+            saturation: flat.saturation,
+        }));
     }
     Ok(())
 }
@@ -217,9 +216,10 @@ pub fn fit_flat_field(
 ) -> Result<FlatFieldFit> {
     check(flat, dark)?;
     if !(scale_px.is_finite() && scale_px > 0.0 && centre.iter().all(|c| c.is_finite())) {
-        return Err(CalibError::FlatField(format!(
-            "model centre {centre:?} and scale {scale_px} px must be finite, the scale positive"
-        )));
+        return Err(CalibError::FlatField(FlatFieldProblem::Model {
+            centre,
+            scale_px,
+        }));
     }
     let n = dark.values.len() as f64;
     let dark_dn = dark.values.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
@@ -234,10 +234,10 @@ pub fn fit_flat_field(
     let b = blocks(flat, dark);
     let level = b.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     if level.is_nan() || level <= MIN_SIGNAL_SIGMAS * dark_sd {
-        return Err(CalibError::FlatField(format!(
-            "the flat field is only {level:.1} DN above the dark frame (noise {dark_sd:.1} DN): \
-             is it lit, and is the dark frame the right one?"
-        )));
+        return Err(CalibError::FlatField(FlatFieldProblem::Unlit {
+            level_dn: level,
+            noise_dn: dark_sd,
+        }));
     }
     let values: Vec<f64> = b.values.iter().map(|v| v / level).collect();
     let problem = RadialFit {
@@ -254,16 +254,14 @@ pub fn fit_flat_field(
     let coefficients = design
         .svd(true, true)
         .solve(&DVector::from_column_slice(&values), 1e-14)
-        .map_err(|e| CalibError::FlatField(format!("flat-field fit: {e}")))?;
+        .map_err(|e| CalibError::FlatField(FlatFieldProblem::Solve(e)))?;
     start.rows_mut(2, DEGREE + 1).copy_from(&coefficients);
     let solution = minimize(&problem, start, &LmOptions::default())
         .map_err(CalibError::geom("flat-field fit"))?;
     let p = &solution.params;
     let q0 = p[2];
     if q0.is_nan() || q0 <= 0.0 {
-        return Err(CalibError::FlatField(format!(
-            "flat-field fit: non-positive level {q0} at the model's centre"
-        )));
+        return Err(CalibError::FlatField(FlatFieldProblem::Level(q0)));
     }
     let model = RadialIllumination {
         centre: [p[0], p[1]],
@@ -292,9 +290,7 @@ pub fn fit_flat_field(
         .map(|c| model.at(c[0], c[1]))
         .fold(1.0, f64::max);
     if ri_min.is_nan() || ri_min <= 0.0 {
-        return Err(CalibError::FlatField(format!(
-            "flat-field fit: the model falls to {ri_min} in the image"
-        )));
+        return Err(CalibError::FlatField(FlatFieldProblem::Falls(ri_min)));
     }
     let warning = (residual_rms > STRUCTURE_FACTOR * noise_rms && residual_rms > STRUCTURE_FLOOR)
         .then(|| {
@@ -556,7 +552,7 @@ mod tests {
         sat.iter_mut().take(100).for_each(|v| *v = u16::MAX);
         assert!(matches!(
             fit_flat_field(&px(&sat, w, h), &px(&dark, w, h), [319.5, 239.5], 1200.0),
-            Err(CalibError::FlatField(m)) if m.contains("saturated")
+            Err(CalibError::FlatField(FlatFieldProblem::Saturated { .. }))
         ));
         // A flat that is not lit is refused.
         assert!(

@@ -1,17 +1,50 @@
 //! Camera calibration from a 3-D target (docs/methods.md, Calibration).
 //!
-//! - [`dlt`]: Hartley-normalised DLT and the non-coplanarity check.
-//! - [`refine`]: Levenberg–Marquardt on reprojection error (pinhole, k1 k2,
-//!   k1 k2 p1 p2, optional k3 and skew), analytic Jacobian, sphere markers.
-//! - [`outliers`]: robust σ and k·σ rejection.
-//! - [`calibration`]: [`calibrate`], the whole chain for one camera.
-//! - [`commission`](mod@commission): the rig commissioning report (axis angles, pixel sizes,
-//!   depth of field over each axis's travel).
-//! - [`correspond`](mod@correspond): automatic marker ↔ detection assignment from a nominal camera.
-//! - [`image`]: one camera from the detections in its calibration image
-//!   (assignment, calibration, re-centroiding with the camera's model, refit).
-//! - [`illumination`]: the lens's relative illumination from a flat-field and a dark frame.
-//! - [`opencv`]: export in OpenCV's `FileStorage` YAML format.
+//! The main entry point is [`calibrate`]: one camera from its marker
+//! correspondences (Hartley-normalised DLT with the non-coplanarity check,
+//! then Levenberg–Marquardt on reprojection error — pinhole, k1 k2,
+//! k1 k2 p1 p2, optional k3 and skew — with k·σ outlier rejection). Around it:
+//! - [`correspond`]: automatic marker ↔ detection assignment from a nominal camera;
+//! - [`calibrate_detections`]: one camera from the detections in its
+//!   calibration image (assignment, calibration, re-centroiding with the
+//!   camera's model through a callback, refit);
+//! - [`commission`]: the rig commissioning report (axis angles, pixel sizes,
+//!   depth of field over each axis's travel);
+//! - [`fit_flat_field`]: the lens's relative illumination from a flat-field and a dark frame;
+//! - [`opencv_yaml`]: export in OpenCV's `FileStorage` YAML format.
+//!
+//! # Example
+//! A camera 500 mm above a target of 5×5 markers at three heights, seen
+//! exactly: the calibration gives the camera back.
+//! ```
+//! use calib::{Model, Observation, Options, calibrate};
+//! use geom::{Camera, Intrinsics, Point3, Vector3};
+//!
+//! let k = Intrinsics::centred(1500.0, 1280, 960);
+//! let camera =
+//!     Camera::look_at(Point3::new(40.0, -30.0, 500.0), Point3::origin(), Vector3::y(), k, 1280, 960)
+//!         .unwrap();
+//! let mut observations = Vec::new();
+//! for i in 0..5 {
+//!     for j in 0..5 {
+//!         let world = Point3::new(
+//!             40.0 * f64::from(i) - 80.0,
+//!             40.0 * f64::from(j) - 80.0,
+//!             25.0 * f64::from((i + 2 * j) % 3),
+//!         );
+//!         observations.push(Observation {
+//!             id: (5 * i + j) as u32,
+//!             world,
+//!             pixel: camera.project(&world).unwrap(),
+//!             sphere_diameter: None,
+//!         });
+//!     }
+//! }
+//! let options = Options { model: Model::Pinhole, ..Options::default() };
+//! let calibration = calibrate(&observations, 1280, 960, &options).unwrap();
+//! assert!((calibration.camera.intrinsics.fx - 1500.0).abs() < 1e-6);
+//! assert!((calibration.camera.centre() - camera.centre()).norm() < 1e-6);
+//! ```
 //!
 //! # Conventions
 //! - Lengths in millimetres, angles in radians, all geometry in `f64`.
@@ -24,26 +57,32 @@
 
 #![deny(missing_docs)]
 
+mod calibration;
+mod commission;
+mod correspond;
+mod dlt;
 mod error;
-
-pub mod calibration;
-pub mod commission;
-pub mod correspond;
-pub mod dlt;
-pub mod illumination;
-pub mod image;
-pub mod opencv;
-pub mod outliers;
-pub mod refine;
+mod illumination;
+mod image;
+mod opencv;
+mod outliers;
+mod refine;
 
 pub use calibration::{
-    Calibration, Observation, Options, Parameter, PointResidual, calibrate, check_target,
-    observations,
+    Calibration, DEFAULT_MAX_ROUNDS, DEFAULT_OUTLIER_K, Observation, Options, Parameter,
+    PointResidual, calibrate, check_target, observations,
 };
-pub use commission::{CameraInput, CommissionOptions, Report, commission};
-pub use correspond::{CorrespondOptions, Correspondence, Marker, Match, correspond, markers};
-pub use error::{CalibError, Result};
-pub use illumination::{FlatFieldFit, Pixels, fit_flat_field};
+pub use commission::{
+    AxisPair, CameraInput, CameraReport, CommissionOptions, DEFAULT_COC_PX, DEFAULT_F_NUMBER,
+    DepthOfField, FLAT_FIELD_ADVICE, IlluminationReport, Optics, Report, ScaleCost, TravelCamera,
+    TravelReport, commission, depth_of_field,
+};
+pub use correspond::{
+    CorrespondOptions, Correspondence, GATE_SIGMAS, MIN_GATE_PX, Marker, Match, correspond, markers,
+};
+pub use dlt::{MIN_POINTS, residuals as dlt_residuals};
+pub use error::{Ambiguity, CalibError, FlatFieldProblem, Result};
+pub use illumination::{FlatFieldFit, Pixels, ProfilePoint, fit_flat_field};
 pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};
 pub use opencv::opencv_yaml;
 pub use refine::{Layout, Model};

@@ -17,6 +17,7 @@ use geom::lm::Residuals;
 use geom::nalgebra::{
     DMatrix, DVector, Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion,
 };
+use geom::sphere_image::ellipse_centre_jacobian;
 use geom::{Camera, Distortion, Intrinsics, Point2, Point3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -224,23 +225,6 @@ fn left_jacobian(omega: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::identity() + w * a + w * w * b
 }
 
-/// Normalised image position of a marker centred at `c` (camera frame) of
-/// radius ρ: the centre of its outline ellipse `(Cx, Cy)·Cz/(Cz² − ρ²)`, and
-/// its Jacobian with respect to `c`. `None` when the marker is not wholly in
-/// front of the camera.
-fn marker_image(c: &Vector3<f64>, radius: f64) -> Option<(Vector2<f64>, [[f64; 3]; 2])> {
-    let q = c.z * c.z - radius * radius;
-    if !(c.z > radius && q > 0.0) {
-        return None;
-    }
-    let s = c.z / q;
-    let ds = -(c.z * c.z + radius * radius) / (q * q);
-    Some((
-        Vector2::new(c.x * s, c.y * s),
-        [[s, 0.0, c.x * ds], [0.0, s, c.y * ds]],
-    ))
-}
-
 /// Reprojection residuals of one camera: for each point, predicted pixel
 /// minus observed pixel (u then v), under a [`Layout`].
 #[derive(Debug, Clone)]
@@ -271,7 +255,7 @@ impl Reprojection<'_> {
         let t = Vector3::new(p[r + 3], p[r + 4], p[r + 5]);
         let z = Rotation3::new(omega) * (self.r0 * self.world[i].coords);
         let c = z + t;
-        let Some((e, de_dc)) = marker_image(&c, self.radius[i]) else {
+        let Ok((e, de_dc)) = ellipse_centre_jacobian(&c, self.radius[i]) else {
             return Vector2::new(f64::NAN, f64::NAN);
         };
         let (k1, k2) = l.radial().map_or((0.0, 0.0), |j| (p[j], p[j + 1]));
@@ -286,14 +270,6 @@ impl Reprojection<'_> {
             // ∂pixel/∂d = [[fx, skew], [0, fy]].
             let dpix_dd = geom::nalgebra::Matrix2::new(fx, skew, 0.0, fy);
             let dd_de = dist.jacobian(e);
-            let de_dc = geom::nalgebra::Matrix2x3::new(
-                de_dc[0][0],
-                de_dc[0][1],
-                de_dc[0][2],
-                de_dc[1][0],
-                de_dc[1][1],
-                de_dc[1][2],
-            );
             let dpix_dc = dpix_dd * dd_de * de_dc;
             let dc_domega = -cross_matrix(&z) * left_jacobian(&omega);
             let dpix_domega = dpix_dc * dc_domega;
@@ -360,13 +336,9 @@ impl Residuals for Reprojection<'_> {
 pub struct Refined {
     /// The camera at the minimum.
     pub camera: Camera,
-    /// Residual per point (px), predicted − observed.
-    pub residuals: Vec<Vector2<f64>>,
     /// Standard deviation per parameter (in [`Layout::names`] order), from
     /// `s²·(JᵀJ)⁻¹`; `None` without redundancy or with a singular `JᵀJ`.
     pub std_devs: Option<Vec<f64>>,
-    /// Residual evaluations the solver used.
-    pub evaluations: usize,
 }
 
 /// Minimise the reprojection error of the points from `start` (Levenberg–Marquardt,
@@ -395,14 +367,9 @@ pub fn refine(
     )
     .map_err(CalibError::geom("Levenberg–Marquardt refinement"))?;
     let camera = layout.unpack(&solution.params, &r0, start.width, start.height);
-    let residuals = (0..world.len())
-        .map(|i| Vector2::new(solution.residuals[2 * i], solution.residuals[2 * i + 1]))
-        .collect();
     Ok(Refined {
         camera,
-        residuals,
         std_devs: solution.std_devs().map(|s| s.iter().copied().collect()),
-        evaluations: solution.evaluations,
     })
 }
 
@@ -508,7 +475,15 @@ mod tests {
             skew: true,
         };
         let out = refine(layout, &start, &world, &image, &radius).unwrap();
-        let rms = (out.residuals.iter().map(|r| r.norm_squared()).sum::<f64>()
+        let c = &out.camera;
+        let rms = (world
+            .iter()
+            .zip(&image)
+            .map(|(x, p)| {
+                let e = geom::sphere_image::ellipse_centre(&c.to_camera(x), 2.0).unwrap();
+                (c.intrinsics.to_pixel(c.distortion.distort(e)) - p).norm_squared()
+            })
+            .sum::<f64>()
             / world.len() as f64)
             .sqrt();
         assert!(rms < 1e-8, "rms {rms}");

@@ -26,15 +26,22 @@ fn down_camera(offset: Vector3<f64>) -> Camera {
 
 /// A 3-D target: 6×6 markers, 20 mm pitch, heights 0…50 mm in a Latin-square pattern.
 fn target() -> Vec<Marker> {
+    grid(6, 20.0, |i, j| 10.0 * f64::from((i + 2 * j) % 6))
+}
+
+/// An n×n grid of markers of `pitch` (mm) centred on the origin, ids row by
+/// row from 1, marker (i, j) at height `height(i, j)` (mm).
+fn grid(n: u32, pitch: f64, height: impl Fn(u32, u32) -> f64) -> Vec<Marker> {
+    let half = pitch * f64::from(n - 1) / 2.0;
     let mut v = Vec::new();
-    for i in 0..6u32 {
-        for j in 0..6u32 {
+    for i in 0..n {
+        for j in 0..n {
             v.push(Marker {
-                id: i * 6 + j + 1,
+                id: i * n + j + 1,
                 centre: Point3::new(
-                    20.0 * f64::from(i) - 50.0,
-                    20.0 * f64::from(j) - 50.0,
-                    10.0 * f64::from((i + 2 * j) % 6),
+                    pitch * f64::from(i) - half,
+                    pitch * f64::from(j) - half,
+                    height(i, j),
                 ),
             });
         }
@@ -199,19 +206,7 @@ fn coplanar_target() {
 /// apart, fit the image exactly.
 #[test]
 fn ambiguous_assignment() {
-    let mut lattice = Vec::new();
-    for i in 0..10u32 {
-        for j in 0..10u32 {
-            lattice.push(Marker {
-                id: i * 10 + j + 1,
-                centre: Point3::new(
-                    15.0 * f64::from(i) - 67.5,
-                    15.0 * f64::from(j) - 67.5,
-                    10.0 * f64::from((i + j) % 2),
-                ),
-            });
-        }
-    }
+    let lattice = grid(10, 15.0, |i, j| 10.0 * f64::from((i + j) % 2));
     let cam = down_camera(Vector3::zeros());
     // Only the central 8×8 markers are detected.
     let central: Vec<Marker> = lattice

@@ -70,7 +70,7 @@ fn normalised_dlt_rms_matches_the_reference() {
     let c = fit(&obs, Model::Pinhole);
     let world: Vec<_> = obs.iter().map(|o| o.world).collect();
     let image: Vec<_> = obs.iter().map(|o| o.pixel).collect();
-    let max = calib::dlt::residuals(&c.dlt, &world, &image)
+    let max = calib::dlt_residuals(&c.dlt, &world, &image)
         .into_iter()
         .map(|r| r.unwrap().norm())
         .fold(0.0, f64::max);

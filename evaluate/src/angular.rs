@@ -3,20 +3,11 @@
 //! `geom::transform::rigid_fit`) gives the table's rotation vector
 //! `ω = (εx, εy, εz)`; roll is the rotation about the moving axis, pitch and
 //! yaw the other two (X: roll εx, pitch εy, yaw εz; Y: roll εy, pitch εx,
-//! yaw εz; Z: roll εz, pitch εx, yaw εy).
+//! yaw εz; Z: roll εz, pitch εx, yaw εy; `formats::Axis::roll_pitch_yaw`).
+//! The fit itself is `geom::transform::rigid_fit_rms`; this module says how
+//! well a sphere set determines it.
 
-use formats::Axis;
 use geom::{Point3, Vector3};
-
-/// Rotation of the sphere set relative to its pose at the first target.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pose {
-    /// Rotation vector `ω` (rad), world axes.
-    pub rotation: Vector3<f64>,
-    /// RMS distance between the moved first-target spheres and the spheres
-    /// at this target (mm): zero for a rigid set.
-    pub rms: f64,
-}
 
 /// Smallest lever below which angular errors are flagged as poorly
 /// determined (mm): 1 µm of position noise then gives more than 200 µrad.
@@ -37,43 +28,8 @@ pub fn lever(points: &[Point3<f64>]) -> (f64, Vector3<f64>) {
         let r = p.coords - c;
         m + geom::Matrix3::identity() * r.norm_squared() - r * r.transpose()
     });
-    let eig = inertia.symmetric_eigen();
-    let (i, min) =
-        eig.eigenvalues
-            .iter()
-            .enumerate()
-            .fold(
-                (0, f64::INFINITY),
-                |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) },
-            );
-    (
-        (min.max(0.0) / n).sqrt(),
-        eig.eigenvectors.column(i).into_owned(),
-    )
-}
-
-/// Rotation from the sphere centres `first` (at the first target) to `at`
-/// (the same spheres, same order, at another target); ≥ 3 non-collinear spheres.
-pub fn pose(first: &[Point3<f64>], at: &[Point3<f64>]) -> geom::Result<Pose> {
-    let iso = geom::transform::rigid_fit(first, at)?;
-    let ss: f64 = first
-        .iter()
-        .zip(at)
-        .map(|(a, b)| (iso * a - b).norm_squared())
-        .sum();
-    Ok(Pose {
-        rotation: geom::transform::quaternion_vector(&iso.rotation),
-        rms: (ss / first.len() as f64).sqrt(),
-    })
-}
-
-/// `[roll, pitch, yaw]` of a rotation vector for a moving `axis` (rad).
-pub fn roll_pitch_yaw(axis: Axis, w: &Vector3<f64>) -> [f64; 3] {
-    match axis {
-        Axis::X => [w.x, w.y, w.z],
-        Axis::Y => [w.y, w.x, w.z],
-        Axis::Z => [w.z, w.x, w.y],
-    }
+    let (min, axis) = geom::fit::smallest_eigenpair(inertia);
+    ((min.max(0.0) / n).sqrt(), axis)
 }
 
 #[cfg(test)]
@@ -100,23 +56,7 @@ mod tests {
     }
 
     #[test]
-    fn known_rotation_comes_back() {
-        let first = [
-            Point3::new(0.0, 0.0, 10.0),
-            Point3::new(20.0, 20.0, 8.0),
-            Point3::new(-15.0, -15.0, 5.0),
-        ];
-        let w = Vector3::new(3e-5, -2e-5, 5e-5);
-        let iso = geom::transform::rigid(w, Vector3::new(50.0, 0.01, -0.02));
-        let at: Vec<_> = first.iter().map(|p| iso * p).collect();
-        let p = pose(&first, &at).unwrap();
-        assert!(
-            (p.rotation - w).norm() < 1e-10 && p.rms < 1e-10,
-            "{:?} {}",
-            p.rotation - w,
-            p.rms
-        );
-        assert_eq!(roll_pitch_yaw(Axis::Y, &w), [-2e-5, 3e-5, 5e-5]);
+    fn quaternion_vector_keeps_the_digits_of_microradian_angles() {
         // µrad angles to rounding, where acos-based conversions lose digits.
         let tiny = Vector3::new(1.1e-6, -2.3e-7, 1.4e-7);
         let q = geom::nalgebra::UnitQuaternion::from_scaled_axis(tiny);

@@ -25,21 +25,19 @@ pub enum EvaluateError {
         /// What is wrong, with the offending value.
         message: String,
     },
-    /// Input to one of the pure evaluation functions is unusable.
-    #[error("{what}: {message}")]
-    Data {
-        /// The evaluation that was asked for.
-        what: &'static str,
-        /// What is wrong.
-        message: String,
-    },
-    /// An option names something the data does not have.
-    #[error("option {option}: {message}")]
-    Option {
-        /// The option.
-        option: &'static str,
-        /// What is wrong.
-        message: String,
+    /// The points hold no sphere.
+    #[error("evaluate: no spheres in the points")]
+    NoSpheres,
+    /// The deviations given to ISO 230-2 are unusable.
+    #[error("ISO 230-2: {0}")]
+    Iso230_2(Iso230_2Problem),
+    /// `--sphere` names a sphere the points do not have.
+    #[error("option sphere: sphere '{name}' is not in the points (spheres: {})", spheres.join(", "))]
+    UnknownSphere {
+        /// The sphere asked for.
+        name: String,
+        /// The spheres the points have.
+        spheres: Vec<String>,
     },
     /// A fit failed on degenerate data.
     #[error("{what}: {source}")]
@@ -59,6 +57,50 @@ pub enum EvaluateError {
         path: PathBuf,
         /// The underlying error.
         source: std::io::Error,
+    },
+}
+
+/// Why deviations cannot be evaluated by ISO 230-2.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum Iso230_2Problem {
+    /// No targets at all.
+    #[error("no targets")]
+    NoTargets,
+    /// The first target has no approach in either direction.
+    #[error("target 0 has no approaches")]
+    NoApproaches,
+    /// A target's directions differ from the first target's.
+    #[error("target {target} has approaches in {has} but target 0 in {first}")]
+    MixedDirections {
+        /// Target index.
+        target: usize,
+        /// Its directions ("↑ and ↓", "↑ only", …).
+        has: &'static str,
+        /// The first target's directions.
+        first: &'static str,
+    },
+    /// Too few approaches in one direction at a target.
+    #[error(
+        "target {target}: {runs} {direction} approach(es); at least {needed} runs per direction \
+         are needed"
+    )]
+    TooFewRuns {
+        /// Target index.
+        target: usize,
+        /// "↑" or "↓".
+        direction: &'static str,
+        /// Approaches given.
+        runs: usize,
+        /// Approaches needed.
+        needed: usize,
+    },
+    /// A deviation is NaN or infinite.
+    #[error("target {target}: deviation {value} is not a finite number")]
+    NonFinite {
+        /// Target index.
+        target: usize,
+        /// The value.
+        value: f64,
     },
 }
 

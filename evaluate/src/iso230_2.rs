@@ -13,6 +13,7 @@
 //! `E = max(x̄↑, x̄↓) − min(x̄↑, x̄↓)`, `M = max x̄ᵢ − min x̄ᵢ`,
 //! `A = max(x̄ + 2s) − min(x̄ − 2s)` over both directions.
 
+use crate::error::Iso230_2Problem;
 use crate::{EvaluateError, Result};
 
 /// The positional deviations at one target: one value per approach (run),
@@ -108,31 +109,28 @@ pub struct Iso230_2 {
 /// least; the standard asks for 5, a sample standard deviation for 2).
 pub const MIN_RUNS: usize = 2;
 
-const WHAT: &str = "ISO 230-2";
-
 /// Mean and sample standard deviation of one direction's deviations.
 fn direction_stats(
     values: &[f64],
     target: usize,
-    direction: &str,
+    direction: &'static str,
 ) -> Result<Option<DirectionStats>> {
     if values.is_empty() {
         return Ok(None);
     }
     if values.len() < MIN_RUNS {
-        return Err(EvaluateError::Data {
-            what: WHAT,
-            message: format!(
-                "target {target}: {} {direction} approach(es); at least {MIN_RUNS} runs per direction are needed",
-                values.len()
-            ),
-        });
+        return Err(EvaluateError::Iso230_2(Iso230_2Problem::TooFewRuns {
+            target,
+            direction,
+            runs: values.len(),
+            needed: MIN_RUNS,
+        }));
     }
     if let Some(v) = values.iter().find(|v| !v.is_finite()) {
-        return Err(EvaluateError::Data {
-            what: WHAT,
-            message: format!("target {target}: deviation {v} is not a finite number"),
-        });
+        return Err(EvaluateError::Iso230_2(Iso230_2Problem::NonFinite {
+            target,
+            value: *v,
+        }));
     }
     let n = values.len() as f64;
     let mean = values.iter().sum::<f64>() / n;
@@ -172,29 +170,20 @@ fn unidirectional(stats: &[DirectionStats]) -> Unidirectional {
 /// with at least [`MIN_RUNS`] approaches.
 pub fn iso230_2(targets: &[TargetDeviations]) -> Result<Iso230_2> {
     let Some(first) = targets.first() else {
-        return Err(EvaluateError::Data {
-            what: WHAT,
-            message: "no targets".into(),
-        });
+        return Err(EvaluateError::Iso230_2(Iso230_2Problem::NoTargets));
     };
     let (has_up, has_down) = (!first.up.is_empty(), !first.down.is_empty());
     if !has_up && !has_down {
-        return Err(EvaluateError::Data {
-            what: WHAT,
-            message: "target 0 has no approaches".into(),
-        });
+        return Err(EvaluateError::Iso230_2(Iso230_2Problem::NoApproaches));
     }
     let mut figures = Vec::with_capacity(targets.len());
     for (i, t) in targets.iter().enumerate() {
         if t.up.is_empty() == has_up || t.down.is_empty() == has_down {
-            return Err(EvaluateError::Data {
-                what: WHAT,
-                message: format!(
-                    "target {i} has approaches in {} but target 0 in {}",
-                    directions(!t.up.is_empty(), !t.down.is_empty()),
-                    directions(has_up, has_down)
-                ),
-            });
+            return Err(EvaluateError::Iso230_2(Iso230_2Problem::MixedDirections {
+                target: i,
+                has: directions(!t.up.is_empty(), !t.down.is_empty()),
+                first: directions(has_up, has_down),
+            }));
         }
         let up = direction_stats(&t.up, i, "↑")?;
         let down = direction_stats(&t.down, i, "↓")?;

@@ -11,7 +11,7 @@
 //! - Input in millimetres; figures in micrometres (`_um`), angles in
 //!   microradians (`_urad`); commanded (`nominal`) positions in millimetres.
 //! - Lines: the runs of an axis with the same off-axis commanded coordinates
-//!   (within [`lines::LINE_TOLERANCE_MM`]). Each line is evaluated on its
+//!   (within [`LINE_TOLERANCE_MM`]). Each line is evaluated on its
 //!   own; `axes.X` is the line with the most runs (tie: nearest the origin).
 //! - Axis frame: the direction of the orthogonal least-squares line through
 //!   the sphere's per-target mean positions (free of cosine error); datum the
@@ -24,37 +24,81 @@
 //!   orthogonal least squares and minimum zone.
 //! - Flatness: the per-target mean points of every X and Y line together;
 //!   vertical deviations from `z = aX + bY + c`, and the minimum zone.
-//! - Angular: see [`report::ANGULAR_CONVENTION`].
+//! - Angular: see [`ANGULAR_CONVENTION`].
 //! - A figure whose axis or direction is absent is `None` and left out of the
 //!   JSON, never zero.
+//!
+//! # Example
+//! An X axis measured at three targets, two runs each way, with a reversal
+//! error of 2 µm (each approach lands 1 µm short): ISO 230-2's B is 2 µm.
+//! ```
+//! use evaluate::{Options, evaluate};
+//! use formats::{Axis, Direction, PointRow};
+//!
+//! let mut rows = Vec::new();
+//! for target in 0..3u32 {
+//!     let nominal = 50.0 * f64::from(target);
+//!     for (direction, shortfall) in [(Direction::Up, -0.001), (Direction::Down, 0.001)] {
+//!         for run in 1..=2 {
+//!             rows.push(PointRow {
+//!                 axis: Axis::X,
+//!                 direction,
+//!                 run,
+//!                 target,
+//!                 capture: 1,
+//!                 nominal_x: nominal,
+//!                 nominal_y: 0.0,
+//!                 nominal_z: 0.0,
+//!                 sphere: "A".into(),
+//!                 x: nominal + shortfall,
+//!                 y: 0.0,
+//!                 z: 0.0,
+//!                 cameras: "2+3".into(),
+//!                 residual_px: 0.0,
+//!             });
+//!         }
+//!     }
+//! }
+//! let report = evaluate(&rows, &Options::default()).unwrap();
+//! let positioning = &report.axes.x.as_ref().unwrap().main.positioning;
+//! assert!((positioning.b_um.unwrap() - 2.0).abs() < 1e-9);
+//! ```
 
+mod angular;
+mod axis_frame;
 mod error;
-
-pub mod angular;
-pub mod axis_frame;
-pub mod flatness;
-pub mod html;
-pub mod iso230_2;
-pub mod lines;
-pub mod output;
-pub mod plot;
-pub mod points;
-pub mod report;
-pub mod straightness;
-pub mod vdi3441;
+mod flatness;
+mod html;
+mod iso230_2;
+mod lines;
+mod output;
+mod plot;
+mod points;
+mod report;
+mod straightness;
+mod vdi3441;
 
 use std::path::Path;
 
 use formats::{Axis, PointRow, Row};
 use geom::Point3;
 
-pub use error::{EvaluateError, Result};
+pub use angular::MIN_LEVER_MM;
+pub use error::{EvaluateError, Iso230_2Problem, Result};
+pub use iso230_2::{
+    Bidirectional, DirectionStats, Iso230_2, MIN_RUNS, TargetBidirectional, TargetDeviations,
+    TargetFigures, Unidirectional, iso230_2,
+};
+pub use lines::{LINE_TOLERANCE_MM, TARGET_TOLERANCE_MM};
 pub use output::{REPORT_FILES, write_outputs};
-pub use points::read_points;
-pub use report::Report;
+pub use points::{MAX_COORDINATE_MM, UNITS_TOLERANCE_MM, UNITS_TOLERANCE_OF_TRAVEL, read_points};
+pub use report::{
+    ANGULAR_CONVENTION, AngularReport, AngularTarget, Axes, AxisReport, FlatnessPoint,
+    FlatnessReport, LineReport, PositioningReport, PositioningTarget, Report, StraightnessReport,
+    StraightnessTarget, Vdi3441Report,
+};
 
 use crate::points::Located;
-use crate::report::{AxisReport, FlatnessPoint, FlatnessReport};
 
 /// What to evaluate and how.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -103,18 +147,12 @@ pub fn evaluate_file(path: &Path, options: &Options) -> Result<Report> {
 fn choose_sphere(spheres: &[String], options: &Options) -> Result<String> {
     match &options.sphere {
         Some(name) if spheres.contains(name) => Ok(name.clone()),
-        Some(name) => Err(EvaluateError::Option {
-            option: "sphere",
-            message: format!(
-                "sphere '{name}' is not in the points (spheres: {})",
-                spheres.join(", ")
-            ),
+        Some(name) => Err(EvaluateError::UnknownSphere {
+            name: name.clone(),
+            spheres: spheres.to_vec(),
         }),
         None if spheres.iter().any(|s| s == "A") => Ok("A".into()),
-        None => spheres.first().cloned().ok_or_else(|| EvaluateError::Data {
-            what: "evaluate",
-            message: "no spheres in the points".into(),
-        }),
+        None => spheres.first().cloned().ok_or(EvaluateError::NoSpheres),
     }
 }
 

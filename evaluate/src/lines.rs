@@ -8,6 +8,7 @@ use formats::{Axis, Direction};
 use geom::{Point2, Point3, Vector3};
 
 use crate::axis_frame::AxisFrame;
+use crate::iso230_2::TargetDeviations;
 use crate::points::{Located, measured_column, nominal_column, row_error};
 use crate::report::{
     ANGULAR_CONVENTION, AngularReport, AngularTarget, LineReport, PositioningReport,
@@ -135,7 +136,10 @@ pub(crate) struct LineResult {
     pub warnings: Vec<String>,
 }
 
-/// Evaluate one line with `sphere` carrying positioning and straightness.
+/// Evaluate one line with `sphere` carrying positioning and straightness:
+/// the commanded coordinate of each target, the captures per sphere, the axis
+/// frame through the sphere's per-target means, then positioning (ISO 230-2,
+/// the seed's 3σ, VDI/DGQ 3441), straightness and angular errors.
 pub(crate) fn evaluate_line(
     line: &Line<'_>,
     index: usize,
@@ -145,44 +149,10 @@ pub(crate) fn evaluate_line(
     source: &str,
 ) -> Result<LineResult> {
     let axis = line.axis;
-    let ai = axis.index();
     let first_line = line.rows.first().map_or(2, |r| r.line);
     let what = line.describe();
-
-    // Commanded axis coordinate per target, consistent over every row.
-    let mut nominal: BTreeMap<u32, (f64, u64)> = BTreeMap::new();
-    for r in &line.rows {
-        let n = r.row.nominal()[ai];
-        match nominal.get(&r.row.target) {
-            Some(&(n0, l0)) if (n - n0).abs() > TARGET_TOLERANCE_MM => {
-                return Err(row_error(
-                    source,
-                    r.line,
-                    nominal_column(axis),
-                    format!(
-                        "target {} of {what} is commanded at {n} mm here but at {n0} mm on line {l0}",
-                        r.row.target
-                    ),
-                ));
-            }
-            Some(_) => {}
-            None => {
-                nominal.insert(r.row.target, (n, r.line));
-            }
-        }
-    }
-
-    // Captures per sphere, target, approach.
-    let mut data: BTreeMap<&str, SphereData> = BTreeMap::new();
-    for r in &line.rows {
-        data.entry(r.row.sphere.as_str())
-            .or_default()
-            .entry(r.row.target)
-            .or_default()
-            .entry((r.row.direction, r.row.run))
-            .or_default()
-            .push((r.line, Point3::from(r.row.position())));
-    }
+    let nominal = commanded_targets(line, &what, source)?;
+    let data = captures(line);
     let Some(main) = data.get(sphere) else {
         return Err(row_error(
             source,
@@ -204,138 +174,268 @@ pub(crate) fn evaluate_line(
     }
 
     let targets: Vec<u32> = main.keys().copied().collect();
-    let nominal_of = |t: u32| nominal.get(&t).map_or(0.0, |n| n.0);
     let means: Vec<Point3<f64>> = main.values().map(target_mean).collect();
-    let commanded: Vec<f64> = targets.iter().map(|&t| nominal_of(t)).collect();
+    let commanded: Vec<f64> = targets
+        .iter()
+        .map(|t| nominal.get(t).map_or(0.0, |n| n.0))
+        .collect();
     let frame = AxisFrame::fit(axis, &means, &commanded).map_err(|e| EvaluateError::Geom {
         what: format!("axis direction of {what}"),
         source: e,
     })?;
-    // Positional deviation of a measured point at target index k (µm).
-    let deviation = |k: usize, p: &Point3<f64>| um(frame.along(p) - (commanded[k] - commanded[0]));
+    let sweep = Sweep {
+        main,
+        targets: &targets,
+        commanded: &commanded,
+        frame: &frame,
+        what: &what,
+    };
+    let positioning = sweep.positioning(vdi)?;
+    let straightness = sweep.straightness(&means)?;
+    let mut warnings = Vec::new();
+    let angular = angular_errors(line, &data, all_spheres, &sweep, &mut warnings);
 
-    // ISO 230-2 and the seed's 3σ.
-    let mut deviations = Vec::with_capacity(targets.len());
-    let mut seed = Vec::with_capacity(targets.len());
-    for (k, runs) in main.values().enumerate() {
-        let mut dev = iso230_2::TargetDeviations::default();
-        let mut all = Vec::new();
-        for ((direction, _), captures) in runs {
-            let value = deviation(k, &mean_point(captures.iter().map(|(_, p)| p)));
-            match direction {
-                Direction::Up => dev.up.push(value),
-                Direction::Down => dev.down.push(value),
-            }
-            all.extend(captures.iter().map(|(_, p)| deviation(k, p)));
-        }
-        let m = geom::stats::mean(&all).map_err(|e| geom_error(&what, e))?;
-        let s = geom::stats::sample_std(&all).map_err(|e| geom_error(&what, e))?;
-        seed.push((m, s));
-        deviations.push(dev);
-    }
-    let iso = iso230_2::iso230_2(&deviations)?;
-    let seed_3sigma = seed
+    let off_axis = line
+        .off_axis
         .iter()
-        .map(|(m, s)| m + 3.0 * s)
-        .fold(f64::NEG_INFINITY, f64::max)
-        - seed
-            .iter()
-            .map(|(m, s)| m - 3.0 * s)
-            .fold(f64::INFINITY, f64::min);
-    let runs_in = |d: Direction| {
-        main.values()
+        .map(|(a, v)| (measured_column(*a).to_string(), *v))
+        .collect();
+    Ok(LineResult {
+        runs: positioning.runs_up + positioning.runs_down,
+        report: LineReport {
+            line: index,
+            off_axis,
+            targets: targets.len(),
+            direction: [frame.direction.x, frame.direction.y, frame.direction.z],
+            positioning,
+            straightness,
+            angular,
+        },
+        means: targets.iter().copied().zip(means).collect(),
+        warnings,
+    })
+}
+
+/// Commanded axis coordinate per target, consistent over every row of the
+/// line: target → (coordinate mm, line of its first row).
+fn commanded_targets(
+    line: &Line<'_>,
+    what: &str,
+    source: &str,
+) -> Result<BTreeMap<u32, (f64, u64)>> {
+    let axis = line.axis;
+    let mut nominal: BTreeMap<u32, (f64, u64)> = BTreeMap::new();
+    for r in &line.rows {
+        let n = r.row.nominal()[axis.index()];
+        match nominal.get(&r.row.target) {
+            Some(&(n0, l0)) if (n - n0).abs() > TARGET_TOLERANCE_MM => {
+                return Err(row_error(
+                    source,
+                    r.line,
+                    nominal_column(axis),
+                    format!(
+                        "target {} of {what} is commanded at {n} mm here but at {n0} mm on line {l0}",
+                        r.row.target
+                    ),
+                ));
+            }
+            Some(_) => {}
+            None => {
+                nominal.insert(r.row.target, (n, r.line));
+            }
+        }
+    }
+    Ok(nominal)
+}
+
+/// Captures per sphere, target and approach.
+fn captures<'a>(line: &Line<'a>) -> BTreeMap<&'a str, SphereData> {
+    let mut data: BTreeMap<&str, SphereData> = BTreeMap::new();
+    for r in &line.rows {
+        data.entry(r.row.sphere.as_str())
+            .or_default()
+            .entry(r.row.target)
+            .or_default()
+            .entry((r.row.direction, r.row.run))
+            .or_default()
+            .push((r.line, Point3::from(r.row.position())));
+    }
+    data
+}
+
+/// The seed's mean and sample deviation of every capture at a target (µm).
+type SeedStats = (f64, f64);
+
+/// The sphere carrying positioning and straightness on one line, in its axis frame.
+struct Sweep<'a> {
+    /// Its captures.
+    main: &'a SphereData,
+    /// Targets, ascending.
+    targets: &'a [u32],
+    /// Commanded axis coordinate per target (mm).
+    commanded: &'a [f64],
+    /// The axis frame through its per-target means.
+    frame: &'a AxisFrame,
+    /// The line, for messages.
+    what: &'a str,
+}
+
+impl Sweep<'_> {
+    /// Positional deviation of a measured point at target index k (µm).
+    fn deviation(&self, k: usize, p: &Point3<f64>) -> f64 {
+        um(self.frame.along(p) - (self.commanded[k] - self.commanded[0]))
+    }
+
+    /// Per target: the deviation of each approach (its captures averaged) by
+    /// direction, and the seed's mean and sample deviation over every capture (µm).
+    fn deviations(&self) -> Result<(Vec<TargetDeviations>, Vec<SeedStats>)> {
+        let mut deviations = Vec::with_capacity(self.targets.len());
+        let mut seed = Vec::with_capacity(self.targets.len());
+        for (k, runs) in self.main.values().enumerate() {
+            let mut dev = TargetDeviations::default();
+            let mut all = Vec::new();
+            for ((direction, _), captures) in runs {
+                let value = self.deviation(k, &mean_point(captures.iter().map(|(_, p)| p)));
+                match direction {
+                    Direction::Up => dev.up.push(value),
+                    Direction::Down => dev.down.push(value),
+                }
+                all.extend(captures.iter().map(|(_, p)| self.deviation(k, p)));
+            }
+            let m = geom::stats::mean(&all).map_err(|e| geom_error(self.what, e))?;
+            let s = geom::stats::sample_std(&all).map_err(|e| geom_error(self.what, e))?;
+            seed.push((m, s));
+            deviations.push(dev);
+        }
+        Ok((deviations, seed))
+    }
+
+    /// Distinct runs in direction `d`.
+    fn runs_in(&self, d: Direction) -> usize {
+        self.main
+            .values()
             .flat_map(|runs| runs.keys())
             .filter(|(dir, _)| *dir == d)
             .map(|(_, run)| *run)
             .collect::<std::collections::BTreeSet<u32>>()
             .len()
-    };
-    let (runs_up, runs_down) = (runs_in(Direction::Up), runs_in(Direction::Down));
-    let positioning = PositioningReport {
-        a_um: iso.bidirectional.map(|b| b.a),
-        a_up_um: iso.up.map(|u| u.a),
-        a_down_um: iso.down.map(|u| u.a),
-        e_um: iso.bidirectional.map(|b| b.e),
-        e_up_um: iso.up.map(|u| u.e),
-        e_down_um: iso.down.map(|u| u.e),
-        m_um: iso.bidirectional.map(|b| b.m),
-        r_um: iso.bidirectional.map(|b| b.r),
-        r_up_um: iso.up.map(|u| u.r),
-        r_down_um: iso.down.map(|u| u.r),
-        b_um: iso.bidirectional.map(|b| b.b),
-        b_mean_um: iso.bidirectional.map(|b| b.b_mean),
-        seed_3sigma_um: seed_3sigma,
-        runs_up,
-        runs_down,
-        targets: targets
-            .iter()
-            .zip(&iso.targets)
-            .zip(&deviations)
-            .zip(&seed)
-            .map(|(((&t, f), dev), &(seed_mean, seed_s))| PositioningTarget {
-                target: t,
-                nominal: nominal_of(t),
-                mean_up_um: f.up.map(|u| u.mean),
-                mean_down_um: f.down.map(|d| d.mean),
-                s_up_um: f.up.map(|u| u.s),
-                s_down_um: f.down.map(|d| d.s),
-                b_um: f.bidirectional.map(|b| b.reversal),
-                mean_um: f.bidirectional.map(|b| b.mean),
-                r_up_um: f.up.map(|u| u.repeatability()),
-                r_down_um: f.down.map(|d| d.repeatability()),
-                r_um: f.bidirectional.map(|b| b.repeatability),
-                runs_up_um: dev.up.clone(),
-                runs_down_um: dev.down.clone(),
-                seed_mean_um: seed_mean,
-                seed_s_um: seed_s,
-            })
-            .collect(),
-        vdi3441: if vdi {
-            vdi3441::vdi3441(&iso).map(|v| Vdi3441Report {
-                p_um: v.p,
-                ps_um: v.ps,
-                u_um: v.u,
-                u_mean_um: v.u_mean,
-                pa_um: v.pa,
-            })
-        } else {
-            None
-        },
-    };
-
-    // Straightness in the two perpendicular directions.
-    let mut straight = BTreeMap::new();
-    for (k, (world, _)) in frame.perpendicular.iter().enumerate() {
-        let profile: Vec<Point2<f64>> = means
-            .iter()
-            .map(|p| Point2::new(frame.along(p), frame.across(p, k)))
-            .collect();
-        let s = straightness::straightness(&profile).map_err(|e| EvaluateError::Geom {
-            what: format!("straightness in {world} of {what}"),
-            source: e,
-        })?;
-        straight.insert(
-            world.name().to_string(),
-            StraightnessReport {
-                lsq_um: um(s.lsq),
-                min_zone_um: um(s.min_zone),
-                targets: (0..targets.len())
-                    .map(|i| StraightnessTarget {
-                        target: targets[i],
-                        nominal: commanded[i],
-                        deviation_um: um(s.deviations[i]),
-                        zone_low_um: um(s.zone_low[i]),
-                        zone_high_um: um(s.zone_high[i]),
-                    })
-                    .collect(),
-            },
-        );
     }
 
-    // Angular errors from every sphere present at every target, over the
-    // instants at which all of them were measured (an instant lacking a
-    // sphere would otherwise shift that sphere's mean against the others').
-    let mut warnings = Vec::new();
+    /// ISO 230-2, the seed's 3σ and (when `vdi`) VDI/DGQ 3441.
+    fn positioning(&self, vdi: bool) -> Result<PositioningReport> {
+        let (deviations, seed) = self.deviations()?;
+        let iso = iso230_2::iso230_2(&deviations)?;
+        let seed_3sigma = seed
+            .iter()
+            .map(|(m, s)| m + 3.0 * s)
+            .fold(f64::NEG_INFINITY, f64::max)
+            - seed
+                .iter()
+                .map(|(m, s)| m - 3.0 * s)
+                .fold(f64::INFINITY, f64::min);
+        Ok(PositioningReport {
+            a_um: iso.bidirectional.map(|b| b.a),
+            a_up_um: iso.up.map(|u| u.a),
+            a_down_um: iso.down.map(|u| u.a),
+            e_um: iso.bidirectional.map(|b| b.e),
+            e_up_um: iso.up.map(|u| u.e),
+            e_down_um: iso.down.map(|u| u.e),
+            m_um: iso.bidirectional.map(|b| b.m),
+            r_um: iso.bidirectional.map(|b| b.r),
+            r_up_um: iso.up.map(|u| u.r),
+            r_down_um: iso.down.map(|u| u.r),
+            b_um: iso.bidirectional.map(|b| b.b),
+            b_mean_um: iso.bidirectional.map(|b| b.b_mean),
+            seed_3sigma_um: seed_3sigma,
+            runs_up: self.runs_in(Direction::Up),
+            runs_down: self.runs_in(Direction::Down),
+            targets: self
+                .targets
+                .iter()
+                .zip(self.commanded)
+                .zip(&iso.targets)
+                .zip(&deviations)
+                .zip(&seed)
+                .map(
+                    |((((&t, &nominal), f), dev), &(seed_mean, seed_s))| PositioningTarget {
+                        target: t,
+                        nominal,
+                        mean_up_um: f.up.map(|u| u.mean),
+                        mean_down_um: f.down.map(|d| d.mean),
+                        s_up_um: f.up.map(|u| u.s),
+                        s_down_um: f.down.map(|d| d.s),
+                        b_um: f.bidirectional.map(|b| b.reversal),
+                        mean_um: f.bidirectional.map(|b| b.mean),
+                        r_up_um: f.up.map(|u| u.repeatability()),
+                        r_down_um: f.down.map(|d| d.repeatability()),
+                        r_um: f.bidirectional.map(|b| b.repeatability),
+                        runs_up_um: dev.up.clone(),
+                        runs_down_um: dev.down.clone(),
+                        seed_mean_um: seed_mean,
+                        seed_s_um: seed_s,
+                    },
+                )
+                .collect(),
+            vdi3441: if vdi {
+                vdi3441::vdi3441(&iso).map(|v| Vdi3441Report {
+                    p_um: v.p,
+                    ps_um: v.ps,
+                    u_um: v.u,
+                    u_mean_um: v.u_mean,
+                    pa_um: v.pa,
+                })
+            } else {
+                None
+            },
+        })
+    }
+
+    /// Straightness of the per-target `means` in the two perpendicular directions.
+    fn straightness(&self, means: &[Point3<f64>]) -> Result<BTreeMap<String, StraightnessReport>> {
+        let mut straight = BTreeMap::new();
+        for (k, (world, _)) in self.frame.perpendicular.iter().enumerate() {
+            let profile: Vec<Point2<f64>> = means
+                .iter()
+                .map(|p| Point2::new(self.frame.along(p), self.frame.across(p, k)))
+                .collect();
+            let what = self.what;
+            let s = straightness::straightness(&profile).map_err(|e| EvaluateError::Geom {
+                what: format!("straightness in {world} of {what}"),
+                source: e,
+            })?;
+            straight.insert(
+                world.name().to_string(),
+                StraightnessReport {
+                    lsq_um: um(s.lsq),
+                    min_zone_um: um(s.min_zone),
+                    targets: (0..self.targets.len())
+                        .map(|i| StraightnessTarget {
+                            target: self.targets[i],
+                            nominal: self.commanded[i],
+                            deviation_um: um(s.deviations[i]),
+                            zone_low_um: um(s.zone_low[i]),
+                            zone_high_um: um(s.zone_high[i]),
+                        })
+                        .collect(),
+                },
+            );
+        }
+        Ok(straight)
+    }
+}
+
+/// Angular errors from every sphere present at every target, over the
+/// instants at which all of them were measured (an instant lacking a sphere
+/// would otherwise shift that sphere's mean against the others'); `None`
+/// with a warning when they cannot be had.
+fn angular_errors(
+    line: &Line<'_>,
+    data: &BTreeMap<&str, SphereData>,
+    all_spheres: &[String],
+    sweep: &Sweep<'_>,
+    warnings: &mut Vec<String>,
+) -> Option<AngularReport> {
+    let (targets, what) = (sweep.targets, sweep.what);
     let complete: Vec<&String> = all_spheres
         .iter()
         .filter(|name| {
@@ -343,37 +443,7 @@ pub(crate) fn evaluate_line(
                 .is_some_and(|d| targets.iter().all(|t| d.contains_key(t)))
         })
         .collect();
-    let angular = if complete.len() >= 3 {
-        match common_means(line, &complete, &targets) {
-            Err(target) => {
-                warnings.push(format!(
-                    "{what}: angular errors left out: no instant of target {target} has all of spheres {}",
-                    complete.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
-                ));
-                None
-            }
-            Ok(means_at) => {
-                match angular_report(axis, &complete, &means_at, &targets, &commanded) {
-                    Ok(a) => {
-                        if a.lever_mm < angular::MIN_LEVER_MM {
-                            warnings.push(format!(
-                            "{what}: spheres {} are nearly in a line (smallest lever {:.2} mm): the rotation about it is \
-                             poorly determined, ≈ {:.0} µrad per µm of position error",
-                            a.spheres.join(", "),
-                            a.lever_mm,
-                            1e3 / a.lever_mm.max(1e-6)
-                        ));
-                        }
-                        Some(a)
-                    }
-                    Err(e) => {
-                        warnings.push(format!("{what}: angular errors left out: {e}"));
-                        None
-                    }
-                }
-            }
-        }
-    } else {
+    if complete.len() < 3 {
         if all_spheres.len() >= 3 {
             let missing: Vec<&str> = all_spheres
                 .iter()
@@ -385,28 +455,36 @@ pub(crate) fn evaluate_line(
                 missing.join(", ")
             ));
         }
-        None
+        return None;
+    }
+    let means_at = match common_means(line, &complete, targets) {
+        Ok(m) => m,
+        Err(target) => {
+            warnings.push(format!(
+                "{what}: angular errors left out: no instant of target {target} has all of spheres {}",
+                complete.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+            ));
+            return None;
+        }
     };
-
-    let off_axis = line
-        .off_axis
-        .iter()
-        .map(|(a, v)| (measured_column(*a).to_string(), *v))
-        .collect();
-    Ok(LineResult {
-        report: LineReport {
-            line: index,
-            off_axis,
-            targets: targets.len(),
-            direction: [frame.direction.x, frame.direction.y, frame.direction.z],
-            positioning,
-            straightness: straight,
-            angular,
-        },
-        runs: runs_up + runs_down,
-        means: targets.iter().copied().zip(means).collect(),
-        warnings,
-    })
+    match angular_report(line.axis, &complete, &means_at, targets, sweep.commanded) {
+        Ok(a) => {
+            if a.lever_mm < angular::MIN_LEVER_MM {
+                warnings.push(format!(
+                    "{what}: spheres {} are nearly in a line (smallest lever {:.2} mm): the rotation about it is \
+                     poorly determined, ≈ {:.0} µrad per µm of position error",
+                    a.spheres.join(", "),
+                    a.lever_mm,
+                    1e3 / a.lever_mm.max(1e-6)
+                ));
+            }
+            Some(a)
+        }
+        Err(e) => {
+            warnings.push(format!("{what}: angular errors left out: {e}"));
+            None
+        }
+    }
 }
 
 /// A geometric failure on a line.
@@ -535,9 +613,9 @@ fn angular_report(
     let mut rows = Vec::with_capacity(targets.len());
     let mut ss = 0.0;
     for (i, &t) in targets.iter().enumerate() {
-        let pose = angular::pose(&first, &at(t))?;
+        let pose = geom::transform::rigid_fit_rms(&first, &at(t))?;
         ss += pose.rms * pose.rms;
-        let [roll, pitch, yaw] = angular::roll_pitch_yaw(axis, &pose.rotation);
+        let [roll, pitch, yaw] = axis.roll_pitch_yaw(&pose.rotation);
         rows.push(AngularTarget {
             target: t,
             nominal: commanded[i],

@@ -4,7 +4,7 @@
 //! reference line and the minimum zone, angular errors, and a flatness map.
 
 use ::report::plot::{
-    DOWN, FONT, HEIGHT, MAP_HEIGHT, MEAN, RPY, UP, WIDTH, ZONE, colour_bar, diverging, legend,
+    DOWN, HEIGHT, LineChart, MAP_HEIGHT, MEAN, RPY, UP, WIDTH, ZONE, colour_bar, diverging, legend,
     line_chart, padded, svg, with_legend_room,
 };
 use plotters::prelude::*;
@@ -124,92 +124,85 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
 /// Straightness profile: deviation from the least-squares reference line per
 /// target, the reference line itself (0) and the minimum zone as a band.
 pub fn straightness(title: &str, s: &StraightnessReport) -> Result<String> {
-    let (x0, x1) = padded(s.targets.iter().map(|t| t.nominal), 1.0);
-    let (y0, y1) = with_legend_room(padded(
-        s.targets
-            .iter()
-            .flat_map(|t| [t.deviation_um, t.zone_low_um, t.zone_high_um]),
+    let values = s
+        .targets
+        .iter()
+        .map(|t| (t.nominal, [t.deviation_um, t.zone_low_um, t.zone_high_um]));
+    target_plot(
+        title,
+        values,
         0.5,
-    ));
-    Ok(svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(
-            root,
-            title,
-            (x0, x1),
-            (y0, y1),
-            POSITION,
-            "straightness deviation (µm)",
-        )?;
-        let mut band: Vec<(f64, f64)> = s
-            .targets
-            .iter()
-            .map(|t| (t.nominal, t.zone_low_um))
-            .collect();
-        band.extend(s.targets.iter().rev().map(|t| (t.nominal, t.zone_high_um)));
-        chart
-            .draw_series(std::iter::once(Polygon::new(band, ZONE.mix(0.15).filled())))
-            .map_err(|e| e.to_string())?
-            .label(format!("minimum zone {:.3} µm", s.min_zone_um))
-            .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], ZONE.mix(0.3).filled()));
-        for edge in [
-            s.targets
+        "straightness deviation (µm)",
+        |chart, (x0, x1)| {
+            let mut band: Vec<(f64, f64)> = s
+                .targets
                 .iter()
                 .map(|t| (t.nominal, t.zone_low_um))
-                .collect::<Vec<_>>(),
-            s.targets
-                .iter()
-                .map(|t| (t.nominal, t.zone_high_um))
-                .collect(),
-        ] {
+                .collect();
+            band.extend(s.targets.iter().rev().map(|t| (t.nominal, t.zone_high_um)));
             chart
-                .draw_series(LineSeries::new(edge, ZONE.stroke_width(1)))
+                .draw_series(std::iter::once(Polygon::new(band, ZONE.mix(0.15).filled())))
+                .map_err(|e| e.to_string())?
+                .label(format!("minimum zone {:.3} µm", s.min_zone_um))
+                .legend(|(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 20, y + 5)], ZONE.mix(0.3).filled())
+                });
+            for edge in [
+                s.targets
+                    .iter()
+                    .map(|t| (t.nominal, t.zone_low_um))
+                    .collect::<Vec<_>>(),
+                s.targets
+                    .iter()
+                    .map(|t| (t.nominal, t.zone_high_um))
+                    .collect(),
+            ] {
+                chart
+                    .draw_series(LineSeries::new(edge, ZONE.stroke_width(1)))
+                    .map_err(|e| e.to_string())?;
+            }
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(x0, 0.0), (x1, 0.0)],
+                    8,
+                    5,
+                    UP.stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())?
+                .label(format!(
+                    "least-squares reference line (range {:.3} µm)",
+                    s.lsq_um
+                ))
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], UP.stroke_width(2)));
+            let profile: Vec<(f64, f64)> = s
+                .targets
+                .iter()
+                .map(|t| (t.nominal, t.deviation_um))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(profile.clone(), MEAN.stroke_width(2)))
+                .map_err(|e| e.to_string())?
+                .label("profile (per-target mean)")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MEAN.stroke_width(2)));
+            chart
+                .draw_series(
+                    profile
+                        .into_iter()
+                        .map(|c| Circle::new(c, 3, MEAN.filled())),
+                )
                 .map_err(|e| e.to_string())?;
-        }
-        chart
-            .draw_series(DashedLineSeries::new(
-                [(x0, 0.0), (x1, 0.0)],
-                8,
-                5,
-                UP.stroke_width(2),
-            ))
-            .map_err(|e| e.to_string())?
-            .label(format!(
-                "least-squares reference line (range {:.3} µm)",
-                s.lsq_um
-            ))
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], UP.stroke_width(2)));
-        let profile: Vec<(f64, f64)> = s
-            .targets
-            .iter()
-            .map(|t| (t.nominal, t.deviation_um))
-            .collect();
-        chart
-            .draw_series(LineSeries::new(profile.clone(), MEAN.stroke_width(2)))
-            .map_err(|e| e.to_string())?
-            .label("profile (per-target mean)")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MEAN.stroke_width(2)));
-        chart
-            .draw_series(
-                profile
-                    .into_iter()
-                    .map(|c| Circle::new(c, 3, MEAN.filled())),
-            )
-            .map_err(|e| e.to_string())?;
-        legend(&mut chart)
-    })?)
+            Ok(())
+        },
+    )
 }
 
 /// Roll, pitch and yaw per target (µrad).
 pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
-    let (x0, x1) = padded(a.targets.iter().map(|t| t.nominal), 1.0);
-    let (y0, y1) = with_legend_room(padded(
-        a.targets
-            .iter()
-            .flat_map(|t| [t.roll_urad, t.pitch_urad, t.yaw_urad]),
-        1.0,
-    ));
-    Ok(svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), POSITION, "angle (µrad)")?;
+    let values = a
+        .targets
+        .iter()
+        .map(|t| (t.nominal, [t.roll_urad, t.pitch_urad, t.yaw_urad]));
+    target_plot(title, values, 1.0, "angle (µrad)", |chart, _| {
         type Get = fn(&crate::report::AngularTarget) -> f64;
         let series: [(&str, f64, Get); 3] = [
             ("roll", a.roll_urad, |t| t.roll_urad),
@@ -229,6 +222,27 @@ pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
                 .draw_series(pts.into_iter().map(|c| Circle::new(c, 3, colour.filled())))
                 .map_err(|e| e.to_string())?;
         }
+        Ok(())
+    })
+}
+
+/// A line plot of three values per target against the commanded position:
+/// x spans the `(position, values)` pairs' positions (padded to at least
+/// ±1 mm), y their values (padded to at least ±`y_pad`, with room for the
+/// legend); `draw` draws the series on the chart, given the x range, and the
+/// legend follows.
+fn target_plot(
+    title: &str,
+    targets: impl Iterator<Item = (f64, [f64; 3])> + Clone,
+    y_pad: f64,
+    y_desc: &str,
+    draw: impl FnOnce(&mut LineChart<'_, '_>, (f64, f64)) -> std::result::Result<(), String>,
+) -> Result<String> {
+    let (x0, x1) = padded(targets.clone().map(|(x, _)| x), 1.0);
+    let (y0, y1) = with_legend_room(padded(targets.flat_map(|(_, y)| y), y_pad));
+    Ok(svg(title, (WIDTH, HEIGHT), |root| {
+        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), POSITION, y_desc)?;
+        draw(&mut chart, (x0, x1))?;
         legend(&mut chart)
     })?)
 }
@@ -246,21 +260,7 @@ pub fn flatness(title: &str, f: &FlatnessReport) -> Result<String> {
         .max(1e-3);
     Ok(svg(title, (WIDTH, MAP_HEIGHT), |root| {
         let (plot, bar) = root.split_horizontally(WIDTH - 130);
-        let mut chart = ChartBuilder::on(&plot)
-            .caption(title, (FONT, 20))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("x (mm)")
-            .y_desc("y (mm)")
-            .light_line_style(RGBColor(240, 240, 240))
-            .max_light_lines(2)
-            .draw()
-            .map_err(|e| e.to_string())?;
+        let mut chart = line_chart(&plot, title, (x0, x1), (y0, y1), "x (mm)", "y (mm)")?;
         let mut keys: Vec<(&str, usize)> =
             f.points.iter().map(|p| (p.axis.as_str(), p.line)).collect();
         keys.dedup();

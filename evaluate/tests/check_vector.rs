@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use evaluate::iso230_2::{TargetDeviations, iso230_2};
+use evaluate::{TargetDeviations, iso230_2};
 use serde::Deserialize;
 
 /// Agreement required (mm).

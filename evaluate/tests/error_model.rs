@@ -9,7 +9,7 @@
 mod common;
 
 use common::{LineModel, campaign, rows};
-use evaluate::report::{LineReport, Report};
+use evaluate::{LineReport, Report};
 use evaluate::{Options, evaluate};
 use formats::{Axis, Direction};
 use microlp::{ComparisonOp, OptimizationDirection, Problem};
@@ -318,6 +318,19 @@ fn evaluated(lines: &[LineModel], options: &Options) -> Report {
     evaluate(&rows(lines), options).unwrap()
 }
 
+/// The VDI/DGQ 3441 figures of the X axis's main line, if evaluated.
+fn vdi3441_x(report: &Report) -> Option<evaluate::Vdi3441Report> {
+    report
+        .axes
+        .x
+        .as_ref()
+        .unwrap()
+        .main
+        .positioning
+        .vdi3441
+        .clone()
+}
+
 #[test]
 fn campaign_gives_back_the_model() {
     let lines = campaign();
@@ -380,16 +393,7 @@ fn vdi3441_from_the_model() {
         ..Options::default()
     };
     let report = evaluated(&lines[1..2], &options);
-    let v = report
-        .axes
-        .x
-        .as_ref()
-        .unwrap()
-        .main
-        .positioning
-        .vdi3441
-        .clone()
-        .unwrap();
+    let v = vdi3441_x(&report).unwrap();
     let l = &lines[1];
     let um = |v: f64| v * 1e3;
     let n = l.c.len();
@@ -415,17 +419,7 @@ fn vdi3441_from_the_model() {
     );
     // Not asked for: absent.
     let plain = evaluated(&lines[1..2], &Options::default());
-    assert!(
-        plain
-            .axes
-            .x
-            .as_ref()
-            .unwrap()
-            .main
-            .positioning
-            .vdi3441
-            .is_none()
-    );
+    assert!(vdi3441_x(&plain).is_none());
 }
 
 #[test]

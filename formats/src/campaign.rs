@@ -50,6 +50,30 @@ impl Axis {
             Axis::Z => "Z",
         }
     }
+
+    /// Unit vector of the axis in the machine frame.
+    pub fn unit(self) -> geom::Vector3<f64> {
+        geom::Vector3::ith(self.index(), 1.0)
+    }
+
+    /// The machine axis camera `id` looks along, by the rig's numbering
+    /// (docs/formats.md): 1 ∥ X, 2 ∥ Y, 3 ∥ Z; `None` for any other number.
+    /// A camera is not used for motion along its own axis (its image would
+    /// change depth and leave the depth of field, docs/methods.md).
+    pub fn of_camera(id: u8) -> Option<Axis> {
+        Axis::from_index(usize::from(id).checked_sub(1)?)
+    }
+
+    /// `[roll, pitch, yaw]` of a rotation vector `w` (rad) for motion along
+    /// this axis: roll is the rotation about the moving axis, pitch and yaw
+    /// about the other two — X → (εx, εy, εz), Y → (εy, εx, εz), Z → (εz, εx, εy).
+    pub fn roll_pitch_yaw(self, w: &geom::Vector3<f64>) -> [f64; 3] {
+        match self {
+            Axis::X => [w.x, w.y, w.z],
+            Axis::Y => [w.y, w.x, w.z],
+            Axis::Z => [w.z, w.x, w.y],
+        }
+    }
 }
 
 impl std::fmt::Display for Axis {
@@ -309,6 +333,19 @@ pub fn read_spheres(path: &Path) -> Result<Vec<Row<SphereRow>>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn camera_axes_and_roll_pitch_yaw_follow_the_rig_numbering() {
+        assert_eq!(Axis::of_camera(1), Some(Axis::X));
+        assert_eq!(Axis::of_camera(3), Some(Axis::Z));
+        assert_eq!(Axis::of_camera(0), None);
+        assert_eq!(Axis::of_camera(4), None);
+        assert_eq!(Axis::Y.unit(), geom::Vector3::y());
+        let w = geom::Vector3::new(1.0, 2.0, 3.0);
+        assert_eq!(Axis::X.roll_pitch_yaw(&w), [1.0, 2.0, 3.0]);
+        assert_eq!(Axis::Y.roll_pitch_yaw(&w), [2.0, 1.0, 3.0]);
+        assert_eq!(Axis::Z.roll_pitch_yaw(&w), [3.0, 1.0, 2.0]);
+    }
 
     #[test]
     fn sphere_sets_that_cannot_be_matched_are_refused() {

@@ -77,8 +77,6 @@ impl Truth {
     /// The reference figures (the evaluation on the exact positions, key
     /// `figures`), when the renderer could compute them.
     pub fn figures(&self) -> Option<serde_json::Result<ReportFigures>> {
-        self.extra
-            .get("figures")
-            .map(ReportFigures::deserialize)
+        self.extra.get("figures").map(ReportFigures::deserialize)
     }
 }

@@ -187,6 +187,26 @@ struct Context<'a> {
     readers: Mutex<Vec<FrameReader>>,
 }
 
+impl<'a> Context<'a> {
+    fn new(
+        rig: RigModel,
+        plans: &[InstantPlan],
+        spheres: &'a [SphereRow],
+        options: &MeasureOptions,
+        backend: &'a dyn Backend,
+    ) -> Self {
+        Self {
+            reach_mm: 0.5 * extent(plans) + SPHERE_LAYOUT_MM,
+            rig,
+            spheres,
+            diameters: spheres.iter().map(|s| s.diameter).collect(),
+            options: *options,
+            backend,
+            readers: Mutex::new(Vec::new()),
+        }
+    }
+}
+
 /// A row for problems.csv.
 type Failure = InstantProblemRow;
 
@@ -461,7 +481,9 @@ fn rows_for(
 /// from the rows of its spheres: the spheres that share a camera and a
 /// reason are named together (`spheres A, B not found among 1 blob`).
 fn whole_instant(key: &InstantKey, misses: Vec<Failure>) -> Failure {
-    let mut groups: Vec<(Option<u8>, Option<String>, String, Vec<String>)> = Vec::new();
+    // (camera, image, reason, spheres)
+    type Group = (Option<u8>, Option<String>, String, Vec<String>);
+    let mut groups: Vec<Group> = Vec::new();
     for m in misses {
         let name = m.sphere.unwrap_or_default();
         let tail = m
@@ -668,7 +690,11 @@ fn instant_residuals(rows: &[PointRow]) -> BTreeMap<InstantKey, (f64, &str, &str
         let w = worst
             .entry(r.instant())
             .or_insert((f64::NEG_INFINITY, "", ""));
-        if !(r.residual_px <= w.0) {
+        // Larger, or NaN: a NaN residual is the worst.
+        if !matches!(
+            r.residual_px.partial_cmp(&w.0),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        ) {
             *w = (r.residual_px, r.sphere.as_str(), r.cameras.as_str());
         }
     }
@@ -683,8 +709,9 @@ fn implausible(
     residuals: &BTreeMap<InstantKey, (f64, &str, &str)>,
     gate: &ResidualGate,
 ) -> BTreeMap<InstantKey, Failure> {
-    let mut at_position: BTreeMap<(formats::Axis, [u64; 3]), Vec<(InstantKey, f64)>> =
-        BTreeMap::new();
+    // (axis, commanded position bits) → the instants there with their residuals.
+    type AtPosition = BTreeMap<(formats::Axis, [u64; 3]), Vec<(InstantKey, f64)>>;
+    let mut at_position: AtPosition = BTreeMap::new();
     for (key, (r, ..)) in residuals {
         at_position
             .entry((key.axis, key.nominal_bits))
@@ -728,39 +755,23 @@ pub fn measure(
     output: &mut OutputPlan,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Summary> {
+    // The plan, checked in full before any work.
     options.extract.validate()?;
     let rig = RigModel::new(inputs.rig)?;
     let assumed_ideal = rig.assumed_ideal();
     let plans = plan(inputs.manifest, &rig, inputs.spheres, options.all_cameras)?;
-    let partial = with_suffix(out, ".partial");
-    let sidecar = with_suffix(out, ".resume.json");
-    let poses_path = beside(out, "poses.csv");
-    let problems_path = beside(out, "problems.csv");
+    let paths = Paths::of(out);
     output
         .input(inputs.manifest)
         .inputs(plans.iter().flat_map(|p| p.images.values()))
         .file(out)
-        .file(&poses_path)
-        .file(&problems_path)
-        .state(&partial)
-        .state(&sidecar);
+        .file(&paths.poses)
+        .file(&paths.problems)
+        .state(&paths.partial)
+        .state(&paths.sidecar);
     output.lock(formats::output::folder_of(out), "measure")?;
-    let print = fingerprint(inputs, options)?;
-
     // Resume or start afresh.
-    let mut done_rows: Vec<PointRow> = Vec::new();
-    if partial.exists() && !output.force() {
-        let previous: Option<Fingerprint> = formats::read_json(&sidecar).ok();
-        if previous.as_ref() != Some(&print) {
-            return Err(FuseError::ResumeMismatch(partial));
-        }
-        output.resume();
-        done_rows = load_partial(&partial, inputs.spheres.len())?;
-    }
-    output.check()?;
-    output.write_json(&sidecar, &print)?;
-    // Rewrite the partial with the complete instants only, then append to it.
-    output.write_records(&partial, &done_rows)?;
+    let done_rows = resume(inputs, options, &paths, output)?;
     let index_of: HashMap<InstantKey, usize> = plans.iter().map(|p| (p.key, p.index)).collect();
     let done: std::collections::HashSet<InstantKey> = done_rows
         .iter()
@@ -769,118 +780,28 @@ pub fn measure(
         .collect();
     let resumed = done.len();
 
-    let reach_mm = 0.5 * extent(&plans) + SPHERE_LAYOUT_MM;
-    let ctx = Context {
-        reach_mm,
-        rig,
-        spheres: inputs.spheres,
-        diameters: inputs.spheres.iter().map(|s| s.diameter).collect(),
-        options: *options,
-        backend,
-        readers: Mutex::new(Vec::new()),
-    };
+    // Every instant not done, in parallel chunks appended to the partial file.
+    let ctx = Context::new(rig, &plans, inputs.spheres, options, backend);
     let todo: Vec<&InstantPlan> = plans.iter().filter(|p| !done.contains(&p.key)).collect();
-
     let references = if options.fusion == Fusion::Seed {
         seed_references(&ctx, &plans)
     } else {
         HashMap::new()
     };
-
     let total = plans.len() as u64;
     progress(resumed as u64, total);
-    let mut appender = std::fs::OpenOptions::new()
-        .append(true)
-        .open(&partial)
-        .map_err(|e| formats::FormatError::io(&partial, e))?;
-    let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
-    let mut finished = resumed as u64;
-    for chunk in todo.chunks(CHUNK_INSTANTS) {
-        let results: Vec<Outcome> = chunk
-            .par_iter()
-            .map(|ip| measure_one(&ctx, ip, &references))
-            .collect();
-        let mut bytes = Vec::new();
-        {
-            let mut w = csv::WriterBuilder::new()
-                .has_headers(false)
-                .from_writer(&mut bytes);
-            for (ip, outcome) in chunk.iter().zip(results) {
-                for row in outcome.rows {
-                    w.serialize(row)
-                        .map_err(|e| formats::FormatError::file(&partial, e.to_string()))?;
-                }
-                problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
-            }
-            w.flush()
-                .map_err(|e| formats::FormatError::io(&partial, e))?;
-        }
-        appender
-            .write_all(&bytes)
-            .and_then(|()| appender.sync_data())
-            .map_err(|e| formats::FormatError::io(&partial, e))?;
-        finished += chunk.len() as u64;
-        progress(finished, total);
-    }
-    drop(appender);
+    let mut problems = measure_chunks(&ctx, &todo, &references, &paths.partial, |finished| {
+        progress(resumed as u64 + finished, total)
+    })?;
 
-    // Every row of this run and the resumed one, as written: the gate sees
-    // the same residuals whether or not the run was interrupted.
-    let mut rows = read_partial(&partial)?;
-    rows.retain(|r| index_of.contains_key(&r.instant()));
-    let residuals = instant_residuals(&rows);
-    let all: Vec<f64> = residuals.values().map(|r| r.0).collect();
-    let gate = ResidualGate::from_residuals(&all);
-    let refused = gate
-        .map(|g| implausible(&residuals, &g))
-        .unwrap_or_default();
-    rows.retain(|r| !refused.contains_key(&r.instant()));
+    // The plausibility gate over every row written, this run's and the resumed one's.
+    let (mut rows, gate, refused) = gated_rows(&paths.partial, &index_of)?;
     let implausible_count = refused.len();
     problems.extend(refused.into_iter().map(|(key, p)| (index_of[&key], p)));
 
     // Final outputs, in manifest order, atomically.
-    let sphere_rank: HashMap<&str, usize> = inputs
-        .spheres
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (s.name.as_str(), i))
-        .collect();
-    let rank = |p: &PointRow| {
-        let key = p.instant();
-        (
-            index_of.get(&key).copied().unwrap_or(usize::MAX),
-            sphere_rank
-                .get(p.sphere.as_str())
-                .copied()
-                .unwrap_or(usize::MAX),
-        )
-    };
-    rows.sort_by_key(rank);
-    output.write_records(out, &rows)?;
-    let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
-    let fitted = poses(&rows, &names);
-    output.write_records(&poses_path, &fitted.rows)?;
-    let without_pose = fitted.failed.len();
-    problems.extend(fitted.failed.into_iter().map(|(key, reason)| {
-        (
-            index_of[&key],
-            InstantProblemRow::of(&key, Missing::Pose, None, None, None, reason),
-        )
-    }));
-    // Manifest order; within an instant, as found (a stable sort).
-    problems.sort_by_key(|(i, _)| *i);
-    let problems_file = if problems.is_empty() {
-        // One left by the interrupted run this one resumed, or replaced with --force.
-        output.remove(&problems_path)?;
-        None
-    } else {
-        let list: Vec<InstantProblemRow> = problems.iter().map(|(_, p)| p.clone()).collect();
-        output.write_records(&problems_path, &list)?;
-        Some(problems_path)
-    };
-    for f in [&partial, &sidecar] {
-        std::fs::remove_file(f).map_err(|e| formats::FormatError::io(f, e))?;
-    }
+    let (without_pose, problem_count, problems_file) =
+        write_outputs(&mut rows, problems, &index_of, inputs, out, &paths, output)?;
     let mut per_instant: HashMap<InstantKey, usize> = HashMap::new();
     for r in &rows {
         *per_instant.entry(r.instant()).or_default() += 1;
@@ -896,10 +817,202 @@ pub fn measure(
         resumed,
         implausible: implausible_count,
         gate,
-        problems: problems.len(),
+        problems: problem_count,
         points: out.to_path_buf(),
         problems_file,
-        poses: poses_path,
+        poses: paths.poses,
         assumed_ideal_lens: assumed_ideal,
     })
+}
+
+/// Write `points.csv` (the rows sorted into manifest order), `poses.csv`
+/// and `problems.csv` (with the instants whose pose failed), and remove the
+/// partial files: the count of instants without a pose, of problems, and
+/// the problems file when written.
+fn write_outputs(
+    rows: &mut [PointRow],
+    mut problems: Vec<(usize, InstantProblemRow)>,
+    index_of: &HashMap<InstantKey, usize>,
+    inputs: &Inputs<'_>,
+    out: &Path,
+    paths: &Paths,
+    output: &mut OutputPlan,
+) -> Result<(usize, usize, Option<PathBuf>)> {
+    sort_rows(rows, index_of, inputs.spheres);
+    output.write_records(out, &*rows)?;
+    let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
+    let fitted = poses(rows, &names);
+    output.write_records(&paths.poses, &fitted.rows)?;
+    let without_pose = fitted.failed.len();
+    problems.extend(fitted.failed.into_iter().map(|(key, reason)| {
+        (
+            index_of[&key],
+            InstantProblemRow::of(&key, Missing::Pose, None, None, None, reason),
+        )
+    }));
+    let problem_count = problems.len();
+    let problems_file = write_problems(problems, &paths.problems, output)?;
+    for f in [&paths.partial, &paths.sidecar] {
+        std::fs::remove_file(f).map_err(|e| formats::FormatError::io(f, e))?;
+    }
+    Ok((without_pose, problem_count, problems_file))
+}
+
+/// The files of a measure run beside its `points.csv`.
+struct Paths {
+    /// Rows so far (`points.csv.partial`).
+    partial: PathBuf,
+    /// Fingerprint of the inputs and options (`points.csv.resume.json`).
+    sidecar: PathBuf,
+    /// `poses.csv`.
+    poses: PathBuf,
+    /// `problems.csv`.
+    problems: PathBuf,
+}
+
+impl Paths {
+    fn of(out: &Path) -> Self {
+        Self {
+            partial: with_suffix(out, ".partial"),
+            sidecar: with_suffix(out, ".resume.json"),
+            poses: beside(out, "poses.csv"),
+            problems: beside(out, "problems.csv"),
+        }
+    }
+}
+
+/// The complete instants' rows of a partial output of the same inputs and
+/// options (none when starting afresh); the partial file rewritten with them
+/// and the fingerprint beside it.
+fn resume(
+    inputs: &Inputs<'_>,
+    options: &MeasureOptions,
+    paths: &Paths,
+    output: &mut OutputPlan,
+) -> Result<Vec<PointRow>> {
+    let print = fingerprint(inputs, options)?;
+    let mut done_rows: Vec<PointRow> = Vec::new();
+    if paths.partial.exists() && !output.force() {
+        let previous: Option<Fingerprint> = formats::read_json(&paths.sidecar).ok();
+        if previous.as_ref() != Some(&print) {
+            return Err(FuseError::ResumeMismatch(paths.partial.clone()));
+        }
+        output.resume();
+        done_rows = load_partial(&paths.partial, inputs.spheres.len())?;
+    }
+    output.check()?;
+    output.write_json(&paths.sidecar, &print)?;
+    // Rewrite the partial with the complete instants only, then append to it.
+    output.write_records(&paths.partial, &done_rows)?;
+    Ok(done_rows)
+}
+
+/// Measure `todo` a chunk at a time in parallel, appending each chunk's rows
+/// to `partial` (synced) and calling `finished(instants so far)`; returns the
+/// problems with their instants' manifest indices.
+fn measure_chunks(
+    ctx: &Context<'_>,
+    todo: &[&InstantPlan],
+    references: &HashMap<LineKey, Vec<SphereReference>>,
+    partial: &Path,
+    finished: impl Fn(u64),
+) -> Result<Vec<(usize, InstantProblemRow)>> {
+    let mut appender = std::fs::OpenOptions::new()
+        .append(true)
+        .open(partial)
+        .map_err(|e| formats::FormatError::io(partial, e))?;
+    let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
+    let mut count = 0u64;
+    for chunk in todo.chunks(CHUNK_INSTANTS) {
+        let results: Vec<Outcome> = chunk
+            .par_iter()
+            .map(|ip| measure_one(ctx, ip, references))
+            .collect();
+        let mut bytes = Vec::new();
+        {
+            let mut w = csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(&mut bytes);
+            for (ip, outcome) in chunk.iter().zip(results) {
+                for row in outcome.rows {
+                    w.serialize(row)
+                        .map_err(|e| formats::FormatError::file(partial, e.to_string()))?;
+                }
+                problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
+            }
+            w.flush()
+                .map_err(|e| formats::FormatError::io(partial, e))?;
+        }
+        appender
+            .write_all(&bytes)
+            .and_then(|()| appender.sync_data())
+            .map_err(|e| formats::FormatError::io(partial, e))?;
+        count += chunk.len() as u64;
+        finished(count);
+    }
+    Ok(problems)
+}
+
+/// Every row of the partial file of a planned instant, as written (the gate
+/// sees the same residuals whether or not the run was interrupted), less the
+/// instants the campaign's residual gate refuses; the gate and the refusals.
+#[allow(clippy::type_complexity)]
+fn gated_rows(
+    partial: &Path,
+    index_of: &HashMap<InstantKey, usize>,
+) -> Result<(
+    Vec<PointRow>,
+    Option<ResidualGate>,
+    BTreeMap<InstantKey, Failure>,
+)> {
+    let mut rows = read_partial(partial)?;
+    rows.retain(|r| index_of.contains_key(&r.instant()));
+    let residuals = instant_residuals(&rows);
+    let all: Vec<f64> = residuals.values().map(|r| r.0).collect();
+    let gate = ResidualGate::from_residuals(&all);
+    let refused = gate
+        .map(|g| implausible(&residuals, &g))
+        .unwrap_or_default();
+    rows.retain(|r| !refused.contains_key(&r.instant()));
+    Ok((rows, gate, refused))
+}
+
+/// Rows in manifest order, the spheres of an instant in the order of `spheres`.
+fn sort_rows(rows: &mut [PointRow], index_of: &HashMap<InstantKey, usize>, spheres: &[SphereRow]) {
+    let sphere_rank: HashMap<&str, usize> = spheres
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.name.as_str(), i))
+        .collect();
+    let rank = |p: &PointRow| {
+        let key = p.instant();
+        (
+            index_of.get(&key).copied().unwrap_or(usize::MAX),
+            sphere_rank
+                .get(p.sphere.as_str())
+                .copied()
+                .unwrap_or(usize::MAX),
+        )
+    };
+    rows.sort_by_key(rank);
+}
+
+/// Write `problems.csv` in manifest order (within an instant, as found), or
+/// remove one left by an interrupted run or replaced with `--force` when
+/// there is none; its path when written.
+fn write_problems(
+    mut problems: Vec<(usize, InstantProblemRow)>,
+    path: &Path,
+    output: &mut OutputPlan,
+) -> Result<Option<PathBuf>> {
+    // A stable sort.
+    problems.sort_by_key(|(i, _)| *i);
+    if problems.is_empty() {
+        output.remove(path)?;
+        Ok(None)
+    } else {
+        let list: Vec<InstantProblemRow> = problems.into_iter().map(|(_, p)| p).collect();
+        output.write_records(path, &list)?;
+        Ok(Some(path.to_path_buf()))
+    }
 }

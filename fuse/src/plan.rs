@@ -12,11 +12,6 @@ use geom::{Camera, Illumination, Point3, Vector3};
 
 use crate::{FuseError, Result};
 
-/// Cameras whose optical axis makes more than this |cosine| with a motion
-/// axis look along it, and are not used for it by default (the seed uses
-/// cameras 2 + 3 for X and 1 + 3 for Y).
-const ALONG_AXIS_COS: f64 = 0.7;
-
 /// One instant to measure: its key and one image per camera.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InstantPlan {
@@ -28,13 +23,6 @@ pub struct InstantPlan {
     pub line: LineKey,
     /// Camera id → image path (resolved against the manifest's folder).
     pub images: BTreeMap<u8, PathBuf>,
-}
-
-impl InstantPlan {
-    /// Short human description, e.g. `X + run 2 target 7 capture 1 at (21, 0, 0)`.
-    pub fn describe(&self) -> String {
-        describe(&self.key)
-    }
 }
 
 /// `X + run 2 target 7 capture 1 at (21, 0, 0)`.
@@ -64,29 +52,25 @@ impl RigModel {
         let mut cameras = BTreeMap::new();
         let mut illumination = BTreeMap::new();
         for c in &rig.cameras {
-            let cam = c.model.to_camera().map_err(|e| FuseError::Rig {
+            let cam = c.model.to_camera().map_err(|e| FuseError::RigCamera {
                 camera: c.model.id,
                 message: e.to_string(),
             })?;
             let ri = c
                 .relative_illumination
                 .to_model(c.model.width, c.model.height)
-                .map_err(|e| FuseError::Rig {
+                .map_err(|e| FuseError::RigCamera {
                     camera: c.model.id,
                     message: e.to_string(),
                 })?;
             illumination.insert(c.model.id, ri);
             if cameras.insert(c.model.id, cam).is_some() {
-                return Err(FuseError::Rig {
-                    camera: c.model.id,
-                    message: "appears twice in the rig".into(),
-                });
+                return Err(FuseError::DuplicateCamera { camera: c.model.id });
             }
         }
         if cameras.len() < 2 {
-            return Err(FuseError::Rig {
+            return Err(FuseError::TooFewCameras {
                 camera: rig.cameras.first().map_or(0, |c| c.model.id),
-                message: "a measurement needs at least two cameras".into(),
             });
         }
         // Σ (I − d dᵀ)·p = Σ (I − d dᵀ)·c over the axes (c centre, d direction).
@@ -100,10 +84,7 @@ impl RigModel {
         let working_point = a
             .try_inverse()
             .map(|inv| Point3::from(inv * b))
-            .ok_or_else(|| FuseError::Rig {
-                camera: 0,
-                message: "the optical axes are all parallel: no working point".into(),
-            })?;
+            .ok_or(FuseError::ParallelOpticalAxes)?;
         Ok(Self {
             cameras,
             illumination,
@@ -127,13 +108,12 @@ impl RigModel {
             .map(|c| (c.centre() - self.working_point).norm())
     }
 
-    /// Cameras used for motion along `axis`: all, or (default) those not looking along it.
+    /// Cameras used for motion along `axis`: all, or (default) those not
+    /// looking along it by the rig's numbering ([`Axis::of_camera`]).
     pub fn cameras_for(&self, axis: Axis, all: bool) -> Vec<u8> {
-        let mut e = Vector3::zeros();
-        e[axis.index()] = 1.0;
         self.cameras
             .iter()
-            .filter(|(_, c)| all || c.optical_axis().dot(&e).abs() <= ALONG_AXIS_COS)
+            .filter(|(id, _)| all || Axis::of_camera(**id) != Some(axis))
             .map(|(&id, _)| id)
             .collect()
     }

@@ -108,6 +108,9 @@ impl ResidualGate {
         })
     }
 
+    /// The limit held within [floor, ceiling]; a NaN limit becomes the
+    /// floor (`f64::clamp` would keep the NaN).
+    #[allow(clippy::manual_clamp)]
     fn clamp(limit: f64) -> f64 {
         limit.max(RESIDUAL_FLOOR_PX).min(RESIDUAL_CEILING_PX)
     }

@@ -5,19 +5,9 @@
 
 use std::collections::BTreeMap;
 
-use formats::{Axis, InstantKey, LineKey, PointRow, PoseRow};
+use formats::{InstantKey, LineKey, PointRow, PoseRow};
 use geom::Point3;
-use geom::transform::{quaternion_vector, rigid_fit};
-
-/// `[roll, pitch, yaw]` of a rotation vector for motion along `axis`:
-/// X → (εx, εy, εz), Y → (εy, εx, εz), Z → (εz, εx, εy).
-pub fn roll_pitch_yaw(axis: Axis, r: &geom::Vector3<f64>) -> [f64; 3] {
-    match axis {
-        Axis::X => [r.x, r.y, r.z],
-        Axis::Y => [r.y, r.x, r.z],
-        Axis::Z => [r.z, r.x, r.y],
-    }
-}
+use geom::transform::rigid_fit_rms;
 
 /// The table's poses of a measurement, and the instants whose pose could not
 /// be fitted although all their spheres were measured.
@@ -61,7 +51,7 @@ pub fn poses(points: &[PointRow], spheres: &[String]) -> Poses {
             continue;
         };
         let first = reference.entry(k.line()).or_insert_with(|| now.clone());
-        let motion = match rigid_fit(first, &now) {
+        let fit = match rigid_fit_rms(first, &now) {
             Ok(m) => m,
             Err(e) => {
                 out.failed
@@ -69,17 +59,11 @@ pub fn poses(points: &[PointRow], spheres: &[String]) -> Poses {
                 continue;
             }
         };
-        let r = quaternion_vector(&motion.rotation);
-        let [roll, pitch, yaw] = roll_pitch_yaw(k.axis, &r);
-        let residual = (first
-            .iter()
-            .zip(&now)
-            .map(|(p, q)| (motion.transform_point(p) - q).norm_squared())
-            .sum::<f64>()
-            / now.len() as f64)
-            .sqrt();
+        let r = fit.rotation;
+        let [roll, pitch, yaw] = k.axis.roll_pitch_yaw(&r);
+        let residual = fit.rms;
         let [nx, ny, nz] = k.nominal();
-        let t = motion.translation.vector;
+        let t = fit.motion.translation.vector;
         out.rows.push(PoseRow {
             axis: k.axis,
             direction: k.direction,

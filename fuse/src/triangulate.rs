@@ -12,6 +12,7 @@
 
 use geom::lm::{self, LmOptions, Residuals};
 use geom::nalgebra::{DMatrix, DVector, Matrix2x3, Matrix4, Vector4};
+use geom::sphere_image::ellipse_centre_jacobian;
 use geom::{Camera, Point2, Point3, Vector2, Vector3};
 
 use crate::{FuseError, Result};
@@ -37,23 +38,18 @@ pub struct Triangulated {
 }
 
 /// Predicted ellipse centre (ideal pixels) of a sphere of radius `radius` at
-/// `x`, and its Jacobian with respect to x (px/mm).
+/// `x`, and its Jacobian with respect to x (px/mm): the normalised centre and
+/// its Jacobian of [`geom::sphere_image::ellipse_centre_jacobian`], mapped by
+/// the intrinsics K and the camera rotation R (`∂p/∂x = K₂ₓ₂·∂e/∂C·R`).
 pub fn predict(
     camera: &Camera,
     x: &Point3<f64>,
     radius: f64,
 ) -> Option<(Vector2<f64>, Matrix2x3<f64>)> {
     let c = camera.to_camera(x);
-    let d = c.z * c.z - radius * radius;
-    if !(c.z > 0.0 && d > 0.0) {
-        return None;
-    }
+    let (e, de_dc) = ellipse_centre_jacobian(&c.coords, radius).ok()?;
     let k = &camera.intrinsics;
-    let e = Vector2::new(c.x * c.z / d, c.y * c.z / d);
-    let pixel = Vector2::new(k.fx * e.x + k.skew * e.y + k.cx, k.fy * e.y + k.cy);
-    // ∂e/∂C: ∂ex/∂Cx = Cz/D, ∂ex/∂Cz = −Cx·(Cz² + r²)/D², likewise ey.
-    let dz = -(c.z * c.z + radius * radius) / (d * d);
-    let de_dc = Matrix2x3::new(c.z / d, 0.0, c.x * dz, 0.0, c.z / d, c.y * dz);
+    let pixel = k.to_pixel(e).coords;
     let dp_de = geom::nalgebra::Matrix2::new(k.fx, k.skew, 0.0, k.fy);
     let jac = dp_de * de_dc * camera.rotation().matrix();
     Some((pixel, jac))
@@ -63,10 +59,7 @@ pub fn predict(
 /// normalised coordinates, `x·P₃ − P₁ = 0`, `y·P₃ − P₂ = 0`, P = [R|t].
 pub fn linear(views: &[View<'_>]) -> Result<Point3<f64>> {
     if views.len() < 2 {
-        return Err(FuseError::Instant(format!(
-            "a sphere needs two views, has {}",
-            views.len()
-        )));
+        return Err(FuseError::TooFewViews { views: views.len() });
     }
     let mut a = Matrix4::<f64>::zeros();
     for v in views {
@@ -79,20 +72,9 @@ pub fn linear(views: &[View<'_>]) -> Result<Point3<f64>> {
         }
     }
     // Smallest eigenvector of AᵀA.
-    let eig = a.symmetric_eigen();
-    let (imin, _) =
-        eig.eigenvalues
-            .iter()
-            .enumerate()
-            .fold(
-                (0, f64::INFINITY),
-                |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) },
-            );
-    let h = eig.eigenvectors.column(imin);
+    let (_, h) = geom::fit::smallest_eigenpair(a);
     if h[3].abs() < 1e-12 * h.norm() {
-        return Err(FuseError::Instant(
-            "views are parallel: the sphere is at infinity".into(),
-        ));
+        return Err(FuseError::ParallelViews);
     }
     Ok(Point3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]))
 }
@@ -162,9 +144,11 @@ pub fn seed_displacement(
     depths: &[f64],
 ) -> Result<(Vector3<f64>, f64)> {
     if reference.len() != current.len() || reference.len() != depths.len() || reference.len() < 2 {
-        return Err(FuseError::Instant(
-            "pixel-scale fusion needs the same two or more cameras at both instants".into(),
-        ));
+        return Err(FuseError::SeedCameras {
+            reference: reference.len(),
+            current: current.len(),
+            depths: depths.len(),
+        });
     }
     let n = reference.len();
     let mut a = DMatrix::zeros(2 * n, 3);
@@ -185,9 +169,7 @@ pub fn seed_displacement(
         scale.push(k.fy / z);
     }
     let svd = a.clone().svd(true, true);
-    let d = svd
-        .solve(&b, 1e-12)
-        .map_err(|e| FuseError::Instant(format!("pixel-scale fusion: {e}")))?;
+    let d = svd.solve(&b, 1e-12).map_err(FuseError::SeedSolve)?;
     let res = &a * &d - &b;
     let rms = (res
         .iter()

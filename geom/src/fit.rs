@@ -23,7 +23,11 @@ pub use line::{Line2Fit, Line3Fit, SlopeLine, line_2d, line_3d, line_y_on_x};
 pub use plane::{HeightPlane, PlaneFit, plane, plane_z_on_xy};
 pub use sphere::{SphereFit, sphere};
 
-use nalgebra::{DMatrix, DVector, Matrix3, OPoint, Point3, SVD, SVector, Vector3};
+use nalgebra::allocator::Allocator;
+use nalgebra::{
+    Const, DMatrix, DVector, DefaultAllocator, DimDiff, DimSub, Matrix3, OPoint, Point3, SMatrix,
+    SVD, SVector, U1, Vector3,
+};
 
 use crate::lm::{self, LmOptions, Residuals};
 use crate::{GeomError, Result};
@@ -163,6 +167,27 @@ pub(crate) fn solve_least_squares(
         .map_err(|e| GeomError::Degenerate(format!("{what}: {e}")))
 }
 
+/// Smallest eigenvalue of a symmetric matrix and its unit eigenvector
+/// (the first of equal ones, in nalgebra's `symmetric_eigen` order): the
+/// homogeneous least-squares solution `min ‖A·h‖, ‖h‖ = 1` of `M = AᵀA`, or
+/// the axis of least inertia.
+pub fn smallest_eigenpair<const D: usize>(m: SMatrix<f64, D, D>) -> (f64, SVector<f64, D>)
+where
+    Const<D>: DimSub<U1>,
+    DefaultAllocator: Allocator<DimDiff<Const<D>, U1>>,
+{
+    let eig = m.symmetric_eigen();
+    let (i, min) =
+        eig.eigenvalues
+            .iter()
+            .enumerate()
+            .fold(
+                (0, f64::INFINITY),
+                |(bi, bv), (i, &v)| if v < bv { (i, v) } else { (bi, bv) },
+            );
+    (min, eig.eigenvectors.column(i).into_owned())
+}
+
 /// Gauss–Newton steps at most, after Levenberg–Marquardt.
 const POLISH_STEPS: usize = 5;
 /// Relative rise of `Σr²` a Gauss–Newton step may cause (rounding of the
@@ -199,4 +224,20 @@ pub(crate) fn least_squares<P: Residuals>(
         (params, r, j, gradient) = (trial, tr, tj, tg);
     }
     Ok(params)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn smallest_eigenpair_of_a_rotated_diagonal() {
+        let r = nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.5));
+        let m = r.matrix()
+            * Matrix3::from_diagonal(&Vector3::new(3.0, 0.5, 2.0))
+            * r.matrix().transpose();
+        let (min, v) = smallest_eigenpair(m);
+        assert!((min - 0.5).abs() < 1e-12);
+        assert!((v.dot(&(r * Vector3::y())).abs() - 1.0).abs() < 1e-12);
+    }
 }

@@ -15,6 +15,27 @@
 //!   its centre at u = 4.5.
 //! - Lens distortion is Brown's model on normalised coordinates, with OpenCV's
 //!   coefficient names and signs (k1, k2, k3 radial; p1, p2 tangential).
+//!
+//! # Example
+//! A camera 460 mm from a 20 mm sphere 75 mm off its axis: the centre of the
+//! sphere's image is pushed outward from the projected centre by the
+//! perspective bias `Δ = r_c·R²/(Z² − R²)` (docs/methods.md).
+//! ```
+//! use geom::sphere_image::ellipse_centre_jacobian;
+//! use geom::{Camera, Intrinsics, Point3, Vector3};
+//!
+//! let k = Intrinsics::centred(7966.0, 4096, 3072);
+//! let camera =
+//!     Camera::look_at(Point3::new(0.0, 0.0, 460.0), Point3::origin(), Vector3::y(), k, 4096, 3072)
+//!         .unwrap();
+//! let sphere = Point3::new(75.0, 0.0, 0.0);
+//! let projected = camera.project_pinhole(&sphere).unwrap();
+//! let (e, _) = ellipse_centre_jacobian(&camera.to_camera(&sphere).coords, 10.0).unwrap();
+//! let image = camera.intrinsics.to_pixel(e);
+//! let r_c = (projected.x - k.cx).hypot(projected.y - k.cy);
+//! let bias = (image - projected).norm();
+//! assert!((bias - r_c * 100.0 / (460.0f64.powi(2) - 100.0)).abs() < 1e-9);
+//! ```
 
 mod error;
 

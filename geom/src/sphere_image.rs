@@ -8,7 +8,7 @@
 //! from the projected centre `c = (Cx, Cy)/Cz` by the factor `Cz²/(Cz² − R²)`
 //! (docs/methods.md, perspective bias: `Δ = r_c·R²/(Z² − R²)`).
 
-use nalgebra::{Matrix3, Point3, Vector2};
+use nalgebra::{Matrix2x3, Matrix3, Point3, Vector2, Vector3};
 
 use crate::{GeomError, Result};
 
@@ -41,8 +41,37 @@ pub fn outline_conic(centre: &Point3<f64>, radius: f64) -> Result<Matrix3<f64>> 
 /// `e = (Cx, Cy)·Cz/(Cz² − R²)`.
 pub fn ellipse_centre(centre: &Point3<f64>, radius: f64) -> Result<Vector2<f64>> {
     check(centre, radius)?;
-    let s = centre.z / (centre.z * centre.z - radius * radius);
-    Ok(Vector2::new(centre.x * s, centre.y * s))
+    Ok(ellipse_centre_jacobian(&centre.coords, radius)?.0)
+}
+
+/// Centre of the outline ellipse (normalised coordinates) of a sphere of
+/// radius `radius` ≥ 0 (mm) centred at `centre` (camera frame, mm), and its
+/// Jacobian `∂e/∂C` (1/mm), the model of every fit that observes sphere
+/// images (calibration, triangulation). With `s = Cz/(Cz² − R²)`:
+///
+/// `e = (Cx·s, Cy·s)`, `∂e/∂C = [[s, 0, Cx·s′], [0, s, Cy·s′]]`,
+/// `s′ = ∂s/∂Cz = −(Cz² + R²)/(Cz² − R²)²`.
+///
+/// R = 0 is the pinhole projection `(Cx, Cy)/Cz`. Unlike [`ellipse_centre`]
+/// it does not allocate, for use inside solvers.
+///
+/// # Errors
+/// [`GeomError::BehindCamera`] when the sphere is not wholly in front of the
+/// camera (`Cz ≤ R`), or a coordinate is NaN.
+pub fn ellipse_centre_jacobian(
+    centre: &Vector3<f64>,
+    radius: f64,
+) -> Result<(Vector2<f64>, Matrix2x3<f64>)> {
+    let q = centre.z * centre.z - radius * radius;
+    if !(centre.z > radius && q > 0.0) {
+        return Err(GeomError::BehindCamera { depth: centre.z });
+    }
+    let s = centre.z / q;
+    let ds = -(centre.z * centre.z + radius * radius) / (q * q);
+    Ok((
+        Vector2::new(centre.x * s, centre.y * s),
+        Matrix2x3::new(s, 0.0, centre.x * ds, 0.0, s, centre.y * ds),
+    ))
 }
 
 /// Inverse of [`ellipse_centre`] given the sphere's depth Cz: the projection
@@ -99,6 +128,30 @@ mod tests {
         let dir = nalgebra::Rotation3::new(perp * a) * axis;
         let x = dir / dir.z;
         assert!((x.transpose() * q * x)[0].abs() < 1e-9 * c.coords.norm_squared());
+    }
+
+    #[test]
+    fn jacobian_matches_central_differences() {
+        for r in [0.0, 10.0] {
+            let c = Vector3::new(75.0, -20.0, 460.0);
+            let (e, j) = ellipse_centre_jacobian(&c, r).unwrap();
+            if r == 0.0 {
+                assert!((e - Vector2::new(c.x / c.z, c.y / c.z)).norm() < 1e-16);
+            }
+            for k in 0..3 {
+                let h = 1e-3;
+                let mut a = c;
+                let mut b = c;
+                a[k] += h;
+                b[k] -= h;
+                let num = (ellipse_centre_jacobian(&a, r).unwrap().0
+                    - ellipse_centre_jacobian(&b, r).unwrap().0)
+                    / (2.0 * h);
+                assert!((num - j.column(k)).norm() < 1e-12, "r {r} column {k}");
+            }
+        }
+        assert!(ellipse_centre_jacobian(&Vector3::new(0.0, 0.0, 5.0), 5.0).is_err());
+        assert!(ellipse_centre_jacobian(&Vector3::new(0.0, 0.0, f64::NAN), 0.0).is_err());
     }
 
     #[test]

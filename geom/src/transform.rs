@@ -97,6 +97,34 @@ impl SmallError {
     }
 }
 
+/// A least-squares rigid motion and how well it fits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigidFit {
+    /// The motion `to ≈ R·from + t`.
+    pub motion: Isometry3<f64>,
+    /// Rotation vector of R (rad), [`quaternion_vector`].
+    pub rotation: Vector3<f64>,
+    /// RMS distance between the moved `from` points and `to`,
+    /// `√(Σ‖R·aᵢ + t − bᵢ‖²/n)` (mm): zero for a rigid set.
+    pub rms: f64,
+}
+
+/// [`rigid_fit`] with its rotation vector and RMS residual: the pose of a
+/// rigid set of points (the table's spheres) relative to a reference pose.
+pub fn rigid_fit_rms(from: &[Point3<f64>], to: &[Point3<f64>]) -> Result<RigidFit> {
+    let motion = rigid_fit(from, to)?;
+    let ss: f64 = from
+        .iter()
+        .zip(to)
+        .map(|(a, b)| (motion.transform_point(a) - b).norm_squared())
+        .sum();
+    Ok(RigidFit {
+        motion,
+        rotation: quaternion_vector(&motion.rotation),
+        rms: (ss / from.len() as f64).sqrt(),
+    })
+}
+
 /// Least-squares rigid motion `to ≈ R·from + t` (Kabsch/Horn: SVD of the
 /// cross-covariance, with the reflection guard). Needs ≥ 3 non-collinear pairs.
 pub fn rigid_fit(from: &[Point3<f64>], to: &[Point3<f64>]) -> Result<Isometry3<f64>> {
@@ -150,6 +178,25 @@ pub fn rigid_fit(from: &[Point3<f64>], to: &[Point3<f64>]) -> Result<Isometry3<f
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rigid_fit_rms_recovers_a_known_motion_and_its_residual() {
+        let first = [
+            Point3::new(0.0, 0.0, 10.0),
+            Point3::new(20.0, 20.0, 8.0),
+            Point3::new(-15.0, -15.0, 5.0),
+        ];
+        let w = Vector3::new(3e-5, -2e-5, 5e-5);
+        let iso = rigid(w, Vector3::new(50.0, 0.01, -0.02));
+        let mut at: Vec<_> = first.iter().map(|p| iso * p).collect();
+        let fit = rigid_fit_rms(&first, &at).unwrap();
+        assert!((fit.rotation - w).norm() < 1e-10 && fit.rms < 1e-10);
+        // Moving one point by 3 µm along z, normal to the plane of the set
+        // (nearly), leaves an RMS of a few µm at most and above zero.
+        at[0].z += 0.003;
+        let fit = rigid_fit_rms(&first, &at).unwrap();
+        assert!(fit.rms > 1e-4 && fit.rms < 0.003, "{}", fit.rms);
+    }
 
     #[test]
     fn rotation_vector_round_trip() {

@@ -20,13 +20,15 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
-use calib::commission::{CameraInput, CommissionOptions, Optics};
-use calib::{Calibration, CorrespondOptions, FlatFieldFit, Model, Options};
+use calib::{
+    Calibration, CameraInput, CommissionOptions, CorrespondOptions, FlatFieldFit, Model, Optics,
+    Options,
+};
 use clap::ValueEnum;
 use extract::{Blob, FrameReader, observed_centroids};
 use formats::{
-    CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, Rig, RigCamera,
-    TargetRow, read_correspondences, read_nominal, read_spheres, read_target,
+    Axis, CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, Rig,
+    RigCamera, TargetRow, read_correspondences, read_nominal, read_spheres, read_target,
 };
 use geom::{Illumination, Point2};
 use serde::Serialize;
@@ -107,7 +109,7 @@ pub struct Args {
     #[arg(long)]
     skew: bool,
     /// Reject points whose residual exceeds k·σ (robust σ) and refit.
-    #[arg(long, default_value_t = calib::calibration::DEFAULT_OUTLIER_K, value_parser = values::positive)]
+    #[arg(long, default_value_t = calib::DEFAULT_OUTLIER_K, value_parser = values::positive)]
     outlier_k: f64,
     /// Keep every point (no outlier rejection).
     #[arg(long)]
@@ -163,8 +165,8 @@ fn optics(nominal: &NominalCamera) -> Optics {
     let o = nominal.optics;
     Optics {
         pixel_mm: nominal.pixel_mm,
-        f_number: o.f_number.unwrap_or(calib::commission::DEFAULT_F_NUMBER),
-        coc_px: o.coc_px.unwrap_or(calib::commission::DEFAULT_COC_PX),
+        f_number: o.f_number.unwrap_or(calib::DEFAULT_F_NUMBER),
+        coc_px: o.coc_px.unwrap_or(calib::DEFAULT_COC_PX),
         focal_mm: o.lens_focal_mm,
         focus_distance_mm: o.focus_distance_mm,
     }
@@ -634,7 +636,7 @@ fn write_outputs(
     let report = calib::commission(
         &commissioning,
         &CommissionOptions {
-            travel_mm: vec![('X', args.travel_x), ('Y', args.travel_y)],
+            travel_mm: vec![(Axis::X, args.travel_x), (Axis::Y, args.travel_y)],
             perpendicularity_tolerance_deg: args.perpendicularity_tolerance,
             alignment_tolerance_deg: args.alignment_tolerance,
             spheres: sphere_set,

@@ -39,7 +39,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let report = evaluate::evaluate_file(&args.points, &options).map_err(|e| match e {
         // --sphere naming a sphere the points do not have.
-        evaluate::EvaluateError::Option { .. } => Usage::error(e),
+        evaluate::EvaluateError::UnknownSphere { .. } => Usage::error(e),
         e => e.into(),
     })?;
     let mut output = formats::OutputPlan::new(args.force);
