@@ -224,8 +224,11 @@ struct Target {
     name: &'static str,
     file: &'static str,
     corpus: Vec<Vec<u8>>,
-    read: Box<dyn Fn(&Path, &[u8]) -> bool>,
+    read: Reader,
 }
+
+/// A reader under test: the input's path and bytes → accepted.
+type Reader = Box<dyn Fn(&Path, &[u8]) -> bool>;
 
 fn testdata(rel: &str) -> Vec<u8> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))

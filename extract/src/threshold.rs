@@ -80,7 +80,7 @@ impl Threshold {
     /// `MIN_MESH_PX..=MAX_IMAGE_SIDE_PX` px.
     pub fn validate(&self) -> Result<()> {
         match *self {
-            Threshold::Fixed(t) if t == 0 => Err(ExtractError::Parameters(
+            Threshold::Fixed(0) => Err(ExtractError::Parameters(
                 "threshold 0 DN would keep every pixel: it must be at least 1".into(),
             )),
             Threshold::Fixed(_) => Ok(()),

@@ -241,13 +241,13 @@ impl OutputPlan {
     fn remove_stale_temps(&self, folder: &Path) -> Result<usize> {
         let mut by_folder: BTreeMap<&Path, BTreeSet<String>> = BTreeMap::new();
         for path in self.files.keys() {
-            if path.starts_with(folder) || folder_of(path) == folder {
-                if let Some(name) = path.file_name() {
-                    by_folder
-                        .entry(folder_of(path))
-                        .or_default()
-                        .insert(name.to_string_lossy().into_owned());
-                }
+            if (path.starts_with(folder) || folder_of(path) == folder)
+                && let Some(name) = path.file_name()
+            {
+                by_folder
+                    .entry(folder_of(path))
+                    .or_default()
+                    .insert(name.to_string_lossy().into_owned());
             }
         }
         let mut removed = 0;
