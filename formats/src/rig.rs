@@ -174,14 +174,22 @@ impl NominalRig {
     }
 }
 
-/// Read `nominal.json` and check it ([`NominalRig::validate`]); errors name the file.
-pub fn read_nominal(path: &Path) -> FormatResult<NominalRig> {
-    let rig: NominalRig = read_json(path)?;
-    rig.validate().map_err(|source| FormatError::Rig {
+/// Read a rig file and check it with `validate`; errors name the file.
+fn read_checked<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    validate: impl Fn(&T) -> Result<(), RigError>,
+) -> FormatResult<T> {
+    let rig: T = read_json(path)?;
+    validate(&rig).map_err(|source| FormatError::Rig {
         path: path.into(),
         source,
     })?;
     Ok(rig)
+}
+
+/// Read `nominal.json` and check it ([`NominalRig::validate`]); errors name the file.
+pub fn read_nominal(path: &Path) -> FormatResult<NominalRig> {
+    read_checked(path, NominalRig::validate)
 }
 
 /// Brown distortion coefficients as written in files (`k3` optional).
@@ -502,12 +510,7 @@ impl Rig {
 
 /// Read `rig.json` and check it ([`Rig::validate`]); errors name the file.
 pub fn read_rig(path: &Path) -> FormatResult<Rig> {
-    let rig: Rig = read_json(path)?;
-    rig.validate().map_err(|source| FormatError::Rig {
-        path: path.into(),
-        source,
-    })?;
-    Ok(rig)
+    read_checked(path, Rig::validate)
 }
 
 /// Fails unless the projection `p` of a file agrees with `camera`'s K, R, t:

@@ -266,7 +266,9 @@ pub fn run(args: &Args) -> Result<()> {
     let mut out = plan.create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);
     let mut problems: Vec<ProblemRow> = Vec::new();
-    let mut failed_frames = 0usize;
+    // Problems by kind: unreadable frames, frames with saturated blobs, blobs
+    // that kept their plain centroid.
+    let (mut failed_frames, mut saturated, mut uncorrected) = (0usize, 0usize, 0usize);
     let mut write_error: Option<anyhow::Error> = None;
     let bar = progress::bar(files.len() as u64, "extract");
     let sink = |_: usize, path: &Path, result: extract::Result<extract::FrameBlobs>| {
@@ -275,6 +277,7 @@ pub fn run(args: &Args) -> Result<()> {
         match result {
             Ok(frame) => {
                 if let Some(reason) = &frame.saturation {
+                    saturated += 1;
                     bar.suspend(|| eprintln!("trinocular: warning: {name}: {reason}"));
                     problems.push(ProblemRow {
                         item: name.clone(),
@@ -282,6 +285,7 @@ pub fn run(args: &Args) -> Result<()> {
                     });
                 }
                 for (i, reason) in &frame.uncorrected {
+                    uncorrected += 1;
                     problems.push(ProblemRow {
                         item: format!("{name}#blob{i}"),
                         reason: reason.clone(),
@@ -359,14 +363,12 @@ pub fn run(args: &Args) -> Result<()> {
             files.len()
         ));
     }
-    let saturated = problems.iter().filter(|p| !p.item.contains('#')).count() - failed_frames;
     if saturated > 0 {
         what.push(format!(
             "{saturated} image{} with saturated blobs",
             if saturated == 1 { "" } else { "s" }
         ));
     }
-    let uncorrected = problems.len() - failed_frames - saturated;
     if uncorrected > 0 {
         what.push(format!(
             "{uncorrected} blob{} kept {} plain centroid",

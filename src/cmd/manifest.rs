@@ -58,25 +58,26 @@ pub struct Args {
     #[arg(long, default_value_t = 0.1, value_parser = crate::cmd::values::positive)]
     still_px: f64,
     /// Continuous: extraction threshold in DN, or `auto` (background + k·σ).
-    #[arg(long, default_value = "auto")]
-    threshold: String,
+    #[arg(long, default_value = "auto", value_parser = threshold_arg)]
+    threshold: Threshold,
     /// Replace an existing manifest.
     #[arg(long)]
     force: bool,
 }
 
-fn extract_params(threshold: &str) -> Result<ExtractParams> {
-    let threshold = match threshold {
-        "auto" => Threshold::default(),
-        t => Threshold::Fixed(
-            t.parse()
-                .with_context(|| format!("--threshold {t}: expected a level in DN or 'auto'"))?,
-        ),
-    };
-    Ok(ExtractParams {
-        threshold,
-        ..ExtractParams::default()
-    })
+/// `--threshold`: `auto` or a level of 1..=65535 DN; anything else is a
+/// usage error while the command line is parsed.
+fn threshold_arg(text: &str) -> std::result::Result<Threshold, String> {
+    match text {
+        "auto" => Ok(Threshold::default()),
+        t => match t.parse::<u16>() {
+            Ok(level) if level >= 1 => Ok(Threshold::Fixed(level)),
+            _ => Err(format!(
+                "expected a level of 1..={} DN or 'auto', got '{t}'",
+                u16::MAX
+            )),
+        },
+    }
 }
 
 /// Run the command.
@@ -99,7 +100,10 @@ pub fn run(args: &Args) -> Result<()> {
         },
         complete_only: args.complete_instants,
         still_px: args.still_px,
-        extract: extract_params(&args.threshold)?,
+        extract: ExtractParams {
+            threshold: args.threshold,
+            ..ExtractParams::default()
+        },
         ..Options::default()
     };
     let start = Instant::now();
