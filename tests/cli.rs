@@ -3,34 +3,11 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn trinocular(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trinocular"))
-        .args(args)
-        .output()
-        .expect("run trinocular")
-}
+use common::{one_line_error, testdata, trinocular};
 
-fn testdata(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("testdata")
-        .join(rel)
-}
-
-/// Stderr of a failed run: exactly one line starting with the program name.
-fn one_line_error(out: &Output) -> String {
-    assert!(
-        !out.status.success(),
-        "expected failure, got {:?}",
-        out.status
-    );
-    let err = String::from_utf8(out.stderr.clone()).unwrap();
-    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err:?}");
-    assert!(err.starts_with("trinocular: error: "), "{err:?}");
-    err
-}
+use std::path::Path;
 
 #[test]
 fn help_lists_the_subcommands() {

@@ -487,7 +487,7 @@ exposure_s\nimages/a.tif,0,96.9,68.3,343,20.9,52000,false,false,A,1.5e7,21.0,20.
         name: "frame metadata alone (manifest)",
         file: "frame.tif",
         corpus: frames(),
-        read: Box::new(|p, _| ingest::stamp::read_metadata(p).is_ok()),
+        read: Box::new(|p, _| ingest::read_metadata(p).is_ok()),
     });
     t
 }

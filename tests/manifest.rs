@@ -6,34 +6,11 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::{render_campaign, s, trinocular, write_true_rig};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-use formats::{Rig, RigCamera, Truth, read_json, write_json};
-
-fn trinocular(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trinocular"))
-        .args(args)
-        .output()
-        .expect("run trinocular")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// The renderer's true cameras as rig.json: measure then depends on the manifest alone.
-fn true_rig(dir: &Path) {
-    let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
-    let rig = Rig {
-        cameras: truth
-            .cameras
-            .iter()
-            .map(|c| RigCamera::new(c.model.id, &c.model.to_camera().unwrap(), 0.0, 0))
-            .collect(),
-    };
-    write_json(&dir.join("rig.json"), &rig).unwrap();
-}
 
 #[test]
 fn captured_folders_to_the_same_points() {
@@ -48,33 +25,14 @@ fn captured_folders_to_the_same_points() {
          stray = [{camera = 3, dwell = 10}]\n",
     )
     .unwrap();
-    let out = trinocular(&[
-        "synth",
-        "campaign",
-        "--config",
-        s(&config),
-        "--out",
-        s(&c),
-        "--width",
-        "256",
-        "--height",
-        "192",
-        "--targets",
-        "3",
-        "--runs",
-        "2",
-        "--captures",
-        "2",
-        "--seed",
-        "31",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    render_campaign(
+        &c,
+        (256, 192),
+        [3, 2, 2],
+        &["--config", s(&config), "--seed", "31"],
     );
     assert!(!c.join("manifest.csv").exists());
-    true_rig(&c);
+    write_true_rig(&c, &c.join("rig.json"));
 
     let built = tmp.path().join("built");
     std::fs::create_dir(&built).unwrap();

@@ -5,10 +5,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::{render_campaign, write_true_rig};
+
 use std::path::Path;
 use std::process::{Command, Output};
 
-use formats::{InstantProblemRow, ManifestRow, Missing, PointRow, Rig, RigCamera, Truth};
+use formats::{InstantProblemRow, ManifestRow, Missing, PointRow};
 
 fn trinocular<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_trinocular"))
@@ -29,37 +33,8 @@ fn records<T: formats::Record>(p: &Path) -> Vec<T> {
 /// Render the campaign into `dir/c` and write the true rig as `dir/rig.json`.
 fn campaign(dir: &Path) -> usize {
     let c = dir.join("c");
-    let out = trinocular(&[
-        "synth",
-        "campaign",
-        "--out",
-        c.to_str().unwrap(),
-        "--width",
-        "384",
-        "--height",
-        "288",
-        "--targets",
-        "3",
-        "--runs",
-        "2",
-        "--captures",
-        "1",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let truth: Truth = formats::read_json(&c.join("truth.json")).unwrap();
-    let rig = Rig {
-        cameras: truth
-            .cameras
-            .iter()
-            .map(|t| RigCamera::new(t.model.id, &t.model.to_camera().unwrap(), 0.0, 0))
-            .collect(),
-    };
-    formats::write_json(&dir.join("rig.json"), &rig).unwrap();
-    truth.instants.len()
+    render_campaign(&c, (384, 288), [3, 2, 1], &[]);
+    write_true_rig(&c, &dir.join("rig.json")).instants.len()
 }
 
 /// Run measure into `dir/NAME/points.csv` with `spheres`; (status, last stderr line).

@@ -7,93 +7,18 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
+use common::{bin, leftovers, ok, read, refused, render_campaign, s, stderr, trinocular};
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_trinocular"))
-}
-
-fn trinocular(args: &[&str]) -> Output {
-    bin().args(args).output().expect("run trinocular")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "{:?}: {}{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        stderr(out)
-    );
-    stderr(out)
-}
-
-/// A refused run: exit status 1 and one line on stderr holding every fragment.
-fn refused(out: &Output, fragments: &[&str]) -> String {
-    let err = stderr(out);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    let line = err
-        .lines()
-        .find(|l| l.starts_with("trinocular: error: "))
-        .unwrap_or_else(|| panic!("no error line: {err}"));
-    for f in fragments {
-        assert!(line.contains(f), "'{f}' missing from {line}");
-    }
-    line.to_string()
-}
-
-/// Files under `dir` (recursively) whose name marks a temporary file, a
-/// staging folder or a lock.
-fn leftovers(dir: &Path) -> Vec<PathBuf> {
-    let mut found = Vec::new();
-    for entry in std::fs::read_dir(dir).unwrap().flatten() {
-        let path = entry.path();
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if name.ends_with(".tmp") || name == ".trinocular.lock" {
-            found.push(path.clone());
-        }
-        if path.is_dir() {
-            found.extend(leftovers(&path));
-        }
-    }
-    found
-}
-
-fn read(p: &Path) -> Vec<u8> {
-    std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
 
 /// A rendered campaign `dir/c` and its rig `dir/rig.json` (calibrated from
 /// the renderer's correspondences).
 fn campaign(dir: &Path, width: u32, targets: u32, runs: u32, captures: u32) -> PathBuf {
     let c = dir.join("c");
-    let (w, h) = (width.to_string(), (width * 3 / 4).to_string());
-    let (t, r, k) = (targets.to_string(), runs.to_string(), captures.to_string());
-    ok(&trinocular(&[
-        "synth",
-        "campaign",
-        "--out",
-        s(&c),
-        "--width",
-        &w,
-        "--height",
-        &h,
-        "--targets",
-        &t,
-        "--runs",
-        &r,
-        "--captures",
-        &k,
-    ]));
+    render_campaign(&c, (width, width * 3 / 4), [targets, runs, captures], &[]);
     let cal = |n: u8| c.join(format!("calib/points_cam{n}.csv"));
     ok(&trinocular(&[
         "calibrate",

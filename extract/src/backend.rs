@@ -14,7 +14,7 @@ use crate::denoise::{self, Denoise};
 use crate::frame::FrameView;
 use crate::label::{self, Weighting};
 use crate::threshold::{Level, Threshold};
-use crate::{ExtractError, Result};
+use crate::{ParameterProblem, Result};
 
 /// Default smallest blob kept (px): smaller ones are noise spikes.
 pub const DEFAULT_MIN_AREA: u64 = 5;
@@ -71,29 +71,26 @@ impl ExtractParams {
             u64::from(frame.height),
             self.max_pixels,
         )
-        .map_err(|e| ExtractError::Parameters(e.to_string()))
+        .map_err(|e| ParameterProblem::Size(e).into())
     }
 
     /// Check the parameters on their own.
     pub fn validate(&self) -> Result<()> {
         self.threshold.validate()?;
         if self.max_pixels == 0 {
-            return Err(ExtractError::Parameters(
-                "max_pixels must be at least 1".into(),
-            ));
+            return Err(ParameterProblem::ZeroMaxPixels.into());
         }
         if self.min_area > self.max_area {
-            return Err(ExtractError::Parameters(format!(
-                "min_area {} exceeds max_area {}",
-                self.min_area, self.max_area
-            )));
+            return Err(ParameterProblem::AreaRange {
+                min_area: self.min_area,
+                max_area: self.max_area,
+            }
+            .into());
         }
         if let Denoise::Gaussian { sigma } = self.denoise
             && !(sigma.is_finite() && sigma > 0.0)
         {
-            return Err(ExtractError::Parameters(format!(
-                "Gaussian sigma {sigma} must be positive"
-            )));
+            return Err(ParameterProblem::GaussianSigma(sigma).into());
         }
         Ok(())
     }

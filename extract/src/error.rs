@@ -34,7 +34,7 @@ pub enum ExtractError {
     },
     /// The extraction parameters do not fit the frame.
     #[error("invalid extraction parameters: {0}")]
-    Parameters(String),
+    Parameters(#[from] ParameterProblem),
     /// Too many above-threshold runs: the threshold is far too low for this frame.
     #[error(
         "{runs} above-threshold runs (limit {limit}): threshold {threshold} is too low for this frame"
@@ -61,9 +61,9 @@ impl ExtractError {
     /// Attach a file name to an error that has none (parameters, runs).
     pub fn in_file(self, path: &std::path::Path) -> ExtractError {
         match self {
-            ExtractError::Parameters(m) => ExtractError::Unsupported {
+            ExtractError::Parameters(problem) => ExtractError::Unsupported {
                 path: path.to_path_buf(),
-                message: m,
+                message: problem.to_string(),
             },
             ExtractError::TooManyRuns {
                 runs,
@@ -78,6 +78,70 @@ impl ExtractError {
             other => other,
         }
     }
+}
+
+/// What is wrong with extraction parameters or with a frame's buffer.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ParameterProblem {
+    /// A fixed threshold of 0 DN.
+    #[error("threshold 0 DN would keep every pixel: it must be at least 1")]
+    ZeroThreshold,
+    /// A fixed threshold above the frame's largest value.
+    #[error("threshold {threshold} is outside 1..={max} for a {bit_depth}-bit frame")]
+    ThresholdRange {
+        /// The threshold (DN).
+        threshold: u16,
+        /// The frame's largest value (DN).
+        max: u16,
+        /// The frame's bit depth.
+        bit_depth: u8,
+    },
+    /// The factor k of an automatic threshold is not finite and positive.
+    #[error("threshold factor k = {0} must be positive")]
+    ThresholdFactor(f64),
+    /// The background mesh of a local threshold is out of range.
+    #[error("background mesh {mesh} px is not {min}..={max} px")]
+    Mesh {
+        /// The mesh (px).
+        mesh: u32,
+        /// Smallest mesh (px).
+        min: u32,
+        /// Largest mesh (px).
+        max: u32,
+    },
+    /// `max_pixels` is 0.
+    #[error("max_pixels must be at least 1")]
+    ZeroMaxPixels,
+    /// The blob area range is empty.
+    #[error("min_area {min_area} exceeds max_area {max_area}")]
+    AreaRange {
+        /// Smallest blob area (px).
+        min_area: u64,
+        /// Largest blob area (px).
+        max_area: u64,
+    },
+    /// The Gaussian denoising sigma is not finite and positive.
+    #[error("Gaussian sigma {0} must be positive")]
+    GaussianSigma(f32),
+    /// The frame is larger than the limits allow.
+    #[error("{0}")]
+    Size(formats::limits::SizeError),
+    /// A frame of zero width or height.
+    #[error("frame has zero size")]
+    ZeroSize,
+    /// The pixel buffer does not hold width × height pixels.
+    #[error("{width}×{height} frame needs {} pixels, got {got}", *width as usize * *height as usize)]
+    PixelCount {
+        /// Frame width (px).
+        width: u32,
+        /// Frame height (px).
+        height: u32,
+        /// Pixels in the buffer.
+        got: usize,
+    },
+    /// A bit depth other than 8 or 16.
+    #[error("bit depth {0} is not 8 or 16")]
+    BitDepth(u8),
 }
 
 /// Result alias for `extract`.

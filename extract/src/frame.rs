@@ -3,7 +3,7 @@
 
 use image::{ImageBuffer, Luma};
 
-use crate::{ExtractError, Result};
+use crate::{ParameterProblem, Result};
 
 /// A borrowed grayscale frame.
 #[derive(Debug, Clone, Copy)]
@@ -22,21 +22,18 @@ impl<'a> FrameView<'a> {
     /// A view over `pixels`; fails unless the sizes agree and the depth is 8 or 16.
     pub fn new(width: u32, height: u32, bit_depth: u8, pixels: &'a [u16]) -> Result<Self> {
         if width == 0 || height == 0 {
-            return Err(ExtractError::Parameters("frame has zero size".into()));
+            return Err(ParameterProblem::ZeroSize.into());
         }
         if pixels.len() != width as usize * height as usize {
-            return Err(ExtractError::Parameters(format!(
-                "{}×{} frame needs {} pixels, got {}",
+            return Err(ParameterProblem::PixelCount {
                 width,
                 height,
-                width as usize * height as usize,
-                pixels.len()
-            )));
+                got: pixels.len(),
+            }
+            .into());
         }
         if bit_depth != 8 && bit_depth != 16 {
-            return Err(ExtractError::Parameters(format!(
-                "bit depth {bit_depth} is not 8 or 16"
-            )));
+            return Err(ParameterProblem::BitDepth(bit_depth).into());
         }
         Ok(Self {
             width,

@@ -11,37 +11,38 @@
 //! - Centroid (docs/methods.md): `u0 = Σu·F/ΣF`, `v0 = Σv·F/ΣF` with `F = f − T`
 //!   (default) or `F = f` over each 8-connected blob of pixels with f ≥ T.
 //! - Results are exact integer sums: the same on any number of threads.
-//! - Corrected centroids ([`correction`]) re-weight a blob's pixels with the
+//! - Corrected centroids ([`mapped_centroid`], [`observed_centroids`]) re-weight a blob's pixels with the
 //!   camera's model: undistortion and the flat-field correction by the
 //!   lens's relative illumination, over the local background.
 
 mod error;
 
-pub mod backend;
-pub mod background;
-pub mod batch;
-pub mod blob;
-pub mod correction;
-pub mod decode;
-pub mod denoise;
-pub mod frame;
+mod backend;
+mod background;
+mod batch;
+mod blob;
+mod correction;
+mod decode;
+mod denoise;
+mod frame;
 pub mod gpu;
-pub mod label;
-pub mod metadata;
-pub mod threshold;
+mod label;
+mod metadata;
+mod threshold;
 
-pub use backend::{Backend, CpuBackend, ExtractParams, Extraction};
+pub use backend::{Backend, CpuBackend, DEFAULT_MIN_AREA, ExtractParams, Extraction};
+pub use background::MIN_MESH_PX;
 pub use batch::{FrameBlobs, extract_file, extract_files, extract_files_flat};
 pub use blob::{Blob, BoundingBox, Moments};
 pub use correction::{
     CameraMap, FlatFieldMap, Mapped, PixelMap, mapped_centroid, observed_centroids,
 };
 pub use decode::FrameReader;
-pub use denoise::Denoise;
-pub use error::{ExtractError, Result};
+pub use denoise::{Denoise, apply as denoise};
+pub use error::{ExtractError, ParameterProblem, Result};
 pub use frame::{Frame, FrameView};
 #[cfg(feature = "gpu")]
 pub use gpu::GpuBackend;
 pub use label::Weighting;
 pub use metadata::FrameMetadata;
-pub use threshold::{Level, Threshold};
+pub use threshold::{DEFAULT_K, Level, Threshold};

@@ -7,7 +7,7 @@ use formats::limits::MAX_IMAGE_SIDE_PX;
 
 use crate::background::{self, BackgroundMesh, BackgroundStats};
 use crate::frame::FrameView;
-use crate::{ExtractError, Result};
+use crate::{ParameterProblem, Result};
 
 /// How the threshold is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -80,9 +80,7 @@ impl Threshold {
     /// `MIN_MESH_PX..=MAX_IMAGE_SIDE_PX` px.
     pub fn validate(&self) -> Result<()> {
         match *self {
-            Threshold::Fixed(0) => Err(ExtractError::Parameters(
-                "threshold 0 DN would keep every pixel: it must be at least 1".into(),
-            )),
+            Threshold::Fixed(0) => Err(ParameterProblem::ZeroThreshold.into()),
             Threshold::Fixed(_) => Ok(()),
             Threshold::Auto { k } => check_k(k),
             Threshold::Local { k, mesh } => {
@@ -90,10 +88,12 @@ impl Threshold {
                 if (background::MIN_MESH_PX..=MAX_IMAGE_SIDE_PX).contains(&mesh) {
                     Ok(())
                 } else {
-                    Err(ExtractError::Parameters(format!(
-                        "background mesh {mesh} px is not {}..={MAX_IMAGE_SIDE_PX} px",
-                        background::MIN_MESH_PX
-                    )))
+                    Err(ParameterProblem::Mesh {
+                        mesh,
+                        min: background::MIN_MESH_PX,
+                        max: MAX_IMAGE_SIDE_PX,
+                    }
+                    .into())
                 }
             }
         }
@@ -104,11 +104,12 @@ impl Threshold {
         match *self {
             Threshold::Fixed(t) => {
                 if t == 0 || t > frame.max_value() {
-                    return Err(ExtractError::Parameters(format!(
-                        "threshold {t} is outside 1..={} for a {}-bit frame",
-                        frame.max_value(),
-                        frame.bit_depth
-                    )));
+                    return Err(ParameterProblem::ThresholdRange {
+                        threshold: t,
+                        max: frame.max_value(),
+                        bit_depth: frame.bit_depth,
+                    }
+                    .into());
                 }
                 Ok((Level::Constant(t), None))
             }
@@ -141,8 +142,6 @@ fn check_k(k: f64) -> Result<()> {
     if k.is_finite() && k > 0.0 {
         Ok(())
     } else {
-        Err(ExtractError::Parameters(format!(
-            "threshold factor k = {k} must be positive"
-        )))
+        Err(ParameterProblem::ThresholdFactor(k).into())
     }
 }

@@ -171,39 +171,15 @@ pub struct LineKey {
     pub offsets: [u64; 2],
 }
 
-/// One row of `manifest.csv`: an image and the instant it was taken at.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ManifestRow {
-    /// Image path, relative to the manifest.
-    pub image: String,
-    /// Camera number 1, 2 or 3.
-    pub camera: u8,
-    /// Axis moved.
-    pub axis: Axis,
-    /// Approach direction.
-    pub direction: Direction,
-    /// Run number (≥ 1).
-    pub run: u32,
-    /// Target index (≥ 0).
-    pub target: u32,
-    /// Capture number at the target (≥ 1).
-    pub capture: u32,
-    /// Commanded x (mm).
-    pub nominal_x: f64,
-    /// Commanded y (mm).
-    pub nominal_y: f64,
-    /// Commanded z (mm).
-    pub nominal_z: f64,
-}
-
-impl ManifestRow {
-    /// The instant this image belongs to.
-    pub fn instant(&self) -> InstantKey {
-        InstantKey::new(
-            (self.axis, self.direction),
-            [self.run, self.target, self.capture],
-            [self.nominal_x, self.nominal_y, self.nominal_z],
-        )
+instant_row! {
+    /// One row of `manifest.csv`: an image and the instant it was taken at.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    pub struct ManifestRow {
+        /// Image path, relative to the manifest.
+        pub image: String,
+        /// Camera number 1, 2 or 3.
+        pub camera: u8,
+        ..InstantKey,
     }
 }
 

@@ -15,44 +15,101 @@
 //! batch ([`lock`]), and lists its temporary files for removal on
 //! interruption ([`interrupt`]).
 
+/// Declares the row of a file keyed by instant (`manifest.csv`, `points.csv`,
+/// `poses.csv`, `problems.csv`): its leading fields, then the columns that
+/// name the instant — axis, direction, run, target, capture, nominal_x,
+/// nominal_y, nominal_z, declared here once — then its own fields; with
+/// `instant()` and `nominal()`. A macro because the CSV rows are flat: the
+/// csv crate does not serialise `#[serde(flatten)]`.
+macro_rules! instant_row {
+    (
+        $(#[$attr:meta])*
+        pub struct $name:ident {
+            $( $(#[$lead_attr:meta])* pub $lead:ident: $lead_ty:ty, )*
+            ..InstantKey,
+            $( $(#[$own_attr:meta])* pub $own:ident: $own_ty:ty, )*
+        }
+    ) => {
+        $(#[$attr])*
+        pub struct $name {
+            $( $(#[$lead_attr])* pub $lead: $lead_ty, )*
+            /// Axis moved.
+            pub axis: $crate::Axis,
+            /// Approach direction.
+            pub direction: $crate::Direction,
+            /// Run number (≥ 1).
+            pub run: u32,
+            /// Target index (≥ 0).
+            pub target: u32,
+            /// Capture number at the target (≥ 1).
+            pub capture: u32,
+            /// Commanded x (mm).
+            pub nominal_x: f64,
+            /// Commanded y (mm).
+            pub nominal_y: f64,
+            /// Commanded z (mm).
+            pub nominal_z: f64,
+            $( $(#[$own_attr])* pub $own: $own_ty, )*
+        }
+
+        impl $name {
+            /// Commanded position (mm).
+            pub fn nominal(&self) -> [f64; 3] {
+                [self.nominal_x, self.nominal_y, self.nominal_z]
+            }
+
+            /// The instant this row belongs to.
+            pub fn instant(&self) -> $crate::InstantKey {
+                $crate::InstantKey::new(
+                    (self.axis, self.direction),
+                    [self.run, self.target, self.capture],
+                    self.nominal(),
+                )
+            }
+        }
+    };
+}
+
 mod error;
 
-pub mod atomic;
-pub mod blobs;
-pub mod campaign;
-pub mod capture;
-pub mod figures;
+mod atomic;
+mod blobs;
+mod campaign;
+mod capture;
+mod figures;
 pub mod interrupt;
-pub mod json;
+mod json;
 pub mod limits;
-pub mod lock;
-pub mod measure;
-pub mod nist;
-pub mod output;
-pub mod points;
+mod lock;
+mod measure;
+mod nist;
+mod output;
+mod points;
 pub mod probe;
-pub mod rig;
-pub mod table;
-pub mod target;
-pub mod truth;
+mod rig;
+mod table;
+mod target;
+mod truth;
 
-pub use atomic::{AtomicFile, write_atomic};
+pub use atomic::{AtomicFile, beside, folder_of, write_atomic};
 pub use blobs::{BlobRow, ProblemRow};
 pub use campaign::{
-    Axis, Direction, InstantKey, LineKey, ManifestRow, SphereRow, check_sphere_set, read_spheres,
+    Axis, Direction, InstantKey, LineKey, ManifestRow, SAME_DIAMETER, SphereRow, check_sphere_set,
+    read_spheres,
 };
-pub use capture::{AxisProcedure, Dwell, ManifestProblemRow, ProcedureConfig};
+pub use capture::{AxisProcedure, Dwell, MAX_INSTANTS, ManifestProblemRow, ProcedureConfig};
 pub use error::{FormatError, Result, RigError};
-pub use figures::ReportFigures;
+pub use figures::{AxisFigures, PositioningFigures, ReportFigures, ZoneFigures};
 pub use json::{read_json, write_json};
 pub use lock::OutputLock;
 pub use measure::{InstantProblemRow, Missing, PoseRow};
+pub use nist::{parse_ds, read_ds};
 pub use output::{OutputPlan, Stage};
 pub use points::PointRow;
 pub use rig::{
     CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalOptics, NominalRig, Rig,
     RigCamera, read_nominal, read_rig,
 };
-pub use table::{Invalid, Record, Row, read_csv, read_csv_from, write_csv, write_records};
+pub use table::{Invalid, Record, Row, finite, read_csv, read_csv_from, write_csv, write_records};
 pub use target::{CorrespondenceRow, TargetRow, read_correspondences, read_target};
 pub use truth::{Truth, TruthCamera, TruthInstant};

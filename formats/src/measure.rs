@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::{Axis, Direction, InstantKey};
+use crate::campaign::InstantKey;
 use crate::table::{Invalid, Record, finite};
 
 /// What a problem leaves out of `measure`'s outputs.
@@ -20,35 +20,22 @@ pub enum Missing {
     Pose,
 }
 
-/// Something of an instant that could not be measured, and why.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct InstantProblemRow {
-    /// Axis moved.
-    pub axis: Axis,
-    /// Approach direction.
-    pub direction: Direction,
-    /// Run.
-    pub run: u32,
-    /// Target index.
-    pub target: u32,
-    /// Capture.
-    pub capture: u32,
-    /// Commanded x (mm).
-    pub nominal_x: f64,
-    /// Commanded y (mm).
-    pub nominal_y: f64,
-    /// Commanded z (mm).
-    pub nominal_z: f64,
-    /// What is missing from the outputs because of this problem.
-    pub missing: Missing,
-    /// The sphere concerned, when the problem is one sphere's.
-    pub sphere: Option<String>,
-    /// Camera at fault, when one is.
-    pub camera: Option<u8>,
-    /// Image at fault, when one is.
-    pub image: Option<String>,
-    /// What is wrong.
-    pub reason: String,
+instant_row! {
+    /// Something of an instant that could not be measured, and why.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    pub struct InstantProblemRow {
+        ..InstantKey,
+        /// What is missing from the outputs because of this problem.
+        pub missing: Missing,
+        /// The sphere concerned, when the problem is one sphere's.
+        pub sphere: Option<String>,
+        /// Camera at fault, when one is.
+        pub camera: Option<u8>,
+        /// Image at fault, when one is.
+        pub image: Option<String>,
+        /// What is wrong.
+        pub reason: String,
+    }
 }
 
 impl InstantProblemRow {
@@ -88,15 +75,6 @@ impl InstantProblemRow {
             reason,
         }
     }
-
-    /// The instant this row belongs to.
-    pub fn instant(&self) -> InstantKey {
-        InstantKey::new(
-            (self.axis, self.direction),
-            [self.run, self.target, self.capture],
-            [self.nominal_x, self.nominal_y, self.nominal_z],
-        )
-    }
 }
 
 impl Record for InstantProblemRow {
@@ -115,46 +93,33 @@ impl Record for InstantProblemRow {
     }
 }
 
-/// The table's pose at an instant relative to the first instant of its line,
-/// from the rigid fit of the spheres' centres.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PoseRow {
-    /// Axis moved.
-    pub axis: Axis,
-    /// Approach direction.
-    pub direction: Direction,
-    /// Run.
-    pub run: u32,
-    /// Target index.
-    pub target: u32,
-    /// Capture.
-    pub capture: u32,
-    /// Commanded x (mm).
-    pub nominal_x: f64,
-    /// Commanded y (mm).
-    pub nominal_y: f64,
-    /// Commanded z (mm).
-    pub nominal_z: f64,
-    /// Rotation about the moving axis (rad).
-    pub roll: f64,
-    /// Pitch (rad): about Y for an X axis, about X for a Y axis.
-    pub pitch: f64,
-    /// Yaw (rad): about Z for an X or Y axis.
-    pub yaw: f64,
-    /// Rotation vector x component (rad).
-    pub rx: f64,
-    /// Rotation vector y component (rad).
-    pub ry: f64,
-    /// Rotation vector z component (rad).
-    pub rz: f64,
-    /// Translation of the fit, x (mm).
-    pub tx: f64,
-    /// Translation of the fit, y (mm).
-    pub ty: f64,
-    /// Translation of the fit, z (mm).
-    pub tz: f64,
-    /// RMS distance of the spheres from the fitted rigid motion (mm).
-    pub residual_mm: f64,
+instant_row! {
+    /// The table's pose at an instant relative to the first instant of its line,
+    /// from the rigid fit of the spheres' centres.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    pub struct PoseRow {
+        ..InstantKey,
+        /// Rotation about the moving axis (rad).
+        pub roll: f64,
+        /// Pitch (rad): about Y for an X axis, about X for a Y axis.
+        pub pitch: f64,
+        /// Yaw (rad): about Z for an X or Y axis.
+        pub yaw: f64,
+        /// Rotation vector x component (rad).
+        pub rx: f64,
+        /// Rotation vector y component (rad).
+        pub ry: f64,
+        /// Rotation vector z component (rad).
+        pub rz: f64,
+        /// Translation of the fit, x (mm).
+        pub tx: f64,
+        /// Translation of the fit, y (mm).
+        pub ty: f64,
+        /// Translation of the fit, z (mm).
+        pub tz: f64,
+        /// RMS distance of the spheres from the fitted rigid motion (mm).
+        pub residual_mm: f64,
+    }
 }
 
 impl Record for PoseRow {

@@ -2,66 +2,35 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::{Axis, Direction, InstantKey};
 use crate::table::{Invalid, Record, finite};
 
-/// One row of `points.csv`: one sphere at one instant.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PointRow {
-    /// Axis moved.
-    pub axis: Axis,
-    /// Approach direction.
-    pub direction: Direction,
-    /// Run number (≥ 1).
-    pub run: u32,
-    /// Target index (≥ 0).
-    pub target: u32,
-    /// Capture number (≥ 1).
-    pub capture: u32,
-    /// Commanded x (mm).
-    pub nominal_x: f64,
-    /// Commanded y (mm).
-    pub nominal_y: f64,
-    /// Commanded z (mm).
-    pub nominal_z: f64,
-    /// Sphere name.
-    pub sphere: String,
-    /// Sphere centre x, world frame (mm).
-    pub x: f64,
-    /// Sphere centre y, world frame (mm).
-    pub y: f64,
-    /// Sphere centre z, world frame (mm).
-    pub z: f64,
-    /// Cameras used, like `2+3`.
-    pub cameras: String,
-    /// RMS reprojection residual (px): the RMS distance, in ideal pixels,
-    /// between the sphere's image centre in each camera and the image its
-    /// least-squares centre projects to — how well the cameras' images agree
-    /// (0 in the renderer's exact points).
-    pub residual_px: f64,
+instant_row! {
+    /// One row of `points.csv`: one sphere at one instant.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    pub struct PointRow {
+        ..InstantKey,
+        /// Sphere name.
+        pub sphere: String,
+        /// Sphere centre x, world frame (mm).
+        pub x: f64,
+        /// Sphere centre y, world frame (mm).
+        pub y: f64,
+        /// Sphere centre z, world frame (mm).
+        pub z: f64,
+        /// Cameras used, like `2+3`.
+        pub cameras: String,
+        /// RMS reprojection residual (px): the RMS distance, in ideal pixels,
+        /// between the sphere's image centre in each camera and the image its
+        /// least-squares centre projects to — how well the cameras' images agree
+        /// (0 in the renderer's exact points).
+        pub residual_px: f64,
+    }
 }
 
 impl PointRow {
-    /// Commanded position (mm).
-    pub fn nominal(&self) -> [f64; 3] {
-        [self.nominal_x, self.nominal_y, self.nominal_z]
-    }
-
     /// Measured position (mm).
     pub fn position(&self) -> [f64; 3] {
         [self.x, self.y, self.z]
-    }
-
-    /// The instant this row belongs to.
-    pub fn instant(&self) -> InstantKey {
-        InstantKey {
-            axis: self.axis,
-            direction: self.direction,
-            run: self.run,
-            target: self.target,
-            capture: self.capture,
-            nominal_bits: self.nominal().map(f64::to_bits),
-        }
     }
 }
 

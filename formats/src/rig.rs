@@ -560,19 +560,7 @@ mod tests {
 
     #[test]
     fn camera_json_round_trip() {
-        let nominal = NominalCamera {
-            id: 3,
-            position: [0.0, 0.0, 560.0],
-            look_at: [0.0, 0.0, 0.0],
-            up: [0.0, 1.0, 0.0],
-            focal_mm: 40.0,
-            pixel_mm: 0.0055,
-            width: 4096,
-            height: 3072,
-            optics: NominalOptics::default(),
-            extra: serde_json::Map::new(),
-        };
-        let mut cam = nominal.to_camera().unwrap();
+        let mut cam = nominal(3).to_camera().unwrap();
         cam.distortion.k1 = -0.05;
         let json = serde_json::to_string(&RigCamera::new(3, &cam, 0.01, 40)).unwrap();
         let back: RigCamera = serde_json::from_str(&json).unwrap();
@@ -584,19 +572,15 @@ mod tests {
 
     #[test]
     fn illumination_is_ideal_when_absent_and_round_trips() {
-        let nominal = NominalCamera {
-            id: 1,
+        let cam = NominalCamera {
             position: [-460.0, 0.0, 0.0],
-            look_at: [0.0, 0.0, 0.0],
             up: [0.0, 0.0, 1.0],
-            focal_mm: 40.0,
-            pixel_mm: 0.0055,
             width: 400,
             height: 300,
-            optics: NominalOptics::default(),
-            extra: serde_json::Map::new(),
-        };
-        let cam = nominal.to_camera().unwrap();
+            ..nominal(1)
+        }
+        .to_camera()
+        .unwrap();
         let mut json = serde_json::to_value(RigCamera::new(1, &cam, 0.01, 40)).unwrap();
         assert_eq!(json["relative_illumination"]["model"], "ideal");
         json.as_object_mut()

@@ -216,8 +216,15 @@ pub(crate) fn write_csv_into<'a, T: Serialize + 'a>(
     records: impl IntoIterator<Item = &'a T>,
 ) -> Result<()> {
     let path = file.target().to_path_buf();
-    let path = path.as_path();
-    let mut w = csv::Writer::from_writer(file);
+    serialize_all(csv::Writer::from_writer(file), records, &path)
+}
+
+/// Serialise every record into `w`, then commit its atomic file.
+fn serialize_all<'a, T: Serialize + 'a>(
+    mut w: csv::Writer<AtomicFile>,
+    records: impl IntoIterator<Item = &'a T>,
+    path: &Path,
+) -> Result<()> {
     for r in records {
         w.serialize(r)
             .map_err(|e| FormatError::file(path, e.to_string()))?;
@@ -270,19 +277,7 @@ pub(crate) fn write_records_into<'a, T: Record + 'a>(
     };
     w.write_record(&header)
         .map_err(|e| FormatError::file(path, e.to_string()))?;
-    for r in records {
-        w.serialize(r)
-            .map_err(|e| FormatError::file(path, e.to_string()))?;
-    }
-    let file = w
-        .into_inner()
-        .map_err(|e| FormatError::io(path, e.into_error()))?;
-    file.commit()
-}
-
-/// A CSV writer over any sink (for streamed output such as `points.csv`).
-pub fn csv_writer<W: std::io::Write>(sink: W) -> csv::Writer<W> {
-    csv::Writer::from_writer(sink)
+    serialize_all(w, records, path)
 }
 
 #[cfg(test)]

@@ -21,13 +21,13 @@ pub enum FuseError {
     /// A partial output belongs to a different run.
     #[error("{}: partial output of a run with other inputs or options; give --force to discard it and start afresh", .0.display())]
     ResumeMismatch(PathBuf),
-    /// A rig camera's model is unusable (its message from `formats`).
-    #[error("rig camera {camera}: {message}")]
+    /// A rig camera's model is unusable.
+    #[error("rig camera {camera}: {source}")]
     RigCamera {
         /// Camera id.
         camera: u8,
         /// What is wrong, as the rig file's reader says it.
-        message: String,
+        source: formats::RigError,
     },
     /// A camera number appears twice in the rig.
     #[error("rig camera {camera}: appears twice in the rig")]

@@ -41,13 +41,13 @@ pub enum SphereMatch {
 /// Tolerance on the spread of implied log-distances: half the smallest
 /// `|ln D_j − ln D_k|` over pairs of spheres, at most 0.2.
 /// `None` when two spheres share a diameter within
-/// [`formats::campaign::SAME_DIAMETER`] (they cannot be told apart).
+/// [`formats::SAME_DIAMETER`] (they cannot be told apart).
 pub fn spread_tolerance(diameters: &[f64]) -> Option<f64> {
     let mut tol = MAX_SPREAD;
     for (j, a) in diameters.iter().enumerate() {
         for b in &diameters[j + 1..] {
             let d = (a.ln() - b.ln()).abs();
-            if d <= formats::campaign::SAME_DIAMETER {
+            if d <= formats::SAME_DIAMETER {
                 return None;
             }
             tol = tol.min(0.5 * d);

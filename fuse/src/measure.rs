@@ -769,7 +769,7 @@ pub fn measure(
         .file(&paths.problems)
         .state(&paths.partial)
         .state(&paths.sidecar);
-    output.lock(formats::output::folder_of(out), "measure")?;
+    output.lock(formats::folder_of(out), "measure")?;
     // Resume or start afresh.
     let done_rows = resume(inputs, options, &paths, output)?;
     let index_of: HashMap<InstantKey, usize> = plans.iter().map(|p| (p.key, p.index)).collect();

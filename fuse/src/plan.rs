@@ -52,16 +52,16 @@ impl RigModel {
         let mut cameras = BTreeMap::new();
         let mut illumination = BTreeMap::new();
         for c in &rig.cameras {
-            let cam = c.model.to_camera().map_err(|e| FuseError::RigCamera {
+            let cam = c.model.to_camera().map_err(|source| FuseError::RigCamera {
                 camera: c.model.id,
-                message: e.to_string(),
+                source,
             })?;
             let ri = c
                 .relative_illumination
                 .to_model(c.model.width, c.model.height)
-                .map_err(|e| FuseError::RigCamera {
+                .map_err(|source| FuseError::RigCamera {
                     camera: c.model.id,
-                    message: e.to_string(),
+                    source,
                 })?;
             illumination.insert(c.model.id, ri);
             if cameras.insert(c.model.id, cam).is_some() {

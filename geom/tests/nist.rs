@@ -18,6 +18,7 @@ use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use formats::read_ds;
 use geom::fit;
 use geom::{Point2, Point3, Vector3};
 
@@ -37,33 +38,6 @@ struct Case {
 
 fn data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/nist-fits")
-}
-
-fn parse_ds(path: &Path) -> Vec<Point3<f64>> {
-    let text = fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut lines = text.lines();
-    let count: usize = lines.next().unwrap().trim().parse().unwrap();
-    let points: Vec<Point3<f64>> = lines
-        .map(|line| {
-            let v: Vec<f64> = line
-                .split('\t')
-                .map(|f| {
-                    f.trim()
-                        .parse()
-                        .unwrap_or_else(|e| panic!("{}: {line:?}: {e}", path.display()))
-                })
-                .collect();
-            assert_eq!(v.len(), 3, "{}: {line:?}", path.display());
-            Point3::new(v[0], v[1], v[2])
-        })
-        .collect();
-    assert_eq!(
-        points.len(),
-        count,
-        "{}: header says {count} points",
-        path.display()
-    );
-    points
 }
 
 fn parse_fit(path: &Path) -> Vec<f64> {
@@ -93,7 +67,7 @@ fn cases(kind: &str, expected: &[&str], fit_len: usize) -> Vec<Case> {
     wanted
         .into_iter()
         .map(|name| {
-            let points = parse_ds(&dir.join(format!("{name}.ds")));
+            let points = read_ds(&dir.join(format!("{name}.ds"))).unwrap();
             let reference = parse_fit(&dir.join(format!("{name}.fit")));
             assert_eq!(reference.len(), fit_len, "{kind}/{name}.fit");
             Case {

@@ -384,19 +384,15 @@ pub fn place_continuous(
                 offsets.insert(c, o);
             }
             None => {
-                for f in &s.frames {
-                    placed.faults.push(Fault {
-                        file: Some(f.file),
-                        camera: Some(c),
-                        dwell: None,
-                        capture: None,
-                        reason: format!(
-                            "camera {c}'s frames cannot be put on camera {reference}'s frame \
+                placed.fault_frames(
+                    &s.frames,
+                    c,
+                    None,
+                    &format!(
+                        "camera {c}'s frames cannot be put on camera {reference}'s frame \
                              clock: too few of the dwells found in both line up"
-                        ),
-                        related: Vec::new(),
-                    });
-                }
+                    ),
+                );
             }
         }
     }

@@ -63,10 +63,23 @@ pub enum IngestError {
         /// What is wrong.
         message: String,
     },
-    /// The program cannot be cut into bursts or dwells as captured
-    /// (e.g. dwells closer together than a burst lasts).
-    #[error("{0}")]
-    Capture(String),
+    /// The program's dwells follow each other closer than a burst lasts:
+    /// triggered bursts cannot be told apart by time.
+    #[error(
+        "the program's dwells follow each other {between_s:.4} s after the last capture \
+         while a burst of {captures} frames at {fps} fps spans {span_s:.4} s: bursts cannot be \
+         told apart by time"
+    )]
+    BurstsOverlap {
+        /// Shortest programmed stop from one dwell's last capture to the next one's first (s).
+        between_s: f64,
+        /// Frames a burst.
+        captures: u32,
+        /// Frame rate (1/s).
+        fps: f64,
+        /// Time from a burst's first frame to its last (s).
+        span_s: f64,
+    },
     /// A file of the contract could not be read or written.
     #[error(transparent)]
     Format(#[from] formats::FormatError),
@@ -80,6 +93,22 @@ impl IngestError {
             source,
         }
     }
+}
+
+/// Why a camera's time stamp is not a time.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum TimeError {
+    /// Not an ISO 8601 civil date-time (or not a day of the calendar).
+    #[error("time '{text}' is not a date-time: {reason}")]
+    Syntax {
+        /// The stamp as written.
+        text: String,
+        /// The parser's complaint.
+        reason: String,
+    },
+    /// A date-time outside the range of a UTC time stamp in nanoseconds.
+    #[error("time '{0}' is out of range")]
+    Range(String),
 }
 
 /// Result alias for `ingest`.

@@ -4,13 +4,13 @@
 //! every frame at its instant — or, for a frame that cannot be placed, a
 //! [`Problem`] with the reason. Nothing is placed by guess.
 //!
-//! - [`program`]: `program.toml`, the renderer's `[procedure]` table.
-//! - [`stamp`]: serial and time of a frame from its metadata alone.
-//! - [`scan`]: the frames under the folders, mapped to camera numbers.
-//! - [`align`]: a camera's events matched to the program's dwells by order
+//! - `program`: `program.toml`, the renderer's `[procedure]` table.
+//! - `stamp`: serial and time of a frame from its metadata alone.
+//! - `scan`: the frames under the folders, mapped to camera numbers.
+//! - `align`: a camera's events matched to the program's dwells by order
 //!   and relative gaps (dynamic programming, ambiguity measured).
-//! - [`triggered`]: bursts of `captures` frames at each dwell.
-//! - [`continuous`]: free-running cameras; dwells found in the images.
+//! - `triggered`: bursts of `captures` frames at each dwell.
+//! - `continuous`: free-running cameras; dwells found in the images.
 //!
 //! # Conventions
 //! - Camera clocks are never trusted to agree with each other or with the
@@ -25,12 +25,12 @@
 
 mod error;
 
-pub mod align;
-pub mod continuous;
-pub mod program;
-pub mod scan;
-pub mod stamp;
-pub mod triggered;
+mod align;
+mod continuous;
+mod program;
+mod scan;
+mod stamp;
+mod triggered;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
@@ -40,8 +40,9 @@ use formats::{ManifestProblemRow, ManifestRow, ProcedureConfig};
 
 pub use align::AlignParams;
 pub use continuous::{ContinuousParams, Signatures, Spot};
-pub use error::{IngestError, Result};
+pub use error::{IngestError, Result, TimeError};
 pub use program::{parse_program, read_program};
+pub use stamp::{FrameTime, parse_time, read_metadata};
 pub use triggered::{CameraFrames, Fault, Placed, Placement, TimedFrame};
 
 /// A frame, camera or instant left out of the manifest, and why.
@@ -296,8 +297,7 @@ pub fn build(inputs: &Inputs<'_>, options: &Options) -> Result<Built> {
             program.captures,
             program.fps,
             &options.align,
-        )
-        .map_err(IngestError::Capture)?,
+        )?,
         Capture::Continuous => {
             let paths: Vec<PathBuf> = frames.iter().map(|f| f.path.clone()).collect();
             let source = ImageSignatures {

@@ -171,7 +171,7 @@ pub fn scan(dirs: &[PathBuf], serials: &[(String, u8)]) -> Result<Scan> {
                     Some(serial.clone()),
                     Some(camera),
                     Some(text.clone()),
-                    reason,
+                    reason.to_string(),
                 )
             })?;
             Ok(Frame {

@@ -15,7 +15,7 @@ use std::path::Path;
 use exif::{Context, Field, In, Rational, Tag, Value};
 use extract::FrameMetadata;
 
-use crate::{IngestError, Result};
+use crate::{IngestError, Result, TimeError};
 
 /// When a frame was exposed, on its camera's clock.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -31,15 +31,16 @@ pub struct FrameTime {
 
 /// Parse an ISO 8601 civil time `YYYY-MM-DDTHH:MM:SS[.f…]` (as
 /// [`FrameMetadata::datetime`] gives it).
-pub fn parse_time(text: &str) -> std::result::Result<FrameTime, String> {
-    let dt: jiff::civil::DateTime = text
-        .parse()
-        .map_err(|e| format!("time '{text}' is not a date-time: {e}"))?;
+pub fn parse_time(text: &str) -> std::result::Result<FrameTime, TimeError> {
+    let dt: jiff::civil::DateTime = text.parse().map_err(|e: jiff::Error| TimeError::Syntax {
+        text: text.to_string(),
+        reason: e.to_string(),
+    })?;
+    let range = || TimeError::Range(text.to_string());
     let ts = jiff::tz::TimeZone::UTC
         .to_timestamp(dt)
-        .map_err(|e| format!("time '{text}': {e}"))?;
-    let ns =
-        i64::try_from(ts.as_nanosecond()).map_err(|_| format!("time '{text}' is out of range"))?;
+        .map_err(|_| range())?;
+    let ns = i64::try_from(ts.as_nanosecond()).map_err(|_| range())?;
     let digits = text.split_once('.').map_or(0, |(_, f)| {
         f.chars().take_while(char::is_ascii_digit).count()
     });

@@ -17,6 +17,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use formats::Dwell;
 
 use crate::align::{AlignParams, Event, align};
+use crate::{IngestError, Result};
 
 /// A frame on its camera's clock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -107,7 +108,7 @@ pub struct BurstTiming {
 }
 
 /// The burst timing of a program, or why its bursts cannot be told apart.
-pub fn burst_timing(dwells: &[Dwell], captures: u32, fps: f64) -> Result<BurstTiming, String> {
+pub fn burst_timing(dwells: &[Dwell], captures: u32, fps: f64) -> Result<BurstTiming> {
     let span = f64::from(captures.saturating_sub(1)) / fps;
     let within_s = span + 0.5 / fps;
     let between_s = dwells
@@ -122,11 +123,12 @@ pub fn burst_timing(dwells: &[Dwell], captures: u32, fps: f64) -> Result<BurstTi
         });
     }
     if within_s >= 0.5 * between_s {
-        return Err(format!(
-            "the program's dwells follow each other {between_s:.4} s after the last capture \
-             while a burst of {captures} frames at {fps} fps spans {span:.4} s: bursts cannot be \
-             told apart by time"
-        ));
+        return Err(IngestError::BurstsOverlap {
+            between_s,
+            captures,
+            fps,
+            span_s: span,
+        });
     }
     Ok(BurstTiming {
         within_s,
@@ -158,6 +160,28 @@ struct Burst {
     frames: Vec<TimedFrame>,
 }
 
+impl Placed {
+    /// The same fault for every frame of a burst of camera `camera`.
+    pub(crate) fn fault_frames<'a>(
+        &mut self,
+        frames: impl IntoIterator<Item = &'a TimedFrame>,
+        camera: u8,
+        dwell: Option<usize>,
+        reason: &str,
+    ) {
+        for f in frames {
+            self.faults.push(Fault {
+                file: Some(f.file),
+                camera: Some(camera),
+                dwell,
+                capture: None,
+                reason: reason.to_string(),
+                related: Vec::new(),
+            });
+        }
+    }
+}
+
 /// Place the frames of triggered capture.
 pub fn place_triggered(
     cameras: &[CameraFrames],
@@ -165,7 +189,7 @@ pub fn place_triggered(
     captures: u32,
     fps: f64,
     params: &AlignParams,
-) -> Result<Placed, String> {
+) -> Result<Placed> {
     let timing = burst_timing(dwells, captures, fps)?;
     let period = 1.0 / fps;
     let cut_ns = (timing.cut_s * NS) as i64;
@@ -185,21 +209,17 @@ pub fn place_triggered(
             .max()
             .unwrap_or(0);
         if resolution as f64 / NS > 0.5 * timing.cut_s {
-            for f in &cam.frames {
-                placed.faults.push(Fault {
-                    file: Some(f.file),
-                    camera: Some(c),
-                    dwell: None,
-                    capture: None,
-                    reason: format!(
-                        "camera {c}'s time stamps resolve only {} s: bursts {:.4} s apart \
+            placed.fault_frames(
+                &cam.frames,
+                c,
+                None,
+                &format!(
+                    "camera {c}'s time stamps resolve only {} s: bursts {:.4} s apart \
                          cannot be told apart",
-                        resolution as f64 / NS,
-                        timing.cut_s
-                    ),
-                    related: Vec::new(),
-                });
-            }
+                    resolution as f64 / NS,
+                    timing.cut_s
+                ),
+            );
             continue;
         }
         let ranges = cut_bursts(&cam.frames, cut_ns);
@@ -222,23 +242,19 @@ pub fn place_triggered(
                         format!("dwell {}", describe(&dwells[j]))
                     })
                 };
-                for f in frames {
-                    placed.faults.push(Fault {
-                        file: Some(f.file),
-                        camera: Some(c),
-                        dwell: x.chosen,
-                        capture: None,
-                        reason: format!(
-                            "burst of {} frame(s) cannot be matched to the program unambiguously: \
+                placed.fault_frames(
+                    frames,
+                    c,
+                    x.chosen,
+                    &format!(
+                        "burst of {} frame(s) cannot be matched to the program unambiguously: \
                              {} or {} (costs differ by {:.1})",
-                            frames.len(),
-                            name(x.chosen),
-                            name(x.alternative),
-                            x.margin
-                        ),
-                        related: Vec::new(),
-                    });
-                }
+                        frames.len(),
+                        name(x.chosen),
+                        name(x.alternative),
+                        x.margin
+                    ),
+                );
                 continue;
             }
             match a.dwell_of[e] {
@@ -267,19 +283,15 @@ pub fn place_triggered(
                         }
                         (None, None) => "with no burst of this camera matched".into(),
                     };
-                    for f in frames {
-                        placed.faults.push(Fault {
-                            file: Some(f.file),
-                            camera: Some(c),
-                            dwell: None,
-                            capture: None,
-                            reason: format!(
-                                "frame in no dwell (a stray trigger?): a burst of {} frame(s) {place}",
-                                frames.len()
-                            ),
-                            related: Vec::new(),
-                        });
-                    }
+                    placed.fault_frames(
+                        frames,
+                        c,
+                        None,
+                        &format!(
+                            "frame in no dwell (a stray trigger?): a burst of {} frame(s) {place}",
+                            frames.len()
+                        ),
+                    );
                 }
             }
         }
@@ -392,16 +404,12 @@ fn assign_captures(
                 }
             } else {
                 for f in &b.frames {
-                    fault(
-                        placed,
-                        Some(f),
-                        None,
-                        format!(
-                            "{what}: which captures these are cannot be told with time stamps \
-                             resolving {} s",
-                            f.resolution_ns as f64 / NS
-                        ),
+                    let reason = format!(
+                        "{what}: which captures these are cannot be told with time stamps \
+                         resolving {} s",
+                        f.resolution_ns as f64 / NS
                     );
+                    placed.fault_frames([f], c, Some(j), &reason);
                 }
             }
             continue;
@@ -415,18 +423,16 @@ fn assign_captures(
         let tol = tolerance_ns(period, &b.frames);
         let start = match (own, from_other) {
             (Some(o), Some((r, t))) if (o - t).abs() > tol => {
-                for f in &b.frames {
-                    fault(
-                        placed,
-                        Some(f),
-                        None,
-                        format!(
-                            "{what}: its first frame is {:.4} s off camera {r}'s at the same \
+                placed.fault_frames(
+                    &b.frames,
+                    c,
+                    Some(j),
+                    &format!(
+                        "{what}: its first frame is {:.4} s off camera {r}'s at the same \
                              dwell (clock offset taken from the nearest dwells)",
-                            (o - t) as f64 / NS
-                        ),
-                    );
-                }
+                        (o - t) as f64 / NS
+                    ),
+                );
                 continue;
             }
             (Some(o), _) => o,
@@ -437,17 +443,15 @@ fn assign_captures(
                 if (span - full).abs() <= tol {
                     b.frames[0].ns
                 } else {
-                    for f in &b.frames {
-                        fault(
-                            placed,
-                            Some(f),
-                            None,
-                            format!(
-                                "{what}: which captures these are cannot be told (no other camera \
+                    placed.fault_frames(
+                        &b.frames,
+                        c,
+                        Some(j),
+                        &format!(
+                            "{what}: which captures these are cannot be told (no other camera \
                                  has a complete burst at this dwell)"
-                            ),
-                        );
-                    }
+                        ),
+                    );
                     continue;
                 }
             }

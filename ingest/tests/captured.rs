@@ -291,8 +291,8 @@ fn exiftool_metadata_other_names_and_bad_files() {
         let folder = captured.join(format!("day1/cam{}", k + 1));
         std::fs::create_dir_all(&folder).unwrap();
         for (n, f) in files.iter().enumerate() {
-            let meta = ingest::stamp::read_metadata(f).unwrap();
-            let t = ingest::stamp::parse_time(meta.datetime.as_deref().unwrap()).unwrap();
+            let meta = ingest::read_metadata(f).unwrap();
+            let t = ingest::parse_time(meta.datetime.as_deref().unwrap()).unwrap();
             let ns = t.ns + (offsets_s[k] * 1e9) as i64;
             let secs = ns.div_euclid(1_000_000_000);
             let ms = ns.rem_euclid(1_000_000_000) / 1_000_000;

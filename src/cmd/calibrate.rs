@@ -155,7 +155,7 @@ fn nominal_path(args: &Args) -> &Path {
 
 /// A file beside `out` named `<stem><suffix>`.
 fn beside(out: &Path, suffix: &str) -> PathBuf {
-    formats::atomic::beside(out, "rig", suffix)
+    formats::beside(out, "rig", suffix)
 }
 
 /// Optics for the depth of field: pixel pitch and the lens keys of a
@@ -434,7 +434,7 @@ fn plan_outputs(args: &Args, cameras: &[CameraSpec]) -> Result<OutputPlan> {
         .inputs(&args.flat_fields)
         .inputs(&args.dark_frames)
         .inputs(&args.spheres)
-        .folder(formats::output::folder_of(&args.out))
+        .folder(formats::folder_of(&args.out))
         .file(&args.out)
         .file(beside(&args.out, ".residuals.csv"))
         .file(args.out.with_file_name("commissioning.txt"))
@@ -559,7 +559,7 @@ fn from_image(
     let ex = backend.extract(frame, params).with_context(context)?;
     let blobs: Vec<&Blob> = ex.blobs.iter().filter(|b| !b.touches_border).collect();
     let detections: Vec<Point2<f64>> = blobs.iter().map(|b| Point2::new(b.u, b.v)).collect();
-    let denoised = extract::denoise::apply(&frame, params.denoise);
+    let denoised = extract::denoise(&frame, params.denoise);
     let view = denoised.as_ref().map_or(frame, |f| f.view());
     let recentroid = |camera: &geom::Camera| {
         observed_centroids(

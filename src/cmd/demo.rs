@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Args as ClapArgs, FromArgMatches};
-use formats::figures::{AxisFigures, PositioningFigures, ReportFigures, ZoneFigures};
+use formats::{AxisFigures, PositioningFigures, ReportFigures, ZoneFigures};
 use formats::{PointRow, Truth};
 
 use crate::cmd;

@@ -39,11 +39,11 @@ pub struct ExtractOptions {
     #[arg(long, default_value = "auto", value_parser = threshold_arg)]
     threshold: String,
     /// k of the automatic thresholds.
-    #[arg(long, default_value_t = extract::threshold::DEFAULT_K, value_parser = crate::cmd::values::positive)]
+    #[arg(long, default_value_t = extract::DEFAULT_K, value_parser = crate::cmd::values::positive)]
     k: f64,
     /// Box size of the local background mesh (px).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(
-        i64::from(extract::background::MIN_MESH_PX)..=i64::from(formats::limits::MAX_IMAGE_SIDE_PX)))]
+        i64::from(extract::MIN_MESH_PX)..=i64::from(formats::limits::MAX_IMAGE_SIDE_PX)))]
     mesh: u32,
     /// Centroid weights.
     #[arg(long, value_enum, default_value_t = WeightingArg::Subtracted)]
@@ -55,7 +55,7 @@ pub struct ExtractOptions {
     #[arg(long, default_value_t = 1.0, value_parser = crate::cmd::values::positive_f32)]
     sigma: f32,
     /// Smallest blob kept (px).
-    #[arg(long, default_value_t = extract::backend::DEFAULT_MIN_AREA)]
+    #[arg(long, default_value_t = extract::DEFAULT_MIN_AREA)]
     min_area: u64,
     /// Largest blob kept (px).
     #[arg(long)]
@@ -256,7 +256,7 @@ pub fn run(args: &Args) -> Result<()> {
         .inputs(&args.dark_frame)
         .file(&args.out)
         .file(&problems_file);
-    plan.lock(formats::output::folder_of(&args.out), "extract")?;
+    plan.lock(formats::folder_of(&args.out), "extract")?;
     print_notes(&plan);
     plan.check()?;
     let flat_field = match (&args.flat_field, &args.dark_frame) {

@@ -53,10 +53,10 @@ struct XyzRow {
 impl Record for XyzRow {
     const COLUMNS: &'static [&'static str] = &["x", "y"];
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        formats::table::finite("x", self.x)?;
-        formats::table::finite("y", self.y)?;
+        formats::finite("x", self.x)?;
+        formats::finite("y", self.y)?;
         if let Some(z) = self.z {
-            formats::table::finite("z", z)?;
+            formats::finite("z", z)?;
         }
         Ok(())
     }
@@ -65,7 +65,7 @@ impl Record for XyzRow {
 /// Points as 3-D (z = 0 where a CSV has no z column).
 fn read_points(path: &Path, need_z: bool) -> Result<Vec<Point3<f64>>> {
     if path.extension().is_some_and(|e| e == "ds") {
-        return Ok(formats::nist::read_ds(path)?);
+        return Ok(formats::read_ds(path)?);
     }
     let rows = read_csv::<XyzRow>(path)?;
     rows.iter()

@@ -88,7 +88,7 @@ pub fn run(args: &Args) -> Result<()> {
         .inputs(&args.dirs)
         .file(&args.out)
         .file(&problems_path);
-    plan.lock(formats::output::folder_of(&args.out), "manifest")?;
+    plan.lock(formats::folder_of(&args.out), "manifest")?;
     print_notes(&plan);
     plan.check()?;
     let program = ingest::read_program(&args.program)?;

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use formats::Axis;
 /// The `[procedure]` table: one record shared with `program.toml` (`formats::capture`).
-pub use formats::capture::{AxisProcedure, ProcedureConfig};
+pub use formats::{AxisProcedure, ProcedureConfig};
 use serde::{Deserialize, Serialize};
 
 use crate::capture::CaptureConfig;
@@ -447,7 +447,7 @@ pub struct Overrides {
     pub seed: Option<u64>,
 }
 
-pub use formats::capture::MAX_INSTANTS;
+pub use formats::MAX_INSTANTS;
 
 /// Largest target grid (markers per side of the Latin square; 49 by default).
 pub const MAX_GRID: u32 = 101;

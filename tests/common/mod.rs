@@ -1,0 +1,138 @@
+//! Helpers of the binary's integration tests: running `trinocular` and
+//! judging what it printed and left behind. Each test file uses a part.
+
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The binary under test.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_trinocular"))
+}
+
+/// Run the binary with `args`.
+pub fn trinocular(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run trinocular")
+}
+
+/// A path as an argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A file of the repository's `testdata/`.
+pub fn testdata(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("testdata")
+        .join(rel)
+}
+
+/// The bytes of a file; a missing one fails the test with its name.
+pub fn read(p: &Path) -> Vec<u8> {
+    std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// Stderr as text.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A successful run; returns its stderr.
+pub fn ok(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "{:?}: {}{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        stderr(out)
+    );
+    stderr(out)
+}
+
+/// A failed run whose stderr is exactly one line starting with the program
+/// name; returns that line.
+pub fn one_line_error(out: &Output) -> String {
+    assert!(
+        !out.status.success(),
+        "expected failure, got {:?}",
+        out.status
+    );
+    let err = stderr(out);
+    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err:?}");
+    assert!(err.starts_with("trinocular: error: "), "{err:?}");
+    err
+}
+
+/// A refused run: exit status 1 and an error line holding every fragment.
+pub fn refused(out: &Output, fragments: &[&str]) -> String {
+    let err = stderr(out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("trinocular: error: "))
+        .unwrap_or_else(|| panic!("no error line: {err}"));
+    for f in fragments {
+        assert!(line.contains(f), "'{f}' missing from {line}");
+    }
+    line.to_string()
+}
+
+/// Files under `dir` (recursively) whose name marks a temporary file, a
+/// staging folder or a lock.
+pub fn leftovers(dir: &Path) -> Vec<PathBuf> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap().flatten() {
+        let path = entry.path();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.ends_with(".tmp") || name == ".trinocular.lock" {
+            found.push(path.clone());
+        }
+        if path.is_dir() {
+            found.extend(leftovers(&path));
+        }
+    }
+    found
+}
+
+/// Render a small campaign into `out` with `synth campaign`: `size` (px),
+/// `[targets, runs, captures]`, then `extra` arguments.
+pub fn render_campaign(
+    out: &Path,
+    (width, height): (u32, u32),
+    [targets, runs, captures]: [u32; 3],
+    extra: &[&str],
+) {
+    let n = [width, height, targets, runs, captures].map(|n| n.to_string());
+    let mut args = vec![
+        "synth",
+        "campaign",
+        "--out",
+        s(out),
+        "--width",
+        &n[0],
+        "--height",
+        &n[1],
+        "--targets",
+        &n[2],
+        "--runs",
+        &n[3],
+        "--captures",
+        &n[4],
+    ];
+    args.extend(extra);
+    ok(&trinocular(&args));
+}
+
+/// The renderer's true cameras of the campaign `c` (its `truth.json`) written
+/// as the rig `rig`: measurements then judge fusion alone. Returns the truth.
+pub fn write_true_rig(c: &Path, rig: &Path) -> formats::Truth {
+    let truth: formats::Truth = formats::read_json(&c.join("truth.json")).unwrap();
+    let cameras = truth
+        .cameras
+        .iter()
+        .map(|t| formats::RigCamera::new(t.model.id, &t.model.to_camera().unwrap(), 0.0, 0))
+        .collect();
+    formats::write_json(rig, &formats::Rig { cameras }).unwrap();
+    truth
+}
