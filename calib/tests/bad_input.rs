@@ -3,6 +3,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
 use calib::{
     CalibError, CorrespondOptions, Marker, Observation, Options, calibrate, correspond,
     observations,
@@ -271,13 +273,7 @@ fn wrong_image() {
     let e = correspond(&t, &images(&side, &t), &down, &CorrespondOptions::default()).unwrap_err();
     assert_wrong_image(&e);
     // Random blobs.
-    let mut x: u64 = 99;
-    let mut next = || {
-        x = x
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (x >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = common::uniform(99);
     let noise: Vec<Point2<f64>> = (0..40)
         .map(|_| Point2::new(next() * 1999.0, next() * 1499.0))
         .collect();

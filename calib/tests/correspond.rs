@@ -6,6 +6,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
 use calib::{CorrespondOptions, Marker, correspond};
 use geom::nalgebra::{Translation3, UnitQuaternion};
 use geom::{Isometry3, Point2, Rotation3, Vector2, Vector3};
@@ -26,13 +28,7 @@ fn random_nominal_errors_missing_and_extra_detections() {
             centre: m.centre,
         })
         .collect();
-    let mut x: u64 = 7;
-    let mut next = || {
-        x = x
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (x >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = common::uniform(7);
     let mut largest_shift: f64 = 0.0;
     for trial in 0..TRIALS {
         let cam = &rig.cameras[trial % 3];

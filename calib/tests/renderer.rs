@@ -20,6 +20,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
 use std::sync::OnceLock;
 
 use calib::{Calibration, CorrespondOptions, Marker, Observation, Options, calibrate, correspond};
@@ -305,13 +307,7 @@ fn correspondences_survive_missing_and_extra_detections() {
             .collect();
         let mut dets = real.clone();
         // Deterministic spurious blobs anywhere in the image (LCG).
-        let mut x: u64 = 12345 + k as u64;
-        let mut next = || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = common::uniform(12345 + k as u64);
         let extra = (0.2 * s.detections[k].len() as f64).round() as usize;
         for _ in 0..extra {
             dets.push(Point2::new(next() * 4095.0, next() * 3071.0));

@@ -354,29 +354,22 @@ fn exiftool_metadata_other_names_and_bad_files() {
         .enumerate()
         .map(|(k, s)| ((*s).to_string(), k as u8 + 1))
         .collect();
+    let build = |cameras: &[(String, u8)]| {
+        ingest::build(
+            &Inputs {
+                program: &program,
+                cameras,
+                dirs: std::slice::from_ref(&captured),
+                manifest: &dir.join("manifest.csv"),
+            },
+            &Options::default(),
+        )
+    };
     cams.push(("NEVER-SEEN".into(), 3));
-    let err = ingest::build(
-        &Inputs {
-            program: &program,
-            cameras: &cams,
-            dirs: std::slice::from_ref(&captured),
-            manifest: &dir.join("manifest.csv"),
-        },
-        &Options::default(),
-    )
-    .unwrap_err();
+    let err = build(&cams).unwrap_err();
     assert!(err.to_string().contains("twice"), "{err}");
     cams.pop();
-    let built = ingest::build(
-        &Inputs {
-            program: &program,
-            cameras: &cams,
-            dirs: std::slice::from_ref(&captured),
-            manifest: &dir.join("manifest.csv"),
-        },
-        &Options::default(),
-    )
-    .unwrap();
+    let built = build(&cams).unwrap();
     let want: Vec<ManifestRow> = truth
         .into_iter()
         .map(|mut r| {
