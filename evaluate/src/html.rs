@@ -4,8 +4,8 @@
 
 use std::fmt::Write;
 
-use crate::report::{AxisReport, FlatnessReport, LineReport, PositioningReport, Report};
 use ::report::{Page, escape, num};
+use formats::evaluation::{AxisReport, FlatnessReport, LineReport, PositioningReport, Report};
 
 use crate::{Result, plot};
 

@@ -74,7 +74,6 @@ mod lines;
 mod output;
 mod plot;
 mod points;
-mod report;
 mod straightness;
 mod vdi3441;
 
@@ -85,6 +84,11 @@ use geom::Point3;
 
 pub use angular::MIN_LEVER_MM;
 pub use error::{EvaluateError, Iso230_2Problem, Result};
+pub use formats::evaluation::{
+    ANGULAR_CONVENTION, AngularReport, AngularTarget, Axes, AxisReport, FlatnessPoint,
+    FlatnessReport, LineReport, PositioningReport, PositioningTarget, Report, StraightnessReport,
+    StraightnessTarget, Vdi3441Report,
+};
 pub use iso230_2::{
     Bidirectional, DirectionStats, Iso230_2, MIN_RUNS, TargetBidirectional, TargetDeviations,
     TargetFigures, Unidirectional, iso230_2,
@@ -92,11 +96,6 @@ pub use iso230_2::{
 pub use lines::{LINE_TOLERANCE_MM, TARGET_TOLERANCE_MM};
 pub use output::{REPORT_FILES, write_outputs};
 pub use points::{MAX_COORDINATE_MM, UNITS_TOLERANCE_MM, UNITS_TOLERANCE_OF_TRAVEL, read_points};
-pub use report::{
-    ANGULAR_CONVENTION, AngularReport, AngularTarget, Axes, AxisReport, FlatnessPoint,
-    FlatnessReport, LineReport, PositioningReport, PositioningTarget, Report, StraightnessReport,
-    StraightnessTarget, Vdi3441Report,
-};
 
 use crate::points::Located;
 
@@ -167,7 +166,7 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
     let sphere = choose_sphere(&spheres, options)?;
 
     let mut report = Report {
-        axes: report::Axes::default(),
+        axes: Axes::default(),
         flatness: None,
         sphere: sphere.clone(),
         spheres: spheres.clone(),
@@ -292,6 +291,6 @@ fn conventions(sphere: &str) -> Vec<String> {
         "flatness: vertical deviations of the per-target mean points of all X and Y lines from the \
          least-squares plane z = aX + bY + c (range), and the minimum zone"
             .into(),
-        report::ANGULAR_CONVENTION.into(),
+        ANGULAR_CONVENTION.into(),
     ]
 }

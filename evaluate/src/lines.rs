@@ -10,11 +10,11 @@ use geom::{Point2, Point3, Vector3};
 use crate::axis_frame::AxisFrame;
 use crate::iso230_2::TargetDeviations;
 use crate::points::{Located, measured_column, nominal_column, row_error};
-use crate::report::{
+use crate::{EvaluateError, Result, angular, iso230_2, straightness, vdi3441};
+use formats::evaluation::{
     ANGULAR_CONVENTION, AngularReport, AngularTarget, LineReport, PositioningReport,
     PositioningTarget, StraightnessReport, StraightnessTarget, Vdi3441Report,
 };
-use crate::{EvaluateError, Result, angular, iso230_2, straightness, vdi3441};
 
 /// Rows whose off-axis commanded coordinates differ by less than this (mm)
 /// belong to the same line.

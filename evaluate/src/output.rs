@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use formats::OutputPlan;
 use serde::Serialize;
 
-use crate::report::{AxisReport, Report};
 use crate::{Result, html};
+use formats::evaluation::{AxisReport, Report};
 
 /// The files a report folder may hold (`*`: an axis name); a folder holding
 /// anything else is never replaced.

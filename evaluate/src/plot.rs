@@ -13,7 +13,7 @@ use plotters::prelude::*;
 pub use ::report::plot::RGBColor;
 
 use crate::Result;
-use crate::report::{AngularReport, FlatnessReport, PositioningReport, StraightnessReport};
+use formats::evaluation::{AngularReport, FlatnessReport, PositioningReport, StraightnessReport};
 
 /// The x axis of the line plots.
 const POSITION: &str = "commanded position (mm)";
@@ -47,7 +47,8 @@ pub fn positioning(title: &str, p: &PositioningReport) -> Result<String> {
             POSITION,
             "positional deviation (µm)",
         )?;
-        type Get = fn(&crate::report::PositioningTarget) -> (Option<f64>, Option<f64>, &[f64]);
+        type Get =
+            fn(&formats::evaluation::PositioningTarget) -> (Option<f64>, Option<f64>, &[f64]);
         let directions: [(&str, RGBColor, Get); 2] = [
             ("↑", UP, |t| (t.mean_up_um, t.s_up_um, &t.runs_up_um)),
             ("↓", DOWN, |t| {
@@ -203,7 +204,7 @@ pub fn angular(title: &str, a: &AngularReport) -> Result<String> {
         .iter()
         .map(|t| (t.nominal, [t.roll_urad, t.pitch_urad, t.yaw_urad]));
     target_plot(title, values, 1.0, "angle (µrad)", |chart, _| {
-        type Get = fn(&crate::report::AngularTarget) -> f64;
+        type Get = fn(&formats::evaluation::AngularTarget) -> f64;
         let series: [(&str, f64, Get); 3] = [
             ("roll", a.roll_urad, |t| t.roll_urad),
             ("pitch", a.pitch_urad, |t| t.pitch_urad),

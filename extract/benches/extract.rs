@@ -57,40 +57,31 @@ fn plain_sum_1_thread(bencher: divan::Bencher) {
         });
 }
 
-#[divan::bench(args = [1, 2])]
-fn extract_fixed_threshold(bencher: divan::Bencher, threads: usize) {
+/// Extract the seed frame with `params` on a pool of `threads` threads.
+fn extract_on_threads(bencher: divan::Bencher, threads: usize, params: &ExtractParams) {
     let px = seed_frame();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
-    let params = seed_params();
     bencher
         .counter(divan::counter::BytesCount::of_slice(&px))
         .bench(|| {
             pool.install(|| {
                 let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
-                CpuBackend.extract(f, &params).unwrap()
+                CpuBackend.extract(f, params).unwrap()
             })
         });
 }
 
 #[divan::bench(args = [1, 2])]
+fn extract_fixed_threshold(bencher: divan::Bencher, threads: usize) {
+    extract_on_threads(bencher, threads, &seed_params());
+}
+
+#[divan::bench(args = [1, 2])]
 fn extract_auto_threshold(bencher: divan::Bencher, threads: usize) {
-    let px = seed_frame();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    let params = ExtractParams::default();
-    bencher
-        .counter(divan::counter::BytesCount::of_slice(&px))
-        .bench(|| {
-            pool.install(|| {
-                let f = FrameView::new(W, H, 16, divan::black_box(&px)).unwrap();
-                CpuBackend.extract(f, &params).unwrap()
-            })
-        });
+    extract_on_threads(bencher, threads, &ExtractParams::default());
 }
 
 /// The GPU backend on the best adapter, or `None` with a notice.
