@@ -24,11 +24,11 @@
 
 use extract::{Backend, CpuBackend, ExtractParams, FrameView, Threshold};
 use geom::{Camera, Distortion, Intrinsics, Point3};
+use synth::Optics;
 use synth::Sphere;
-use synth::psf::Optics;
-use synth::render::sphere_signals;
-use synth::scene::ellipse_centre_px;
-use synth::sensor::{Exposure, NoiseKey, Sensor, expose, mean_row};
+use synth::ellipse_centre_px;
+use synth::sphere_signals;
+use synth::{Exposure, NoiseKey, Sensor, expose, mean_row};
 
 /// Realisations per case: the standard deviation is then known to ≈ 5 %.
 const REALISATIONS: u64 = 200;

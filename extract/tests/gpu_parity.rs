@@ -20,9 +20,9 @@ use extract::{
     Threshold, Weighting,
 };
 use geom::{Camera, Distortion, Intrinsics, Point3};
-use synth::psf::Optics;
-use synth::render::sphere_signals;
-use synth::sensor::{Exposure, NoiseKey, Sensor, expose};
+use synth::Optics;
+use synth::sphere_signals;
+use synth::{Exposure, NoiseKey, Sensor, expose};
 use synth::{Image16, Sphere};
 
 const FX: f64 = 7966.0;
@@ -336,7 +336,7 @@ fn same_blobs_with_many_segments() {
 }
 
 fn write_frames(dir: &std::path::Path) -> Vec<PathBuf> {
-    let meta = synth::encode::FrameMetadata {
+    let meta = synth::FrameMetadata {
         make: "trinocular".into(),
         model: "parity".into(),
         serial: "P1".into(),
@@ -352,7 +352,7 @@ fn write_frames(dir: &std::path::Path) -> Vec<PathBuf> {
         let path = dir.join(format!("frame_{i:02}.tif"));
         let img = render(diameter, 16, i);
         let mut bytes = std::io::Cursor::new(Vec::new());
-        synth::encode::encode_tiff(
+        synth::encode_tiff(
             &mut bytes,
             &img,
             16,

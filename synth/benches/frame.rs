@@ -7,10 +7,10 @@
 use std::io::Cursor;
 use std::path::Path;
 
+use synth::Plan;
 use synth::config::TiffCompression;
-use synth::encode::{FrameMetadata, encode_tiff};
-use synth::procedure::Plan;
 use synth::{Config, NoiseKey, SynthRig};
+use synth::{FrameMetadata, encode_tiff};
 
 fn main() {
     divan::main();

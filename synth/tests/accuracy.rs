@@ -7,9 +7,9 @@
 
 use geom::nalgebra::{Point2, Point3, Vector2};
 use geom::{Camera, Distortion};
-use synth::render::sphere_signals;
-use synth::scene::{Sphere, ellipse_centre_px};
+use synth::sphere_signals;
 use synth::{Config, NoiseKey, SynthRig};
+use synth::{Sphere, ellipse_centre_px};
 
 /// The seed camera 3 (true model of the default config) rendering radiance
 /// images (the lens's relative illumination has its own tests in
@@ -218,8 +218,8 @@ fn undistorted_centroid_is_the_ellipse_centre() {
 /// σ ≥ 0.55 px blur are ≈ 1e-4 px²; dropping the pixel's 1/12 would fail it.
 #[test]
 fn blur_width_is_psf_plus_pixel() {
-    use synth::coverage::{PixelRect, coverage};
-    use synth::scene::ViewedSphere;
+    use synth::ViewedSphere;
+    use synth::{PixelRect, coverage};
     let cam = seed_camera(false);
     // On the optical axis of camera 3 at 460 mm: a circle.
     let c = cam.camera.centre() + cam.camera.optical_axis().into_inner() * 460.0;
@@ -240,7 +240,7 @@ fn blur_width_is_psf_plus_pixel() {
     };
     let cov = coverage(&cam.camera, &v, &[], rect, 5).unwrap();
     for sigma in [0.55, 1.0, 2.5] {
-        let s = synth::psf::blur(&cov, sigma);
+        let s = synth::blur(&cov, sigma);
         let c = s.centroid().unwrap();
         let (mut vu, mut t) = (0.0, 0.0);
         for r in 0..s.height {
@@ -267,7 +267,7 @@ fn blur_width_is_psf_plus_pixel() {
 /// and blurs by the thin-lens circle of confusion c = f²/(N(s − f))·|z − s|/z,
 /// added as (c/4)² to the PSF's variance. Checked on the rendered image of a
 /// sphere on camera 1's axis at the focus distance and 75 mm nearer/farther,
-/// computing c here from the lens data (independently of `synth::psf`).
+/// computing c here from the lens data (independently of `synth::blur`).
 #[test]
 fn defocus_grows_off_the_focus_plane() {
     let config = Config::default();

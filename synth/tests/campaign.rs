@@ -9,12 +9,12 @@ use formats::{
     Axis, ManifestRow, NominalRig, OutputPlan, PointRow, SphereRow, TargetRow, Truth, read_csv,
     read_json,
 };
-use synth::campaign::{check_plan, write_campaign, write_target_scene};
-use synth::procedure::Plan;
-use synth::progress::NoProgress;
-use synth::scene::separation_px;
-use synth::target::{marker_spheres, markers};
+use synth::NoProgress;
+use synth::Plan;
+use synth::separation_px;
 use synth::{Config, Overrides, SynthRig};
+use synth::{check_plan, write_campaign, write_target_scene};
+use synth::{marker_spheres, markers};
 
 fn small_config() -> Config {
     let mut c = Config::default();
@@ -182,7 +182,7 @@ fn calibration_target_markers_are_separated() {
     for cam in &rig.cameras {
         let mut worst = f64::INFINITY;
         for (i, a) in spheres.iter().enumerate() {
-            assert!(synth::scene::frame_clearance_px(&cam.camera, a).unwrap() > 20.0);
+            assert!(synth::frame_clearance_px(&cam.camera, a).unwrap() > 20.0);
             for b in &spheres[i + 1..] {
                 worst = worst.min(separation_px(&cam.camera, a, b).unwrap());
             }

@@ -18,9 +18,9 @@
 
 use geom::nalgebra::{Point2, Point3, Vector2, Vector3};
 use geom::{Camera, Distortion};
-use synth::render::sphere_signals;
-use synth::scene::{Sphere, ellipse_centre_px};
+use synth::sphere_signals;
 use synth::{Config, LensIllumination, NoiseKey, SynthCamera, SynthRig};
+use synth::{Sphere, ellipse_centre_px};
 
 /// The seed camera 3 through a lens with vignetting `v`, optionally without distortion.
 fn lens_camera(v: [f64; 2], distortion: bool) -> SynthCamera {

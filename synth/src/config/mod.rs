@@ -8,6 +8,7 @@
 //! `_s` seconds). Injected error curves are in µm (translations) and µrad
 //! (rotations).
 
+mod capture;
 mod check;
 mod machine;
 mod optics;
@@ -24,6 +25,8 @@ use std::path::Path;
 pub use formats::capture::{AxisProcedure, ProcedureConfig};
 use serde::{Deserialize, Serialize};
 
+pub(crate) use capture::bad as bad_capture;
+pub use capture::{CaptureConfig, CaptureMode, DroppedFrame, StrayFrame};
 pub(crate) use check::{bad, finite, non_negative, positive};
 pub use machine::{AxisErrors, ErrorCurve, MachineConfig};
 pub use optics::{IlluminationModel, OpticsConfig};
@@ -34,7 +37,6 @@ pub use sensor::SensorConfig;
 pub use spheres::SphereConfig;
 pub use target::{MAX_GRID, TargetConfig};
 
-use crate::capture::CaptureConfig;
 use crate::{Result, SynthError};
 
 /// The documented default configuration (the seed's rig and procedure), as
