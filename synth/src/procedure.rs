@@ -15,7 +15,7 @@ use geom::transform::SmallError;
 use crate::config::Config;
 use crate::machine::{ApproachKey, approach_offset, capture_offset, table_error};
 use crate::scene::Sphere;
-use crate::{Result, SynthError};
+use crate::Result;
 
 /// One instant: the three cameras expose together.
 #[derive(Debug, Clone, PartialEq)]
@@ -113,7 +113,7 @@ impl Plan {
     pub fn new(config: &Config) -> Result<Self> {
         config.validate()?;
         let p = &config.procedure;
-        let start_time_s = crate::datetime::parse(&p.start_time).map_err(SynthError::config)?;
+        let start_time_s = crate::datetime::parse(&p.start_time)?;
         let mut instants = Vec::new();
         for dwell in p.dwells() {
             let Some(errors) = config.machine.axis(dwell.axis) else {
