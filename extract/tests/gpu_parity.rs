@@ -20,10 +20,7 @@ use extract::{
     Threshold, Weighting,
 };
 use geom::{Camera, Distortion, Intrinsics, Point3};
-use synth::Optics;
-use synth::sphere_signals;
-use synth::{Exposure, NoiseKey, Sensor, expose};
-use synth::{Image16, Sphere};
+use synth::{Exposure, Image16, NoiseKey, Optics, Sensor, Sphere, expose, sphere_signals};
 
 const FX: f64 = 7966.0;
 const PIXEL_MM: f64 = 0.0055;

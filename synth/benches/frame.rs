@@ -7,10 +7,8 @@
 use std::io::Cursor;
 use std::path::Path;
 
-use synth::Plan;
 use synth::config::TiffCompression;
-use synth::{Config, NoiseKey, SynthRig};
-use synth::{FrameMetadata, encode_tiff};
+use synth::{Config, FrameMetadata, NoiseKey, Plan, SynthRig, encode_tiff};
 
 fn main() {
     divan::main();

@@ -12,10 +12,10 @@ use formats::{Axis, Direction, ManifestRow, PointRow};
 use geom::nalgebra::{Point3, Vector3};
 use geom::transform::SmallError;
 
+use crate::Result;
 use crate::config::Config;
 use crate::machine::{ApproachKey, approach_offset, capture_offset, table_error};
 use crate::scene::Sphere;
-use crate::Result;
 
 /// One instant: the three cameras expose together.
 #[derive(Debug, Clone, PartialEq)]
