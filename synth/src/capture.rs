@@ -601,10 +601,9 @@ pub(crate) fn program_toml(config: &Config) -> Result<String> {
     struct Program<'a> {
         procedure: &'a formats::ProcedureConfig,
     }
-    toml::to_string_pretty(&Program {
+    crate::config::to_toml(&Program {
         procedure: &config.procedure,
     })
-    .map_err(|e| SynthError::config(e.to_string()))
 }
 
 #[cfg(test)]

@@ -16,8 +16,8 @@
 
 #![allow(clippy::unwrap_used)]
 
-use geom::nalgebra::{Point2, Vector2, Vector3};
 use geom::Camera;
+use geom::nalgebra::{Point2, Vector2, Vector3};
 use synth::{
     Config, LensIllumination, NoiseKey, Sphere, SynthCamera, SynthRig, ellipse_centre_px,
     sphere_signals,

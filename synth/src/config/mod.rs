@@ -107,6 +107,21 @@ pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
     Ok(config)
 }
 
+/// Read the TOML file `path` and parse it with `parse` (a configuration's
+/// `from_toml_str`); an unreadable file is an error naming it.
+pub(crate) fn read_toml<T>(
+    path: &Path,
+    parse: impl FnOnce(&str, Option<&Path>) -> Result<T>,
+) -> Result<T> {
+    let text = std::fs::read_to_string(path).map_err(|e| SynthError::io(path, e))?;
+    parse(&text, Some(path))
+}
+
+/// `value` as TOML.
+pub(crate) fn to_toml<T: Serialize>(value: &T) -> Result<String> {
+    toml::to_string_pretty(value).map_err(|e| SynthError::config(e.to_string()))
+}
+
 impl Config {
     /// Parse a TOML configuration; `path` names the source in errors. Unknown
     /// keys are errors naming the key.
@@ -116,13 +131,12 @@ impl Config {
 
     /// Read a TOML configuration file.
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| SynthError::io(path, e))?;
-        Self::from_toml_str(&text, Some(path))
+        read_toml(path, Self::from_toml_str)
     }
 
     /// The configuration as TOML (without the comments of [`DEFAULT_TOML`]).
     pub fn to_toml(&self) -> Result<String> {
-        toml::to_string_pretty(self).map_err(|e| SynthError::config(e.to_string()))
+        to_toml(self)
     }
 
     /// Check every value, table by table in the order of the file; the

@@ -280,13 +280,12 @@ impl RotaryConfig {
 
     /// Read a TOML configuration file.
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| SynthError::io(path, e))?;
-        Self::from_toml_str(&text, Some(path))
+        crate::config::read_toml(path, Self::from_toml_str)
     }
 
     /// The configuration as TOML (without the comments of [`DEFAULT_TOML`]).
     pub fn to_toml(&self) -> Result<String> {
-        toml::to_string_pretty(self).map_err(|e| SynthError::config(e.to_string()))
+        crate::config::to_toml(self)
     }
 
     /// Check every value: a positive step below a turn, non-negative noise,
