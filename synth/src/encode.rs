@@ -263,7 +263,7 @@ pub fn encode_png<W: Write>(
 }
 
 /// Write an image file atomically (temporary file, then rename), replacing
-/// an existing one (commands write through an `OutputPlan`: [`write_image_into`]).
+/// an existing one (the commands write their images through an `OutputPlan` instead).
 pub fn write_image(
     path: &Path,
     image: &Image16,

@@ -55,7 +55,7 @@ impl SynthCamera {
     }
 
     /// Radiance (electrons of a pixel at the principal point) of the flat
-    /// field: [`FLAT_FIELD_LEVEL`] of the full scale where it is brightest.
+    /// field: ¾ of the full scale where it is brightest (`FLAT_FIELD_LEVEL`).
     pub fn flat_field_radiance_e(&self) -> f64 {
         let s = &self.sensor;
         let peak = self

@@ -23,8 +23,8 @@ use serde::{Deserialize, Serialize};
 
 use formats::probe::indexing::{CentreRow, IndexingTruth, TRUTH_COLUMNS, TrueHead};
 
-use crate::config::{bad, finite, non_negative, parse_toml, positive};
 use crate::Result;
+use crate::config::{bad, finite, non_negative, parse_toml, positive};
 
 /// Arc-seconds per degree.
 const ARCSEC_PER_DEG: f64 = 3600.0;
