@@ -35,7 +35,7 @@ pub use overrides::Overrides;
 pub use rig::{CameraConfig, DistortionConfig, RigConfig, StrayLightConfig};
 pub use sensor::SensorConfig;
 pub use spheres::SphereConfig;
-pub use target::{MAX_GRID, TargetConfig};
+pub use target::TargetConfig;
 
 use crate::{Result, SynthError};
 

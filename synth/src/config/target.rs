@@ -6,7 +6,7 @@ use super::check::{bad, finite, non_negative, positive};
 use crate::Result;
 
 /// Largest target grid (markers per side of the Latin square; 49 by default).
-pub const MAX_GRID: u32 = 101;
+const MAX_GRID: u32 = 101;
 
 /// The 3-D calibration target: markers on a Latin-square lattice, so that no
 /// two markers line up along X, Y or Z (each camera sees a full grid).

@@ -417,7 +417,7 @@ impl RotaryConfig {
     }
 
     /// The table's true rigid motion at `angle_deg`: `T = Ec(θ)·A(θ)`.
-    pub fn table_motion(&self, angle_deg: f64) -> Isometry3<f64> {
+    pub(crate) fn table_motion(&self, angle_deg: f64) -> Isometry3<f64> {
         let l = self.location;
         let c = Vector3::new(l.x0c_um * UM, l.y0c_um * UM, 0.0);
         let tilt = rotation_from_vector(Vector3::new(l.a0c_urad * URAD, l.b0c_urad * URAD, 0.0));
