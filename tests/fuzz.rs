@@ -253,7 +253,7 @@ fn frames() -> Vec<Vec<u8>> {
         })
         .collect();
     let image = synth::Image16::from_raw(w, h, pixels).unwrap();
-    let meta = synth::encode::FrameMetadata {
+    let meta = synth::FrameMetadata {
         make: "Maker".into(),
         model: "Model 1".into(),
         serial: "SN123".into(),
@@ -275,11 +275,9 @@ fn frames() -> Vec<Vec<u8>> {
             let path = Path::new("frame");
             match format {
                 ImageFormat::Tiff => {
-                    synth::encode::encode_tiff(&mut bytes, &image, bits, &meta, compression, path)
+                    synth::encode_tiff(&mut bytes, &image, bits, &meta, compression, path)
                 }
-                ImageFormat::Png => {
-                    synth::encode::encode_png(&mut bytes, &image, bits, &meta, path)
-                }
+                ImageFormat::Png => synth::encode_png(&mut bytes, &image, bits, &meta, path),
             }
             .unwrap();
             out.push(bytes.into_inner());

@@ -20,7 +20,7 @@ const MAX_MM: f64 = 6.0;
 fn random_nominal_errors_missing_and_extra_detections() {
     let config = synth::Config::default();
     let rig = synth::SynthRig::from_config(&config).unwrap();
-    let markers = synth::target::markers(&config.target);
+    let markers = synth::markers(&config.target);
     let target: Vec<Marker> = markers
         .iter()
         .map(|m| Marker {

@@ -1,5 +1,5 @@
 //! The relative illumination fitted from one noisy rendered flat field and
-//! dark frame against the renderer's exact RI (`synth::illumination`), over
+//! dark frame against the renderer's exact RI (`synth::LensIllumination`), over
 //! the whole field, corners included, for lenses with and without their own
 //! vignetting and distortion, at reduced and full resolution.
 

@@ -38,7 +38,7 @@ const MOUNTING: [([f64; 3], [f64; 3]); 3] = [
 
 struct Scene {
     rig: SynthRig,
-    markers: Vec<synth::target::Marker>,
+    markers: Vec<synth::Marker>,
     /// Centroids of the blobs of each camera's calibration image.
     detections: Vec<Vec<Point2<f64>>>,
 }
@@ -53,12 +53,12 @@ fn scene() -> &'static Scene {
             c.position_error_mm = p;
         }
         let rig = SynthRig::from_config(&config).unwrap();
-        let markers = synth::target::markers(&config.target);
+        let markers = synth::markers(&config.target);
         let detections = rig
             .cameras
             .iter()
             .map(|cam| {
-                let img = synth::target::render_target(cam, &config).unwrap();
+                let img = synth::render_target(cam, &config).unwrap();
                 let ex = CpuBackend
                     .extract(FrameView::from_image(&img), &ExtractParams::default())
                     .unwrap();

@@ -16,7 +16,7 @@ const H: u32 = 3072;
 fn seed_frame() -> Vec<u16> {
     let config = synth::Config::default();
     let rig = synth::SynthRig::from_config(&config).unwrap();
-    let plan = synth::procedure::Plan::new(&config).unwrap();
+    let plan = synth::Plan::new(&config).unwrap();
     let spheres = plan.spheres_at(&plan.instants[0]);
     let key = synth::NoiseKey {
         seed: 1,

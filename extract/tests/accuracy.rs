@@ -24,11 +24,9 @@
 
 use extract::{Backend, CpuBackend, ExtractParams, FrameView, Threshold};
 use geom::{Camera, Distortion, Intrinsics, Point3};
-use synth::Sphere;
-use synth::psf::Optics;
-use synth::render::sphere_signals;
-use synth::scene::ellipse_centre_px;
-use synth::sensor::{Exposure, NoiseKey, Sensor, expose, mean_row};
+use synth::{
+    Exposure, NoiseKey, Optics, Sensor, Sphere, ellipse_centre_px, expose, mean_row, sphere_signals,
+};
 
 /// Realisations per case: the standard deviation is then known to ≈ 5 %.
 const REALISATIONS: u64 = 200;

@@ -20,10 +20,7 @@ use extract::{
     Threshold, Weighting,
 };
 use geom::{Camera, Distortion, Intrinsics, Point3};
-use synth::psf::Optics;
-use synth::render::sphere_signals;
-use synth::sensor::{Exposure, NoiseKey, Sensor, expose};
-use synth::{Image16, Sphere};
+use synth::{Exposure, Image16, NoiseKey, Optics, Sensor, Sphere, expose, sphere_signals};
 
 const FX: f64 = 7966.0;
 const PIXEL_MM: f64 = 0.0055;
@@ -336,7 +333,7 @@ fn same_blobs_with_many_segments() {
 }
 
 fn write_frames(dir: &std::path::Path) -> Vec<PathBuf> {
-    let meta = synth::encode::FrameMetadata {
+    let meta = synth::FrameMetadata {
         make: "trinocular".into(),
         model: "parity".into(),
         serial: "P1".into(),
@@ -352,7 +349,7 @@ fn write_frames(dir: &std::path::Path) -> Vec<PathBuf> {
         let path = dir.join(format!("frame_{i:02}.tif"));
         let img = render(diameter, 16, i);
         let mut bytes = std::io::Cursor::new(Vec::new());
-        synth::encode::encode_tiff(
+        synth::encode_tiff(
             &mut bytes,
             &img,
             16,

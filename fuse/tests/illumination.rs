@@ -38,11 +38,11 @@ fn campaign(dir: &Path, illumination: IlluminationModel, v: [f64; 2], seed: u64)
         .unwrap();
     config.optics.illumination = illumination;
     config.optics.vignetting = v;
-    synth::campaign::write_campaign(
+    synth::write_campaign(
         &config,
         dir,
         &mut formats::OutputPlan::new(false),
-        &synth::progress::NoProgress,
+        &synth::NoProgress,
     )
     .unwrap();
 }

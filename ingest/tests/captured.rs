@@ -1,5 +1,5 @@
 //! Manifests built from campaigns the renderer wrote as cameras save them
-//! (`synth::capture`), against the renderer's own manifest of what it wrote
+//! (`synth::config::CaptureConfig`), against the renderer's own manifest of what it wrote
 //! (`truth_manifest.csv`). Campaigns are small: 256×192 px (the seed rig's
 //! field of view), 3 targets per axis, 2 runs, 2 captures.
 
@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use formats::{ManifestRow, ProcedureConfig, read_csv};
 use ingest::{Capture, Inputs, Options, Problem};
-use synth::capture::{CaptureMode, DroppedFrame, StrayFrame};
+use synth::config::{CaptureMode, DroppedFrame, StrayFrame};
 
 /// The seed rig at 256×192 px, 3 targets per axis, 2 runs, 2 captures.
 fn config(seed: u64) -> synth::Config {
@@ -27,11 +27,11 @@ fn config(seed: u64) -> synth::Config {
 }
 
 fn render(config: &synth::Config, dir: &Path) {
-    synth::campaign::write_campaign(
+    synth::write_campaign(
         config,
         dir,
         &mut formats::OutputPlan::new(false),
-        &synth::progress::NoProgress,
+        &synth::NoProgress,
     )
     .unwrap();
 }

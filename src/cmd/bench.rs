@@ -79,7 +79,7 @@ fn ms(d: Duration) -> f64 {
 fn seed_frame(camera: u8, frame: u64) -> Result<synth::Image16> {
     let config = synth::Config::default();
     let rig = synth::SynthRig::from_config(&config)?;
-    let plan = synth::procedure::Plan::new(&config)?;
+    let plan = synth::Plan::new(&config)?;
     let spheres = plan.spheres_at(&plan.instants[0]);
     let cam = rig
         .camera(camera)
@@ -96,7 +96,7 @@ fn seed_frame(camera: u8, frame: u64) -> Result<synth::Image16> {
 }
 
 fn write_tiff(output: &formats::OutputPlan, path: &Path, img: &synth::Image16) -> Result<()> {
-    let meta = synth::encode::FrameMetadata {
+    let meta = synth::FrameMetadata {
         make: "trinocular".into(),
         model: "bench".into(),
         serial: "BENCH".into(),
@@ -107,7 +107,7 @@ fn write_tiff(output: &formats::OutputPlan, path: &Path, img: &synth::Image16) -
         description: String::new(),
     };
     let mut bytes = std::io::Cursor::new(Vec::with_capacity(img.len() * 2 + 4096));
-    synth::encode::encode_tiff(
+    synth::encode_tiff(
         &mut bytes,
         img,
         16,

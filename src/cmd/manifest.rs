@@ -254,7 +254,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     for (c, serial) in serials.iter().enumerate() {
         let folder = dir.join(serial);
         std::fs::create_dir_all(&folder)?;
-        let mut meta = synth::encode::FrameMetadata {
+        let mut meta = synth::FrameMetadata {
             make: "trinocular".into(),
             model: "bench".into(),
             serial: (*serial).into(),
@@ -265,7 +265,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
             description: String::new(),
         };
         let mut template = std::io::Cursor::new(Vec::new());
-        synth::encode::encode_tiff(
+        synth::encode_tiff(
             &mut template,
             &image,
             16,

@@ -117,7 +117,7 @@ fn load(args: &ConfigArgs, overrides: Overrides) -> Result<Config> {
 /// Progress bars on stderr for the library's stages.
 struct Bars(Mutex<Option<ProgressBar>>);
 
-impl synth::progress::Progress for Bars {
+impl synth::Progress for Bars {
     fn begin(&self, stage: &str, total: u64) {
         if let Ok(mut b) = self.0.lock() {
             *b = Some(crate::cmd::progress::bar(total, stage));
@@ -152,14 +152,14 @@ fn campaign(args: &CampaignArgs) -> Result<()> {
         },
     )?;
     if args.continuous {
-        config.capture.mode = synth::capture::CaptureMode::Continuous;
+        config.capture.mode = synth::config::CaptureMode::Continuous;
     } else if args.as_captured && config.capture.is_manifest() {
-        config.capture.mode = synth::capture::CaptureMode::Triggered;
+        config.capture.mode = synth::config::CaptureMode::Triggered;
     }
     config.validate()?;
     let bars = Bars(Mutex::new(None));
     let mut output = output_plan(&args.config);
-    let written = synth::campaign::write_campaign(&config, &args.out, &mut output, &bars);
+    let written = synth::write_campaign(&config, &args.out, &mut output, &bars);
     print_notes(&output);
     let s = written.with_context(|| format!("writing the campaign into {}", args.out.display()))?;
     println!(
@@ -194,7 +194,7 @@ fn target(args: &TargetArgs) -> Result<()> {
     let config = load(&args.config, Overrides::default())?;
     let bars = Bars(Mutex::new(None));
     let mut output = output_plan(&args.config);
-    let written = synth::campaign::write_target_scene(&config, &args.out, &mut output, &bars);
+    let written = synth::write_target_scene(&config, &args.out, &mut output, &bars);
     print_notes(&output);
     let s =
         written.with_context(|| format!("writing the target scene into {}", args.out.display()))?;

@@ -8,9 +8,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 use synth::config::TiffCompression;
-use synth::encode::{FrameMetadata, encode_tiff};
-use synth::procedure::Plan;
-use synth::{Config, NoiseKey, SynthRig};
+use synth::{Config, FrameMetadata, NoiseKey, Plan, SynthRig, encode_tiff};
 
 fn main() {
     divan::main();

@@ -409,7 +409,7 @@ pub fn write_target_scene(
 ) -> Result<TargetSummary> {
     config.validate()?;
     let rig = SynthRig::from_config(config)?;
-    let start = crate::datetime::parse(&config.procedure.start_time).map_err(SynthError::config)?;
+    let start = crate::datetime::parse(&config.procedure.start_time)?;
     output
         .file(out.join("nominal.json"))
         .file(out.join("truth.json"));

@@ -5,18 +5,30 @@
 use jiff::civil::DateTime;
 use jiff::tz::TimeZone;
 use jiff::{SignedDuration, Timestamp};
+use thiserror::Error;
 
 /// Digits of the EXIF sub-second field (0.1 ms: frames at 180 fps are 5.6 ms apart).
 pub const SUBSEC_DIGITS: usize = 4;
 
+/// A time stamp that is not a date-time `YYYY-MM-DDTHH:MM:SS[.fff]`.
+#[derive(Debug, Error)]
+#[error("'{text}' is not a date-time YYYY-MM-DDTHH:MM:SS[.fff]: {source}")]
+pub struct DateTimeError {
+    /// The text as given.
+    pub text: String,
+    /// What the calendar reported.
+    pub source: jiff::Error,
+}
+
 /// Seconds since 1970-01-01T00:00:00 of `YYYY-MM-DDTHH:MM:SS[.fff]` (a space
 /// may replace the `T`); impossible dates (31 February) are errors.
-pub fn parse(text: &str) -> Result<f64, String> {
-    let err = |why: &dyn std::fmt::Display| {
-        format!("'{text}' is not a date-time YYYY-MM-DDTHH:MM:SS[.fff]: {why}")
+pub fn parse(text: &str) -> Result<f64, DateTimeError> {
+    let err = |source| DateTimeError {
+        text: text.to_string(),
+        source,
     };
-    let dt: DateTime = text.replacen(' ', "T", 1).parse().map_err(|e| err(&e))?;
-    let ts = TimeZone::UTC.to_timestamp(dt).map_err(|e| err(&e))?;
+    let dt: DateTime = text.replacen(' ', "T", 1).parse().map_err(err)?;
+    let ts = TimeZone::UTC.to_timestamp(dt).map_err(err)?;
     Ok(ts.as_duration().as_secs_f64())
 }
 
@@ -60,5 +72,10 @@ mod tests {
         assert!(parse("2025-02-31T00:00:00").is_err(), "31 February");
         assert!(parse("2024-02-29T00:00:00").is_ok(), "a leap day");
         assert!(parse("yesterday").is_err());
+        let e = parse("2025-02-31T00:00:00").unwrap_err().to_string();
+        assert!(
+            e.starts_with("'2025-02-31T00:00:00' is not a date-time YYYY-MM-DDTHH:MM:SS[.fff]: "),
+            "{e}"
+        );
     }
 }

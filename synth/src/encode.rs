@@ -21,12 +21,12 @@ use crate::{Result, SynthError};
 
 /// EXIF tag numbers written to the EXIF sub-IFD.
 mod exif_tag {
-    pub const EXPOSURE_TIME: u16 = 0x829A;
-    pub const F_NUMBER: u16 = 0x829D;
-    pub const DATE_TIME_ORIGINAL: u16 = 0x9003;
-    pub const SUB_SEC_TIME_ORIGINAL: u16 = 0x9291;
-    pub const FOCAL_LENGTH: u16 = 0x920A;
-    pub const BODY_SERIAL_NUMBER: u16 = 0xA431;
+    pub(super) const EXPOSURE_TIME: u16 = 0x829A;
+    pub(super) const F_NUMBER: u16 = 0x829D;
+    pub(super) const DATE_TIME_ORIGINAL: u16 = 0x9003;
+    pub(super) const SUB_SEC_TIME_ORIGINAL: u16 = 0x9291;
+    pub(super) const FOCAL_LENGTH: u16 = 0x920A;
+    pub(super) const BODY_SERIAL_NUMBER: u16 = 0xA431;
 }
 
 /// What a camera writes about one frame.
@@ -201,7 +201,7 @@ fn to_u8(image: &Image16) -> Vec<u8> {
 
 /// The metadata as a TIFF-structured EXIF block (IFD0 + EXIF sub-IFD, no image),
 /// for PNG's `eXIf` chunk.
-pub fn exif_block(meta: &FrameMetadata) -> Result<Vec<u8>> {
+pub(crate) fn exif_block(meta: &FrameMetadata) -> Result<Vec<u8>> {
     let path = Path::new("<exif>");
     let mut cursor = std::io::Cursor::new(Vec::new());
     {
@@ -263,7 +263,7 @@ pub fn encode_png<W: Write>(
 }
 
 /// Write an image file atomically (temporary file, then rename), replacing
-/// an existing one (commands write through an `OutputPlan`: [`write_image_into`]).
+/// an existing one (the commands write their images through an `OutputPlan` instead).
 pub fn write_image(
     path: &Path,
     image: &Image16,
@@ -283,7 +283,7 @@ pub fn write_image(
 }
 
 /// Encode an image into `file` (from an output plan) and commit it.
-pub fn write_image_into(
+pub(crate) fn write_image_into(
     mut file: formats::AtomicFile,
     image: &Image16,
     bits: u8,

@@ -16,6 +16,10 @@ pub enum SynthError {
         /// The key at fault and what is wrong with it.
         message: String,
     },
+    /// The procedure's start time is not a date-time (a configuration that
+    /// did not go through [`crate::Config::validate`]).
+    #[error("configuration: {0}")]
+    DateTime(#[from] crate::datetime::DateTimeError),
     /// A sphere's radius is not a positive number (mm).
     #[error("scene: sphere radius {0} mm is not positive")]
     SphereRadius(f64),

@@ -26,7 +26,7 @@ use crate::coverage::Coverage;
 use crate::{Result, SynthError};
 
 /// Spacing of the exactly evaluated nodes (px).
-pub const NODE_STEP_PX: f64 = 16.0;
+pub(crate) const NODE_STEP_PX: f64 = 16.0;
 
 /// Nodes reach this far past the image (px): coverage extends past the
 /// border by the blur radius.
@@ -37,13 +37,13 @@ const DIFF_STEP_PX: f64 = 1.0;
 
 /// The lens's own vignetting `V(tan θ) = 1 + v₁·tan²θ + v₂·tan⁴θ` at the ideal
 /// normalised image point `n` (`tan²θ = |n|²`).
-pub fn vignetting(v: [f64; 2], n: Vector2<f64>) -> f64 {
+pub(crate) fn vignetting(v: [f64; 2], n: Vector2<f64>) -> f64 {
     let t2 = n.norm_squared();
     1.0 + v[0] * t2 + v[1] * t2 * t2
 }
 
 /// Exact `RI = cos⁴θ·V·J` at observed pixel (u, v).
-pub fn exact(camera: &Camera, v: [f64; 2], u: f64, w: f64) -> Result<f64> {
+pub(crate) fn exact(camera: &Camera, v: [f64; 2], u: f64, w: f64) -> Result<f64> {
     let observed = Point2::new(u, w);
     let n = camera
         .undistort_normalized(observed)

@@ -2,24 +2,31 @@
 //! self-luminous spheres seen by three calibrated cameras, with the exact
 //! ground truth every later stage is judged by.
 //!
-//! - [`scene`]: spheres and their analytic images (silhouette cone, ellipse
-//!   centre with its perspective bias, separations, frame clearance).
-//! - [`coverage`]: exact-area coverage of each visible silhouette by adaptive
-//!   subdivision through the full camera model (pinhole + Brown distortion),
-//!   with occlusion, and each pixel's first moment of covered area.
-//! - [`psf`]: Gaussian PSF + thin-lens defocus, applied per sphere with a
-//!   moment-exact blur (centroids are exact, not just unbiased).
-//! - [`sensor`]: background, gradient, stray light, shot/read noise, gain,
-//!   quantisation, saturation; deterministic per-row random streams.
-//! - [`illumination`]: the lens's relative illumination (natural vignetting,
-//!   the lens's own vignetting, energy conservation under distortion).
-//! - [`render`]: one frame from the above; [`rig`]: nominal and true cameras.
-//! - [`encode`]: 8/16-bit TIFF and PNG with EXIF metadata.
-//! - [`machine`], [`procedure`], [`campaign`], [`target`], [`truth`]: the
-//!   simulated machine with injected errors, the measurement procedure, the
-//!   streamed campaign writer, the calibration target and the truth files;
-//!   [`capture`]: the frames written as cameras save them (folders per
-//!   serial, camera clocks, real move times, faults, continuous streams).
+//! # Public entry points
+//! - Configuration: [`Config`] (TOML, [`config::DEFAULT_TOML`]; the tables'
+//!   types in [`config`]) and the command line's [`Overrides`].
+//! - Campaigns: [`write_campaign`] (frames, `manifest.csv` or the cameras'
+//!   own folders, truth files, reference figures), [`write_target_scene`]
+//!   (the calibration target's images), [`check_plan`]; long jobs report
+//!   through [`Progress`] ([`NoProgress`] when nobody listens).
+//! - The scene and its frames: [`SynthRig`] / [`SynthCamera`] (nominal and
+//!   true cameras, flat field, dark frame), [`Plan`] (the instants of the
+//!   procedure and the spheres at each), [`Sphere`] with its analytic image
+//!   ([`ellipse_centre_px`], [`separation_px`], [`frame_clearance_px`]),
+//!   [`coverage()`] (exact-area coverage through the full camera model),
+//!   [`blur`] and [`sphere_signals`] (moment-exact Gaussian PSF and defocus),
+//!   [`expose`] with [`Sensor`] and [`NoiseKey`] (background, noise, gain,
+//!   quantisation; deterministic per-row random streams), [`LensIllumination`]
+//!   (cos⁴θ, the lens's own vignetting, energy conserved under distortion).
+//! - The calibration target: [`markers`], [`marker_spheres`], [`render_target`].
+//! - Files: [`encode_tiff`], [`encode_png`], [`write_image`] with
+//!   [`FrameMetadata`] (8/16-bit TIFF and PNG with EXIF); [`datetime`] (the
+//!   time stamps' calendar).
+//! - Truth: [`truth`] (measured against true displacements, scale errors,
+//!   reference figures).
+//! - Probe methods: [`probe`] (rotary table, indexing head, laser tracer,
+//!   volumetric model generators).
+//! - Errors: [`SynthError`], one type for the whole crate.
 //!
 //! # Conventions
 //! - Lengths in millimetres, angles in radians, all geometry in `f64`;
@@ -29,37 +36,46 @@
 //! - Pixel coordinates: the centre of the top-left pixel is (0, 0).
 //! - A pixel's value is the scene radiance times the lens's relative
 //!   illumination (`[optics] illumination = "lens"`: cos⁴θ·V/J, see
-//!   [`illumination`]) or the radiance itself (`"radiance"`, a pinhole ray
+//!   [`LensIllumination`]) or the radiance itself (`"radiance"`, a pinhole ray
 //!   tracer); lens distortion only moves light.
-//! - The library never prints; long jobs report through [`progress::Progress`].
+//! - The library never prints; long jobs report through [`Progress`].
 
 #![deny(missing_docs)]
+#![warn(unreachable_pub)]
 
-mod error;
-
-pub mod campaign;
-pub mod capture;
+mod campaign;
+mod capture;
 pub mod config;
-pub mod coverage;
+mod coverage;
 pub mod datetime;
-pub mod encode;
-pub mod illumination;
-pub mod machine;
+mod encode;
+mod error;
+mod illumination;
+mod machine;
 pub mod probe;
-pub mod procedure;
-pub mod progress;
-pub mod psf;
-pub mod render;
-pub mod rig;
-pub mod scene;
-pub mod sensor;
-pub mod target;
+mod procedure;
+mod progress;
+mod psf;
+mod render;
+mod rig;
+mod scene;
+mod sensor;
+mod target;
 pub mod truth;
 
+pub use campaign::{
+    CampaignSummary, SceneCheck, TargetSummary, check_plan, write_campaign, write_target_scene,
+};
 pub use config::{Config, IlluminationModel, Overrides};
+pub use coverage::{Coverage, PixelRect, coverage};
+pub use encode::{FrameMetadata, encode_png, encode_tiff, write_image};
 pub use error::{Result, SynthError};
 pub use illumination::LensIllumination;
-pub use psf::{Optics, Signal};
+pub use procedure::{Instant, Plan, TableSphere};
+pub use progress::{NoProgress, Progress};
+pub use psf::{Optics, Signal, blur};
+pub use render::sphere_signals;
 pub use rig::{SynthCamera, SynthRig};
-pub use scene::Sphere;
-pub use sensor::{Image16, NoiseKey, Sensor};
+pub use scene::{Sphere, ViewedSphere, ellipse_centre_px, frame_clearance_px, separation_px};
+pub use sensor::{Exposure, Image16, NoiseKey, Sensor, expose, mean_row};
+pub use target::{Marker, marker_spheres, markers, render_target};

@@ -33,7 +33,7 @@ const CAPTURE_PURPOSE: u64 = 3;
 /// The deterministic error motions of one axis at one commanded position,
 /// in the units of the configuration (µm, µrad).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct AxisErrorValues {
+pub(crate) struct AxisErrorValues {
     /// Positioning error of a + approach (µm).
     pub positioning_up_um: f64,
     /// Positioning error of a − approach (µm).
@@ -51,7 +51,7 @@ pub struct AxisErrorValues {
 }
 
 /// The axis about which `axis` pitches (X: Y, Y: X).
-pub fn pitch_axis(axis: Axis) -> Axis {
+pub(crate) fn pitch_axis(axis: Axis) -> Axis {
     match axis {
         Axis::X => Axis::Y,
         Axis::Y => Axis::X,
@@ -60,7 +60,11 @@ pub fn pitch_axis(axis: Axis) -> Axis {
 }
 
 /// Values of the error curves of `axis` at commanded position `p`.
-pub fn axis_error_values(errors: &AxisErrors, travel: &AxisProcedure, p: f64) -> AxisErrorValues {
+pub(crate) fn axis_error_values(
+    errors: &AxisErrors,
+    travel: &AxisProcedure,
+    p: f64,
+) -> AxisErrorValues {
     let (start, len) = (travel.start_mm, travel.length_mm);
     let pos = errors.positioning.value(p, start, len);
     let [a, b] = travel.axis.others();
@@ -84,7 +88,7 @@ pub fn axis_error_values(errors: &AxisErrors, travel: &AxisProcedure, p: f64) ->
 impl AxisErrorValues {
     /// As a small-error transform, for a given approach direction (`None`: the
     /// mean of both, i.e. no reversal — for an axis standing still).
-    pub fn small_error(&self, axis: Axis, direction: Option<Direction>) -> SmallError {
+    pub(crate) fn small_error(&self, axis: Axis, direction: Option<Direction>) -> SmallError {
         let mut delta = Vector3::zeros();
         let mut epsilon = Vector3::zeros();
         delta[axis.index()] = match direction {
@@ -104,7 +108,7 @@ impl AxisErrorValues {
 
 /// Identity of one approach (one run's visit of one target in one direction).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct ApproachKey {
+pub(crate) struct ApproachKey {
     /// Axis moved.
     pub axis: Axis,
     /// Line index.
@@ -138,7 +142,7 @@ fn normals(key: [u8; 32]) -> Vector3<f64> {
 
 /// Random repeatability offset of one approach (mm): σ along the axis,
 /// σ_perp across it.
-pub fn approach_offset(seed: u64, key: &ApproachKey, errors: &AxisErrors) -> Vector3<f64> {
+pub(crate) fn approach_offset(seed: u64, key: &ApproachKey, errors: &AxisErrors) -> Vector3<f64> {
     let z = normals(chacha_key(APPROACH_PURPOSE, &key.words(seed)));
     let mut d = z * (errors.repeatability_perp_um * UM);
     d[key.axis.index()] = z[key.axis.index()] * errors.repeatability_um * UM;
@@ -146,7 +150,7 @@ pub fn approach_offset(seed: u64, key: &ApproachKey, errors: &AxisErrors) -> Vec
 }
 
 /// Random offset of one capture (mm), σ in every direction.
-pub fn capture_offset(
+pub(crate) fn capture_offset(
     seed: u64,
     key: &ApproachKey,
     capture: u32,
@@ -164,7 +168,7 @@ pub fn capture_offset(
 /// axis under test approaching in `direction`: the moving axis' errors with
 /// reversal, plus every other axis with a travel at its commanded coordinate
 /// (no reversal), plus the random offsets `random` (mm) in δ.
-pub fn table_error(
+pub(crate) fn table_error(
     config: &Config,
     moving: Axis,
     direction: Direction,

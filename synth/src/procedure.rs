@@ -2,7 +2,7 @@
 //! machine runs it, with its time stamp and the table's true pose error.
 //!
 //! Per axis, per line, per run (ISO 230-2 linear cycle, the dwells of
-//! [`formats::capture::ProcedureConfig::dwells`]): go to the first target
+//! [`formats::ProcedureConfig::dwells`]): go to the first target
 //! minus the overshoot, approach every target upward (+) taking `captures`
 //! frames at each; go past the last target by the overshoot and approach
 //! every target downward (−). The overshoot takes up the backlash, so the
@@ -12,10 +12,10 @@ use formats::{Axis, Direction, ManifestRow, PointRow};
 use geom::nalgebra::{Point3, Vector3};
 use geom::transform::SmallError;
 
+use crate::Result;
 use crate::config::Config;
 use crate::machine::{ApproachKey, approach_offset, capture_offset, table_error};
 use crate::scene::Sphere;
-use crate::{Result, SynthError};
 
 /// One instant: the three cameras expose together.
 #[derive(Debug, Clone, PartialEq)]
@@ -113,7 +113,7 @@ impl Plan {
     pub fn new(config: &Config) -> Result<Self> {
         config.validate()?;
         let p = &config.procedure;
-        let start_time_s = crate::datetime::parse(&p.start_time).map_err(SynthError::config)?;
+        let start_time_s = crate::datetime::parse(&p.start_time)?;
         let mut instants = Vec::new();
         for dwell in p.dwells() {
             let Some(errors) = config.machine.axis(dwell.axis) else {

@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use crate::coverage::Coverage;
 
 /// Smallest blur σ (px) for which the first-moment term is applied.
-pub const MIN_SIGMA_FOR_MOMENTS: f64 = 0.3;
+pub(crate) const MIN_SIGMA_FOR_MOMENTS: f64 = 0.3;
 
 /// Kernel half-width in σ.
 const KERNEL_SIGMAS: f64 = 5.0;
@@ -123,7 +123,7 @@ impl Signal {
 }
 
 /// Half-width (px) of the blur kernel for σ.
-pub fn kernel_radius(sigma: f64) -> usize {
+pub(crate) fn kernel_radius(sigma: f64) -> usize {
     if sigma <= 0.0 {
         0
     } else {
@@ -141,7 +141,7 @@ fn gauss(x: f64, sigma: f64) -> f64 {
 
 /// Pixel-integrated Gaussian `w` and its derivative `w'` on `−r..=r`,
 /// normalised (Σw = 1, Σ j·w'(j) = −1).
-pub fn kernels(sigma: f64) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn kernels(sigma: f64) -> (Vec<f64>, Vec<f64>) {
     let r = kernel_radius(sigma) as i64;
     if r == 0 {
         return (vec![1.0], vec![0.0]);
@@ -196,7 +196,7 @@ fn kernel_variance(s: f64) -> f64 {
 /// drops the 1/12 px² within-pixel spread of every full pixel; the kernel adds
 /// it back, so the image variance is the physical `var(S) + σ² + 1/12`
 /// (silhouette, PSF, pixel integration). Bisection on the monotonic variance.
-pub fn kernel_sigma(sigma: f64) -> f64 {
+pub(crate) fn kernel_sigma(sigma: f64) -> f64 {
     let target = sigma * sigma + 1.0 / 6.0;
     let (mut lo, mut hi) = (sigma, sigma + 1.0);
     for _ in 0..50 {

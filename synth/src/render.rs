@@ -65,7 +65,7 @@ pub fn sphere_signals(
 /// Render one frame: the spheres over the sensor's background, with noise;
 /// through the lens's relative illumination `lens` when given (the spheres'
 /// light and the background light), radiance per pixel otherwise.
-pub fn render(
+pub(crate) fn render(
     camera: &Camera,
     optics: &Optics,
     sensor: &Sensor,

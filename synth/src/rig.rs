@@ -33,12 +33,12 @@ pub struct SynthCamera {
 }
 
 /// Fraction of the full scale that a flat field reaches where it is brightest.
-pub const FLAT_FIELD_LEVEL: f64 = 0.75;
+pub(crate) const FLAT_FIELD_LEVEL: f64 = 0.75;
 
 /// Frame numbers of the flat-field and dark frames in noise keys.
-pub const FLAT_FIELD_FRAME: u64 = u64::MAX - 1;
+pub(crate) const FLAT_FIELD_FRAME: u64 = u64::MAX - 1;
 /// See [`FLAT_FIELD_FRAME`].
-pub const DARK_FRAME: u64 = u64::MAX - 2;
+pub(crate) const DARK_FRAME: u64 = u64::MAX - 2;
 
 impl SynthCamera {
     /// Render the spheres as this camera sees them.
@@ -55,7 +55,7 @@ impl SynthCamera {
     }
 
     /// Radiance (electrons of a pixel at the principal point) of the flat
-    /// field: [`FLAT_FIELD_LEVEL`] of the full scale where it is brightest.
+    /// field: ¾ of the full scale where it is brightest (`FLAT_FIELD_LEVEL`).
     pub fn flat_field_radiance_e(&self) -> f64 {
         let s = &self.sensor;
         let peak = self
@@ -110,7 +110,7 @@ pub struct SynthRig {
 }
 
 /// Principal distance (mm) of a thin lens of focal length `f` focused at `s`: `f·s/(s − f)`.
-pub fn principal_distance_mm(focal_mm: f64, focus_distance_mm: f64) -> f64 {
+pub(crate) fn principal_distance_mm(focal_mm: f64, focus_distance_mm: f64) -> f64 {
     focal_mm * focus_distance_mm / (focus_distance_mm - focal_mm)
 }
 

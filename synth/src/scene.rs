@@ -8,7 +8,7 @@ use geom::{Camera, sphere_image};
 use crate::{Result, SynthError};
 
 /// Number of outline points used for bounding boxes and frame checks.
-pub const OUTLINE_POINTS: usize = 256;
+pub(crate) const OUTLINE_POINTS: usize = 256;
 
 /// A self-luminous sphere of uniform radiance.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -111,13 +111,17 @@ impl ViewedSphere {
 }
 
 /// Observed (distorted) pixel of a camera-frame direction.
-pub fn direction_to_pixel(camera: &Camera, d: &Vector3<f64>) -> Point2<f64> {
+pub(crate) fn direction_to_pixel(camera: &Camera, d: &Vector3<f64>) -> Point2<f64> {
     let n = Vector2::new(d.x / d.z, d.y / d.z);
     camera.intrinsics.to_pixel(camera.distortion.distort(n))
 }
 
 /// Points of a sphere's observed outline (distorted image, px).
-pub fn outline_pixels(camera: &Camera, sphere: &Sphere, n: usize) -> Result<Vec<Point2<f64>>> {
+pub(crate) fn outline_pixels(
+    camera: &Camera,
+    sphere: &Sphere,
+    n: usize,
+) -> Result<Vec<Point2<f64>>> {
     let v = ViewedSphere::new(camera, sphere)?;
     Ok(v.outline_rays(n)
         .iter()
@@ -128,7 +132,7 @@ pub fn outline_pixels(camera: &Camera, sphere: &Sphere, n: usize) -> Result<Vec<
 /// Bounding box `[u_min, v_min, u_max, v_max]` of a sphere's observed outline (px),
 /// from [`OUTLINE_POINTS`] outline points and widened by the largest chord
 /// sagitta between them.
-pub fn outline_bounds(camera: &Camera, sphere: &Sphere) -> Result<[f64; 4]> {
+pub(crate) fn outline_bounds(camera: &Camera, sphere: &Sphere) -> Result<[f64; 4]> {
     let pts = outline_pixels(camera, sphere, OUTLINE_POINTS)?;
     let mut b = [
         f64::INFINITY,
@@ -165,8 +169,10 @@ pub fn ellipse_centre_px(camera: &Camera, sphere: &Sphere) -> Result<Point2<f64>
 
 /// Area of the outline ellipse in the ideal image (px²), from its conic
 /// `xᵀQx = 0`: `π/√(det A)·(−det Q/det A)` with A the conic's 2×2 block,
-/// expressed in pixels of K (fx·fy per unit normalised area, skew-free).
-pub fn ellipse_area_px(camera: &Camera, sphere: &Sphere) -> Result<f64> {
+/// expressed in pixels of K (fx·fy per unit normalised area, skew-free);
+/// the reference the coverage tests are checked against.
+#[cfg(test)]
+pub(crate) fn ellipse_area_px(camera: &Camera, sphere: &Sphere) -> Result<f64> {
     let c = camera.to_camera(&sphere.centre);
     let q = sphere_image::outline_conic(&c, sphere.radius)
         .map_err(|e| SynthError::geometry("outline conic", e))?;
@@ -207,7 +213,7 @@ pub fn frame_clearance_px(camera: &Camera, sphere: &Sphere) -> Result<f64> {
 }
 
 /// Fails if two spheres intersect (the renderer and the occlusion rule need disjoint spheres).
-pub fn check_disjoint(spheres: &[Sphere]) -> Result<()> {
+pub(crate) fn check_disjoint(spheres: &[Sphere]) -> Result<()> {
     for (i, a) in spheres.iter().enumerate() {
         for b in &spheres[i + 1..] {
             if (a.centre - b.centre).norm() <= a.radius + b.radius {

@@ -115,7 +115,7 @@ fn splitmix(mut z: u64) -> u64 {
 }
 
 /// 256-bit ChaCha key from a list of words (domain-separated by `purpose`).
-pub fn chacha_key(purpose: u64, words: &[u64]) -> [u8; 32] {
+pub(crate) fn chacha_key(purpose: u64, words: &[u64]) -> [u8; 32] {
     let mut h = splitmix(purpose ^ 0x7472_696E_6F63_756C);
     for &w in words {
         h = splitmix(h ^ w);

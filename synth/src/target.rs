@@ -22,7 +22,7 @@ use crate::sensor::{Image16, NoiseKey};
 use crate::{Result, SynthError};
 
 /// Frame number of the calibration images in noise keys (campaign frames count from 0).
-pub const CALIBRATION_FRAME: u64 = u64::MAX;
+pub(crate) const CALIBRATION_FRAME: u64 = u64::MAX;
 
 /// One marker of the target.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -75,7 +75,7 @@ pub fn markers(t: &TargetConfig) -> Vec<Marker> {
 }
 
 /// `target.csv` rows.
-pub fn target_rows(markers: &[Marker]) -> Vec<TargetRow> {
+pub(crate) fn target_rows(markers: &[Marker]) -> Vec<TargetRow> {
     markers
         .iter()
         .map(|m| TargetRow {
@@ -101,7 +101,10 @@ pub fn marker_spheres(markers: &[Marker], radiance_e: f64) -> Vec<Sphere> {
 }
 
 /// Exact observed image of each marker centre in one camera (full model).
-pub fn correspondences(cam: &SynthCamera, markers: &[Marker]) -> Result<Vec<CorrespondenceRow>> {
+pub(crate) fn correspondences(
+    cam: &SynthCamera,
+    markers: &[Marker],
+) -> Result<Vec<CorrespondenceRow>> {
     markers
         .iter()
         .map(|m| {
@@ -141,7 +144,7 @@ const CALIBRATION_FRAMES: [(&str, &str); 3] = [
 
 /// The files [`write_target_files`] writes, relative to the output folder:
 /// `target.csv`, then per camera its calibration frames and `calib/points_cam{k}.csv`.
-pub fn target_files(config: &Config, rig: &SynthRig) -> Vec<String> {
+pub(crate) fn target_files(config: &Config, rig: &SynthRig) -> Vec<String> {
     let ext = config.output.format.extension();
     let mut files = vec!["target.csv".to_string()];
     for cam in &rig.cameras {
@@ -158,7 +161,7 @@ pub fn target_files(config: &Config, rig: &SynthRig) -> Vec<String> {
 /// `calib/points_cam{k}.csv` under `out`, through `output`, where
 /// [`target_files`] and the folder `calib` are planned. Returns the image
 /// paths (relative).
-pub fn write_target_files(
+pub(crate) fn write_target_files(
     config: &Config,
     rig: &SynthRig,
     out: &Path,

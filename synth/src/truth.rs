@@ -15,7 +15,7 @@ use crate::rig::{SynthRig, principal_distance_mm};
 use crate::{Result, SynthError};
 
 /// The true cameras, with their serial, nominal description and optics in `extra`.
-pub fn truth_cameras(rig: &SynthRig, config: &Config) -> Vec<TruthCamera> {
+pub(crate) fn truth_cameras(rig: &SynthRig, config: &Config) -> Vec<TruthCamera> {
     rig.cameras
         .iter()
         .map(|c| {
@@ -57,7 +57,7 @@ fn clean(x: f64) -> f64 {
 }
 
 /// One instant of `truth.json`, with its sequence number, line, time and pose error.
-pub fn truth_instant(plan: &Plan, i: &crate::procedure::Instant) -> TruthInstant {
+fn truth_instant(plan: &Plan, i: &crate::procedure::Instant) -> TruthInstant {
     let spheres: BTreeMap<String, [f64; 3]> = plan
         .centres(i)
         .iter()
@@ -116,7 +116,7 @@ fn values_json(axis: Axis, v: &AxisErrorValues) -> Map<String, Value> {
 /// The injected error functions of each tested axis at its targets (µm, µrad,
 /// without the random offsets), with the curve parameters, and per line the
 /// constant contribution of the other axes standing at that line.
-pub fn injected_errors(config: &Config) -> Value {
+fn injected_errors(config: &Config) -> Value {
     let mut out = Map::new();
     for travel in &config.procedure.axes {
         let Some(errors) = config.machine.axis(travel.axis) else {
@@ -189,7 +189,7 @@ pub fn figures(points: &[PointRow]) -> Result<Value> {
 }
 
 /// The whole `truth.json` of a campaign.
-pub fn campaign_truth(
+pub(crate) fn campaign_truth(
     config: &Config,
     rig: &SynthRig,
     plan: &Plan,

@@ -5,45 +5,21 @@
 
 #![allow(clippy::unwrap_used)]
 
-use geom::nalgebra::{Point2, Point3, Vector2};
+use geom::nalgebra::{Point2, Vector2};
 use geom::{Camera, Distortion};
-use synth::render::sphere_signals;
-use synth::scene::{Sphere, ellipse_centre_px};
-use synth::{Config, NoiseKey, SynthRig};
+use synth::{Config, NoiseKey, Sphere, SynthRig, ellipse_centre_px, sphere_signals};
 
-/// The seed camera 3 (true model of the default config) rendering radiance
-/// images (the lens's relative illumination has its own tests in
-/// `illumination.rs`), optionally without distortion.
+mod common;
+
+use common::spheres;
+
+/// The seed camera 3 rendering radiance images (the lens's relative
+/// illumination has its own tests in `illumination.rs`), optionally without
+/// distortion.
 fn seed_camera(distortion: bool) -> synth::SynthCamera {
-    let rig = SynthRig::from_config(&Config::default()).unwrap();
-    let mut cam = rig.camera(3).unwrap().clone();
+    let mut cam = common::seed_camera(distortion);
     cam.lens = None;
-    if !distortion {
-        cam.camera.distortion = Distortion::NONE;
-    }
     cam
-}
-
-/// Spheres far off-axis (large perspective bias), at sub-pixel positions
-/// chosen arbitrarily, and defocused (camera 3 is focused at z = 30).
-fn spheres() -> Vec<Sphere> {
-    vec![
-        Sphere {
-            centre: Point3::new(75.0, 50.123, 30.0),
-            radius: 10.0,
-            radiance_e: 12_000.0,
-        },
-        Sphere {
-            centre: Point3::new(-83.37, -40.71, 45.0),
-            radius: 7.5,
-            radiance_e: 12_000.0,
-        },
-        Sphere {
-            centre: Point3::new(-20.2, 62.9, 0.0),
-            radius: 5.0,
-            radiance_e: 12_000.0,
-        },
-    ]
 }
 
 /// Noise-free centroid tolerance: twice the largest error measured (1.2e-7
@@ -210,6 +186,22 @@ fn undistorted_centroid_is_the_ellipse_centre() {
     }
 }
 
+/// Variance of a signal about its centroid along u (`axis` 0) or v (1), px².
+fn variance(s: &synth::Signal, axis: usize) -> f64 {
+    let c = s.centroid().unwrap();
+    let (mut var, mut total) = (0.0, 0.0);
+    for r in 0..s.height {
+        for k in 0..s.width {
+            let val = s.values[r * s.width + k];
+            let p = [(s.x0 + k as i64) as f64, (s.y0 + r as i64) as f64];
+            let d = p[axis] - c[axis];
+            var += val * d * d;
+            total += val;
+        }
+    }
+    var / total
+}
+
 /// The blur has the physical width: the rendered image's variance about its
 /// centroid is the silhouette's (a circle of radius ρ px on the axis: ρ²/4
 /// per axis) plus the PSF's σ² plus the pixel's 1/12 px² (sampling of
@@ -218,8 +210,8 @@ fn undistorted_centroid_is_the_ellipse_centre() {
 /// σ ≥ 0.55 px blur are ≈ 1e-4 px²; dropping the pixel's 1/12 would fail it.
 #[test]
 fn blur_width_is_psf_plus_pixel() {
-    use synth::coverage::{PixelRect, coverage};
-    use synth::scene::ViewedSphere;
+    use synth::ViewedSphere;
+    use synth::{PixelRect, coverage};
     let cam = seed_camera(false);
     // On the optical axis of camera 3 at 460 mm: a circle.
     let c = cam.camera.centre() + cam.camera.optical_axis().into_inner() * 460.0;
@@ -240,18 +232,8 @@ fn blur_width_is_psf_plus_pixel() {
     };
     let cov = coverage(&cam.camera, &v, &[], rect, 5).unwrap();
     for sigma in [0.55, 1.0, 2.5] {
-        let s = synth::psf::blur(&cov, sigma);
-        let c = s.centroid().unwrap();
-        let (mut vu, mut t) = (0.0, 0.0);
-        for r in 0..s.height {
-            for k in 0..s.width {
-                let val = s.values[r * s.width + k];
-                let du = (s.x0 + k as i64) as f64 - c.x;
-                vu += val * du * du;
-                t += val;
-            }
-        }
-        let added = vu / t - rho * rho / 4.0;
+        let s = synth::blur(&cov, sigma);
+        let added = variance(&s, 0) - rho * rho / 4.0;
         eprintln!(
             "σ = {sigma}: variance added {added:.4} px², expected {:.4}",
             sigma * sigma + 1.0 / 12.0
@@ -267,7 +249,7 @@ fn blur_width_is_psf_plus_pixel() {
 /// and blurs by the thin-lens circle of confusion c = f²/(N(s − f))·|z − s|/z,
 /// added as (c/4)² to the PSF's variance. Checked on the rendered image of a
 /// sphere on camera 1's axis at the focus distance and 75 mm nearer/farther,
-/// computing c here from the lens data (independently of `synth::psf`).
+/// computing c here from the lens data (independently of `synth::blur`).
 #[test]
 fn defocus_grows_off_the_focus_plane() {
     let config = Config::default();
@@ -287,18 +269,8 @@ fn defocus_grows_off_the_focus_plane() {
         };
         let s = sphere_signals(&cam.camera, &cam.optics, &[sphere], 5, None).unwrap();
         let s = s[0].as_ref().unwrap();
-        let c = s.centroid().unwrap();
-        let (mut var, mut t) = (0.0, 0.0);
-        for r in 0..s.height {
-            for k in 0..s.width {
-                let val = s.values[r * s.width + k];
-                let dv = (s.y0 + r as i64) as f64 - c.y;
-                var += val * dv * dv;
-                t += val;
-            }
-        }
         let rho = cam.camera.intrinsics.fy * 5.0 / (z * z - 25.0f64).sqrt();
-        let added = var / t - rho * rho / 4.0;
+        let added = variance(s, 1) - rho * rho / 4.0;
         let coc = o.focal_mm * o.focal_mm / (o.f_number * (o.focus_distance_mm - o.focal_mm))
             * (z - o.focus_distance_mm).abs()
             / z

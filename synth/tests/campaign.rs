@@ -9,12 +9,10 @@ use formats::{
     Axis, ManifestRow, NominalRig, OutputPlan, PointRow, SphereRow, TargetRow, Truth, read_csv,
     read_json,
 };
-use synth::campaign::{check_plan, write_campaign, write_target_scene};
-use synth::procedure::Plan;
-use synth::progress::NoProgress;
-use synth::scene::separation_px;
-use synth::target::{marker_spheres, markers};
-use synth::{Config, Overrides, SynthRig};
+use synth::{
+    Config, NoProgress, Overrides, Plan, SynthRig, check_plan, marker_spheres, markers,
+    separation_px, write_campaign, write_target_scene,
+};
 
 fn small_config() -> Config {
     let mut c = Config::default();
@@ -30,6 +28,15 @@ fn small_config() -> Config {
     c
 }
 
+/// The records of a CSV file of the contract.
+fn records<T: formats::Record>(path: &std::path::Path) -> Vec<T> {
+    read_csv(path)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect()
+}
+
 #[test]
 fn small_campaign_follows_the_contract() {
     let config = small_config();
@@ -41,11 +48,7 @@ fn small_campaign_follows_the_contract() {
     assert_eq!(summary.instants, instants);
     assert_eq!(summary.frames, instants * 3);
 
-    let manifest: Vec<ManifestRow> = read_csv(&out.join("manifest.csv"))
-        .unwrap()
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
+    let manifest: Vec<ManifestRow> = records(&out.join("manifest.csv"));
     assert_eq!(manifest.len(), instants * 3);
     let mut per_instant = std::collections::BTreeMap::new();
     for row in &manifest {
@@ -64,11 +67,7 @@ fn small_campaign_follows_the_contract() {
             .any(|r| r.axis == Axis::Y && r.direction == formats::Direction::Down)
     );
 
-    let spheres: Vec<SphereRow> = read_csv(&out.join("spheres.csv"))
-        .unwrap()
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
+    let spheres: Vec<SphereRow> = records(&out.join("spheres.csv"));
     assert_eq!(
         spheres
             .iter()
@@ -78,11 +77,7 @@ fn small_campaign_follows_the_contract() {
     );
     let nominal: NominalRig = read_json(&out.join("nominal.json")).unwrap();
     assert_eq!(nominal.cameras.len(), 3);
-    let target: Vec<TargetRow> = read_csv(&out.join("target.csv"))
-        .unwrap()
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
+    let target: Vec<TargetRow> = records(&out.join("target.csv"));
     assert_eq!(target.len(), 49);
     for k in 1..=3 {
         let img = image::open(out.join(format!("calib/cam{k}.tif"))).unwrap();
@@ -104,11 +99,7 @@ fn small_campaign_follows_the_contract() {
         assert!((0..3).all(|i| (0..4).all(|j| (t.p[i][j] - p[(i, j)]).abs() <= 1e-9 * p.norm())));
     }
     // Instants carry the exact centres, and agree with truth_points.csv.
-    let points: Vec<PointRow> = read_csv(&out.join("truth_points.csv"))
-        .unwrap()
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
+    let points: Vec<PointRow> = records(&out.join("truth_points.csv"));
     assert_eq!(points.len(), instants * 3);
     let first = &truth.instants[0];
     let a = first.spheres["A"];
@@ -182,7 +173,7 @@ fn calibration_target_markers_are_separated() {
     for cam in &rig.cameras {
         let mut worst = f64::INFINITY;
         for (i, a) in spheres.iter().enumerate() {
-            assert!(synth::scene::frame_clearance_px(&cam.camera, a).unwrap() > 20.0);
+            assert!(synth::frame_clearance_px(&cam.camera, a).unwrap() > 20.0);
             for b in &spheres[i + 1..] {
                 worst = worst.min(separation_px(&cam.camera, a, b).unwrap());
             }

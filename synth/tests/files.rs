@@ -8,8 +8,7 @@ use std::path::Path;
 
 use geom::Point3;
 use synth::config::{ImageFormat, TiffCompression};
-use synth::encode::{FrameMetadata, write_image};
-use synth::{Config, NoiseKey, Overrides, Sphere, SynthRig};
+use synth::{Config, FrameMetadata, NoiseKey, Overrides, Sphere, SynthRig, write_image};
 
 fn small_camera() -> synth::SynthCamera {
     let mut config = Config::default();

@@ -16,43 +16,22 @@
 
 #![allow(clippy::unwrap_used)]
 
-use geom::nalgebra::{Point2, Point3, Vector2, Vector3};
-use geom::{Camera, Distortion};
-use synth::render::sphere_signals;
-use synth::scene::{Sphere, ellipse_centre_px};
-use synth::{Config, LensIllumination, NoiseKey, SynthCamera, SynthRig};
+use geom::Camera;
+use geom::nalgebra::{Point2, Vector2, Vector3};
+use synth::{
+    Config, LensIllumination, NoiseKey, Sphere, SynthCamera, SynthRig, ellipse_centre_px,
+    sphere_signals,
+};
+
+mod common;
+
+use common::spheres;
 
 /// The seed camera 3 through a lens with vignetting `v`, optionally without distortion.
 fn lens_camera(v: [f64; 2], distortion: bool) -> SynthCamera {
-    let rig = SynthRig::from_config(&Config::default()).unwrap();
-    let mut cam = rig.camera(3).unwrap().clone();
-    if !distortion {
-        cam.camera.distortion = Distortion::NONE;
-    }
+    let mut cam = common::seed_camera(distortion);
     cam.lens = Some(LensIllumination::new(&cam.camera, v).unwrap());
     cam
-}
-
-/// Spheres far off-axis, at arbitrary sub-pixel positions, defocused
-/// (camera 3 is focused at z = 30), none hiding another.
-fn spheres() -> Vec<Sphere> {
-    vec![
-        Sphere {
-            centre: Point3::new(75.0, 50.123, 30.0),
-            radius: 10.0,
-            radiance_e: 12_000.0,
-        },
-        Sphere {
-            centre: Point3::new(-83.37, -40.71, 45.0),
-            radius: 7.5,
-            radiance_e: 12_000.0,
-        },
-        Sphere {
-            centre: Point3::new(-20.2, 62.9, 0.0),
-            radius: 5.0,
-            radiance_e: 12_000.0,
-        },
-    ]
 }
 
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton on Pₙ).
@@ -61,29 +40,29 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
         .map(|i| {
             let mut x = (std::f64::consts::PI * (i as f64 - 0.25) / (n as f64 + 0.5)).cos();
             for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
+                let (p, dp) = legendre(n, x);
+                let dx = p / dp;
                 x -= dx;
                 if dx.abs() < 1e-16 {
-                    let (mut q0, mut q1) = (1.0, x);
-                    for k in 2..=n {
-                        let q2 = ((2 * k - 1) as f64 * x * q1 - (k - 1) as f64 * q0) / k as f64;
-                        q0 = q1;
-                        q1 = q2;
-                    }
-                    let dq = n as f64 * (x * q1 - q0) / (x * x - 1.0);
+                    let (_, dq) = legendre(n, x);
                     return (x, 2.0 / ((1.0 - x * x) * dq * dq));
                 }
             }
             (x, 0.0)
         })
         .collect()
+}
+
+/// Pₙ(x) and Pₙ′(x) by the three-term recurrence
+/// `k·Pₖ = (2k − 1)·x·Pₖ₋₁ − (k − 1)·Pₖ₋₂`, `Pₙ′ = n·(x·Pₙ − Pₙ₋₁)/(x² − 1)`.
+fn legendre(n: usize, x: f64) -> (f64, f64) {
+    let (mut p0, mut p1) = (1.0, x);
+    for k in 2..=n {
+        let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+        p0 = p1;
+        p1 = p2;
+    }
+    (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
 }
 
 /// Flux centroid in ideal pixels of a sphere seen through a lens with

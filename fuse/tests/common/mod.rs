@@ -33,11 +33,11 @@ pub fn campaign_with(
             seed: Some(seed),
         })
         .unwrap();
-    synth::campaign::write_campaign(
+    synth::write_campaign(
         &config,
         dir,
         &mut formats::OutputPlan::new(false),
-        &synth::progress::NoProgress,
+        &synth::NoProgress,
     )
     .unwrap();
 }

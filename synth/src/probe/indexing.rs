@@ -23,8 +23,8 @@ use serde::{Deserialize, Serialize};
 
 use formats::probe::indexing::{CentreRow, IndexingTruth, TRUTH_COLUMNS, TrueHead};
 
+use crate::Result;
 use crate::config::{bad, finite, non_negative, parse_toml, positive};
-use crate::{Result, SynthError};
 
 /// Arc-seconds per degree.
 const ARCSEC_PER_DEG: f64 = 3600.0;
@@ -195,8 +195,7 @@ impl IndexingConfig {
 
     /// Read a TOML configuration file.
     pub fn from_file(path: &std::path::Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| SynthError::io(path, e))?;
-        Self::from_toml_str(&text, Some(path))
+        crate::config::read_toml(path, Self::from_toml_str)
     }
 
     /// The A detents (degrees): 0, step, … ≤ a_max.

@@ -280,13 +280,12 @@ impl RotaryConfig {
 
     /// Read a TOML configuration file.
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| SynthError::io(path, e))?;
-        Self::from_toml_str(&text, Some(path))
+        crate::config::read_toml(path, Self::from_toml_str)
     }
 
     /// The configuration as TOML (without the comments of [`DEFAULT_TOML`]).
     pub fn to_toml(&self) -> Result<String> {
-        toml::to_string_pretty(self).map_err(|e| SynthError::config(e.to_string()))
+        crate::config::to_toml(self)
     }
 
     /// Check every value: a positive step below a turn, non-negative noise,
@@ -418,7 +417,7 @@ impl RotaryConfig {
     }
 
     /// The table's true rigid motion at `angle_deg`: `T = Ec(θ)·A(θ)`.
-    pub fn table_motion(&self, angle_deg: f64) -> Isometry3<f64> {
+    pub(crate) fn table_motion(&self, angle_deg: f64) -> Isometry3<f64> {
         let l = self.location;
         let c = Vector3::new(l.x0c_um * UM, l.y0c_um * UM, 0.0);
         let tilt = rotation_from_vector(Vector3::new(l.a0c_urad * URAD, l.b0c_urad * URAD, 0.0));

@@ -1,0 +1,39 @@
+//! What the renderer's accuracy tests share: the seed's camera 3 and three
+//! spheres far off its axis.
+
+use geom::Distortion;
+use geom::nalgebra::Point3;
+use synth::{Config, Sphere, SynthCamera, SynthRig};
+
+/// The seed camera 3 (true model of the default config), optionally without
+/// distortion; its relative illumination as the default config gives it.
+pub fn seed_camera(distortion: bool) -> SynthCamera {
+    let rig = SynthRig::from_config(&Config::default()).unwrap();
+    let mut cam = rig.camera(3).unwrap().clone();
+    if !distortion {
+        cam.camera.distortion = Distortion::NONE;
+    }
+    cam
+}
+
+/// Spheres far off-axis (large perspective bias), at arbitrary sub-pixel
+/// positions, defocused (camera 3 is focused at z = 30), none hiding another.
+pub fn spheres() -> Vec<Sphere> {
+    vec![
+        Sphere {
+            centre: Point3::new(75.0, 50.123, 30.0),
+            radius: 10.0,
+            radiance_e: 12_000.0,
+        },
+        Sphere {
+            centre: Point3::new(-83.37, -40.71, 45.0),
+            radius: 7.5,
+            radiance_e: 12_000.0,
+        },
+        Sphere {
+            centre: Point3::new(-20.2, 62.9, 0.0),
+            radius: 5.0,
+            radiance_e: 12_000.0,
+        },
+    ]
+}
