@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::{Axis, Direction, SphereRow};
+use crate::campaign::{Axis, Direction, InstantKey, SphereRow};
 use crate::figures::ReportFigures;
 use crate::rig::CameraJson;
 
@@ -56,6 +56,17 @@ pub struct TruthInstant {
     /// Anything else the renderer records (time, pose errors).
     #[serde(flatten)]
     pub extra: serde_json::Map<String, serde_json::Value>,
+}
+
+impl TruthInstant {
+    /// The key of the instant, as the manifest's rows of it give it.
+    pub fn instant(&self) -> InstantKey {
+        InstantKey::new(
+            (self.axis, self.direction),
+            [self.run, self.target, self.capture],
+            self.nominal,
+        )
+    }
 }
 
 /// `truth.json`: true cameras, spheres and positions, plus whatever the

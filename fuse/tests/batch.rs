@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use formats::{
     FormatError, InstantProblemRow, ManifestRow, Missing, OutputPlan, PointRow, PoseRow, Rig,
-    SphereRow, Truth, read_csv, read_json, write_csv,
+    SphereRow, read_csv, write_csv,
 };
 use fuse::{FuseError, Inputs, MeasureOptions, Summary, measure};
 use image::{ImageBuffer, Luma};
@@ -39,22 +39,10 @@ fn manifest(dir: &Path) -> Vec<ManifestRow> {
 
 /// Measure into `dir/out` (its folder created), existing outputs kept.
 fn run(dir: &Path, out: &str, progress: &(dyn Fn(u64, u64) + Sync)) -> fuse::Result<Summary> {
-    let (rig, spheres) = (rig(dir), spheres(dir));
     if let Some(folder) = dir.join(out).parent() {
         std::fs::create_dir_all(folder).unwrap();
     }
-    measure(
-        &Inputs {
-            manifest: &dir.join("manifest.csv"),
-            rig: &rig,
-            spheres: &spheres,
-        },
-        &dir.join(out),
-        &MeasureOptions::default(),
-        &extract::CpuBackend,
-        &mut OutputPlan::new(false),
-        progress,
-    )
+    common::measure_with(dir, out, &MeasureOptions::default(), progress, false)
 }
 
 fn points(path: &Path) -> Vec<PointRow> {
@@ -107,18 +95,6 @@ fn paint(path: &Path, camera: &geom::Camera, at: geom::Point3<f64>, r: f64, dn: 
         .unwrap();
 }
 
-fn true_camera(dir: &Path, id: u8) -> geom::Camera {
-    let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
-    truth
-        .cameras
-        .iter()
-        .find(|c| c.model.id == id)
-        .unwrap()
-        .model
-        .to_camera()
-        .unwrap()
-}
-
 /// True centre of a sphere at an instant.
 fn true_centre(dir: &Path, row: &ManifestRow, sphere: &str) -> geom::Point3<f64> {
     let t = points(&dir.join("truth_points.csv"));
@@ -158,13 +134,13 @@ fn damaged_frames_are_reported_and_the_rest_measured() {
     std::fs::write(&corrupt, b"II*\0garbage").unwrap();
     // Instant 2: sphere C painted out of camera 2's frame (background level): A, B measured.
     let (missing, row) = image_of(d, 2, 2);
-    let cam2 = true_camera(d, 2);
+    let cam2 = common::true_camera(d, 2);
     let c = true_centre(d, &row, "C");
     let c_px = 5.0 * cam2.intrinsics.fx / cam2.to_camera(&c).z + 3.0; // C's image radius + blur margin
     paint(&missing, &cam2, c, c_px, 1200);
     // Instant 3: an extra blob (a reflection, 4 mm) in camera 3: rejected, instant measured.
     let (extra, row3) = image_of(d, 3, 3);
-    let cam3 = true_camera(d, 3);
+    let cam3 = common::true_camera(d, 3);
     let a = true_centre(d, &row3, "A");
     paint(
         &extra,

@@ -21,30 +21,14 @@ use std::path::Path;
 use formats::{Axis, IlluminationJson, PointRow, Rig, read_csv};
 use fuse::{Inputs, MeasureOptions, measure};
 use geom::Illumination;
-use synth::{Config, IlluminationModel};
+use synth::IlluminationModel;
 
 /// Render a 1024×768 campaign of the seed rig through `illumination` with vignetting `v`.
 fn campaign(dir: &Path, illumination: IlluminationModel, v: [f64; 2], seed: u64) {
-    let mut config = Config::default();
-    config
-        .apply(&synth::Overrides {
-            width: Some(1024),
-            height: Some(768),
-            targets: Some(6),
-            runs: Some(2),
-            captures: Some(1),
-            seed: Some(seed),
-        })
-        .unwrap();
-    config.optics.illumination = illumination;
-    config.optics.vignetting = v;
-    synth::write_campaign(
-        &config,
-        dir,
-        &mut formats::OutputPlan::new(false),
-        &synth::NoProgress,
-    )
-    .unwrap();
+    common::campaign_with(dir, 1024, 6, 2, seed, |config| {
+        config.optics.illumination = illumination;
+        config.optics.vignetting = v;
+    });
 }
 
 /// The true rig with each camera's RI fitted from the campaign's flat field
@@ -143,17 +127,10 @@ fn vignetted_lens_with_its_flats_and_without_them() {
     let dir = holds_with_flats(IlluminationModel::Lens, [v1, 0.0], 23);
     // Negative control: the ideal lens assumed.
     let (_, scale) = measure_campaign(&dir, &rig(&dir, false), "points_ideal.csv");
-    let truth: formats::Truth = formats::read_json(&dir.join("truth.json")).unwrap();
     let depth = |id: u8| {
-        let cam = truth
-            .cameras
-            .iter()
-            .find(|c| c.model.id == id)
-            .unwrap()
-            .model
-            .to_camera()
-            .unwrap();
-        cam.to_camera(&geom::Point3::new(0.0, 0.0, 30.0)).z
+        common::true_camera(&dir, id)
+            .to_camera(&geom::Point3::new(0.0, 0.0, 30.0))
+            .z
     };
     let r: f64 = 10.0;
     // X is measured by cameras 2 and 3, Y by 1 and 3: their mean depth.

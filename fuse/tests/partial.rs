@@ -90,14 +90,7 @@ fn a_sphere_leaving_a_camera_s_view_leaves_the_others_measured() {
     let mut instants = 0;
     for t in &truth.instants {
         instants += 1;
-        let key = InstantKey {
-            axis: t.axis,
-            direction: t.direction,
-            run: t.run,
-            target: t.target,
-            capture: t.capture,
-            nominal_bits: t.nominal.map(f64::to_bits),
-        };
+        let key = t.instant();
         for &c in used(t.axis) {
             for (name, centre) in &t.spheres {
                 let m = border_margin(&cameras[&c], &Point3::from(*centre), radius[name.as_str()]);
@@ -159,16 +152,7 @@ fn a_sphere_leaving_a_camera_s_view_leaves_the_others_measured() {
         let t = truth
             .instants
             .iter()
-            .find(|t| {
-                InstantKey {
-                    axis: t.axis,
-                    direction: t.direction,
-                    run: t.run,
-                    target: t.target,
-                    capture: t.capture,
-                    nominal_bits: t.nominal.map(f64::to_bits),
-                } == p.instant()
-            })
+            .find(|t| t.instant() == p.instant())
             .unwrap();
         Point3::from(t.spheres[&p.sphere])
     };

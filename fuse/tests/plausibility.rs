@@ -153,7 +153,7 @@ fn swapped_repeated_and_foreign_images_are_refused() {
         fusion: Fusion::Seed,
         ..MeasureOptions::default()
     };
-    let summary = common::measure_with(d, "seed/points.csv", &seed, &|_, _| {}).unwrap();
+    let summary = common::measure_with(d, "seed/points.csv", &seed, &|_, _| {}, false).unwrap();
     // The seed's model error (the cameras' mounting tilt) is ≈ 0.2 mm here.
     check_refused(d, "seed/points.csv", &damaged, &summary, 0.3);
     let seeded: Vec<PointRow> = common::records(&d.join("seed/points.csv"));
@@ -192,6 +192,7 @@ fn a_resumed_run_refuses_and_keeps_the_same_instants() {
                     panic!("interrupted");
                 }
             },
+            false,
         )
     }));
     assert!(interrupted.is_err());

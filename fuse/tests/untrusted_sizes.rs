@@ -11,7 +11,7 @@ mod common;
 use std::path::Path;
 
 use formats::{InstantProblemRow, ManifestRow, PointRow, read_csv};
-use fuse::{Inputs, MeasureOptions, Summary, measure};
+use fuse::{MeasureOptions, Summary};
 
 /// A baseline little-endian TIFF header claiming `width × height` 16-bit
 /// pixels in one strip of 4 bytes.
@@ -50,20 +50,7 @@ fn rows<T: formats::Record>(path: &Path) -> Vec<T> {
 }
 
 fn run(dir: &Path, out: &str, force: bool) -> Summary {
-    let (rig, spheres) = (common::true_rig(dir), common::spheres(dir));
-    measure(
-        &Inputs {
-            manifest: &dir.join("manifest.csv"),
-            rig: &rig,
-            spheres: &spheres,
-        },
-        &dir.join(out),
-        &MeasureOptions::default(),
-        &extract::CpuBackend,
-        &mut formats::OutputPlan::new(force),
-        &|_, _| {},
-    )
-    .unwrap()
+    common::measure_with(dir, out, &MeasureOptions::default(), &|_, _| {}, force).unwrap()
 }
 
 #[test]

@@ -54,6 +54,19 @@ pub fn true_rig(dir: &Path) -> Rig {
     }
 }
 
+/// The renderer's true camera `id` of the campaign in `dir`.
+pub fn true_camera(dir: &Path, id: u8) -> geom::Camera {
+    let truth: Truth = read_json(&dir.join("truth.json")).unwrap();
+    truth
+        .cameras
+        .iter()
+        .find(|c| c.model.id == id)
+        .unwrap()
+        .model
+        .to_camera()
+        .unwrap()
+}
+
 /// The campaign's spheres.
 pub fn spheres(dir: &Path) -> Vec<SphereRow> {
     read_csv(&dir.join("spheres.csv"))
@@ -65,15 +78,23 @@ pub fn spheres(dir: &Path) -> Vec<SphereRow> {
 
 /// Measure a campaign with the true rig and default options into `dir/out`.
 pub fn measure(dir: &Path, out: &str) -> fuse::Result<fuse::Summary> {
-    measure_with(dir, out, &fuse::MeasureOptions::default(), &|_, _| {})
+    measure_with(
+        dir,
+        out,
+        &fuse::MeasureOptions::default(),
+        &|_, _| {},
+        false,
+    )
 }
 
-/// Measure a campaign with the true rig into `dir/out`.
+/// Measure a campaign with the true rig into `dir/out`; existing outputs
+/// are replaced only when `force`.
 pub fn measure_with(
     dir: &Path,
     out: &str,
     options: &fuse::MeasureOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
+    force: bool,
 ) -> fuse::Result<fuse::Summary> {
     let (rig, spheres) = (true_rig(dir), spheres(dir));
     fuse::measure(
@@ -85,7 +106,7 @@ pub fn measure_with(
         &dir.join(out),
         options,
         &extract::CpuBackend,
-        &mut formats::OutputPlan::new(false),
+        &mut formats::OutputPlan::new(force),
         progress,
     )
 }
