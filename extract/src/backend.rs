@@ -63,7 +63,7 @@ impl Default for ExtractParams {
 impl ExtractParams {
     /// Check the parameters for `frame`: on their own ([`Self::validate`])
     /// and the frame's size (at most [`Self::max_pixels`] pixels and
-    /// [`MAX_IMAGE_SIDE_PX`] a side, so that every sum stays exact).
+    /// [`formats::limits::MAX_IMAGE_SIDE_PX`] a side, so that every sum stays exact).
     pub fn validate_for(&self, frame: &FrameView<'_>) -> Result<()> {
         self.validate()?;
         check_image_size(
@@ -164,7 +164,7 @@ pub trait Backend: Send + Sync {
     /// once per file, in input order, and a failed file does not stop the
     /// batch. `expected_depth` rejects frames of another bit depth. The default
     /// decodes and extracts frames in parallel on the rayon pool
-    /// ([`batch::extract_parallel`]); the GPU backend pipelines instead.
+    /// (`batch::extract_parallel`); the GPU backend pipelines instead.
     fn extract_batch(
         &self,
         paths: &[PathBuf],

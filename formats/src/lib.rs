@@ -12,7 +12,7 @@
 //! against its inputs and the files that exist before anything is written;
 //! existing outputs replaced only with `--force`), writes through it
 //! atomically ([`AtomicFile`]), locks its output folder when it is a long
-//! batch ([`lock`]), and lists its temporary files for removal on
+//! batch ([`OutputLock`]), and lists its temporary files for removal on
 //! interruption ([`interrupt`]).
 
 /// Declares the row of a file keyed by instant (`manifest.csv`, `points.csv`,

@@ -14,7 +14,7 @@
 //! - an output folder given as `--out DIR` is created if missing; the folder
 //!   of an output file must exist;
 //! - long batch writers hold the lock of their output folder
-//!   ([`crate::lock`]); taking over a dead run's lock removes the temporary
+//!   ([`crate::OutputLock`]); taking over a dead run's lock removes the temporary
 //!   files that run left beside the planned outputs;
 //! - a folder written as one set (a report) is staged in a fresh temporary
 //!   folder beside it and exchanged with the old one in one rename, so a
@@ -210,7 +210,7 @@ impl OutputPlan {
         &self.notes
     }
 
-    /// Lock `folder` for `command` ([`crate::lock`]); it must exist unless it
+    /// Lock `folder` for `command` ([`crate::OutputLock`]); it must exist unless it
     /// is a planned output folder, which is then created. A lock left by a
     /// dead run is taken over (a note says so) and the temporary files that
     /// run left beside the planned outputs are removed: declare the outputs

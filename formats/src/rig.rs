@@ -448,7 +448,7 @@ pub struct RigCamera {
 impl RigCamera {
     /// The camera, checked in full: K, R, t and distortion
     /// ([`CameraJson::to_camera`]), `P` consistent with them
-    /// ([`check_projection`]), the relative illumination over the image and
+    /// (`check_projection`), the relative illumination over the image and
     /// finite figures.
     pub fn validate(&self) -> Result<Camera, RigError> {
         let id = self.model.id;

@@ -18,7 +18,7 @@
 //!   frame, only with the signal (≈ rows of blob × ⌈run length / 32⌉).
 //! - Host: segments are sorted, joined into maximal runs (exact `u64`
 //!   shifts of the sums), runs of adjacent rows joined by union–find, and the
-//!   blobs gathered by [`blob::collect`](crate::blob::collect): the blob list
+//!   blobs gathered by `blob::collect`: the blob list
 //!   (moments, area, peak, saturation, box, border flag, runs) is identical to
 //!   the CPU backend's.
 //! - Frames whose storage binding would pass the adapter's limit (at most
