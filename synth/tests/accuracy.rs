@@ -7,7 +7,7 @@
 
 use geom::nalgebra::{Point2, Vector2};
 use geom::{Camera, Distortion};
-use synth::{Config, NoiseKey, Sphere, SynthRig, ellipse_centre_px, sphere_signals};
+use synth::{Config, Sphere, SynthRig, ellipse_centre_px, sphere_signals};
 
 mod common;
 
@@ -62,21 +62,8 @@ fn centroid_is_the_ellipse_centre() {
 #[test]
 fn quantised_frame_centroid_is_the_ellipse_centre() {
     let mut cam = seed_camera(false);
-    cam.sensor.read_noise_e = 0.0;
-    cam.sensor.shot_noise = false;
-    cam.sensor.background_e = 0.0;
     let s = spheres();
-    let img = cam
-        .render(
-            &s,
-            NoiseKey {
-                seed: 1,
-                frame: 0,
-                camera: 3,
-            },
-            4,
-        )
-        .unwrap();
+    let img = common::noise_free_frame(&mut cam, &s);
     let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, None).unwrap();
     for (sphere, signal) in s.iter().zip(&signals) {
         let sig = signal.as_ref().unwrap();

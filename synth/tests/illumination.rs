@@ -19,8 +19,7 @@
 use geom::Camera;
 use geom::nalgebra::{Point2, Vector2, Vector3};
 use synth::{
-    Config, LensIllumination, NoiseKey, Sphere, SynthCamera, SynthRig, ellipse_centre_px,
-    sphere_signals,
+    Config, LensIllumination, Sphere, SynthCamera, SynthRig, ellipse_centre_px, sphere_signals,
 };
 
 mod common;
@@ -219,21 +218,8 @@ fn vignetting_moves_the_centroid_by_half_v1_of_the_bias() {
 #[test]
 fn quantised_lens_frame_centroid_is_the_projected_centre() {
     let mut cam = lens_camera([0.0, 0.0], false);
-    cam.sensor.read_noise_e = 0.0;
-    cam.sensor.shot_noise = false;
-    cam.sensor.background_e = 0.0;
     let s = spheres();
-    let img = cam
-        .render(
-            &s,
-            NoiseKey {
-                seed: 1,
-                frame: 0,
-                camera: 3,
-            },
-            4,
-        )
-        .unwrap();
+    let img = common::noise_free_frame(&mut cam, &s);
     let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, cam.lens.as_ref()).unwrap();
     for (sphere, signal) in s.iter().zip(&signals) {
         let sig = signal.as_ref().unwrap();

@@ -3,7 +3,7 @@
 
 use geom::Distortion;
 use geom::nalgebra::Point3;
-use synth::{Config, Sphere, SynthCamera, SynthRig};
+use synth::{Config, Image16, NoiseKey, Sphere, SynthCamera, SynthRig};
 
 /// The seed camera 3 (true model of the default config), optionally without
 /// distortion; its relative illumination as the default config gives it.
@@ -36,4 +36,18 @@ pub fn spheres() -> Vec<Sphere> {
             radiance_e: 12_000.0,
         },
     ]
+}
+
+/// The whole frame path of `cam` (blur, sensor, 16-bit quantisation) over
+/// `spheres` with every noise and the background off, 4× supersampled.
+pub fn noise_free_frame(cam: &mut SynthCamera, spheres: &[Sphere]) -> Image16 {
+    cam.sensor.read_noise_e = 0.0;
+    cam.sensor.shot_noise = false;
+    cam.sensor.background_e = 0.0;
+    let key = NoiseKey {
+        seed: 1,
+        frame: 0,
+        camera: 3,
+    };
+    cam.render(spheres, key, 4).unwrap()
 }
