@@ -13,7 +13,7 @@ use serde::Serialize;
 use crate::dlt::{self, MIN_POINTS};
 use crate::outliers::{inliers, robust_sigma};
 use crate::refine::{Layout, Model, Reprojection, refine};
-use crate::{CalibError, Result};
+use crate::{CalibError, OptionProblem, Result};
 
 /// Default k of the outlier rejection `|r| > k·σ`.
 pub const DEFAULT_OUTLIER_K: f64 = 4.0;
@@ -78,16 +78,10 @@ impl Options {
         if let Some(k) = self.outlier_k
             && !(k.is_finite() && k >= 1.0)
         {
-            return Err(CalibError::Option {
-                option: "outlier k",
-                message: format!("{k} must be a number ≥ 1"),
-            });
+            return Err(CalibError::Option(OptionProblem::OutlierK(k)));
         }
         if self.max_rounds == 0 {
-            return Err(CalibError::Option {
-                option: "max rounds",
-                message: "at least one round is needed".into(),
-            });
+            return Err(CalibError::Option(OptionProblem::NoRound));
         }
         Ok(())
     }
@@ -274,10 +268,10 @@ pub fn calibrate(
     options.validate()?;
     validate(observations)?;
     if width == 0 || height == 0 {
-        return Err(CalibError::Option {
-            option: "image size",
-            message: format!("{width}×{height} px is empty"),
-        });
+        return Err(CalibError::Option(OptionProblem::ImageSize {
+            width,
+            height,
+        }));
     }
     if observations.len() < MIN_POINTS {
         return Err(CalibError::TooFewPoints {

@@ -33,7 +33,7 @@ use geom::{Camera, Matrix3x4, Point2, Point3, Vector2};
 use crate::dlt::{self, MIN_POINTS, Spread};
 use crate::error::Ambiguity;
 use crate::outliers::robust_sigma;
-use crate::{CalibError, Result};
+use crate::{CalibError, OptionProblem, Result};
 
 /// Gate of the final assignment in multiples of the robust σ of the DLT residuals.
 pub const GATE_SIGMAS: f64 = 6.0;
@@ -390,10 +390,7 @@ impl<'a> Search<'a> {
         }
         let spacing = median_spacing(detections);
         if spacing.is_nan() || spacing <= 0.0 {
-            return Err(CalibError::Option {
-                option: "detections",
-                message: "more than half of the detections coincide with another one".into(),
-            });
+            return Err(CalibError::Option(OptionProblem::CoincidentDetections));
         }
         let gate0 = options.gate_fraction * spacing;
         Ok(Search {
@@ -651,20 +648,18 @@ fn check_input(
     }
     for (j, d) in detections.iter().enumerate() {
         if !(d.x.is_finite() && d.y.is_finite()) {
-            return Err(CalibError::Option {
-                option: "detections",
-                message: format!("detection {j} at ({}, {}) is not finite", d.x, d.y),
-            });
+            return Err(CalibError::Option(OptionProblem::DetectionNotFinite {
+                index: j,
+                x: d.x,
+                y: d.y,
+            }));
         }
     }
     if !(options.max_scale >= 1.0 && options.gate_fraction > 0.0 && options.gate_fraction < 0.5) {
-        return Err(CalibError::Option {
-            option: "correspondence search",
-            message: format!(
-                "max_scale {} must be ≥ 1 and gate_fraction {} in (0, 0.5)",
-                options.max_scale, options.gate_fraction
-            ),
-        });
+        return Err(CalibError::Option(OptionProblem::Search {
+            max_scale: options.max_scale,
+            gate_fraction: options.gate_fraction,
+        }));
     }
     Ok(())
 }

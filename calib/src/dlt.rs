@@ -11,7 +11,7 @@ use geom::camera::normalize_projection;
 use geom::nalgebra::{DMatrix, Matrix3, Matrix4, SymmetricEigen};
 use geom::{Matrix3x4, Point2, Point3, Vector2};
 
-use crate::{CalibError, Result};
+use crate::{CalibError, OptionProblem, Result};
 
 /// Fewest points a DLT accepts (11 unknowns, two equations per point).
 pub const MIN_POINTS: usize = 6;
@@ -149,14 +149,10 @@ pub fn normalise_3d(points: &[Point3<f64>]) -> Result<Matrix4<f64>> {
 /// and when the linear system has no unique solution.
 pub fn dlt(world: &[Point3<f64>], image: &[Point2<f64>]) -> Result<Matrix3x4<f64>> {
     if world.len() != image.len() {
-        return Err(CalibError::Option {
-            option: "dlt",
-            message: format!(
-                "{} space points but {} image points",
-                world.len(),
-                image.len()
-            ),
-        });
+        return Err(CalibError::Option(OptionProblem::DltPoints {
+            world: world.len(),
+            image: image.len(),
+        }));
     }
     if world.len() < MIN_POINTS {
         return Err(CalibError::TooFewPoints {

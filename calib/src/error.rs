@@ -119,14 +119,9 @@ pub enum CalibError {
         /// Depth in the camera frame (mm).
         depth_mm: f64,
     },
-    /// An option is out of range.
-    #[error("option {option}: {message}")]
-    Option {
-        /// The option.
-        option: &'static str,
-        /// What is wrong, with the value.
-        message: String,
-    },
+    /// An option or an input is out of range.
+    #[error("option {option}: {0}", option = .0.option())]
+    Option(OptionProblem),
     /// A flat-field or dark frame cannot give the relative illumination.
     #[error("{0}")]
     FlatField(FlatFieldProblem),
@@ -267,3 +262,82 @@ impl CalibError {
 
 /// Result alias for `calib`.
 pub type Result<T> = std::result::Result<T, CalibError>;
+
+/// Which option or input of a calibration is out of range, with its value.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum OptionProblem {
+    /// More than half of the detections coincide with another one.
+    #[error("more than half of the detections coincide with another one")]
+    CoincidentDetections,
+    /// A detection is NaN or infinite.
+    #[error("detection {index} at ({x}, {y}) is not finite")]
+    DetectionNotFinite {
+        /// Index of the detection.
+        index: usize,
+        /// Its u (px).
+        x: f64,
+        /// Its v (px).
+        y: f64,
+    },
+    /// The correspondence search's bounds are out of range.
+    #[error("max_scale {max_scale} must be ≥ 1 and gate_fraction {gate_fraction} in (0, 0.5)")]
+    Search {
+        /// Largest scale of the nominal target tried.
+        max_scale: f64,
+        /// Gate as a fraction of the detections' spacing.
+        gate_fraction: f64,
+    },
+    /// Re-centroiding gave another number of centroids than detections.
+    #[error("{centroids} centroids for {detections} detections")]
+    Recentroided {
+        /// Centroids returned.
+        centroids: usize,
+        /// Detections given.
+        detections: usize,
+    },
+    /// The DLT was given different numbers of space and image points.
+    #[error("{world} space points but {image} image points")]
+    DltPoints {
+        /// Space points.
+        world: usize,
+        /// Image points.
+        image: usize,
+    },
+    /// An unknown distortion model name.
+    #[error("'{0}' is not one of pinhole, k1k2, k1k2p1p2")]
+    Model(String),
+    /// k3 asked for with the pinhole model.
+    #[error("k3 needs a radial model (k1k2 or k1k2p1p2), not pinhole")]
+    K3WithoutRadial,
+    /// The outlier factor is not a number ≥ 1.
+    #[error("{0} must be a number ≥ 1")]
+    OutlierK(f64),
+    /// No round of outlier rejection allowed.
+    #[error("at least one round is needed")]
+    NoRound,
+    /// An image of zero width or height.
+    #[error("{width}×{height} px is empty")]
+    ImageSize {
+        /// Width (px).
+        width: u32,
+        /// Height (px).
+        height: u32,
+    },
+}
+
+impl OptionProblem {
+    /// The option or input concerned, as the message names it.
+    pub fn option(&self) -> &'static str {
+        match self {
+            Self::CoincidentDetections | Self::DetectionNotFinite { .. } => "detections",
+            Self::Search { .. } => "correspondence search",
+            Self::Recentroided { .. } => "re-centroiding",
+            Self::DltPoints { .. } => "dlt",
+            Self::Model(_) => "model",
+            Self::K3WithoutRadial => "k3",
+            Self::OutlierK(_) => "outlier k",
+            Self::NoRound => "max rounds",
+            Self::ImageSize { .. } => "image size",
+        }
+    }
+}

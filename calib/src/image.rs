@@ -12,8 +12,8 @@ use formats::{CorrespondenceRow, TargetRow};
 use geom::{Camera, Point2};
 
 use crate::{
-    CalibError, Calibration, CorrespondOptions, Correspondence, Observation, Options, Result,
-    calibrate, correspond, markers, observations,
+    CalibError, Calibration, CorrespondOptions, Correspondence, Observation, OptionProblem,
+    Options, Result, calibrate, correspond, markers, observations,
 };
 
 /// Rounds of re-centroiding with the latest camera and refitting.
@@ -64,14 +64,10 @@ pub fn calibrate_detections(
     for _ in 0..RECENTROID_ROUNDS {
         let again = recentroid(&calibration.camera);
         if again.len() != detections.len() {
-            return Err(CalibError::Option {
-                option: "re-centroiding",
-                message: format!(
-                    "{} centroids for {} detections",
-                    again.len(),
-                    detections.len()
-                ),
-            });
+            return Err(CalibError::Option(OptionProblem::Recentroided {
+                centroids: again.len(),
+                detections: detections.len(),
+            }));
         }
         let pixels: Vec<Point2<f64>> = again
             .into_iter()

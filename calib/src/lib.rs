@@ -81,7 +81,7 @@ pub use correspond::{
     CorrespondOptions, Correspondence, GATE_SIGMAS, MIN_GATE_PX, Marker, Match, correspond, markers,
 };
 pub use dlt::{MIN_POINTS, residuals as dlt_residuals};
-pub use error::{Ambiguity, CalibError, FlatFieldProblem, Result};
+pub use error::{Ambiguity, CalibError, FlatFieldProblem, OptionProblem, Result};
 pub use illumination::{FlatFieldFit, Pixels, ProfilePoint, fit_flat_field};
 pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};
 pub use opencv::opencv_yaml;

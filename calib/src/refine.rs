@@ -21,7 +21,7 @@ use geom::sphere_image::ellipse_centre_jacobian;
 use geom::{Camera, Distortion, Intrinsics, Point2, Point3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::{CalibError, Result};
+use crate::{CalibError, OptionProblem, Result};
 
 /// Lens distortion model (`--model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -54,10 +54,7 @@ impl std::str::FromStr for Model {
             "pinhole" => Ok(Model::Pinhole),
             "k1k2" => Ok(Model::K1K2),
             "k1k2p1p2" => Ok(Model::K1K2P1P2),
-            other => Err(CalibError::Option {
-                option: "model",
-                message: format!("'{other}' is not one of pinhole, k1k2, k1k2p1p2"),
-            }),
+            other => Err(CalibError::Option(OptionProblem::Model(other.to_string()))),
         }
     }
 }
@@ -86,10 +83,7 @@ impl Layout {
     /// Check the combination (k3 needs k1, k2).
     pub fn validate(&self) -> Result<()> {
         if self.k3 && self.model == Model::Pinhole {
-            return Err(CalibError::Option {
-                option: "k3",
-                message: "k3 needs a radial model (k1k2 or k1k2p1p2), not pinhole".into(),
-            });
+            return Err(CalibError::Option(OptionProblem::K3WithoutRadial));
         }
         Ok(())
     }
