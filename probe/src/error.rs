@@ -16,8 +16,8 @@ pub enum ProbeError {
         message: String,
     },
     /// The data do not determine the result (too few points, stations, balls; a degenerate layout).
-    #[error("{0}")]
-    Unsolvable(String),
+    #[error(transparent)]
+    Unsolvable(#[from] Unsolvable),
     /// A layout leaves an unknown unobservable: the condition number of the problem.
     #[error("{what}: condition number {condition:.3e} exceeds {limit:.1e}")]
     IllConditioned {
@@ -54,5 +54,250 @@ pub enum ProbeError {
     Report(#[from] report::ReportError),
 }
 
+/// The matrix a tracer step solves for the station unknowns, as errors name it.
+pub(crate) const REDUCED_NORMAL: &str = "the reduced normal matrix of the station unknowns \
+     (stations and dead paths weakly determined by the layout, or readings in groups that share \
+     too few points)";
+
+/// Why the data do not determine a result: the counts, names and positions
+/// at fault.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum Unsolvable {
+    /// Rotary table: fewer than two measured angles.
+    #[error("{angles} measured angle(s): the method needs the reference 0° and at least one more")]
+    TooFewAngles {
+        /// Angles measured.
+        angles: usize,
+    },
+    /// Rotary table: fewer than three balls (named as given).
+    #[error(
+        "{} ball(s) ({}): the six errors need at least 3 balls not on one line",
+        .names.len(),
+        .names.join(", ")
+    )]
+    TooFewBalls {
+        /// The balls' names.
+        names: Vec<String>,
+    },
+    /// Rotary table: fewer than three reference centres.
+    #[error("{centres} ball(s): the six errors need at least 3 balls not on one line")]
+    TooFewCentres {
+        /// Reference centres given.
+        centres: usize,
+    },
+    /// Rotary table: every reference centre at one place.
+    #[error("the balls' reference centres coincide: no rotation can be seen")]
+    CoincidentCentres,
+    /// Rotary table: the six-error design at an angle is singular.
+    #[error("least squares of the six errors at {angle_deg}°: the design is singular")]
+    SingularDesign {
+        /// The angle (degrees).
+        angle_deg: f64,
+    },
+    /// Rotary table: no covariance of the six errors at an angle.
+    #[error(
+        "least squares of the six errors at {angle_deg}°: AᵀA is singular or there are no \
+         redundant observations"
+    )]
+    NoCovariance {
+        /// The angle (degrees).
+        angle_deg: f64,
+    },
+    /// Rotary table: the axis average line without errors at two angles.
+    #[error("the axis average line needs errors at ≥ 2 angles, got {errors} (for {angles} angles)")]
+    AxisLineTooFewErrors {
+        /// Angles with errors.
+        errors: usize,
+        /// Angles measured.
+        angles: usize,
+    },
+    /// Rotary table: the axis average line's design is singular.
+    #[error("axis average line: singular design")]
+    AxisLineSingular,
+    /// Indexing: the sphere through the centres has a singular normal matrix.
+    #[error("sphere through the centres: singular normal matrix")]
+    SingularSphere,
+    /// Indexing: the A = 0° centres do not define the B axis.
+    #[error("the mean of the A = 0° centres coincides with the rotation centre: no B axis")]
+    NoBAxis,
+    /// Indexing: the B = 0° sweep does not define the A axis.
+    #[error("the B = 0° sweep lies along the B axis: no A axis")]
+    NoAAxis,
+    /// Indexing: no position to summarise.
+    #[error("no positions")]
+    NoPositions,
+    /// Indexing: no position tilted by A.
+    #[error("no position with A > 0°")]
+    NoTiltedPosition,
+    /// Tracer: fewer stations than multilateration needs.
+    #[error(
+        "{stations} stations: multilateration needs at least {needed} \
+         (m·n ≥ 4m + 3n − 6 cannot hold with fewer)"
+    )]
+    TooFewStations {
+        /// Stations given.
+        stations: usize,
+        /// The fewest accepted.
+        needed: usize,
+    },
+    /// Tracer: fewer readings than unknowns.
+    #[error(
+        "{readings} readings for {unknowns} unknowns (3·{points} point coordinates + 4·{stations} \
+         station unknowns − 6 rigid freedoms): at least as many readings as unknowns are needed"
+    )]
+    TooFewReadings {
+        /// Readings given.
+        readings: usize,
+        /// Unknowns of the network.
+        unknowns: usize,
+        /// Grid points.
+        points: usize,
+        /// Stations.
+        stations: usize,
+    },
+    /// Tracer: a station reads too few points.
+    #[error("station '{station}' reads {count} points: at least {needed} are needed")]
+    StationReadsTooFew {
+        /// The station.
+        station: String,
+        /// Points it reads.
+        count: usize,
+        /// The fewest accepted.
+        needed: usize,
+    },
+    /// Tracer: a point is read by too few stations.
+    #[error("point '{point}' is read by {count} stations: at least {needed} are needed")]
+    PointReadTooFew {
+        /// The point.
+        point: String,
+        /// Stations reading it.
+        count: usize,
+        /// The fewest accepted.
+        needed: usize,
+    },
+    /// Tracer: a station's points lie in one plane (mirror ambiguity).
+    #[error(
+        "station '{station}' reads {count} points that lie in one plane (principal spreads \
+         {largest:.3e} and {smallest:.3e} mm): the grid must be three-dimensional, or the station \
+         and its mirror image in that plane fit the readings equally"
+    )]
+    StationPlanar {
+        /// The station.
+        station: String,
+        /// Points it reads.
+        count: usize,
+        /// Largest principal spread (mm).
+        largest: f64,
+        /// Smallest principal spread (mm).
+        smallest: f64,
+    },
+    /// Tracer: every reading of a station is zero.
+    #[error("station '{station}': all its readings are zero")]
+    StationZero {
+        /// The station.
+        station: String,
+    },
+    /// Tracer: the seed's linear start of a station has no solution.
+    #[error("station '{station}': {reason}")]
+    StationStart {
+        /// The station.
+        station: String,
+        /// The solver's reason.
+        reason: &'static str,
+    },
+    /// Tracer: a point at a station's position.
+    #[error("point '{point}' coincides with station '{station}'")]
+    PointAtStation {
+        /// The point.
+        point: String,
+        /// The station.
+        station: String,
+    },
+    /// Tracer: the directions from a point to its stations lie in a plane.
+    #[error("point '{point}': the directions to its stations do not span three dimensions")]
+    PointDirectionsFlat {
+        /// The point.
+        point: String,
+    },
+    /// Tracer: the regularised reduced normal matrix of a step is not positive definite.
+    #[error("{REDUCED_NORMAL} is not positive definite")]
+    ReducedNotPositive,
+    /// Tracer: the reduced normal matrix is singular at the solution.
+    #[error("the reduced normal matrix is singular at the solution")]
+    ReducedSingular,
+    /// Tracer: collinear grid points allow no rigid alignment.
+    #[error("the grid points are collinear: no rigid alignment")]
+    CollinearGrid,
+    /// Tracer: no redundancy to estimate σ of a reading.
+    #[error(
+        "{readings} readings for {unknowns} unknowns: no redundancy to estimate the \
+         uncertainty of a reading (give it a priori, or add readings)"
+    )]
+    NoRedundancy {
+        /// Readings.
+        readings: usize,
+        /// Unknowns.
+        unknowns: usize,
+    },
+    /// Volumetric: a curve fit's triangular factor is singular.
+    #[error("{fit}: singular triangular factor")]
+    SingularFactor {
+        /// The fit.
+        fit: String,
+    },
+    /// Volumetric: a position outside the travel a series was fitted on.
+    #[error("{position_mm} mm outside a fitted travel")]
+    OutsideFit {
+        /// The position (mm).
+        position_mm: f64,
+    },
+}
+
 /// Result alias for `probe`.
 pub type Result<T> = std::result::Result<T, ProbeError>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The typed reasons read as the messages they replace.
+    #[test]
+    fn messages_keep_their_wording() {
+        let e = ProbeError::from(Unsolvable::TooFewBalls {
+            names: vec!["A".into(), "B".into()],
+        });
+        assert_eq!(
+            e.to_string(),
+            "2 ball(s) (A, B): the six errors need at least 3 balls not on one line"
+        );
+        assert_eq!(
+            Unsolvable::ReducedNotPositive.to_string(),
+            "the reduced normal matrix of the station unknowns (stations and dead paths weakly \
+             determined by the layout, or readings in groups that share too few points) is not \
+             positive definite"
+        );
+        let planar = Unsolvable::StationPlanar {
+            station: "S1".into(),
+            count: 8,
+            largest: 100.0,
+            smallest: 0.0,
+        };
+        assert_eq!(
+            planar.to_string(),
+            "station 'S1' reads 8 points that lie in one plane (principal spreads 1.000e2 and \
+             0.000e0 mm): the grid must be three-dimensional, or the station and its mirror image \
+             in that plane fit the readings equally"
+        );
+        let few = Unsolvable::TooFewReadings {
+            readings: 10,
+            unknowns: 30,
+            points: 8,
+            stations: 4,
+        };
+        assert_eq!(
+            few.to_string(),
+            "10 readings for 30 unknowns (3·8 point coordinates + 4·4 station unknowns − 6 rigid \
+             freedoms): at least as many readings as unknowns are needed"
+        );
+    }
+}

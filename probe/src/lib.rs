@@ -27,4 +27,4 @@ pub mod rotary;
 pub mod tracer;
 pub mod volumetric;
 
-pub use error::{ProbeError, Result};
+pub use error::{ProbeError, Result, Unsolvable};

@@ -40,7 +40,7 @@ pub mod report;
 
 use geom::nalgebra::{Point3, Rotation3, Vector3, Vector6};
 
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, Unsolvable};
 
 pub use centres::{CentreFit, fit_centre};
 pub use identify::{AngleErrors, CONDITION_LIMIT, Layout, MAX_DISPLACEMENT_MM, layout};
@@ -101,10 +101,10 @@ impl Measurement {
             message,
         };
         if self.angles_deg.len() < 2 {
-            return Err(ProbeError::Unsolvable(format!(
-                "{} measured angle(s): the method needs the reference 0° and at least one more",
-                self.angles_deg.len()
-            )));
+            return Err(Unsolvable::TooFewAngles {
+                angles: self.angles_deg.len(),
+            }
+            .into());
         }
         if let Some(a) = self
             .angles_deg
@@ -132,11 +132,10 @@ impl Measurement {
             ));
         }
         if self.balls.len() < 3 {
-            return Err(ProbeError::Unsolvable(format!(
-                "{} ball(s) ({}): the six errors need at least 3 balls not on one line",
-                self.balls.len(),
-                self.ball_names().join(", ")
-            )));
+            return Err(Unsolvable::TooFewBalls {
+                names: self.ball_names(),
+            }
+            .into());
         }
         for (k, ball) in self.balls.iter().enumerate() {
             if ball.name.trim().is_empty() {

@@ -23,7 +23,8 @@ use super::{
     CONDITION_LIMIT, COST_TOLERANCE, MIN_POINT_STATIONS, MIN_STATION_READINGS, MIN_STATIONS,
     Network, STEP_TOLERANCE_MM,
 };
-use crate::{ProbeError, Result};
+use crate::error::REDUCED_NORMAL;
+use crate::{ProbeError, Result, Unsolvable};
 
 /// Points per chunk of the parallel sums (fixed, so that the order of the
 /// floating-point additions never depends on the thread count).
@@ -80,10 +81,11 @@ impl Structure {
             }
         }
         if m < MIN_STATIONS {
-            return Err(ProbeError::Unsolvable(format!(
-                "{m} stations: multilateration needs at least {MIN_STATIONS} \
-                 (m·n ≥ 4m + 3n − 6 cannot hold with fewer)"
-            )));
+            return Err(Unsolvable::TooFewStations {
+                stations: m,
+                needed: MIN_STATIONS,
+            }
+            .into());
         }
         let mut seen = HashSet::with_capacity(net.readings.len());
         let mut per_point = vec![0usize; n];
@@ -113,26 +115,32 @@ impl Structure {
         }
         let unknowns = net.unknowns();
         if net.readings.len() < unknowns {
-            return Err(ProbeError::Unsolvable(format!(
-                "{} readings for {unknowns} unknowns (3·{n} point coordinates + 4·{m} station \
-                 unknowns − 6 rigid freedoms): at least as many readings as unknowns are needed",
-                net.readings.len()
-            )));
+            return Err(Unsolvable::TooFewReadings {
+                readings: net.readings.len(),
+                unknowns,
+                points: n,
+                stations: m,
+            }
+            .into());
         }
         for (j, &c) in station_readings.iter().enumerate() {
             if c < MIN_STATION_READINGS {
-                return Err(ProbeError::Unsolvable(format!(
-                    "station '{}' reads {c} points: at least {MIN_STATION_READINGS} are needed",
-                    net.station_names[j]
-                )));
+                return Err(Unsolvable::StationReadsTooFew {
+                    station: net.station_names[j].clone(),
+                    count: c,
+                    needed: MIN_STATION_READINGS,
+                }
+                .into());
             }
         }
         for (i, &c) in per_point.iter().enumerate() {
             if c < MIN_POINT_STATIONS {
-                return Err(ProbeError::Unsolvable(format!(
-                    "point '{}' is read by {c} stations: at least {MIN_POINT_STATIONS} are needed",
-                    net.point_names[i]
-                )));
+                return Err(Unsolvable::PointReadTooFew {
+                    point: net.point_names[i].clone(),
+                    count: c,
+                    needed: MIN_POINT_STATIONS,
+                }
+                .into());
             }
         }
         let mut order: Vec<usize> = (0..net.readings.len()).collect();
@@ -258,10 +266,11 @@ pub(super) fn linearise(
                     let diff = state.points[i] - s.xyz();
                     let dist = diff.norm();
                     if dist < MIN_DISTANCE_MM {
-                        return Err(ProbeError::Unsolvable(format!(
-                            "point '{}' coincides with station '{}'",
-                            net.point_names[i], net.station_names[st.station_of[e]]
-                        )));
+                        return Err(Unsolvable::PointAtStation {
+                            point: net.point_names[i].clone(),
+                            station: net.station_names[st.station_of[e]].clone(),
+                        }
+                        .into());
                     }
                     let a = diff / dist;
                     let r = dist - s.w - st.l[e];
@@ -284,10 +293,9 @@ pub(super) fn linearise(
                     }
                 }
                 let u_inv = u.cholesky().map(|c| c.inverse()).ok_or_else(|| {
-                    ProbeError::Unsolvable(format!(
-                        "point '{}': the directions to its stations do not span three dimensions",
-                        net.point_names[i]
-                    ))
+                    ProbeError::from(Unsolvable::PointDirectionsFlat {
+                        point: net.point_names[i].clone(),
+                    })
                 })?;
                 let units = &out.unit[first..];
                 let stations = &st.station_of[st.entries(i)];
@@ -390,16 +398,13 @@ pub(super) fn condition(matrix: &DMatrix<f64>) -> f64 {
     if lo > 0.0 { hi / lo } else { f64::INFINITY }
 }
 
-const REDUCED: &str = "the reduced normal matrix of the station unknowns (stations and dead paths \
-                       weakly determined by the layout, or readings in groups that share too few points)";
-
 /// The Gauss–Newton step from a linearisation: station part by Cholesky of
 /// the regularised reduced matrix, point part by back-substitution.
 fn step(st: &Structure, lin: &Linearisation, basis: &DMatrix<f64>) -> Result<State> {
     let reduced = regularised(lin, basis);
     let chol = reduced
         .cholesky()
-        .ok_or_else(|| ProbeError::Unsolvable(format!("{REDUCED} is not positive definite")))?;
+        .ok_or(ProbeError::Unsolvable(Unsolvable::ReducedNotPositive))?;
     let ds = chol.solve(&lin.rhs);
     let stations: Vec<Vector4<f64>> = (0..st.m)
         .map(|j| Vector4::new(ds[4 * j], ds[4 * j + 1], ds[4 * j + 2], ds[4 * j + 3]))
@@ -486,7 +491,7 @@ pub(super) fn check_conditioning(net: &Network, st: &Structure, state: &State) -
     let c = condition(&regularised(&lin, &station_rigid_basis(state)));
     if c.is_nan() || c > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: REDUCED.to_string(),
+            what: REDUCED_NORMAL.to_string(),
             condition: c,
             limit: CONDITION_LIMIT,
         });

@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use super::curves::{AxisCurves, Motion};
 use super::series::{OrderScore, Series, SeriesFit, choose_order};
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, Unsolvable};
 
 /// Default Fourier order N (§5; the polynomial then has degree 6).
 pub const DEFAULT_ORDER: usize = 3;
@@ -148,7 +148,9 @@ impl AxisModel {
             self.fits[motion.index()]
                 .get(s)
                 .value(q)
-                .ok_or_else(|| ProbeError::Unsolvable(format!("{q} mm outside a fitted travel")))
+                .ok_or(ProbeError::Unsolvable(Unsolvable::OutsideFit {
+                    position_mm: q,
+                }))
         };
         Ok(match how {
             Evaluation::Model(Model::Raw) => raw()?,

@@ -7,7 +7,7 @@
 use geom::nalgebra::{DMatrix, DVector, SVD};
 use serde::Serialize;
 
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, Unsolvable};
 
 /// Largest condition number (largest over smallest singular value of the
 /// design matrix with unit-norm columns) accepted for a fit: beyond it the
@@ -189,7 +189,9 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
     let b = DVector::from_column_slice(values);
     let x = r
         .solve_upper_triangular(&(q.transpose() * &b))
-        .ok_or_else(|| ProbeError::Unsolvable(format!("{what}: singular triangular factor")))?;
+        .ok_or_else(|| Unsolvable::SingularFactor {
+            fit: what.to_string(),
+        })?;
     let coefficients = DVector::from_iterator(k, (0..k).map(|j| x[j] / scales[j]));
     let fitted = &design * &coefficients;
     let residuals = (0..n).map(|i| values[i] - fitted[i]).collect();
