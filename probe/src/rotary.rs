@@ -5,11 +5,13 @@
 //! any angle; and, beyond the seed, the axis average line (ISO 230-7
 //! location errors X0C, Y0C, A0C, B0C) separated from the component errors.
 //!
-//! - [`centres`]: a ball centre from probed points (geometric least-squares
-//!   sphere, ≥ 4 points) with its residuals.
-//! - [`identify`]: the layout check (condition number) and the per-angle
-//!   least squares `X = (AᵀA)⁻¹Aᵀb` with uncertainties from the residuals.
-//! - [`location`]: the axis average line and the component errors.
+//! - [`fit_centre`]: a ball centre from probed points (geometric
+//!   least-squares sphere, ≥ [`MIN_POINTS`] points) with its residuals.
+//! - [`layout`]: the layout check (condition number); [`AngleErrors`]: the
+//!   per-angle least squares `X = (AᵀA)⁻¹Aᵀb` with uncertainties from the
+//!   residuals.
+//! - [`AxisLine`], [`Location`]: the axis average line and the component
+//!   errors.
 //! - [`report`], [`html`]: `report.json` types and `report.html`.
 //!
 //! [`solve`] runs the method on a [`Measurement`]; [`Solution::at`]
@@ -31,10 +33,10 @@
 //! - Interpolation between measured angles is linear, wrapping from the last
 //!   measured angle to 360° (= 0°).
 
-pub mod centres;
-pub mod html;
-pub mod identify;
-pub mod location;
+mod centres;
+mod html;
+mod identify;
+mod location;
 mod plot;
 pub mod report;
 
@@ -42,7 +44,8 @@ use geom::nalgebra::{Point3, Rotation3, Vector3, Vector6};
 
 use crate::{ProbeError, Result, Unsolvable};
 
-pub use centres::{CentreFit, fit_centre};
+pub use centres::{CentreFit, MIN_POINTS, fit_centre};
+pub use html::render as html;
 pub use identify::{AngleErrors, CONDITION_LIMIT, Layout, MAX_DISPLACEMENT_MM, layout};
 pub use location::{AxisLine, LOCATION_CONDITION_LIMIT, Location};
 
@@ -87,7 +90,7 @@ pub fn centre_label(ball: &str, angle_deg: f64) -> String {
 }
 
 /// Counter-clockwise rotation by `angle_deg` about +Z (`Rz(θ)` of §2).
-pub fn rz(angle_deg: f64) -> Rotation3<f64> {
+pub(crate) fn rz(angle_deg: f64) -> Rotation3<f64> {
     Rotation3::from_axis_angle(&Vector3::z_axis(), angle_deg.to_radians())
 }
 
@@ -262,7 +265,7 @@ pub struct Solution {
     /// The six errors per measured angle, with uncertainties and residuals.
     pub errors: Vec<AngleErrors>,
     /// The axis average line and the component errors; `None` when the
-    /// measured angles do not separate them (see [`location`]).
+    /// measured angles do not separate them (see [`AxisLine`]).
     pub axis: Option<AxisLine>,
     /// The sphere fits per ball (in ball order) and angle, when the input
     /// was probed points; empty when centres were given.
@@ -415,7 +418,7 @@ impl Solution {
 }
 
 /// Range (max − min) of each component over the six-vectors; zero for none.
-pub fn ranges(values: impl Iterator<Item = SixErrors>) -> SixErrors {
+pub(crate) fn ranges(values: impl Iterator<Item = SixErrors>) -> SixErrors {
     let mut lo = SixErrors::repeat(f64::INFINITY);
     let mut hi = SixErrors::repeat(f64::NEG_INFINITY);
     let mut any = false;

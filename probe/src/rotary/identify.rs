@@ -146,7 +146,7 @@ fn check_displacement(ball: &str, angle_deg: f64, p0: &Point3<f64>, p: &Point3<f
 
 /// The six errors at every measured angle (docs/probe-rotary.md), after the
 /// displacement check of every centre.
-pub fn errors_per_angle(m: &Measurement, layout: &Layout) -> Result<Vec<AngleErrors>> {
+pub(crate) fn errors_per_angle(m: &Measurement, layout: &Layout) -> Result<Vec<AngleErrors>> {
     let reference = m.reference();
     let scale = layout.scale_mm;
     let mut out = Vec::with_capacity(m.angles_deg.len());

@@ -50,7 +50,7 @@ pub const LOCATION_CONDITION_LIMIT: f64 = 2.0;
 /// not a full turn in equal steps: the location errors then rest on the
 /// model (no constant or once-per-turn part in the component errors), and
 /// the report says so.
-pub const FULL_TURN_TOLERANCE: f64 = 1e-6;
+pub(crate) const FULL_TURN_TOLERANCE: f64 = 1e-6;
 
 /// Location errors of the axis average line (ISO 230-7) and their standard
 /// uncertainties.
@@ -117,7 +117,7 @@ fn model_rows(angle_deg: f64) -> [[f64; 4]; 2] {
 /// The axis average line from the errors per angle (see the module's
 /// derivation); an [`ProbeError::IllConditioned`] when the angles do not
 /// separate it.
-pub fn axis_line(angles_deg: &[f64], errors: &[AngleErrors]) -> Result<AxisLine> {
+pub(crate) fn axis_line(angles_deg: &[f64], errors: &[AngleErrors]) -> Result<AxisLine> {
     let n = angles_deg.len();
     if n < 2 || errors.len() != n {
         return Err(Unsolvable::AxisLineTooFewErrors {

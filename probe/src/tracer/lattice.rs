@@ -11,7 +11,7 @@ use crate::{ProbeError, Result};
 
 /// Nominal coordinates within this distance (mm) of a lattice plane are on
 /// it: room for coordinates written to the µm.
-pub const LATTICE_TOLERANCE_MM: f64 = 1e-3;
+pub(crate) const LATTICE_TOLERANCE_MM: f64 = 1e-3;
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 

@@ -64,7 +64,7 @@ fn input(what: String, message: String) -> ProbeError {
 impl Structure {
     /// Check the network (names, finite values, indices, duplicates) and the
     /// counts of docs/probe-tracer.md, then arrange the readings by point.
-    pub fn new(net: &Network) -> Result<Structure> {
+    pub(crate) fn new(net: &Network) -> Result<Structure> {
         let (n, m) = (net.points.len(), net.station_names.len());
         if net.point_names.len() != n {
             return Err(input(
@@ -164,12 +164,12 @@ impl Structure {
     }
 
     /// Entry range of point `i`.
-    pub fn entries(&self, i: usize) -> std::ops::Range<usize> {
+    pub(crate) fn entries(&self, i: usize) -> std::ops::Range<usize> {
         self.start[i]..self.start[i + 1]
     }
 
     /// Point ranges of the chunks, in order.
-    pub fn chunks(&self) -> Vec<std::ops::Range<usize>> {
+    pub(crate) fn chunks(&self) -> Vec<std::ops::Range<usize>> {
         (0..self.n.div_ceil(CHUNK))
             .map(|c| c * CHUNK..((c + 1) * CHUNK).min(self.n))
             .collect()

@@ -15,7 +15,7 @@ use crate::{ProbeError, Result, Unsolvable};
 pub const DEFAULT_ORDER: usize = 3;
 /// A position this close outside the measured travel (mm) is its end: the
 /// rounding of positions computed from a circle or a frame, not an extrapolation.
-pub const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
+pub(crate) const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
 
 /// How a curve is evaluated between measured positions (`--model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]

@@ -13,9 +13,9 @@ use crate::{ProbeError, Result, Unsolvable};
 /// design matrix with unit-norm columns) accepted for a fit: beyond it the
 /// positions do not determine the coefficients (e.g. 2N + 1 equally spaced
 /// positions over one period give the Fourier series only 2N distinct phases).
-pub const MAX_CONDITION: f64 = 1e10;
+pub(crate) const MAX_CONDITION: f64 = 1e10;
 /// Largest order N tried by `--order auto`.
-pub const MAX_AUTO_ORDER: usize = 10;
+pub(crate) const MAX_AUTO_ORDER: usize = 10;
 /// `--order auto` tries an order only with at least this many points per
 /// coefficient: a fit that nearly interpolates leaves cross-validation a
 /// handful of points of its own and picks noise.
@@ -300,7 +300,7 @@ pub struct OrderScore {
 /// least [`POINTS_PER_COEFFICIENT`] points per coefficient that the points
 /// determine) and the best order: the smallest RMSE, the lower order on a
 /// tie. Fails when no order can be cross-validated.
-pub fn choose_order(
+pub(crate) fn choose_order(
     series: Series,
     positions: &[f64],
     values: &[f64],

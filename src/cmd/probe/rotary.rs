@@ -194,7 +194,7 @@ pub fn run(args: &Args) -> Result<()> {
         |n| n.to_string_lossy().into_owned(),
     );
     let report = Report::new(&solution, &source, &at);
-    let html = probe::rotary::html::render(&report)?;
+    let html = probe::rotary::html(&report)?;
 
     let mut names = vec!["rotary.csv", "report.json", "report.html"];
     if !at.is_empty() {
@@ -257,16 +257,15 @@ pub fn run(args: &Args) -> Result<()> {
 
 /// Run the generator and write its files.
 pub fn synth(args: &SynthArgs) -> Result<()> {
-    if args.print_config {
-        print!("{DEFAULT_TOML}");
+    let Some((out, mut config)) = super::synth_start(
+        args.print_config,
+        DEFAULT_TOML,
+        &args.out,
+        &args.config,
+        |path| Ok(RotaryConfig::from_file(path)?),
+    )?
+    else {
         return Ok(());
-    }
-    let Some(out) = &args.out else {
-        return Err(Usage::error("--out is required"));
-    };
-    let mut config = match &args.config {
-        Some(path) => RotaryConfig::from_file(path)?,
-        None => RotaryConfig::default(),
     };
     if let Some(s) = args.seed {
         config.seed = s;
