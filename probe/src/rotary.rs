@@ -90,7 +90,7 @@ pub fn centre_label(ball: &str, angle_deg: f64) -> String {
 }
 
 /// Counter-clockwise rotation by `angle_deg` about +Z (`Rz(θ)` of §2).
-pub(crate) fn rz(angle_deg: f64) -> Rotation3<f64> {
+pub fn rz(angle_deg: f64) -> Rotation3<f64> {
     Rotation3::from_axis_angle(&Vector3::z_axis(), angle_deg.to_radians())
 }
 
