@@ -29,15 +29,8 @@ pub enum ProbeError {
         limit: f64,
     },
     /// The nominal grid is not a lattice, which trilinear interpolation needs.
-    #[error("the grid is not a lattice: {message}")]
-    NotLattice {
-        /// The point at fault (its position among the points), when one is.
-        point: Option<usize>,
-        /// Its coordinate at fault (0, 1, 2 = x, y, z), when one is.
-        axis: Option<usize>,
-        /// What is wrong.
-        message: String,
-    },
+    #[error("the grid is not a lattice: {0}")]
+    NotLattice(LatticeFault),
     /// An iteration did not converge.
     #[error("{what} did not converge after {iterations} iterations")]
     NotConverged {
@@ -58,6 +51,164 @@ pub enum ProbeError {
 pub(crate) const REDUCED_NORMAL: &str = "the reduced normal matrix of the station unknowns \
      (stations and dead paths weakly determined by the layout, or readings in groups that share \
      too few points)";
+
+/// Why a nominal grid is not a lattice. Points are named by their position
+/// among the points (`point`) and their name; axes by 0, 1, 2 = x, y, z.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum LatticeFault {
+    /// Points, names and corrections of different lengths.
+    #[error("{points} points, {names} names, {corrections} corrections")]
+    Lengths {
+        /// Points.
+        points: usize,
+        /// Names.
+        names: usize,
+        /// Corrections.
+        corrections: usize,
+    },
+    /// One value on an axis.
+    #[error(
+        "all points share one {} value: a lattice needs at least two per axis",
+        axis_name(.axis)
+    )]
+    OneLevel {
+        /// The axis.
+        axis: usize,
+    },
+    /// A value shared by too few points: a point off the lattice.
+    #[error(
+        "point '{name}' has {} = {value}, a value {count} point(s) share where the grid's \
+         other {} levels hold up to {most}",
+        axis_name(.axis),
+        axis_name(.axis)
+    )]
+    SparseLevel {
+        /// The first point with the value.
+        point: usize,
+        /// Its name.
+        name: String,
+        /// The axis.
+        axis: usize,
+        /// The value (mm).
+        value: f64,
+        /// Points with the value.
+        count: usize,
+        /// Most points with one value of the axis.
+        most: usize,
+    },
+    /// The values of an axis not equally spaced.
+    #[error(
+        "the {} values are not equally spaced: point '{name}' has {value} where a step of \
+         {step} puts {expected}",
+        axis_name(.axis)
+    )]
+    Uneven {
+        /// The first point with the value.
+        point: usize,
+        /// Its name.
+        name: String,
+        /// The axis.
+        axis: usize,
+        /// The value (mm).
+        value: f64,
+        /// The step (mm).
+        step: f64,
+        /// The value the step puts there (mm).
+        expected: f64,
+    },
+    /// Far more lattice nodes than points.
+    #[error(
+        "{points} points span {}×{}×{} lattice values: most nodes of such a lattice would \
+         have no point",
+        .dims[0],
+        .dims[1],
+        .dims[2]
+    )]
+    MostlyEmpty {
+        /// Points.
+        points: usize,
+        /// Lattice values per axis.
+        dims: [usize; 3],
+    },
+    /// A coordinate between two lattice values.
+    #[error(
+        "point '{name}' has {} = {value} between the lattice values",
+        axis_name(.axis)
+    )]
+    BetweenValues {
+        /// The point.
+        point: usize,
+        /// Its name.
+        name: String,
+        /// The axis.
+        axis: usize,
+        /// The coordinate (mm).
+        value: f64,
+    },
+    /// Two points on one node.
+    #[error("point '{name}' falls on a lattice node already taken")]
+    NodeTaken {
+        /// The point.
+        point: usize,
+        /// Its name.
+        name: String,
+    },
+    /// A node without a point.
+    #[error(
+        "{points} points where the {}×{}×{} lattice has {cells}: no point at ({}, {}, {})",
+        .dims[0],
+        .dims[1],
+        .dims[2],
+        .node[0],
+        .node[1],
+        .node[2]
+    )]
+    MissingNode {
+        /// Points.
+        points: usize,
+        /// Lattice values per axis.
+        dims: [usize; 3],
+        /// Nodes.
+        cells: usize,
+        /// The node without a point (mm).
+        node: [f64; 3],
+    },
+}
+
+impl LatticeFault {
+    /// The point at fault (its position among the points), when one is.
+    pub fn point(&self) -> Option<usize> {
+        match self {
+            Self::SparseLevel { point, .. }
+            | Self::Uneven { point, .. }
+            | Self::BetweenValues { point, .. }
+            | Self::NodeTaken { point, .. } => Some(*point),
+            Self::Lengths { .. }
+            | Self::OneLevel { .. }
+            | Self::MostlyEmpty { .. }
+            | Self::MissingNode { .. } => None,
+        }
+    }
+
+    /// Its coordinate at fault (0, 1, 2 = x, y, z), when one is.
+    pub fn axis(&self) -> Option<usize> {
+        match self {
+            Self::OneLevel { axis }
+            | Self::SparseLevel { axis, .. }
+            | Self::Uneven { axis, .. }
+            | Self::BetweenValues { axis, .. } => Some(*axis),
+            Self::Lengths { .. }
+            | Self::MostlyEmpty { .. }
+            | Self::NodeTaken { .. }
+            | Self::MissingNode { .. } => None,
+        }
+    }
+}
+
+/// The name of axis 0, 1, 2 in messages.
+fn axis_name(axis: &usize) -> &'static str {
+    ["x", "y", "z"].get(*axis).copied().unwrap_or("?")
+}
 
 /// Why the data do not determine a result: the counts, names and positions
 /// at fault.
@@ -294,6 +445,30 @@ mod tests {
             points: 8,
             stations: 4,
         };
+        let sparse = ProbeError::NotLattice(LatticeFault::SparseLevel {
+            point: 3,
+            name: "P4".into(),
+            axis: 1,
+            value: 12.5,
+            count: 1,
+            most: 9,
+        });
+        assert_eq!(
+            sparse.to_string(),
+            "the grid is not a lattice: point 'P4' has y = 12.5, a value 1 point(s) share where \
+             the grid's other y levels hold up to 9"
+        );
+        let missing = LatticeFault::MissingNode {
+            points: 26,
+            dims: [3, 3, 3],
+            cells: 27,
+            node: [0.0, 50.0, 100.0],
+        };
+        assert_eq!(
+            missing.to_string(),
+            "26 points where the 3×3×3 lattice has 27: no point at (0, 50, 100)"
+        );
+        assert_eq!((missing.point(), missing.axis()), (None, None));
         assert_eq!(
             few.to_string(),
             "10 readings for 30 unknowns (3·8 point coordinates + 4·4 station unknowns − 6 rigid \
