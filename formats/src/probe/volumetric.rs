@@ -273,41 +273,9 @@ impl Record for FitRow {
     }
 }
 
-/// One row of `volumetric.csv`: the volumetric error at carriage positions
-/// (workpiece frame, mm).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct VolumetricRow {
-    /// X carriage position (mm).
-    pub x: f64,
-    /// Y carriage position (mm).
-    pub y: f64,
-    /// Z carriage position (mm).
-    pub z: f64,
-    /// Error along X (mm).
-    pub dx: f64,
-    /// Error along Y (mm).
-    pub dy: f64,
-    /// Error along Z (mm).
-    pub dz: f64,
-}
-
-impl Record for VolumetricRow {
-    const COLUMNS: &'static [&'static str] = &["x", "y", "z", "dx", "dy", "dz"];
-
-    fn validate(&self) -> std::result::Result<(), Invalid> {
-        for (c, v) in [
-            ("x", self.x),
-            ("y", self.y),
-            ("z", self.z),
-            ("dx", self.dx),
-            ("dy", self.dy),
-            ("dz", self.dz),
-        ] {
-            finite(c, v)?;
-        }
-        Ok(())
-    }
-}
+/// One row of `volumetric.csv`: the volumetric error (dx, dy, dz) at carriage
+/// positions (workpiece frame, mm).
+pub use super::PointDisplacementRow as VolumetricRow;
 
 /// One row of `circle.csv`: the predicted circular test at one angle (mm),
 /// and the radial deviation left after compensating with each series.
