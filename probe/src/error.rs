@@ -22,7 +22,7 @@ pub enum ProbeError {
     #[error("{what}: condition number {condition:.3e} exceeds {limit:.1e}")]
     IllConditioned {
         /// The layout or matrix at fault.
-        what: String,
+        what: Conditioning,
         /// Its condition number.
         condition: f64,
         /// The largest accepted.
@@ -51,6 +51,72 @@ pub enum ProbeError {
 pub(crate) const REDUCED_NORMAL: &str = "the reduced normal matrix of the station unknowns \
      (stations and dead paths weakly determined by the layout, or readings in groups that share \
      too few points)";
+
+/// The layout or matrix whose condition number is too large.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum Conditioning {
+    /// Rotary table: the balls' reference centres (nearly on one line).
+    #[error(
+        "ball layout (balls {} at 0°: a rotation is unobservable when they lie nearly on one line)",
+        .balls.join(", ")
+    )]
+    BallLayout {
+        /// The balls' names.
+        balls: Vec<String>,
+    },
+    /// Rotary table: the measured angles for the axis average line.
+    #[error("axis average line from the measured angles")]
+    AxisLine,
+    /// Indexing: the sphere through the centres.
+    #[error(
+        "sphere through the centres (the positions lie too near a plane or a small cap: \
+         measure B turns at several A)"
+    )]
+    CentresSphere,
+    /// Tracer: the seed's linearised start of a station.
+    #[error(
+        "station '{station}': the seed's linearised start from its {count} points \
+         (its readings do not tell its distance from the grid)"
+    )]
+    StationStart {
+        /// The station.
+        station: String,
+        /// Points it reads.
+        count: usize,
+    },
+    /// Tracer: the directions from a point to its stations, before solving.
+    #[error(
+        "point '{point}': the directions to its {stations} stations are nearly coplanar \
+         (stations in a plane with the point)"
+    )]
+    PointDirections {
+        /// The point.
+        point: String,
+        /// Stations reading it.
+        stations: usize,
+    },
+    /// Tracer: the directions from a point to its stations at the solution.
+    #[error("point '{point}' at the solution: the directions to its stations")]
+    PointAtSolution {
+        /// The point.
+        point: String,
+    },
+    /// Tracer: the reduced normal matrix of the station unknowns.
+    #[error("{REDUCED_NORMAL}")]
+    ReducedNormal,
+    /// Volumetric: a curve fit's design with a basis function that vanishes everywhere.
+    #[error("{fit} (a basis function vanishes at every position)")]
+    VanishingBasis {
+        /// The fit.
+        fit: String,
+    },
+    /// Volumetric: a curve fit's design.
+    #[error("{fit}")]
+    CurveFit {
+        /// The fit.
+        fit: String,
+    },
+}
 
 /// Why a nominal grid is not a lattice. Points are named by their position
 /// among the points (`point`) and their name; axes by 0, 1, 2 = x, y, z.
@@ -469,6 +535,24 @@ mod tests {
             "26 points where the 3×3×3 lattice has 27: no point at (0, 50, 100)"
         );
         assert_eq!((missing.point(), missing.axis()), (None, None));
+        let ill = ProbeError::IllConditioned {
+            what: Conditioning::StationStart {
+                station: "S2".into(),
+                count: 12,
+            },
+            condition: 2.5e11,
+            limit: 1e10,
+        };
+        assert_eq!(
+            ill.to_string(),
+            "station 'S2': the seed's linearised start from its 12 points (its readings do not \
+             tell its distance from the grid): condition number 2.500e11 exceeds 1.0e10"
+        );
+        assert_eq!(
+            Conditioning::CentresSphere.to_string(),
+            "sphere through the centres (the positions lie too near a plane or a small cap: \
+             measure B turns at several A)"
+        );
         assert_eq!(
             few.to_string(),
             "10 readings for 30 unknowns (3·8 point coordinates + 4·4 station unknowns − 6 rigid \

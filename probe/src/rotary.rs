@@ -42,7 +42,7 @@ pub mod report;
 
 use geom::nalgebra::{Point3, Rotation3, Vector3, Vector6};
 
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 pub use centres::{CentreFit, MIN_POINTS, fit_centre};
 pub use html::render as html;
@@ -322,10 +322,9 @@ pub fn solve(measurement: &Measurement) -> Result<Solution> {
     let layout = identify::layout(&reference)?;
     if layout.condition > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: format!(
-                "ball layout (balls {} at 0°: a rotation is unobservable when they lie nearly on one line)",
-                measurement.ball_names().join(", ")
-            ),
+            what: Conditioning::BallLayout {
+                balls: measurement.ball_names(),
+            },
             condition: layout.condition,
             limit: CONDITION_LIMIT,
         });

@@ -14,7 +14,7 @@
 use geom::nalgebra::{DMatrix, Matrix3, Matrix4, Point3, Vector3, Vector4};
 
 use super::layout::Layout;
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Largest accepted condition number of the sphere fit's normal matrix JᵀJ:
 /// beyond it the centres lie too near a plane or a small cap (noise in the
@@ -66,9 +66,7 @@ pub(crate) fn construct(centres: &[Point3<f64>], layout: &Layout) -> Result<Cons
     let condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
     if condition > SPHERE_CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: "sphere through the centres (the positions lie too near a plane or a small cap: \
-                   measure B turns at several A)"
-                .into(),
+            what: Conditioning::CentresSphere,
             condition,
             limit: SPHERE_CONDITION_LIMIT,
         });

@@ -36,7 +36,7 @@
 use geom::nalgebra::{DMatrix, DVector, Matrix2, Vector2, Vector3};
 
 use super::{AngleErrors, SixErrors, rz};
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Largest condition number of the location fit's design accepted. A full
 /// turn in equal steps has 1 (orthogonal functions); angles over part of a
@@ -144,7 +144,7 @@ pub(crate) fn axis_line(angles_deg: &[f64], errors: &[AngleErrors]) -> Result<Ax
     let condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
     if condition > LOCATION_CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: "axis average line from the measured angles".into(),
+            what: Conditioning::AxisLine,
             condition,
             limit: LOCATION_CONDITION_LIMIT,
         });

@@ -30,7 +30,7 @@ use super::normal::{
 use super::{
     CONDITION_LIMIT, Correction, Network, Options, Residual, Solution, Station, WEAK_FACTOR, Weak,
 };
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Normal-distribution consistency factor of the median absolute deviation.
 const MAD_TO_SIGMA: f64 = 1.4826;
@@ -218,10 +218,9 @@ pub(super) fn finish(
     let worst_point = lin.worst_point;
     if worst_point.1.is_nan() || worst_point.1 > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: format!(
-                "point '{}' at the solution: the directions to its stations",
-                net.point_names[worst_point.0]
-            ),
+            what: Conditioning::PointAtSolution {
+                point: net.point_names[worst_point.0].clone(),
+            },
             condition: worst_point.1,
             limit: CONDITION_LIMIT,
         });

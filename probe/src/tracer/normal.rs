@@ -23,8 +23,7 @@ use super::{
     CONDITION_LIMIT, COST_TOLERANCE, MIN_POINT_STATIONS, MIN_STATION_READINGS, MIN_STATIONS,
     Network, STEP_TOLERANCE_MM,
 };
-use crate::error::REDUCED_NORMAL;
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Points per chunk of the parallel sums (fixed, so that the order of the
 /// floating-point additions never depends on the thread count).
@@ -478,12 +477,10 @@ pub(super) fn check_conditioning(net: &Network, st: &Structure, state: &State) -
     let (i, c) = lin.worst_point;
     if c.is_nan() || c > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: format!(
-                "point '{}': the directions to its {} stations are nearly coplanar \
-                 (stations in a plane with the point)",
-                net.point_names[i],
-                st.entries(i).len()
-            ),
+            what: Conditioning::PointDirections {
+                point: net.point_names[i].clone(),
+                stations: st.entries(i).len(),
+            },
             condition: c,
             limit: CONDITION_LIMIT,
         });
@@ -491,7 +488,7 @@ pub(super) fn check_conditioning(net: &Network, st: &Structure, state: &State) -
     let c = condition(&regularised(&lin, &station_rigid_basis(state)));
     if c.is_nan() || c > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: REDUCED_NORMAL.to_string(),
+            what: Conditioning::ReducedNormal,
             condition: c,
             limit: CONDITION_LIMIT,
         });

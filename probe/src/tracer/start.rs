@@ -10,7 +10,7 @@ use geom::nalgebra::{DMatrix, DVector, Vector3, Vector4};
 
 use super::normal::Structure;
 use super::{CONDITION_LIMIT, Network};
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Points whose smallest principal spread is below this fraction of the
 /// largest lie in one plane: a station and its mirror image in that plane
@@ -76,10 +76,10 @@ fn station(net: &Network, j: usize, readings: &[(usize, f64)]) -> Result<Vector4
     let condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
     if condition.is_nan() || condition > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: format!(
-                "station '{name}': the seed's linearised start from its {count} points \
-                 (its readings do not tell its distance from the grid)"
-            ),
+            what: Conditioning::StationStart {
+                station: name.to_string(),
+                count,
+            },
             condition,
             limit: CONDITION_LIMIT,
         });

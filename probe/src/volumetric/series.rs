@@ -7,7 +7,7 @@
 use geom::nalgebra::{DMatrix, DVector, SVD};
 use serde::Serialize;
 
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Largest condition number (largest over smallest singular value of the
 /// design matrix with unit-norm columns) accepted for a fit: beyond it the
@@ -148,7 +148,9 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
         .any(|s| s.is_nan() || *s <= ZERO_COLUMN * (n as f64).sqrt())
     {
         return Err(ProbeError::IllConditioned {
-            what: format!("{what} (a basis function vanishes at every position)"),
+            what: Conditioning::VanishingBasis {
+                fit: what.to_string(),
+            },
             condition: f64::INFINITY,
             limit: MAX_CONDITION,
         });
@@ -179,7 +181,9 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
     };
     if condition.is_nan() || condition > MAX_CONDITION {
         return Err(ProbeError::IllConditioned {
-            what: what.to_string(),
+            what: Conditioning::CurveFit {
+                fit: what.to_string(),
+            },
             condition,
             limit: MAX_CONDITION,
         });
