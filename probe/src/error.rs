@@ -15,6 +15,16 @@ pub enum ProbeError {
         /// What is wrong.
         message: String,
     },
+    /// Rotary table: one measured centre (a ball at an angle) the method cannot use.
+    #[error("{}: {fault}", crate::rotary::centre_label(.ball, *.angle_deg))]
+    Centre {
+        /// The ball.
+        ball: String,
+        /// The angle (degrees).
+        angle_deg: f64,
+        /// What is wrong with its centre.
+        fault: CentreFault,
+    },
     /// The data do not determine the result (too few points, stations, balls; a degenerate layout).
     #[error(transparent)]
     Unsolvable(#[from] Unsolvable),
@@ -51,6 +61,39 @@ pub enum ProbeError {
 pub(crate) const REDUCED_NORMAL: &str = "the reduced normal matrix of the station unknowns \
      (stations and dead paths weakly determined by the layout, or readings in groups that share \
      too few points)";
+
+/// What is wrong with one measured centre of the rotary method.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CentreFault {
+    /// A coordinate that is not finite.
+    #[error("centre {centre:?} is not finite")]
+    NotFinite {
+        /// The centre (mm).
+        centre: geom::nalgebra::Point3<f64>,
+    },
+    /// No sphere fits the probed points.
+    #[error("sphere fit: {0}")]
+    SphereFit(Box<ProbeError>),
+    /// Too far from the 0° centre turned by the angle for the small-error model.
+    #[error(
+        "the centre lies {distance_mm:.3} mm from its 0° centre turned by {angle_deg}° about Z \
+         (more than {} mm: the small-error model does not apply): {}",
+        crate::rotary::MAX_DISPLACEMENT_MM,
+        if *.clockwise {
+            "it matches a clockwise turn: angles count counter-clockwise seen from +Z"
+        } else {
+            "a wrong angle or ball, or a table frame whose Z is not on the axis?"
+        }
+    )]
+    Displaced {
+        /// Distance from the ideal position (mm).
+        distance_mm: f64,
+        /// The angle (degrees).
+        angle_deg: f64,
+        /// Whether a clockwise turn by the angle would fit.
+        clockwise: bool,
+    },
+}
 
 /// The layout or matrix whose condition number is too large.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -548,6 +591,27 @@ mod tests {
             "station 'S2': the seed's linearised start from its 12 points (its readings do not \
              tell its distance from the grid): condition number 2.500e11 exceeds 1.0e10"
         );
+        let displaced = ProbeError::Centre {
+            ball: "1".into(),
+            angle_deg: 30.0,
+            fault: CentreFault::Displaced {
+                distance_mm: 5.17638,
+                angle_deg: 30.0,
+                clockwise: true,
+            },
+        };
+        assert_eq!(
+            displaced.to_string(),
+            "ball 1 at 30°: the centre lies 5.176 mm from its 0° centre turned by 30° about Z \
+             (more than 2 mm: the small-error model does not apply): it matches a clockwise \
+             turn: angles count counter-clockwise seen from +Z"
+        );
+        let fit = ProbeError::Centre {
+            ball: "B".into(),
+            angle_deg: 90.0,
+            fault: CentreFault::SphereFit(Box::new(Unsolvable::NoPositions.into())),
+        };
+        assert_eq!(fit.to_string(), "ball B at 90°: sphere fit: no positions");
         assert_eq!(
             Conditioning::CentresSphere.to_string(),
             "sphere through the centres (the positions lie too near a plane or a small cap: \

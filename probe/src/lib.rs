@@ -40,4 +40,4 @@ pub mod rotary;
 pub mod tracer;
 pub mod volumetric;
 
-pub use error::{Conditioning, LatticeFault, ProbeError, Result, Unsolvable};
+pub use error::{CentreFault, Conditioning, LatticeFault, ProbeError, Result, Unsolvable};

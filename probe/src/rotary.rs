@@ -42,7 +42,7 @@ pub mod report;
 
 use geom::nalgebra::{Point3, Rotation3, Vector3, Vector6};
 
-use crate::{Conditioning, ProbeError, Result, Unsolvable};
+use crate::{CentreFault, Conditioning, ProbeError, Result, Unsolvable};
 
 pub use centres::{CentreFit, MIN_POINTS, fit_centre};
 pub use html::render as html;
@@ -82,10 +82,9 @@ pub struct Measurement {
     pub balls: Vec<Ball>,
 }
 
-/// The label that names one measured centre in errors: `ball 2 at 90°`.
-/// An [`ProbeError::Input`] about one centre has this as its `what`, so a
-/// caller can map it back to its input row.
-pub fn centre_label(ball: &str, angle_deg: f64) -> String {
+/// The label that names one measured centre in errors and warnings:
+/// `ball 2 at 90°`.
+pub(crate) fn centre_label(ball: &str, angle_deg: f64) -> String {
     format!("ball {ball} at {angle_deg}°")
 }
 
@@ -170,10 +169,11 @@ impl Measurement {
             }
             for (c, a) in ball.centres.iter().zip(&self.angles_deg) {
                 if !c.iter().all(|v| v.is_finite()) {
-                    return Err(input(
-                        &centre_label(&ball.name, *a),
-                        format!("centre {c:?} is not finite"),
-                    ));
+                    return Err(ProbeError::Centre {
+                        ball: ball.name.clone(),
+                        angle_deg: *a,
+                        fault: CentreFault::NotFinite { centre: *c },
+                    });
                 }
             }
         }
@@ -198,8 +198,8 @@ impl Measurement {
 
     /// A measurement from probed points: per ball its name and, at each of
     /// `angles_deg`, the probed points (mm); a sphere is fitted to each
-    /// ([`fit_centre`]). A fit that fails is an [`ProbeError::Input`] whose
-    /// `what` is the [`centre_label`] of its ball and angle.
+    /// ([`fit_centre`]). A fit that fails is a [`ProbeError::Centre`] of
+    /// its ball and angle.
     pub fn from_points(
         angles_deg: Vec<f64>,
         balls: Vec<(String, Vec<Vec<[f64; 3]>>)>,
@@ -219,9 +219,10 @@ impl Measurement {
             let mut fits = Vec::with_capacity(groups.len());
             for (points, a) in groups.iter().zip(&angles_deg) {
                 let points: Vec<Point3<f64>> = points.iter().copied().map(Point3::from).collect();
-                let fit = fit_centre(&points).map_err(|e| ProbeError::Input {
-                    what: centre_label(&name, *a),
-                    message: format!("sphere fit: {e}"),
+                let fit = fit_centre(&points).map_err(|e| ProbeError::Centre {
+                    ball: name.clone(),
+                    angle_deg: *a,
+                    fault: CentreFault::SphereFit(Box::new(e)),
                 })?;
                 fits.push(fit);
             }

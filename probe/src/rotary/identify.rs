@@ -16,8 +16,8 @@
 use geom::nalgebra::{DMatrix, DVector, Matrix6, Point3, Vector3};
 use geom::transform::SmallError;
 
-use super::{Measurement, SixErrors, centre_label, rz};
-use crate::{ProbeError, Result, Unsolvable};
+use super::{Measurement, SixErrors, rz};
+use crate::{CentreFault, ProbeError, Result, Unsolvable};
 
 /// Largest condition number of the scaled design accepted. The seed's
 /// layout (three balls about 150 mm from the axis at three heights) has
@@ -130,17 +130,14 @@ fn check_displacement(ball: &str, angle_deg: f64, p0: &Point3<f64>, p: &Point3<f
         return Ok(());
     }
     let clockwise = (p - rz(-angle_deg) * p0).norm() <= MAX_DISPLACEMENT_MM;
-    let hint = if clockwise {
-        "it matches a clockwise turn: angles count counter-clockwise seen from +Z".to_string()
-    } else {
-        "a wrong angle or ball, or a table frame whose Z is not on the axis?".to_string()
-    };
-    Err(ProbeError::Input {
-        what: centre_label(ball, angle_deg),
-        message: format!(
-            "the centre lies {d:.3} mm from its 0° centre turned by {angle_deg}° about Z \
-             (more than {MAX_DISPLACEMENT_MM} mm: the small-error model does not apply): {hint}"
-        ),
+    Err(ProbeError::Centre {
+        ball: ball.to_string(),
+        angle_deg,
+        fault: CentreFault::Displaced {
+            distance_mm: d,
+            angle_deg,
+            clockwise,
+        },
     })
 }
 

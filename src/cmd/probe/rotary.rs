@@ -15,9 +15,9 @@ use anyhow::{Result, anyhow};
 use formats::probe::rotary::{
     CentreRow, ErrorRow, RotaryInput, SphereFitRow, read_centres, read_points,
 };
-use probe::ProbeError;
 use probe::rotary::report::Report;
 use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
+use probe::{CentreFault, ProbeError};
 use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
 
 use crate::cmd::{OrUsage, Usage};
@@ -89,23 +89,21 @@ fn line_span(lines: &[u64]) -> String {
 /// A method error with the file, and the line where it is about one centre.
 fn located(e: ProbeError, input: &RotaryInput) -> anyhow::Error {
     let path = input.path.display();
-    if let ProbeError::Input { what, message } = &e {
-        for b in &input.balls {
-            for a in &input.angles_deg {
-                if *what == probe::rotary::centre_label(&b.name, *a) {
-                    let lines = input.lines(&b.name, *a);
-                    // A sphere fit fails on the points' values; anything else on the angle.
-                    let column = if message.starts_with("sphere fit") {
-                        "x"
-                    } else {
-                        "angle_deg"
-                    };
-                    return anyhow!(
-                        "{path}: {}, column '{column}': {what}: {message}",
-                        line_span(&lines)
-                    );
-                }
-            }
+    if let ProbeError::Centre {
+        ball,
+        angle_deg,
+        fault,
+    } = &e
+    {
+        let lines = input.lines(ball, *angle_deg);
+        if !lines.is_empty() {
+            // A sphere fit fails on the points' values; anything else on the angle.
+            let column = if matches!(fault, CentreFault::SphereFit(_)) {
+                "x"
+            } else {
+                "angle_deg"
+            };
+            return anyhow!("{path}: {}, column '{column}': {e}", line_span(&lines));
         }
     }
     anyhow!("{path}: {e}")
