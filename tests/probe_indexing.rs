@@ -6,15 +6,12 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod probe_common;
 
-fn trinocular(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trinocular"))
-        .args(args)
-        .output()
-        .expect("run trinocular")
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use probe_common::{kept_unless_forced, ok, refused, s, trinocular};
 
 /// `trinocular probe indexing --centres CENTRES --out OUT EXTRA…`.
 fn probe(centres: &Path, out: &Path, extra: &[&str]) -> Output {
@@ -38,31 +35,7 @@ fn synth(args: &[&str]) -> Output {
 }
 
 fn testdata(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("testdata/probe/indexing")
-        .join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout.clone()).unwrap()
-}
-
-/// Exit status 1 and one line on stderr; the line.
-fn refused(out: &Output) -> String {
-    assert_eq!(out.status.code(), Some(1), "{out:?}");
-    let err = String::from_utf8(out.stderr.clone()).unwrap();
-    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err:?}");
-    assert!(err.starts_with("trinocular: error: "), "{err:?}");
-    err
+    probe_common::testdata("indexing", name)
 }
 
 /// The centres of the check data with `edit` applied to its data lines
@@ -171,18 +144,8 @@ fn outputs_are_kept_unless_forced() {
         "--out",
         s(&out),
     ];
-    ok(&trinocular(&args));
-    let before = std::fs::read(out.join("report.json")).unwrap();
-    let e = refused(&trinocular(&args));
-    assert!(e.contains("already exists") && e.contains("--force"), "{e}");
-    let mut forced = args.to_vec();
-    forced.push("--force");
-    ok(&trinocular(&forced));
-    assert_eq!(
-        std::fs::read(out.join("report.json")).unwrap(),
-        before,
-        "same input, same report"
-    );
+    let e = kept_unless_forced(&args, &out.join("report.json"));
+    assert!(e.contains("already exists"), "{e}");
 
     let data = dir.path().join("d");
     ok(&synth(&["--out", s(&data)]));

@@ -7,46 +7,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod probe_common;
 
-fn trinocular(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trinocular"))
-        .args(args)
-        .output()
-        .expect("run trinocular")
-}
+use std::path::PathBuf;
+
+use probe_common::{failure, kept_unless_forced, ok, s, trinocular};
 
 fn testdata(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("testdata/probe/rotary")
-        .join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Stderr of a failed run: one line starting with the program name, and the exit status.
-fn failure(out: &Output) -> (i32, String) {
-    assert!(
-        !out.status.success(),
-        "expected failure: {}",
-        String::from_utf8_lossy(&out.stdout)
-    );
-    let err = String::from_utf8(out.stderr.clone()).unwrap();
-    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err:?}");
-    assert!(err.starts_with("trinocular: error: "), "{err:?}");
-    (out.status.code().unwrap(), err)
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout.clone()).unwrap()
+    probe_common::testdata("rotary", name)
 }
 
 /// Run the method (`flag`: `--centres` or `--points`) on the check data's
@@ -207,21 +175,8 @@ fn outputs_are_kept_unless_forced_and_inputs_never_overwritten() {
         "--out",
         s(&out),
     ];
-    ok(&trinocular(&args));
-    let before = std::fs::read_to_string(out.join("rotary.csv")).unwrap();
-    let (code, err) = failure(&trinocular(&args));
-    assert_eq!(code, 1);
-    assert!(
-        err.contains("rotary.csv") && err.contains("--force"),
-        "{err}"
-    );
-    let mut forced = args.to_vec();
-    forced.push("--force");
-    ok(&trinocular(&forced));
-    assert_eq!(
-        std::fs::read_to_string(out.join("rotary.csv")).unwrap(),
-        before
-    );
+    let err = kept_unless_forced(&args, &out.join("rotary.csv"));
+    assert!(err.contains("rotary.csv"), "{err}");
     // An input named like an output, in the output directory: refused even with --force.
     let input = dir.path().join("rotary.csv");
     std::fs::copy(testdata("centres.csv"), &input).unwrap();

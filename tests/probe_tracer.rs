@@ -5,32 +5,21 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod probe_common;
 
-fn trinocular(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trinocular"))
-        .args(args)
-        .output()
-        .expect("run trinocular")
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use probe_common::{failure, s, trinocular};
 
 fn testdata(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("testdata/probe/tracer")
-        .join(name)
+    probe_common::testdata("tracer", name)
 }
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Stderr of a failed run: one line starting with the program name.
+/// Stderr of a failed run with exit status `status`: one line starting with the program name.
 fn one_line_error(out: &Output, status: i32) -> String {
-    assert_eq!(out.status.code(), Some(status), "{out:?}");
-    let err = String::from_utf8(out.stderr.clone()).unwrap();
-    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err:?}");
-    assert!(err.starts_with("trinocular: error: "), "{err:?}");
+    let (code, err) = failure(out);
+    assert_eq!(code, status, "{err}");
     err
 }
 

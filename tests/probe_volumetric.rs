@@ -8,49 +8,18 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod probe_common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use geom::Vector3;
 use geom::nalgebra::{DMatrix, DVector};
+use probe_common::{failure, kept_unless_forced, ok, s, trinocular};
 use serde_json::Value;
 
-fn trinocular(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trinocular"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn text(o: &Output) -> (String, String) {
-    (
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
-
-fn ok(o: &Output) -> String {
-    let (out, err) = text(o);
-    assert!(o.status.success(), "failed: {out}\n{err}");
-    out
-}
-
-/// Exit status and stderr of a run that must fail.
-fn fails(o: &Output) -> (i32, String) {
-    let (out, err) = text(o);
-    assert!(!o.status.success(), "succeeded: {out}");
-    assert_eq!(err.trim().lines().count(), 1, "one line on stderr: {err}");
-    (o.status.code().unwrap_or(-1), err)
-}
-
 fn check_data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("testdata/probe/volumetric")
-        .join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    probe_common::testdata("volumetric", name)
 }
 
 fn read_json(p: &Path) -> Value {
@@ -78,7 +47,8 @@ fn check_flags() -> Vec<String> {
     ]
 }
 
-fn run_check(out: &Path, extra: &[&str]) -> Output {
+/// The arguments of `trinocular probe volumetric` on the check data.
+fn check_args(out: &Path, extra: &[&str]) -> Vec<String> {
     let mut args: Vec<String> = vec![
         "probe".into(),
         "volumetric".into(),
@@ -91,6 +61,11 @@ fn run_check(out: &Path, extra: &[&str]) -> Output {
     ];
     args.extend(check_flags());
     args.extend(extra.iter().map(|e| e.to_string()));
+    args
+}
+
+fn run_check(out: &Path, extra: &[&str]) -> Output {
+    let args = check_args(out, extra);
     let refs: Vec<&str> = args.iter().map(String::as_str).collect();
     trinocular(&refs)
 }
@@ -268,16 +243,15 @@ fn compensation_files_follow_the_linuxcnc_format() {
 fn outputs_refuse_to_overwrite_without_force_and_never_an_input() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    ok(&run_check(&out, &[]));
-    let (code, err) = fails(&run_check(&out, &[]));
-    assert_eq!(code, 1);
-    assert!(err.contains("exists") && err.contains("--force"), "{err}");
-    ok(&run_check(&out, &["--force"]));
+    let args = check_args(&out, &[]);
+    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+    let err = kept_unless_forced(&refs, &out.join("fits.csv"));
+    assert!(err.contains("exists"), "{err}");
     // An output that is an input: refused even with --force.
     let inputs = dir.path().join("in");
     std::fs::create_dir_all(&inputs).unwrap();
     std::fs::copy(check_data("errors.csv"), inputs.join("fits.csv")).unwrap();
-    let (code, err) = fails(&trinocular(&[
+    let (code, err) = failure(&trinocular(&[
         "probe",
         "volumetric",
         "--errors",
@@ -320,14 +294,14 @@ fn bad_input_is_one_clear_line() {
     let no_z = edited_errors(dir.path(), |l| {
         l.into_iter().filter(|x| !x.starts_with("Z,")).collect()
     });
-    let (code, err) = fails(&probe(&no_z, &[]));
+    let (code, err) = failure(&probe(&no_z, &[]));
     assert_eq!(code, 1);
     assert!(
         err.contains("E.csv") && err.contains("axis Z") && err.contains("without error curves"),
         "{err}"
     );
     // An axis missing from the chain.
-    let (code, err) = fails(&probe(&full, &["--chain", "WXYFT"]));
+    let (code, err) = failure(&probe(&full, &["--chain", "WXYFT"]));
     assert_eq!(code, 1);
     assert!(
         err.contains("axis Z") && err.contains("not in the chain WXYFT"),
@@ -338,7 +312,7 @@ fn bad_input_is_one_clear_line() {
         l.swap(2, 3);
         l
     });
-    let (code, err) = fails(&probe(&swapped, &[]));
+    let (code, err) = failure(&probe(&swapped, &[]));
     assert_eq!(code, 1);
     assert!(
         err.contains("E.csv: line 4, column 'position'") && err.contains("increase"),
@@ -358,7 +332,7 @@ fn bad_input_is_one_clear_line() {
             })
             .collect()
     });
-    let (code, err) = fails(&probe(&short_z, &[]));
+    let (code, err) = failure(&probe(&short_z, &[]));
     assert_eq!(code, 1);
     assert!(
         err.contains("E.csv: lines 48–52, axis Z: 5 points, fewer than the 7 coefficients")
@@ -372,7 +346,7 @@ fn bad_input_is_one_clear_line() {
         ("WXYFZ", "no T"),
         ("WXYFXT", "axis X appears 2 times"),
     ] {
-        let (code, err) = fails(&probe(&full, &["--chain", chain]));
+        let (code, err) = failure(&probe(&full, &["--chain", chain]));
         // A bad option value is a usage error.
         assert_eq!(code, 2);
         assert!(
@@ -381,14 +355,14 @@ fn bad_input_is_one_clear_line() {
         );
     }
     // Squareness not three numbers: a usage error.
-    let (code, err) = fails(&probe(&full, &["--squareness", "1e-5,2e-5"]));
+    let (code, err) = failure(&probe(&full, &["--squareness", "1e-5,2e-5"]));
     assert_eq!(code, 2);
     assert!(
         err.contains("--squareness") && err.contains("three numbers"),
         "{err}"
     );
     // A circle leaving the measured travel (X would need −100 … 100 mm).
-    let (code, err) = fails(&probe(
+    let (code, err) = failure(&probe(
         &full,
         &["--tool", "0,0,-100", "--circle", "0,-200,40,100"],
     ));
@@ -402,7 +376,7 @@ fn bad_input_is_one_clear_line() {
     // A position of --at outside the travel names the file and line.
     let at = dir.path().join("A.csv");
     std::fs::write(&at, "x,y,z\n10,10,10\n700,10,10\n").unwrap();
-    let (code, err) = fails(&probe(&full, &["--at", s(&at)]));
+    let (code, err) = failure(&probe(&full, &["--at", s(&at)]));
     assert_eq!(code, 1);
     assert!(
         err.contains("A.csv: line 3") && err.contains("outside the measured travel"),
@@ -414,7 +388,7 @@ fn bad_input_is_one_clear_line() {
         l[5] = "X,100,-4.87859382,0.00245888342,0.00141758187,-5.48047029e-06,-7.24743683e-06,-4.56755067e-06".into();
         l
     });
-    let (code, err) = fails(&probe(&in_um, &[]));
+    let (code, err) = failure(&probe(&in_um, &[]));
     assert_eq!(code, 1);
     assert!(
         err.contains("E.csv: line 6, column 'ex'") && err.contains("µm"),

@@ -9,6 +9,19 @@
 //! uncertainties and a report (`report.json` types and the HTML page); the
 //! binary reads and writes the files. `probe` does no I/O.
 //!
+//! # Entry points
+//! - [`rotary::solve`] of a [`rotary::Measurement`] (centres, or probed
+//!   points through [`rotary::Measurement::from_points`]);
+//!   [`rotary::report::Report`] and [`rotary::html`] for its report.
+//! - [`indexing::solve`] of [`indexing::Position`]s (checked first by
+//!   [`indexing::layout::check`]); [`indexing::report`], [`indexing::html`].
+//! - [`tracer::solve`] of a [`tracer::Network`]; [`tracer::report`],
+//!   [`tracer::html`], and [`tracer::CorrectionGrid`] for corrections
+//!   anywhere in the grid.
+//! - [`volumetric::analyse`] of [`volumetric::MeasuredAxis`] curves under a
+//!   [`volumetric::Setup`]; [`volumetric::html`]; the curves of a vision
+//!   campaign by [`volumetric::campaign::from_evaluate`].
+//!
 //! # Conventions
 //! - Lengths in millimetres, angles in radians, all geometry in `f64`;
 //!   reports give micrometres (`_um`), microradians (`_urad`) or
@@ -27,4 +40,4 @@ pub mod rotary;
 pub mod tracer;
 pub mod volumetric;
 
-pub use error::{ProbeError, Result};
+pub use error::{CentreFault, Conditioning, LatticeFault, ProbeError, Result, Unsolvable};

@@ -5,11 +5,13 @@
 //! any angle; and, beyond the seed, the axis average line (ISO 230-7
 //! location errors X0C, Y0C, A0C, B0C) separated from the component errors.
 //!
-//! - [`centres`]: a ball centre from probed points (geometric least-squares
-//!   sphere, ≥ 4 points) with its residuals.
-//! - [`identify`]: the layout check (condition number) and the per-angle
-//!   least squares `X = (AᵀA)⁻¹Aᵀb` with uncertainties from the residuals.
-//! - [`location`]: the axis average line and the component errors.
+//! - [`fit_centre`]: a ball centre from probed points (geometric
+//!   least-squares sphere, ≥ [`MIN_POINTS`] points) with its residuals.
+//! - [`layout`]: the layout check (condition number); [`AngleErrors`]: the
+//!   per-angle least squares `X = (AᵀA)⁻¹Aᵀb` with uncertainties from the
+//!   residuals.
+//! - [`AxisLine`], [`Location`]: the axis average line and the component
+//!   errors.
 //! - [`report`], [`html`]: `report.json` types and `report.html`.
 //!
 //! [`solve`] runs the method on a [`Measurement`]; [`Solution::at`]
@@ -31,18 +33,19 @@
 //! - Interpolation between measured angles is linear, wrapping from the last
 //!   measured angle to 360° (= 0°).
 
-pub mod centres;
-pub mod html;
-pub mod identify;
-pub mod location;
+mod centres;
+mod html;
+mod identify;
+mod location;
 mod plot;
 pub mod report;
 
 use geom::nalgebra::{Point3, Rotation3, Vector3, Vector6};
 
-use crate::{ProbeError, Result};
+use crate::{CentreFault, Conditioning, ProbeError, Result, Unsolvable};
 
-pub use centres::{CentreFit, fit_centre};
+pub use centres::{CentreFit, MIN_POINTS, fit_centre};
+pub use html::render as html;
 pub use identify::{AngleErrors, CONDITION_LIMIT, Layout, MAX_DISPLACEMENT_MM, layout};
 pub use location::{AxisLine, LOCATION_CONDITION_LIMIT, Location};
 
@@ -79,10 +82,9 @@ pub struct Measurement {
     pub balls: Vec<Ball>,
 }
 
-/// The label that names one measured centre in errors: `ball 2 at 90°`.
-/// An [`ProbeError::Input`] about one centre has this as its `what`, so a
-/// caller can map it back to its input row.
-pub fn centre_label(ball: &str, angle_deg: f64) -> String {
+/// The label that names one measured centre in errors and warnings:
+/// `ball 2 at 90°`.
+pub(crate) fn centre_label(ball: &str, angle_deg: f64) -> String {
     format!("ball {ball} at {angle_deg}°")
 }
 
@@ -101,10 +103,10 @@ impl Measurement {
             message,
         };
         if self.angles_deg.len() < 2 {
-            return Err(ProbeError::Unsolvable(format!(
-                "{} measured angle(s): the method needs the reference 0° and at least one more",
-                self.angles_deg.len()
-            )));
+            return Err(Unsolvable::TooFewAngles {
+                angles: self.angles_deg.len(),
+            }
+            .into());
         }
         if let Some(a) = self
             .angles_deg
@@ -132,11 +134,10 @@ impl Measurement {
             ));
         }
         if self.balls.len() < 3 {
-            return Err(ProbeError::Unsolvable(format!(
-                "{} ball(s) ({}): the six errors need at least 3 balls not on one line",
-                self.balls.len(),
-                self.ball_names().join(", ")
-            )));
+            return Err(Unsolvable::TooFewBalls {
+                names: self.ball_names(),
+            }
+            .into());
         }
         for (k, ball) in self.balls.iter().enumerate() {
             if ball.name.trim().is_empty() {
@@ -168,10 +169,11 @@ impl Measurement {
             }
             for (c, a) in ball.centres.iter().zip(&self.angles_deg) {
                 if !c.iter().all(|v| v.is_finite()) {
-                    return Err(input(
-                        &centre_label(&ball.name, *a),
-                        format!("centre {c:?} is not finite"),
-                    ));
+                    return Err(ProbeError::Centre {
+                        ball: ball.name.clone(),
+                        angle_deg: *a,
+                        fault: CentreFault::NotFinite { centre: *c },
+                    });
                 }
             }
         }
@@ -196,8 +198,8 @@ impl Measurement {
 
     /// A measurement from probed points: per ball its name and, at each of
     /// `angles_deg`, the probed points (mm); a sphere is fitted to each
-    /// ([`fit_centre`]). A fit that fails is an [`ProbeError::Input`] whose
-    /// `what` is the [`centre_label`] of its ball and angle.
+    /// ([`fit_centre`]). A fit that fails is a [`ProbeError::Centre`] of
+    /// its ball and angle.
     pub fn from_points(
         angles_deg: Vec<f64>,
         balls: Vec<(String, Vec<Vec<[f64; 3]>>)>,
@@ -217,9 +219,10 @@ impl Measurement {
             let mut fits = Vec::with_capacity(groups.len());
             for (points, a) in groups.iter().zip(&angles_deg) {
                 let points: Vec<Point3<f64>> = points.iter().copied().map(Point3::from).collect();
-                let fit = fit_centre(&points).map_err(|e| ProbeError::Input {
-                    what: centre_label(&name, *a),
-                    message: format!("sphere fit: {e}"),
+                let fit = fit_centre(&points).map_err(|e| ProbeError::Centre {
+                    ball: name.clone(),
+                    angle_deg: *a,
+                    fault: CentreFault::SphereFit(Box::new(e)),
                 })?;
                 fits.push(fit);
             }
@@ -263,7 +266,7 @@ pub struct Solution {
     /// The six errors per measured angle, with uncertainties and residuals.
     pub errors: Vec<AngleErrors>,
     /// The axis average line and the component errors; `None` when the
-    /// measured angles do not separate them (see [`location`]).
+    /// measured angles do not separate them (see [`AxisLine`]).
     pub axis: Option<AxisLine>,
     /// The sphere fits per ball (in ball order) and angle, when the input
     /// was probed points; empty when centres were given.
@@ -320,10 +323,9 @@ pub fn solve(measurement: &Measurement) -> Result<Solution> {
     let layout = identify::layout(&reference)?;
     if layout.condition > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: format!(
-                "ball layout (balls {} at 0°: a rotation is unobservable when they lie nearly on one line)",
-                measurement.ball_names().join(", ")
-            ),
+            what: Conditioning::BallLayout {
+                balls: measurement.ball_names(),
+            },
             condition: layout.condition,
             limit: CONDITION_LIMIT,
         });
@@ -416,7 +418,7 @@ impl Solution {
 }
 
 /// Range (max − min) of each component over the six-vectors; zero for none.
-pub fn ranges(values: impl Iterator<Item = SixErrors>) -> SixErrors {
+pub(crate) fn ranges(values: impl Iterator<Item = SixErrors>) -> SixErrors {
     let mut lo = SixErrors::repeat(f64::INFINITY);
     let mut hi = SixErrors::repeat(f64::NEG_INFINITY);
     let mut any = false;

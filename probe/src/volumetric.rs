@@ -9,14 +9,18 @@
 //! compensation tables; and the error curves of a vision campaign evaluated
 //! by `trinocular evaluate`, converted to these conventions.
 //!
-//! - [`curves`]: the measured curves, checked, straightness lines removed.
-//! - [`series`]: Fourier and polynomial fits, figures, leave-one-out order choice.
-//! - [`model`]: the curves at any position inside the travel under a model.
-//! - [`chain`]: chain strings, squareness, carriage transforms, volumetric error.
-//! - [`circle`]: the predicted circular test.
-//! - [`compensation`]: pitch-error compensation tables (LinuxCNC `COMP_FILE`).
+//! - [`MeasuredAxis`], [`measured_axes`], [`AxisCurves`]: the measured
+//!   curves, checked, straightness lines removed.
+//! - [`Series`], [`SeriesFit`], [`Figures`]: Fourier and polynomial fits,
+//!   figures, leave-one-out order choice.
+//! - [`ErrorModel`], [`Model`], [`Order`]: the curves at any position inside
+//!   the travel under a model.
+//! - [`Chain`], [`Squareness`], [`Machine`]: chain strings, squareness,
+//!   carriage transforms, volumetric error.
+//! - [`predict_circle`], [`CirclePrediction`]: the predicted circular test.
 //! - [`campaign`]: a vision campaign's error motions in the conventions here.
-//! - [`report`]: the whole analysis and its `report.json`; [`plot`] and
+//! - [`analyse`] and [`report`]: the whole analysis ([`Analysis`], with the
+//!   LinuxCNC `COMP_FILE` pitch-compensation tables) and its `report.json`;
 //!   [`html`]: `report.html`.
 //!
 //! # Conventions
@@ -44,19 +48,20 @@
 //! - Lengths mm and angles rad in files; µm and µrad in reports.
 
 pub mod campaign;
-pub mod chain;
-pub mod circle;
-pub mod compensation;
-pub mod curves;
-pub mod html;
-pub mod model;
-pub mod plot;
+mod chain;
+mod circle;
+mod compensation;
+mod curves;
+mod html;
+mod model;
+mod plot;
 pub mod report;
-pub mod series;
+mod series;
 
 pub use chain::{Chain, DEFAULT_CHAIN, Machine, Side, Squareness};
-pub use circle::{CirclePrediction, CircleSpec};
+pub use circle::{CirclePoint, CirclePrediction, CircleSpec, predict as predict_circle};
 pub use curves::{AxisCurves, MeasuredAxis, Motion, measured_axes};
+pub use html::render as html;
 pub use model::{DEFAULT_ORDER, ErrorModel, Evaluation, Model, Order};
 pub use report::{Analysis, Setup, analyse};
-pub use series::{Figures, Series, SeriesFit};
+pub use series::{Figures, POINTS_PER_COEFFICIENT, Series, SeriesFit};

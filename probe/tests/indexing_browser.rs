@@ -11,9 +11,11 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod browser_common;
+
 use probe::indexing::{Options, Position, html, report, solve};
-use report::browser::{self, PAGE_WIDTH, check_region, rgb};
-use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, diverging};
+use report::browser::{self, rgb};
+use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, UP, diverging};
 use synth::probe::indexing::{IndexingConfig, generate};
 
 #[test]
@@ -42,42 +44,21 @@ fn indexing_report_renders_in_chromium() {
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("report.html");
     std::fs::write(&page, html(&r).unwrap()).unwrap();
-    let shown = browser::render(&chromium, &page).unwrap();
-    assert!(
-        shown.errors.is_empty(),
-        "console errors: {:#?}",
-        shown.errors
-    );
-    let ids: Vec<&str> = shown.plots.iter().map(|p| p.id.as_str()).collect();
-    assert_eq!(
-        ids,
-        [
+    browser_common::check_page(
+        &chromium,
+        &page,
+        &[
             "plot-map-dA",
             "plot-map-dB",
             "plot-curve-dA",
-            "plot-curve-dB"
+            "plot-curve-dB",
         ],
-        "plots on the page"
+        |id| {
+            if id.starts_with("plot-map") {
+                (MAP_HEIGHT, vec![rgb(diverging(-1.0)), rgb(diverging(1.0))])
+            } else {
+                (HEIGHT, vec![rgb(UP), rgb(MEAN), rgb(DOWN)])
+            }
+        },
     );
-    assert!(shown.width <= PAGE_WIDTH, "page {} px wide", shown.width);
-    for p in &shown.plots {
-        let (height, colours) = if p.id.starts_with("plot-map") {
-            (MAP_HEIGHT, vec![rgb(diverging(-1.0)), rgb(diverging(1.0))])
-        } else {
-            (HEIGHT, vec![rgb(UP), rgb(MEAN), rgb(DOWN)])
-        };
-        assert_eq!(
-            (p.w, p.h),
-            (WIDTH, height),
-            "{} laid out at {}×{}",
-            p.id,
-            p.w,
-            p.h
-        );
-        check_region(&shown.screenshot, p, &colours).unwrap();
-    }
-    if let Ok(keep) = std::env::var("TRINOCULAR_KEEP_SCREENSHOT") {
-        shown.screenshot.save(&keep).unwrap();
-        eprintln!("screenshot saved to {keep}");
-    }
 }

@@ -11,13 +11,15 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod browser_common;
+
 use std::path::PathBuf;
 
 use formats::probe::rotary::read_points;
 use probe::rotary::report::Report;
 use probe::rotary::{Measurement, html, solve};
-use report::browser::{self, PAGE_WIDTH, check_region, rgb};
-use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, SIX, WIDTH, ZONE};
+use report::browser::{self, rgb};
+use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, SIX, ZONE};
 
 /// The series colours a plot of this id must show.
 fn colours_of(id: &str) -> Vec<[u8; 3]> {
@@ -42,7 +44,7 @@ fn rotary_report_html_renders_in_chromium() {
     let m = Measurement::from_points(input.angles_deg.clone(), input.points()).unwrap();
     let s = solve(&m).unwrap();
     let at = [s.at(15.0).unwrap(), s.at(345.0).unwrap()];
-    let page = html::render(&Report::new(&s, "points.csv", &at)).unwrap();
+    let page = html(&Report::new(&s, "points.csv", &at)).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("report.html");
     std::fs::write(&file, &page).unwrap();
@@ -51,20 +53,10 @@ fn rotary_report_html_renders_in_chromium() {
         assert!(!page.contains(bad), "page has {bad}");
     }
 
-    let shown = browser::render(&chromium, &file).unwrap();
-    if let Ok(keep) = std::env::var("TRINOCULAR_KEEP_SCREENSHOT") {
-        shown.screenshot.save(&keep).unwrap();
-        eprintln!("screenshot saved to {keep}");
-    }
-    assert!(
-        shown.errors.is_empty(),
-        "console errors: {:#?}",
-        shown.errors
-    );
-    let ids: Vec<&str> = shown.plots.iter().map(|p| p.id.as_str()).collect();
-    assert_eq!(
-        ids,
-        [
+    browser_common::check_page(
+        &chromium,
+        &file,
+        &[
             "plot-errors-translations",
             "plot-errors-rotations",
             "plot-location-offset",
@@ -72,29 +64,15 @@ fn rotary_report_html_renders_in_chromium() {
             "plot-components-translations",
             "plot-components-rotations",
         ],
-        "plots on the page"
+        |id| {
+            let full = if id.starts_with("plot-location") {
+                MAP_HEIGHT
+            } else {
+                HEIGHT
+            };
+            (full, colours_of(id))
+        },
     );
-    assert!(
-        shown.width <= PAGE_WIDTH,
-        "page {} px wider than the window",
-        shown.width
-    );
-    for p in &shown.plots {
-        let full = if p.id.starts_with("plot-location") {
-            MAP_HEIGHT
-        } else {
-            HEIGHT
-        };
-        assert_eq!(
-            (p.w, p.h),
-            (WIDTH, full),
-            "{} laid out at {}×{}",
-            p.id,
-            p.w,
-            p.h
-        );
-        check_region(&shown.screenshot, p, &colours_of(&p.id)).unwrap();
-    }
     for table in [
         "location",
         "ranges",

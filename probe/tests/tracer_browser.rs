@@ -10,11 +10,12 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod browser_common;
 mod tracer_common;
 
 use probe::tracer::{self, Options};
-use report::browser::{self, PAGE_WIDTH, check_region, rgb};
-use report::plot::{HEIGHT, MAP_HEIGHT, MEAN, SIX, UP, WIDTH, ZONE, diverging};
+use report::browser::{self, rgb};
+use report::plot::{HEIGHT, MAP_HEIGHT, MEAN, SIX, UP, ZONE, diverging};
 use synth::probe::tracer::{TracerConfig, generate};
 
 #[test]
@@ -32,25 +33,11 @@ fn report_html_renders_in_chromium() {
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("report.html");
     std::fs::write(&page, tracer::html(&net, &solution, &report).unwrap()).unwrap();
-    let shown = browser::render(&chromium, &page).unwrap();
-    assert!(
-        shown.errors.is_empty(),
-        "console errors: {:#?}",
-        shown.errors
-    );
-    let ids: Vec<&str> = shown.plots.iter().map(|p| p.id.as_str()).collect();
-    assert_eq!(
-        ids,
-        ["plot-residuals", "plot-corrections", "plot-uncertainty"],
-        "plots on the page"
-    );
-    assert!(
-        shown.width <= PAGE_WIDTH,
-        "page {} px wider than the window",
-        shown.width
-    );
-    for p in &shown.plots {
-        let (height, colours) = match p.id.as_str() {
+    browser_common::check_page(
+        &chromium,
+        &page,
+        &["plot-residuals", "plot-corrections", "plot-uncertainty"],
+        |id| match id {
             // Six stations, each in its own colour, and the flag limit.
             "plot-residuals" => (
                 HEIGHT,
@@ -58,19 +45,6 @@ fn report_html_renders_in_chromium() {
             ),
             "plot-corrections" => (MAP_HEIGHT, vec![rgb(UP), rgb(MEAN)]),
             _ => (MAP_HEIGHT, vec![rgb(diverging(-1.0)), rgb(diverging(1.0))]),
-        };
-        assert_eq!(
-            (p.w, p.h),
-            (WIDTH, height),
-            "{} laid out at {}×{}",
-            p.id,
-            p.w,
-            p.h
-        );
-        check_region(&shown.screenshot, p, &colours).unwrap();
-    }
-    if let Ok(keep) = std::env::var("TRINOCULAR_KEEP_SCREENSHOT") {
-        shown.screenshot.save(&keep).unwrap();
-        eprintln!("screenshot saved to {keep}");
-    }
+        },
+    );
 }

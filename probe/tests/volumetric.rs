@@ -16,7 +16,7 @@ use formats::probe::volumetric::read_errors;
 use geom::Vector3;
 use probe::volumetric::{
     AxisCurves, Chain, CircleSpec, ErrorModel, Evaluation, Machine, MeasuredAxis, Model, Motion,
-    Order, Series, Setup, Squareness, analyse, circle, measured_axes,
+    Order, Series, Setup, Squareness, analyse, measured_axes, predict_circle,
 };
 
 fn data(name: &str) -> PathBuf {
@@ -112,7 +112,7 @@ fn check_vector_fits_volumetric_errors_and_circle() {
     assert!(worst < 1e-6);
 
     // The circle per degree and its figures: 1e-6 µm.
-    let c = circle::predict(&machine, &spec, Evaluation::Model(Model::Raw)).unwrap();
+    let c = predict_circle(&machine, &spec, Evaluation::Model(Model::Raw)).unwrap();
     let expected = rows("expected_circle.csv");
     assert_eq!(expected.len(), c.points.len());
     let mut worst = 0.0f64;
@@ -130,7 +130,7 @@ fn check_vector_fits_volumetric_errors_and_circle() {
     )
     .unwrap();
     for (name, how) in [("raw", Model::Raw), ("fourier", Model::Fourier)] {
-        let c = circle::predict(&machine, &spec, Evaluation::Model(how)).unwrap();
+        let c = predict_circle(&machine, &spec, Evaluation::Model(how)).unwrap();
         let f = &figures[name];
         let range = f["radial_range_um"].as_f64().unwrap();
         let dev = f["circular_deviation_um"].as_f64().unwrap();
@@ -569,7 +569,7 @@ fn positions_outside_the_travel_are_errors() {
         centre: [-300.0, -350.0, 40.0],
         radius: 100.0,
     };
-    let e = circle::predict(&machine, &spec, Evaluation::Model(Model::Raw))
+    let e = predict_circle(&machine, &spec, Evaluation::Model(Model::Raw))
         .unwrap_err()
         .to_string();
     assert!(

@@ -626,18 +626,7 @@ impl Record for SphereFitRow {
     ];
 
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        for (column, v) in [
-            ("angle_deg", self.angle_deg),
-            ("x", self.x),
-            ("y", self.y),
-            ("z", self.z),
-            ("radius", self.radius),
-            ("rms_residual", self.rms_residual),
-            ("max_residual", self.max_residual),
-        ] {
-            finite(column, v)?;
-        }
-        Ok(())
+        super::finite_fields!(self, angle_deg, x, y, z, radius, rms_residual, max_residual)
     }
 }
 

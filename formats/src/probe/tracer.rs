@@ -18,6 +18,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::{finite_fields, name};
 use crate::table::{Invalid, Record, Row, finite, read_csv};
 use crate::{FormatError, Result};
 
@@ -29,19 +30,6 @@ pub const UNIT_SLACK_MM: f64 = 1.0;
 /// Largest span of a grid in any axis (mm) taken as millimetres: 50 m is
 /// beyond any CMM or machine tool; a grid written in µm exceeds it.
 pub const MAX_GRID_EXTENT_MM: f64 = 50_000.0;
-
-/// Fails unless every value is finite, naming the first column that is not.
-fn finite_all(values: &[(&'static str, f64)]) -> std::result::Result<(), Invalid> {
-    values.iter().try_for_each(|&(c, v)| finite(c, v))
-}
-
-fn name(column: &'static str, value: &str) -> std::result::Result<(), Invalid> {
-    if value.trim().is_empty() {
-        Err(Invalid::new(column, "empty name"))
-    } else {
-        Ok(())
-    }
-}
 
 /// One nominal grid point of `grid.csv`: its name and nominal CMM coordinates (mm).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -157,17 +145,7 @@ impl Record for CorrectionRow {
 
     fn validate(&self) -> std::result::Result<(), Invalid> {
         name("point", &self.point)?;
-        finite_all(&[
-            ("x", self.x),
-            ("y", self.y),
-            ("z", self.z),
-            ("dx", self.dx),
-            ("dy", self.dy),
-            ("dz", self.dz),
-            ("u_dx", self.u_dx),
-            ("u_dy", self.u_dy),
-            ("u_dz", self.u_dz),
-        ])
+        finite_fields!(self, x, y, z, dx, dy, dz, u_dx, u_dy, u_dz)
     }
 }
 
@@ -217,17 +195,18 @@ impl Record for StationRow {
 
     fn validate(&self) -> std::result::Result<(), Invalid> {
         name("station", &self.station)?;
-        finite_all(&[
-            ("x", self.x),
-            ("y", self.y),
-            ("z", self.z),
-            ("dead_path", self.dead_path),
-            ("u_x", self.u_x),
-            ("u_y", self.u_y),
-            ("u_z", self.u_z),
-            ("u_dead_path", self.u_dead_path),
-            ("residual_rms_um", self.residual_rms_um),
-        ])
+        finite_fields!(
+            self,
+            x,
+            y,
+            z,
+            dead_path,
+            u_x,
+            u_y,
+            u_z,
+            u_dead_path,
+            residual_rms_um
+        )
     }
 }
 
@@ -269,38 +248,9 @@ impl Record for ResidualRow {
     }
 }
 
-/// One row of `corrected.csv`: a query point and its correction by trilinear
-/// interpolation in the grid cell that holds it (mm).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CorrectedRow {
-    /// x (mm).
-    pub x: f64,
-    /// y (mm).
-    pub y: f64,
-    /// z (mm).
-    pub z: f64,
-    /// Correction in x (mm).
-    pub dx: f64,
-    /// Correction in y (mm).
-    pub dy: f64,
-    /// Correction in z (mm).
-    pub dz: f64,
-}
-
-impl Record for CorrectedRow {
-    const COLUMNS: &'static [&'static str] = &["x", "y", "z", "dx", "dy", "dz"];
-
-    fn validate(&self) -> std::result::Result<(), Invalid> {
-        finite_all(&[
-            ("x", self.x),
-            ("y", self.y),
-            ("z", self.z),
-            ("dx", self.dx),
-            ("dy", self.dy),
-            ("dz", self.dz),
-        ])
-    }
-}
+/// One row of `corrected.csv`: a query point and its correction (dx, dy, dz)
+/// by trilinear interpolation in the grid cell that holds it (mm).
+pub use super::PointDisplacementRow as CorrectedRow;
 
 /// `truth.json` of `trinocular synth probe tracer`: the true corrections
 /// (true − nominal, rigid part removed by the least-squares rigid alignment

@@ -273,41 +273,9 @@ impl Record for FitRow {
     }
 }
 
-/// One row of `volumetric.csv`: the volumetric error at carriage positions
-/// (workpiece frame, mm).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct VolumetricRow {
-    /// X carriage position (mm).
-    pub x: f64,
-    /// Y carriage position (mm).
-    pub y: f64,
-    /// Z carriage position (mm).
-    pub z: f64,
-    /// Error along X (mm).
-    pub dx: f64,
-    /// Error along Y (mm).
-    pub dy: f64,
-    /// Error along Z (mm).
-    pub dz: f64,
-}
-
-impl Record for VolumetricRow {
-    const COLUMNS: &'static [&'static str] = &["x", "y", "z", "dx", "dy", "dz"];
-
-    fn validate(&self) -> std::result::Result<(), Invalid> {
-        for (c, v) in [
-            ("x", self.x),
-            ("y", self.y),
-            ("z", self.z),
-            ("dx", self.dx),
-            ("dy", self.dy),
-            ("dz", self.dz),
-        ] {
-            finite(c, v)?;
-        }
-        Ok(())
-    }
-}
+/// One row of `volumetric.csv`: the volumetric error (dx, dy, dz) at carriage
+/// positions (workpiece frame, mm).
+pub use super::PointDisplacementRow as VolumetricRow;
 
 /// One row of `circle.csv`: the predicted circular test at one angle (mm),
 /// and the radial deviation left after compensating with each series.
@@ -357,16 +325,40 @@ pub struct CompLine {
     pub reverse: f64,
 }
 
+/// Why a compensation table cannot be a LinuxCNC `COMP_FILE`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CompFileError {
+    /// No entries, or more than LinuxCNC reads.
+    #[error("{entries} entries; a compensation file takes 1 to {COMP_FILE_MAX_LINES}")]
+    Entries {
+        /// Entries given.
+        entries: usize,
+    },
+    /// An entry with a value that is not finite.
+    #[error("entry {entry} is not finite")]
+    NotFinite {
+        /// The entry, 1-based.
+        entry: usize,
+    },
+    /// Nominal positions that do not ascend strictly.
+    #[error("nominal positions must ascend: {nominal} follows {previous}")]
+    NotAscending {
+        /// The nominal position out of order.
+        nominal: f64,
+        /// The one before it.
+        previous: f64,
+    },
+}
+
 /// The text of a LinuxCNC `COMP_FILE` of type 0: one line per entry, the three
 /// numbers separated by a space, nominal positions strictly ascending, at most
 /// [`COMP_FILE_MAX_LINES`] lines, nothing else (LinuxCNC stops reading at the
 /// first line that is not three numbers, so there is no header).
-pub fn comp_file_text(lines: &[CompLine]) -> std::result::Result<String, String> {
+pub fn comp_file_text(lines: &[CompLine]) -> std::result::Result<String, CompFileError> {
     if lines.is_empty() || lines.len() > COMP_FILE_MAX_LINES {
-        return Err(format!(
-            "{} entries; a compensation file takes 1 to {COMP_FILE_MAX_LINES}",
-            lines.len()
-        ));
+        return Err(CompFileError::Entries {
+            entries: lines.len(),
+        });
     }
     let mut text = String::new();
     for (k, l) in lines.iter().enumerate() {
@@ -374,14 +366,13 @@ pub fn comp_file_text(lines: &[CompLine]) -> std::result::Result<String, String>
             .iter()
             .all(|v| v.is_finite())
         {
-            return Err(format!("entry {} is not finite", k + 1));
+            return Err(CompFileError::NotFinite { entry: k + 1 });
         }
         if k > 0 && l.nominal <= lines[k - 1].nominal {
-            return Err(format!(
-                "nominal positions must ascend: {} follows {}",
-                l.nominal,
-                lines[k - 1].nominal
-            ));
+            return Err(CompFileError::NotAscending {
+                nominal: l.nominal,
+                previous: lines[k - 1].nominal,
+            });
         }
         let _ = writeln!(text, "{:.7} {:.7} {:.7}", l.nominal, l.forward, l.reverse);
     }
@@ -390,7 +381,7 @@ pub fn comp_file_text(lines: &[CompLine]) -> std::result::Result<String, String>
 
 /// Write a LinuxCNC `COMP_FILE` (type [`COMP_FILE_TYPE`]), a planned output of `output`.
 pub fn write_comp_file(output: &crate::OutputPlan, path: &Path, lines: &[CompLine]) -> Result<()> {
-    let text = comp_file_text(lines).map_err(|m| FormatError::file(path, m))?;
+    let text = comp_file_text(lines).map_err(|e| FormatError::file(path, e.to_string()))?;
     output.write_bytes(path, text.as_bytes())
 }
 
@@ -650,9 +641,22 @@ mod tests {
             text,
             "0.0000000 0.0010000 -0.0010000\n10.0000000 10.0010000 9.9990000\n"
         );
-        assert!(comp_file_text(&[l(1.0), l(1.0)]).is_err());
-        assert!(comp_file_text(&[]).is_err());
+        assert_eq!(
+            comp_file_text(&[l(1.0), l(1.0)]).map_err(|e| e.to_string()),
+            Err("nominal positions must ascend: 1 follows 1".to_string())
+        );
+        assert_eq!(
+            comp_file_text(&[]),
+            Err(CompFileError::Entries { entries: 0 })
+        );
         let many: Vec<CompLine> = (0..257).map(|k| l(k as f64)).collect();
-        assert!(comp_file_text(&many).is_err());
+        assert_eq!(
+            comp_file_text(&many).map_err(|e| e.to_string()),
+            Err("257 entries; a compensation file takes 1 to 256".to_string())
+        );
+        assert_eq!(
+            comp_file_text(&[l(f64::NAN)]),
+            Err(CompFileError::NotFinite { entry: 1 })
+        );
     }
 }

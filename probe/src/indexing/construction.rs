@@ -14,7 +14,7 @@
 use geom::nalgebra::{DMatrix, Matrix3, Matrix4, Point3, Vector3, Vector4};
 
 use super::layout::Layout;
-use crate::{ProbeError, Result};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Largest accepted condition number of the sphere fit's normal matrix JᵀJ:
 /// beyond it the centres lie too near a plane or a small cap (noise in the
@@ -66,16 +66,14 @@ pub(crate) fn construct(centres: &[Point3<f64>], layout: &Layout) -> Result<Cons
     let condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
     if condition > SPHERE_CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: "sphere through the centres (the positions lie too near a plane or a small cap: \
-                   measure B turns at several A)"
-                .into(),
+            what: Conditioning::CentresSphere,
             condition,
             limit: SPHERE_CONDITION_LIMIT,
         });
     }
-    let inverse = jtj.try_inverse().ok_or_else(|| {
-        ProbeError::Unsolvable("sphere through the centres: singular normal matrix".into())
-    })?;
+    let inverse = jtj
+        .try_inverse()
+        .ok_or_else(|| ProbeError::from(Unsolvable::SingularSphere))?;
     let ssr: f64 = fit.residuals.iter().map(|r| r * r).sum();
     let sigma = (ssr / (n - 4) as f64).sqrt();
 
@@ -84,11 +82,9 @@ pub(crate) fn construct(centres: &[Point3<f64>], layout: &Layout) -> Result<Cons
         turn.iter().fold(Vector3::zeros(), |acc, p| acc + p.coords) / turn.len() as f64,
     );
     let w = q - o;
-    let z = w.try_normalize(0.0).ok_or_else(|| {
-        ProbeError::Unsolvable(
-            "the mean of the A = 0° centres coincides with the rotation centre: no B axis".into(),
-        )
-    })?;
+    let z = w
+        .try_normalize(0.0)
+        .ok_or_else(|| ProbeError::from(Unsolvable::NoBAxis))?;
     let s: Vector3<f64> = layout
         .a_sweep
         .iter()
@@ -96,9 +92,7 @@ pub(crate) fn construct(centres: &[Point3<f64>], layout: &Layout) -> Result<Cons
         .fold(Vector3::zeros(), |acc, u| acc + u);
     let c = z.cross(&s);
     if c.norm() < SWEEP_LEVER_MIN * layout.a_sweep.len() as f64 {
-        return Err(ProbeError::Unsolvable(
-            "the B = 0° sweep lies along the B axis: no A axis".into(),
-        ));
+        return Err(Unsolvable::NoAAxis.into());
     }
     let y = c.normalize();
     let x = y.cross(&z);

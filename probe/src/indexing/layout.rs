@@ -23,12 +23,12 @@ const TURN_LISTED: usize = 8;
 pub const MIN_TURN: usize = 3;
 
 /// A commanded angle as an integer key: multiples of [`DETENT_TOLERANCE_DEG`].
-pub fn detent_key(deg: f64) -> i64 {
+pub(crate) fn detent_key(deg: f64) -> i64 {
     (deg / DETENT_TOLERANCE_DEG).round() as i64
 }
 
 /// `deg` wrapped to (−180°, 180°].
-pub fn wrap_deg(deg: f64) -> f64 {
+pub(crate) fn wrap_deg(deg: f64) -> f64 {
     let r = deg.rem_euclid(360.0);
     if r > 180.0 { r - 360.0 } else { r }
 }

@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::{Angles, Indexing, UM_PER_MM, layout};
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, Unsolvable};
 
 /// What the user adds to the measurement.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -247,14 +247,14 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
             })
     };
     let max_a = extreme(&a.iter().map(|p| (p.d_a_arcsec, p)).collect::<Vec<_>>())
-        .ok_or_else(|| ProbeError::Unsolvable("no positions".into()))?;
+        .ok_or(Unsolvable::NoPositions)?;
     let max_b = extreme(
         &with_b
             .iter()
             .filter_map(|p| p.d_b_arcsec.map(|v| (v, *p)))
             .collect::<Vec<_>>(),
     )
-    .ok_or_else(|| ProbeError::Unsolvable("no position with A > 0°".into()))?;
+    .ok_or(Unsolvable::NoTiltedPosition)?;
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v.get(v.len() / 2).copied().unwrap_or(f64::NAN)

@@ -14,11 +14,11 @@ pub const MIN_POINTS: usize = 4;
 /// A fit whose radius differs from the median radius of all fits by more
 /// than this (mm) is named in the warnings: a sphere of 10 µm more or less
 /// than the others means a wrong ball, a stylus not qualified, or dirt.
-pub const RADIUS_WARNING_MM: f64 = 0.010;
+pub(crate) const RADIUS_WARNING_MM: f64 = 0.010;
 
 /// A fit with a residual larger than this (mm) is named in the warnings:
 /// the probed points are not on one sphere (dirt, a bad point).
-pub const RESIDUAL_WARNING_MM: f64 = 0.005;
+pub(crate) const RESIDUAL_WARNING_MM: f64 = 0.005;
 
 /// The sphere through the probed points of one ball at one angle.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -16,8 +16,8 @@
 use geom::nalgebra::{DMatrix, DVector, Matrix6, Point3, Vector3};
 use geom::transform::SmallError;
 
-use super::{Measurement, SixErrors, centre_label, rz};
-use crate::{ProbeError, Result};
+use super::{Measurement, SixErrors, rz};
+use crate::{CentreFault, ProbeError, Result, Unsolvable};
 
 /// Largest condition number of the scaled design accepted. The seed's
 /// layout (three balls about 150 mm from the axis at three heights) has
@@ -94,10 +94,10 @@ fn design(points: &[Point3<f64>], scale: f64) -> DMatrix<f64> {
 /// the condition number of the scaled design (the same at every angle).
 pub fn layout(reference: &[Point3<f64>]) -> Result<Layout> {
     if reference.len() < 3 {
-        return Err(ProbeError::Unsolvable(format!(
-            "{} ball(s): the six errors need at least 3 balls not on one line",
-            reference.len()
-        )));
+        return Err(Unsolvable::TooFewCentres {
+            centres: reference.len(),
+        }
+        .into());
     }
     let n = reference.len() as f64;
     let centroid = reference.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
@@ -108,9 +108,7 @@ pub fn layout(reference: &[Point3<f64>]) -> Result<Layout> {
         / n)
         .sqrt();
     if !(scale_mm > 0.0 && scale_mm.is_finite()) {
-        return Err(ProbeError::Unsolvable(
-            "the balls' reference centres coincide: no rotation can be seen".into(),
-        ));
+        return Err(Unsolvable::CoincidentCentres.into());
     }
     let sv = design(reference, scale_mm).singular_values();
     let (lo, hi) = sv.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), s| {
@@ -132,23 +130,20 @@ fn check_displacement(ball: &str, angle_deg: f64, p0: &Point3<f64>, p: &Point3<f
         return Ok(());
     }
     let clockwise = (p - rz(-angle_deg) * p0).norm() <= MAX_DISPLACEMENT_MM;
-    let hint = if clockwise {
-        "it matches a clockwise turn: angles count counter-clockwise seen from +Z".to_string()
-    } else {
-        "a wrong angle or ball, or a table frame whose Z is not on the axis?".to_string()
-    };
-    Err(ProbeError::Input {
-        what: centre_label(ball, angle_deg),
-        message: format!(
-            "the centre lies {d:.3} mm from its 0° centre turned by {angle_deg}° about Z \
-             (more than {MAX_DISPLACEMENT_MM} mm: the small-error model does not apply): {hint}"
-        ),
+    Err(ProbeError::Centre {
+        ball: ball.to_string(),
+        angle_deg,
+        fault: CentreFault::Displaced {
+            distance_mm: d,
+            angle_deg,
+            clockwise,
+        },
     })
 }
 
 /// The six errors at every measured angle (docs/probe-rotary.md), after the
 /// displacement check of every centre.
-pub fn errors_per_angle(m: &Measurement, layout: &Layout) -> Result<Vec<AngleErrors>> {
+pub(crate) fn errors_per_angle(m: &Measurement, layout: &Layout) -> Result<Vec<AngleErrors>> {
     let reference = m.reference();
     let scale = layout.scale_mm;
     let mut out = Vec::with_capacity(m.angles_deg.len());
@@ -176,21 +171,16 @@ fn solve_angle(
     b: &DVector<f64>,
     scale: f64,
 ) -> Result<AngleErrors> {
-    let unsolvable = |why: &str| {
-        ProbeError::Unsolvable(format!(
-            "least squares of the six errors at {angle_deg}°: {why}"
-        ))
-    };
     let qr = a.clone().qr();
     let scaled = qr
         .r()
         .solve_upper_triangular(&(qr.q().transpose() * b))
-        .ok_or_else(|| unsolvable("the design is singular"))?;
+        .ok_or(Unsolvable::SingularDesign { angle_deg })?;
     let residual = b - a * &scaled;
     let m = residual.len();
     let ssr = residual.norm_squared();
-    let cov_scaled = geom::lm::covariance(a, ssr, m, 6)
-        .ok_or_else(|| unsolvable("AᵀA is singular or there are no redundant observations"))?;
+    let cov_scaled =
+        geom::lm::covariance(a, ssr, m, 6).ok_or(Unsolvable::NoCovariance { angle_deg })?;
     // Unscale: X = S·X_s with S = diag(1, 1, 1, 1/L, 1/L, 1/L).
     let s = SixErrors::new(1.0, 1.0, 1.0, 1.0 / scale, 1.0 / scale, 1.0 / scale);
     let errors = scaled.fixed_rows::<6>(0).component_mul(&s);

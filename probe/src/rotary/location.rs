@@ -36,7 +36,7 @@
 use geom::nalgebra::{DMatrix, DVector, Matrix2, Vector2, Vector3};
 
 use super::{AngleErrors, SixErrors, rz};
-use crate::{ProbeError, Result};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Largest condition number of the location fit's design accepted. A full
 /// turn in equal steps has 1 (orthogonal functions); angles over part of a
@@ -50,7 +50,7 @@ pub const LOCATION_CONDITION_LIMIT: f64 = 2.0;
 /// not a full turn in equal steps: the location errors then rest on the
 /// model (no constant or once-per-turn part in the component errors), and
 /// the report says so.
-pub const FULL_TURN_TOLERANCE: f64 = 1e-6;
+pub(crate) const FULL_TURN_TOLERANCE: f64 = 1e-6;
 
 /// Location errors of the axis average line (ISO 230-7) and their standard
 /// uncertainties.
@@ -117,13 +117,14 @@ fn model_rows(angle_deg: f64) -> [[f64; 4]; 2] {
 /// The axis average line from the errors per angle (see the module's
 /// derivation); an [`ProbeError::IllConditioned`] when the angles do not
 /// separate it.
-pub fn axis_line(angles_deg: &[f64], errors: &[AngleErrors]) -> Result<AxisLine> {
+pub(crate) fn axis_line(angles_deg: &[f64], errors: &[AngleErrors]) -> Result<AxisLine> {
     let n = angles_deg.len();
     if n < 2 || errors.len() != n {
-        return Err(ProbeError::Unsolvable(format!(
-            "the axis average line needs errors at ≥ 2 angles, got {} (for {n} angles)",
-            errors.len()
-        )));
+        return Err(Unsolvable::AxisLineTooFewErrors {
+            errors: errors.len(),
+            angles: n,
+        }
+        .into());
     }
     let mut d = DMatrix::zeros(2 * n, 4);
     for (k, &a) in angles_deg.iter().enumerate() {
@@ -143,7 +144,7 @@ pub fn axis_line(angles_deg: &[f64], errors: &[AngleErrors]) -> Result<AxisLine>
     let condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
     if condition > LOCATION_CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: "axis average line from the measured angles".into(),
+            what: Conditioning::AxisLine,
             condition,
             limit: LOCATION_CONDITION_LIMIT,
         });
@@ -151,7 +152,7 @@ pub fn axis_line(angles_deg: &[f64], errors: &[AngleErrors]) -> Result<AxisLine>
     // (DᵀD)⁻¹Dᵀ: D is orthogonal over a full turn and never worse than the limit.
     let pinv = (d.transpose() * &d)
         .try_inverse()
-        .ok_or_else(|| ProbeError::Unsolvable("axis average line: singular design".into()))?
+        .ok_or(Unsolvable::AxisLineSingular)?
         * d.transpose();
     // (value, variance) of the constant `a` of the pair of errors at `first`, `first + 1`.
     let fit = |first: usize| -> (Vector2<f64>, Matrix2<f64>) {

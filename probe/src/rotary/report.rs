@@ -246,7 +246,7 @@ pub struct Report {
 }
 
 /// The conventions written into every report.
-pub fn conventions() -> Vec<String> {
+pub(crate) fn conventions() -> Vec<String> {
     [
         "table frame: Z on the nominal rotation axis, origin on it at the table surface; angles counter-clockwise seen from +Z",
         "errors EXC, EYC, EZC, EAC, EBC, ECC = δx, δy, δz (µm), εx, εy, εz (µrad) of ΔP = δ + ε × Rz(θ)·P0, P0 = each ball's centre at 0° (all six are zero there)",
@@ -273,7 +273,7 @@ fn fit_report(ball: &str, angle_deg: f64, f: &CentreFit) -> SphereFitReport {
 }
 
 /// A report row of interpolated errors.
-pub fn interpolated_report(i: &Interpolated) -> AngleReport {
+pub(crate) fn interpolated_report(i: &Interpolated) -> AngleReport {
     AngleReport {
         angle_deg: i.angle_deg,
         errors: Six::from_si(&i.errors),

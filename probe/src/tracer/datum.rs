@@ -30,7 +30,7 @@ use super::normal::{
 use super::{
     CONDITION_LIMIT, Correction, Network, Options, Residual, Solution, Station, WEAK_FACTOR, Weak,
 };
-use crate::{ProbeError, Result};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Normal-distribution consistency factor of the median absolute deviation.
 const MAD_TO_SIGMA: f64 = 1.4826;
@@ -218,10 +218,9 @@ pub(super) fn finish(
     let worst_point = lin.worst_point;
     if worst_point.1.is_nan() || worst_point.1 > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: format!(
-                "point '{}' at the solution: the directions to its stations",
-                net.point_names[worst_point.0]
-            ),
+            what: Conditioning::PointAtSolution {
+                point: net.point_names[worst_point.0].clone(),
+            },
             condition: worst_point.1,
             limit: CONDITION_LIMIT,
         });
@@ -229,9 +228,10 @@ pub(super) fn finish(
     let basis = station_rigid_basis(state);
     let reduced = regularised(&lin, &basis);
     let condition = condition(&reduced);
-    let s_inv = reduced.cholesky().map(|c| c.inverse()).ok_or_else(|| {
-        ProbeError::Unsolvable("the reduced normal matrix is singular at the solution".into())
-    })?;
+    let s_inv = reduced
+        .cholesky()
+        .map(|c| c.inverse())
+        .ok_or_else(|| ProbeError::from(Unsolvable::ReducedSingular))?;
 
     let n = st.n;
     let centroid = state.points.iter().fold(Vector3::zeros(), |s, p| s + p) / n as f64;
@@ -240,9 +240,9 @@ pub(super) fn finish(
     let gtg = centred.iter().fold(Matrix6::zeros(), |s, p| {
         s + rigid_block(p).transpose() * rigid_block(p)
     });
-    let h = gtg.try_inverse().ok_or_else(|| {
-        ProbeError::Unsolvable("the grid points are collinear: no rigid alignment".into())
-    })?;
+    let h = gtg
+        .try_inverse()
+        .ok_or_else(|| ProbeError::from(Unsolvable::CollinearGrid))?;
     let middle = h * cov.gqg * h;
 
     // Residuals, σ, redundancy numbers, outliers.
@@ -259,10 +259,11 @@ pub(super) fn finish(
         Some(s) => s,
         None if redundancy > 0 => sigma0,
         None => {
-            return Err(ProbeError::Unsolvable(format!(
-                "{equations} readings for {unknowns} unknowns: no redundancy to estimate the \
-                 uncertainty of a reading (give it a priori, or add readings)"
-            )));
+            return Err(Unsolvable::NoRedundancy {
+                readings: equations,
+                unknowns,
+            }
+            .into());
         }
     };
     let r_num: Vec<f64> = cov.hat.iter().map(|h| (1.0 - h).clamp(0.0, 1.0)).collect();

@@ -23,7 +23,7 @@ const DENSE_GRID: usize = 2000;
 const TABLE_ROWS: usize = 20;
 
 /// The colour of station `j` (the six series colours, repeated).
-pub fn station_colour(j: usize) -> RGBColor {
+pub(crate) fn station_colour(j: usize) -> RGBColor {
     SIX[j % SIX.len()]
 }
 

@@ -7,11 +7,11 @@
 use geom::interp::Grid3;
 use geom::nalgebra::{Point3, Vector3};
 
-use crate::{ProbeError, Result};
+use crate::{LatticeFault, ProbeError, Result};
 
 /// Nominal coordinates within this distance (mm) of a lattice plane are on
 /// it: room for coordinates written to the µm.
-pub const LATTICE_TOLERANCE_MM: f64 = 1e-3;
+pub(crate) const LATTICE_TOLERANCE_MM: f64 = 1e-3;
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
@@ -23,12 +23,8 @@ pub struct CorrectionGrid {
     hi: [f64; 3],
 }
 
-fn not_lattice(point: Option<usize>, axis: Option<usize>, message: String) -> ProbeError {
-    ProbeError::NotLattice {
-        point,
-        axis,
-        message,
-    }
+fn not_lattice(fault: LatticeFault) -> ProbeError {
+    ProbeError::NotLattice(fault)
 }
 
 /// The lattice values of one axis: the points sorted by their coordinate,
@@ -60,16 +56,11 @@ impl CorrectionGrid {
         corrections: &[Vector3<f64>],
     ) -> Result<CorrectionGrid> {
         if nominal.len() != corrections.len() || nominal.len() != names.len() {
-            return Err(not_lattice(
-                None,
-                None,
-                format!(
-                    "{} points, {} names, {} corrections",
-                    nominal.len(),
-                    names.len(),
-                    corrections.len()
-                ),
-            ));
+            return Err(not_lattice(LatticeFault::Lengths {
+                points: nominal.len(),
+                names: names.len(),
+                corrections: corrections.len(),
+            }));
         }
         let mut origin = [0.0; 3];
         let mut step = [0.0; 3];
@@ -77,47 +68,35 @@ impl CorrectionGrid {
         for a in 0..3 {
             let lv = levels(nominal, a);
             if lv.len() < 2 {
-                return Err(not_lattice(
-                    None,
-                    Some(a),
-                    format!(
-                        "all points share one {} value: a lattice needs at least two per axis",
-                        AXES[a]
-                    ),
-                ));
+                return Err(not_lattice(LatticeFault::OneLevel { axis: a }));
             }
             // Every level of a lattice holds the same number of points (one
             // fewer where a node is missing); a point off the lattice makes a
             // sparse level of its own.
             let most = lv.iter().map(|(_, m)| m.len()).max().unwrap_or(0);
             if let Some((v, members)) = lv.iter().find(|(_, m)| 2 * m.len() < most) {
-                return Err(not_lattice(
-                    Some(members[0]),
-                    Some(a),
-                    format!(
-                        "point '{}' has {} = {v}, a value {} point(s) share where the grid's \
-                         other {} levels hold up to {most}",
-                        names[members[0]],
-                        AXES[a],
-                        members.len(),
-                        AXES[a]
-                    ),
-                ));
+                return Err(not_lattice(LatticeFault::SparseLevel {
+                    point: members[0],
+                    name: names[members[0]].clone(),
+                    axis: a,
+                    value: *v,
+                    count: members.len(),
+                    most,
+                }));
             }
             let (first, last) = (lv[0].0, lv[lv.len() - 1].0);
             let s = (last - first) / (lv.len() - 1) as f64;
             for (k, (v, members)) in lv.iter().enumerate() {
                 let expected = first + k as f64 * s;
                 if (v - expected).abs() > LATTICE_TOLERANCE_MM {
-                    return Err(not_lattice(
-                        Some(members[0]),
-                        Some(a),
-                        format!(
-                            "the {} values are not equally spaced: point '{}' has {v} where a \
-                             step of {s} puts {expected}",
-                            AXES[a], names[members[0]]
-                        ),
-                    ));
+                    return Err(not_lattice(LatticeFault::Uneven {
+                        point: members[0],
+                        name: names[members[0]].clone(),
+                        axis: a,
+                        value: *v,
+                        step: s,
+                        expected,
+                    }));
                 }
             }
             origin[a] = first;
@@ -132,18 +111,10 @@ impl CorrectionGrid {
             .and_then(|c| c.checked_mul(dims[2]))
             .filter(|&c| c <= 2 * nominal.len())
             .ok_or_else(|| {
-                not_lattice(
-                    None,
-                    None,
-                    format!(
-                        "{} points span {}×{}×{} lattice values: most nodes of such a lattice \
-                         would have no point",
-                        nominal.len(),
-                        dims[0],
-                        dims[1],
-                        dims[2]
-                    ),
-                )
+                not_lattice(LatticeFault::MostlyEmpty {
+                    points: nominal.len(),
+                    dims,
+                })
             })?;
         let mut values: Vec<Option<Vector3<f64>>> = vec![None; cells];
         for (i, p) in nominal.iter().enumerate() {
@@ -152,24 +123,21 @@ impl CorrectionGrid {
                 let g = (p[a] - origin[a]) / step[a];
                 let k = g.round();
                 if (p[a] - (origin[a] + k * step[a])).abs() > LATTICE_TOLERANCE_MM {
-                    return Err(not_lattice(
-                        Some(i),
-                        Some(a),
-                        format!(
-                            "point '{}' has {} = {} between the lattice values",
-                            names[i], AXES[a], p[a]
-                        ),
-                    ));
+                    return Err(not_lattice(LatticeFault::BetweenValues {
+                        point: i,
+                        name: names[i].clone(),
+                        axis: a,
+                        value: p[a],
+                    }));
                 }
                 index[a] = k as usize;
             }
             let slot = index[0] + dims[0] * (index[1] + dims[1] * index[2]);
             if values[slot].replace(corrections[i]).is_some() {
-                return Err(not_lattice(
-                    Some(i),
-                    None,
-                    format!("point '{}' falls on a lattice node already taken", names[i]),
-                ));
+                return Err(not_lattice(LatticeFault::NodeTaken {
+                    point: i,
+                    name: names[i].clone(),
+                }));
             }
         }
         if let Some(slot) = values.iter().position(Option::is_none) {
@@ -178,20 +146,16 @@ impl CorrectionGrid {
                 (slot / dims[0]) % dims[1],
                 slot / (dims[0] * dims[1]),
             );
-            return Err(not_lattice(
-                None,
-                None,
-                format!(
-                    "{} points where the {}×{}×{} lattice has {cells}: no point at ({}, {}, {})",
-                    nominal.len(),
-                    dims[0],
-                    dims[1],
-                    dims[2],
+            return Err(not_lattice(LatticeFault::MissingNode {
+                points: nominal.len(),
+                dims,
+                cells,
+                node: [
                     origin[0] + i as f64 * step[0],
                     origin[1] + j as f64 * step[1],
-                    origin[2] + k as f64 * step[2]
-                ),
-            ));
+                    origin[2] + k as f64 * step[2],
+                ],
+            }));
         }
         let values: Vec<Vector3<f64>> = values.into_iter().flatten().collect();
         let hi = [0, 1, 2].map(|a| origin[a] + (dims[a] - 1) as f64 * step[a]);

@@ -23,7 +23,7 @@ use super::{
     CONDITION_LIMIT, COST_TOLERANCE, MIN_POINT_STATIONS, MIN_STATION_READINGS, MIN_STATIONS,
     Network, STEP_TOLERANCE_MM,
 };
-use crate::{ProbeError, Result};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Points per chunk of the parallel sums (fixed, so that the order of the
 /// floating-point additions never depends on the thread count).
@@ -63,7 +63,7 @@ fn input(what: String, message: String) -> ProbeError {
 impl Structure {
     /// Check the network (names, finite values, indices, duplicates) and the
     /// counts of docs/probe-tracer.md, then arrange the readings by point.
-    pub fn new(net: &Network) -> Result<Structure> {
+    pub(crate) fn new(net: &Network) -> Result<Structure> {
         let (n, m) = (net.points.len(), net.station_names.len());
         if net.point_names.len() != n {
             return Err(input(
@@ -80,10 +80,11 @@ impl Structure {
             }
         }
         if m < MIN_STATIONS {
-            return Err(ProbeError::Unsolvable(format!(
-                "{m} stations: multilateration needs at least {MIN_STATIONS} \
-                 (m·n ≥ 4m + 3n − 6 cannot hold with fewer)"
-            )));
+            return Err(Unsolvable::TooFewStations {
+                stations: m,
+                needed: MIN_STATIONS,
+            }
+            .into());
         }
         let mut seen = HashSet::with_capacity(net.readings.len());
         let mut per_point = vec![0usize; n];
@@ -113,26 +114,32 @@ impl Structure {
         }
         let unknowns = net.unknowns();
         if net.readings.len() < unknowns {
-            return Err(ProbeError::Unsolvable(format!(
-                "{} readings for {unknowns} unknowns (3·{n} point coordinates + 4·{m} station \
-                 unknowns − 6 rigid freedoms): at least as many readings as unknowns are needed",
-                net.readings.len()
-            )));
+            return Err(Unsolvable::TooFewReadings {
+                readings: net.readings.len(),
+                unknowns,
+                points: n,
+                stations: m,
+            }
+            .into());
         }
         for (j, &c) in station_readings.iter().enumerate() {
             if c < MIN_STATION_READINGS {
-                return Err(ProbeError::Unsolvable(format!(
-                    "station '{}' reads {c} points: at least {MIN_STATION_READINGS} are needed",
-                    net.station_names[j]
-                )));
+                return Err(Unsolvable::StationReadsTooFew {
+                    station: net.station_names[j].clone(),
+                    count: c,
+                    needed: MIN_STATION_READINGS,
+                }
+                .into());
             }
         }
         for (i, &c) in per_point.iter().enumerate() {
             if c < MIN_POINT_STATIONS {
-                return Err(ProbeError::Unsolvable(format!(
-                    "point '{}' is read by {c} stations: at least {MIN_POINT_STATIONS} are needed",
-                    net.point_names[i]
-                )));
+                return Err(Unsolvable::PointReadTooFew {
+                    point: net.point_names[i].clone(),
+                    count: c,
+                    needed: MIN_POINT_STATIONS,
+                }
+                .into());
             }
         }
         let mut order: Vec<usize> = (0..net.readings.len()).collect();
@@ -156,12 +163,12 @@ impl Structure {
     }
 
     /// Entry range of point `i`.
-    pub fn entries(&self, i: usize) -> std::ops::Range<usize> {
+    pub(crate) fn entries(&self, i: usize) -> std::ops::Range<usize> {
         self.start[i]..self.start[i + 1]
     }
 
     /// Point ranges of the chunks, in order.
-    pub fn chunks(&self) -> Vec<std::ops::Range<usize>> {
+    pub(crate) fn chunks(&self) -> Vec<std::ops::Range<usize>> {
         (0..self.n.div_ceil(CHUNK))
             .map(|c| c * CHUNK..((c + 1) * CHUNK).min(self.n))
             .collect()
@@ -258,10 +265,11 @@ pub(super) fn linearise(
                     let diff = state.points[i] - s.xyz();
                     let dist = diff.norm();
                     if dist < MIN_DISTANCE_MM {
-                        return Err(ProbeError::Unsolvable(format!(
-                            "point '{}' coincides with station '{}'",
-                            net.point_names[i], net.station_names[st.station_of[e]]
-                        )));
+                        return Err(Unsolvable::PointAtStation {
+                            point: net.point_names[i].clone(),
+                            station: net.station_names[st.station_of[e]].clone(),
+                        }
+                        .into());
                     }
                     let a = diff / dist;
                     let r = dist - s.w - st.l[e];
@@ -284,10 +292,9 @@ pub(super) fn linearise(
                     }
                 }
                 let u_inv = u.cholesky().map(|c| c.inverse()).ok_or_else(|| {
-                    ProbeError::Unsolvable(format!(
-                        "point '{}': the directions to its stations do not span three dimensions",
-                        net.point_names[i]
-                    ))
+                    ProbeError::from(Unsolvable::PointDirectionsFlat {
+                        point: net.point_names[i].clone(),
+                    })
                 })?;
                 let units = &out.unit[first..];
                 let stations = &st.station_of[st.entries(i)];
@@ -390,16 +397,13 @@ pub(super) fn condition(matrix: &DMatrix<f64>) -> f64 {
     if lo > 0.0 { hi / lo } else { f64::INFINITY }
 }
 
-const REDUCED: &str = "the reduced normal matrix of the station unknowns (stations and dead paths \
-                       weakly determined by the layout, or readings in groups that share too few points)";
-
 /// The Gauss–Newton step from a linearisation: station part by Cholesky of
 /// the regularised reduced matrix, point part by back-substitution.
 fn step(st: &Structure, lin: &Linearisation, basis: &DMatrix<f64>) -> Result<State> {
     let reduced = regularised(lin, basis);
     let chol = reduced
         .cholesky()
-        .ok_or_else(|| ProbeError::Unsolvable(format!("{REDUCED} is not positive definite")))?;
+        .ok_or(ProbeError::Unsolvable(Unsolvable::ReducedNotPositive))?;
     let ds = chol.solve(&lin.rhs);
     let stations: Vec<Vector4<f64>> = (0..st.m)
         .map(|j| Vector4::new(ds[4 * j], ds[4 * j + 1], ds[4 * j + 2], ds[4 * j + 3]))
@@ -473,12 +477,10 @@ pub(super) fn check_conditioning(net: &Network, st: &Structure, state: &State) -
     let (i, c) = lin.worst_point;
     if c.is_nan() || c > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: format!(
-                "point '{}': the directions to its {} stations are nearly coplanar \
-                 (stations in a plane with the point)",
-                net.point_names[i],
-                st.entries(i).len()
-            ),
+            what: Conditioning::PointDirections {
+                point: net.point_names[i].clone(),
+                stations: st.entries(i).len(),
+            },
             condition: c,
             limit: CONDITION_LIMIT,
         });
@@ -486,7 +488,7 @@ pub(super) fn check_conditioning(net: &Network, st: &Structure, state: &State) -
     let c = condition(&regularised(&lin, &station_rigid_basis(state)));
     if c.is_nan() || c > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: REDUCED.to_string(),
+            what: Conditioning::ReducedNormal,
             condition: c,
             limit: CONDITION_LIMIT,
         });

@@ -128,7 +128,7 @@ pub struct TracerReport {
 }
 
 /// The datum, as the report states it.
-pub const DATUM: &str = "corrections = estimated − nominal after the least-squares rigid \
+pub(crate) const DATUM: &str = "corrections = estimated − nominal after the least-squares rigid \
                          alignment of the estimated points to the nominal grid (no rigid motion); \
                          length scale from the interferometer";
 

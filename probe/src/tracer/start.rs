@@ -10,7 +10,7 @@ use geom::nalgebra::{DMatrix, DVector, Vector3, Vector4};
 
 use super::normal::Structure;
 use super::{CONDITION_LIMIT, Network};
-use crate::{ProbeError, Result};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Points whose smallest principal spread is below this fraction of the
 /// largest lie in one plane: a station and its mirror image in that plane
@@ -53,19 +53,20 @@ fn station(net: &Network, j: usize, readings: &[(usize, f64)]) -> Result<Vector4
     }
     let s = spread.singular_values();
     if s.min().is_nan() || s.min() <= COPLANAR_RATIO * s.max() {
-        return Err(ProbeError::Unsolvable(format!(
-            "station '{name}' reads {count} points that lie in one plane (principal spreads \
-             {:.3e} and {:.3e} mm): the grid must be three-dimensional, or the station and its \
-             mirror image in that plane fit the readings equally",
-            s.max(),
-            s.min()
-        )));
+        return Err(Unsolvable::StationPlanar {
+            station: name.to_string(),
+            count,
+            largest: s.max(),
+            smallest: s.min(),
+        }
+        .into());
     }
     let norms: Vec<f64> = (0..5).map(|c| design.column(c).norm()).collect();
     if norms.iter().any(|v| v.is_nan() || *v <= 0.0) {
-        return Err(ProbeError::Unsolvable(format!(
-            "station '{name}': all its readings are zero"
-        )));
+        return Err(Unsolvable::StationZero {
+            station: name.to_string(),
+        }
+        .into());
     }
     for (c, v) in norms.iter().enumerate() {
         design.column_mut(c).scale_mut(1.0 / v);
@@ -75,17 +76,20 @@ fn station(net: &Network, j: usize, readings: &[(usize, f64)]) -> Result<Vector4
     let condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
     if condition.is_nan() || condition > CONDITION_LIMIT {
         return Err(ProbeError::IllConditioned {
-            what: format!(
-                "station '{name}': the seed's linearised start from its {count} points \
-                 (its readings do not tell its distance from the grid)"
-            ),
+            what: Conditioning::StationStart {
+                station: name.to_string(),
+                count,
+            },
             condition,
             limit: CONDITION_LIMIT,
         });
     }
     let theta = svd
         .solve(&rhs, 0.0)
-        .map_err(|e| ProbeError::Unsolvable(format!("station '{name}': {e}")))?;
+        .map_err(|reason| Unsolvable::StationStart {
+            station: name.to_string(),
+            reason,
+        })?;
     let p = centroid
         + Vector3::new(
             theta[0] / norms[0],

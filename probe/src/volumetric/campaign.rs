@@ -103,7 +103,7 @@ pub struct CampaignCurves {
 
 /// The world rotation vector (εx, εy, εz) of `axis`'s roll, pitch, yaw
 /// (evaluate's angular convention).
-pub fn rotation_vector(axis: Axis, roll: f64, pitch: f64, yaw: f64) -> Vector3<f64> {
+pub(crate) fn rotation_vector(axis: Axis, roll: f64, pitch: f64, yaw: f64) -> Vector3<f64> {
     match axis {
         Axis::X => Vector3::new(roll, pitch, yaw),
         Axis::Y => Vector3::new(pitch, roll, yaw),
@@ -432,7 +432,7 @@ pub fn from_evaluate(
 
 /// Squareness (§5) from carriage directions in any frame: the §5 frame has x
 /// along a_X and y in the plane of a_X and a_Y.
-pub fn squareness(directions: &BTreeMap<Axis, Vector3<f64>>) -> MeasuredSquareness {
+pub(crate) fn squareness(directions: &BTreeMap<Axis, Vector3<f64>>) -> MeasuredSquareness {
     let (Some(x), Some(y)) = (directions.get(&Axis::X), directions.get(&Axis::Y)) else {
         return MeasuredSquareness::default();
     };

@@ -133,7 +133,7 @@ impl Chain {
 /// The direction `a_j` of axis `j` (unit vector) under `squareness` (§5):
 /// `a_X = (1, 0, 0)`, `a_Y = (−sin EC0Y, cos EC0Y, 0)`,
 /// `a_Z = Ry(EB0Z)·Rx(EA0Z)·(0, 0, 1)`.
-pub fn direction(squareness: &Squareness, axis: Axis) -> Vector3<f64> {
+pub(crate) fn direction(squareness: &Squareness, axis: Axis) -> Vector3<f64> {
     match axis {
         Axis::X => Vector3::x(),
         Axis::Y => Vector3::new(-squareness.ec0y.sin(), squareness.ec0y.cos(), 0.0),
@@ -159,7 +159,7 @@ pub struct Machine<'a> {
 }
 
 /// Carriage positions (mm) indexed by axis X, Y, Z.
-pub type Positions = [f64; 3];
+pub(crate) type Positions = [f64; 3];
 
 impl Machine<'_> {
     /// A machine; fails unless every axis of the chain has error curves and
@@ -306,7 +306,7 @@ impl Machine<'_> {
 
 /// A workpiece point agrees with the tool's fixed coordinate on an axis
 /// outside the chain to this (mm).
-pub const POSITION_TOLERANCE_MM: f64 = 1e-9;
+pub(crate) const POSITION_TOLERANCE_MM: f64 = 1e-9;
 
 fn fmt_point(p: &Vector3<f64>) -> String {
     format!("({}, {}, {})", p.x, p.y, p.z)

@@ -14,7 +14,7 @@ use super::model::{Evaluation, TRAVEL_TOLERANCE_MM};
 use crate::{ProbeError, Result};
 
 /// Angular step of the predicted path (degrees).
-pub const STEP_DEG: usize = 1;
+pub(crate) const STEP_DEG: usize = 1;
 
 /// A circle in the workpiece frame, in the plane XY.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -65,7 +65,7 @@ fn nominal(spec: &CircleSpec, angle_deg: f64) -> Vector3<f64> {
 /// The carriage positions of the whole path, checked against the measured
 /// travel of every axis before anything is predicted: a circle that leaves
 /// it is an error naming `--circle`, the axis and the span it needs.
-pub fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<Positions>> {
+pub(crate) fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<Positions>> {
     if !(spec.radius > 0.0 && spec.radius.is_finite() && spec.centre.iter().all(|c| c.is_finite()))
     {
         return Err(ProbeError::Input {

@@ -15,7 +15,7 @@ use super::curves::{AxisCurves, Motion};
 /// The table of one axis at its measured positions; more than
 /// [`COMP_FILE_MAX_LINES`] positions are thinned to that many, evenly by
 /// index, keeping both ends.
-pub fn table(curves: &AxisCurves) -> Vec<CompLine> {
+pub(crate) fn table(curves: &AxisCurves) -> Vec<CompLine> {
     let n = curves.positions.len();
     let picks: Vec<usize> = if n <= COMP_FILE_MAX_LINES {
         (0..n).collect()
@@ -42,7 +42,7 @@ pub fn table(curves: &AxisCurves) -> Vec<CompLine> {
 }
 
 /// Whether the table of `curves` has separate forward and reverse values.
-pub fn bidirectional(curves: &AxisCurves) -> bool {
+pub(crate) fn bidirectional(curves: &AxisCurves) -> bool {
     curves.positioning_up.is_some() || curves.positioning_down.is_some()
 }
 

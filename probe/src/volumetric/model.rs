@@ -9,13 +9,13 @@ use serde::Serialize;
 
 use super::curves::{AxisCurves, Motion};
 use super::series::{OrderScore, Series, SeriesFit, choose_order};
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, Unsolvable};
 
 /// Default Fourier order N (§5; the polynomial then has degree 6).
 pub const DEFAULT_ORDER: usize = 3;
 /// A position this close outside the measured travel (mm) is its end: the
 /// rounding of positions computed from a circle or a frame, not an extrapolation.
-pub const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
+pub(crate) const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
 
 /// How a curve is evaluated between measured positions (`--model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
@@ -148,7 +148,9 @@ impl AxisModel {
             self.fits[motion.index()]
                 .get(s)
                 .value(q)
-                .ok_or_else(|| ProbeError::Unsolvable(format!("{q} mm outside a fitted travel")))
+                .ok_or(ProbeError::Unsolvable(Unsolvable::OutsideFit {
+                    position_mm: q,
+                }))
         };
         Ok(match how {
             Evaluation::Model(Model::Raw) => raw()?,

@@ -18,7 +18,7 @@ use crate::Result;
 /// Samples drawn along a fitted series.
 const SAMPLES: usize = 240;
 /// The magnified deviation of the polar plot reaches at most this fraction of the radius.
-pub const POLAR_REACH: f64 = 0.2;
+pub(crate) const POLAR_REACH: f64 = 0.2;
 
 /// The plotted unit's label.
 fn unit_label(motion: Motion) -> &'static str {
@@ -26,7 +26,7 @@ fn unit_label(motion: Motion) -> &'static str {
 }
 
 /// One curve: measured points and the raw polyline, the Fourier series and the polynomial.
-pub fn curve(title: &str, axis: &AxisModel, motion: Motion) -> Result<String> {
+pub(crate) fn curve(title: &str, axis: &AxisModel, motion: Motion) -> Result<String> {
     let c = &axis.curves;
     let (_, scale) = unit(motion);
     let measured: Vec<(f64, f64)> = c
@@ -98,7 +98,7 @@ pub fn curve(title: &str, axis: &AxisModel, motion: Motion) -> Result<String> {
 
 /// The magnification of the polar plot: a 1-2-5 step such that the largest
 /// |radial deviation| reaches about [`POLAR_REACH`] of the radius.
-pub fn magnification(radius_mm: f64, largest_mm: f64) -> f64 {
+pub(crate) fn magnification(radius_mm: f64, largest_mm: f64) -> f64 {
     if largest_mm.is_nan() || largest_mm <= 0.0 {
         return 1.0;
     }
@@ -127,7 +127,7 @@ fn circle_series(c: &Circles) -> [(&CirclePrediction, RGBColor, &'static str); 3
 /// The predicted circle as a polar plot: radius R + M·radial deviation, with
 /// the nominal circle; predicted (blue), after Fourier (green) and polynomial
 /// (red) compensation. Returns the SVG and the magnification M.
-pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
+pub(crate) fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
     let r = c.spec.radius;
     let paths = circle_series(c);
     let largest = paths
@@ -223,7 +223,7 @@ pub fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
 }
 
 /// Radial deviation against the angle: predicted and after each compensation.
-pub fn radial(title: &str, c: &Circles) -> Result<String> {
+pub(crate) fn radial(title: &str, c: &Circles) -> Result<String> {
     let series = circle_series(c);
     let ys = series
         .iter()

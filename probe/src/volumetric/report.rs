@@ -330,7 +330,7 @@ pub struct CampaignReport {
 }
 
 /// The curve unit of a motion in reports, and the factor from file units.
-pub fn unit(motion: Motion) -> (&'static str, f64) {
+pub(crate) fn unit(motion: Motion) -> (&'static str, f64) {
     if motion.is_rotation() {
         ("urad", URAD)
     } else {
@@ -515,7 +515,7 @@ impl Report {
 }
 
 /// The conventions written into every report.
-pub fn conventions() -> Vec<String> {
+pub(crate) fn conventions() -> Vec<String> {
     [
         "docs/probe-volumetric.md: error motions of each carriage relative to the body it rides on, translations along and rotations about the machine X, Y, Z, rotations about the machine origin carried by the carriage",
         "T_j(q) = Trans(q·a_j + δ_j(q))·Rot(ε_j(q)), Rot by Rodrigues' formula; a_X = (1,0,0), a_Y = (−sin EC0Y, cos EC0Y, 0), a_Z = Ry(EB0Z)·Rx(EA0Z)·(0,0,1)",

@@ -7,15 +7,15 @@
 use geom::nalgebra::{DMatrix, DVector, SVD};
 use serde::Serialize;
 
-use crate::{ProbeError, Result};
+use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
 /// Largest condition number (largest over smallest singular value of the
 /// design matrix with unit-norm columns) accepted for a fit: beyond it the
 /// positions do not determine the coefficients (e.g. 2N + 1 equally spaced
 /// positions over one period give the Fourier series only 2N distinct phases).
-pub const MAX_CONDITION: f64 = 1e10;
+pub(crate) const MAX_CONDITION: f64 = 1e10;
 /// Largest order N tried by `--order auto`.
-pub const MAX_AUTO_ORDER: usize = 10;
+pub(crate) const MAX_AUTO_ORDER: usize = 10;
 /// `--order auto` tries an order only with at least this many points per
 /// coefficient: a fit that nearly interpolates leaves cross-validation a
 /// handful of points of its own and picks noise.
@@ -148,7 +148,9 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
         .any(|s| s.is_nan() || *s <= ZERO_COLUMN * (n as f64).sqrt())
     {
         return Err(ProbeError::IllConditioned {
-            what: format!("{what} (a basis function vanishes at every position)"),
+            what: Conditioning::VanishingBasis {
+                fit: what.to_string(),
+            },
             condition: f64::INFINITY,
             limit: MAX_CONDITION,
         });
@@ -179,7 +181,9 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
     };
     if condition.is_nan() || condition > MAX_CONDITION {
         return Err(ProbeError::IllConditioned {
-            what: what.to_string(),
+            what: Conditioning::CurveFit {
+                fit: what.to_string(),
+            },
             condition,
             limit: MAX_CONDITION,
         });
@@ -189,7 +193,9 @@ fn solve(design: DMatrix<f64>, values: &[f64], what: &str) -> Result<Solution> {
     let b = DVector::from_column_slice(values);
     let x = r
         .solve_upper_triangular(&(q.transpose() * &b))
-        .ok_or_else(|| ProbeError::Unsolvable(format!("{what}: singular triangular factor")))?;
+        .ok_or_else(|| Unsolvable::SingularFactor {
+            fit: what.to_string(),
+        })?;
     let coefficients = DVector::from_iterator(k, (0..k).map(|j| x[j] / scales[j]));
     let fitted = &design * &coefficients;
     let residuals = (0..n).map(|i| values[i] - fitted[i]).collect();
@@ -298,7 +304,7 @@ pub struct OrderScore {
 /// least [`POINTS_PER_COEFFICIENT`] points per coefficient that the points
 /// determine) and the best order: the smallest RMSE, the lower order on a
 /// tie. Fails when no order can be cross-validated.
-pub fn choose_order(
+pub(crate) fn choose_order(
     series: Series,
     positions: &[f64],
     values: &[f64],

@@ -12,7 +12,7 @@ use formats::probe::indexing::{CentreRow, IndexingRow, read_centres};
 use probe::indexing::{self as method, Position, layout};
 use synth::probe::indexing::{DEFAULT_TOML, IndexingConfig, generate};
 
-use crate::cmd::{OrUsage, Usage};
+use crate::cmd::OrUsage;
 
 /// Arguments of `trinocular probe indexing`.
 #[derive(Debug, clap::Args)]
@@ -192,16 +192,15 @@ pub fn run(args: &Args) -> Result<()> {
 
 /// Run the generator.
 pub fn synth(args: &SynthArgs) -> Result<()> {
-    if args.print_config {
-        print!("{DEFAULT_TOML}");
+    let Some((out, mut config)) = super::synth_start(
+        args.print_config,
+        DEFAULT_TOML,
+        &args.out,
+        &args.config,
+        |path| Ok(IndexingConfig::from_file(path)?),
+    )?
+    else {
         return Ok(());
-    }
-    let Some(out) = &args.out else {
-        return Err(Usage::error("--out DIR is required"));
-    };
-    let mut config = match &args.config {
-        Some(path) => IndexingConfig::from_file(path)?,
-        None => IndexingConfig::default(),
     };
     config.seed = args.seed.unwrap_or(config.seed);
     config.a_max_deg = args.a_max.unwrap_or(config.a_max_deg);

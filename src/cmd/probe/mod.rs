@@ -102,3 +102,27 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         SynthMethod::Volumetric(a) => volumetric::synth(a),
     }
 }
+
+/// The start of a `synth probe …` run: `None` when `--print-config` printed
+/// the default configuration `default_toml`; else the output folder and the
+/// configuration, `--config`'s (read by `read`) or the default.
+fn synth_start<'a, C: Default>(
+    print_config: bool,
+    default_toml: &str,
+    out: &'a Option<PathBuf>,
+    config: &Option<PathBuf>,
+    read: impl FnOnce(&Path) -> Result<C>,
+) -> Result<Option<(&'a Path, C)>> {
+    if print_config {
+        print!("{default_toml}");
+        return Ok(None);
+    }
+    let Some(out) = out else {
+        return Err(crate::cmd::Usage::error("--out DIR is required"));
+    };
+    let config = match config {
+        Some(path) => read(path)?,
+        None => C::default(),
+    };
+    Ok(Some((out, config)))
+}

@@ -15,9 +15,9 @@ use anyhow::{Result, anyhow};
 use formats::probe::rotary::{
     CentreRow, ErrorRow, RotaryInput, SphereFitRow, read_centres, read_points,
 };
-use probe::ProbeError;
 use probe::rotary::report::Report;
 use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
+use probe::{CentreFault, ProbeError};
 use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
 
 use crate::cmd::{OrUsage, Usage};
@@ -89,23 +89,21 @@ fn line_span(lines: &[u64]) -> String {
 /// A method error with the file, and the line where it is about one centre.
 fn located(e: ProbeError, input: &RotaryInput) -> anyhow::Error {
     let path = input.path.display();
-    if let ProbeError::Input { what, message } = &e {
-        for b in &input.balls {
-            for a in &input.angles_deg {
-                if *what == probe::rotary::centre_label(&b.name, *a) {
-                    let lines = input.lines(&b.name, *a);
-                    // A sphere fit fails on the points' values; anything else on the angle.
-                    let column = if message.starts_with("sphere fit") {
-                        "x"
-                    } else {
-                        "angle_deg"
-                    };
-                    return anyhow!(
-                        "{path}: {}, column '{column}': {what}: {message}",
-                        line_span(&lines)
-                    );
-                }
-            }
+    if let ProbeError::Centre {
+        ball,
+        angle_deg,
+        fault,
+    } = &e
+    {
+        let lines = input.lines(ball, *angle_deg);
+        if !lines.is_empty() {
+            // A sphere fit fails on the points' values; anything else on the angle.
+            let column = if matches!(fault, CentreFault::SphereFit(_)) {
+                "x"
+            } else {
+                "angle_deg"
+            };
+            return anyhow!("{path}: {}, column '{column}': {e}", line_span(&lines));
         }
     }
     anyhow!("{path}: {e}")
@@ -194,7 +192,7 @@ pub fn run(args: &Args) -> Result<()> {
         |n| n.to_string_lossy().into_owned(),
     );
     let report = Report::new(&solution, &source, &at);
-    let html = probe::rotary::html::render(&report)?;
+    let html = probe::rotary::html(&report)?;
 
     let mut names = vec!["rotary.csv", "report.json", "report.html"];
     if !at.is_empty() {
@@ -257,16 +255,15 @@ pub fn run(args: &Args) -> Result<()> {
 
 /// Run the generator and write its files.
 pub fn synth(args: &SynthArgs) -> Result<()> {
-    if args.print_config {
-        print!("{DEFAULT_TOML}");
+    let Some((out, mut config)) = super::synth_start(
+        args.print_config,
+        DEFAULT_TOML,
+        &args.out,
+        &args.config,
+        |path| Ok(RotaryConfig::from_file(path)?),
+    )?
+    else {
         return Ok(());
-    }
-    let Some(out) = &args.out else {
-        return Err(Usage::error("--out is required"));
-    };
-    let mut config = match &args.config {
-        Some(path) => RotaryConfig::from_file(path)?,
-        None => RotaryConfig::default(),
     };
     if let Some(s) = args.seed {
         config.seed = s;

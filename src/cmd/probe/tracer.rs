@@ -108,16 +108,14 @@ fn check_query(
     let zeros = vec![geom::Vector3::zeros(); net.points.len()];
     let lattice =
         CorrectionGrid::new(&net.points, &net.point_names, &zeros).map_err(|e| match e {
-            ProbeError::NotLattice {
-                point: Some(i),
-                axis,
-                ref message,
-            } => anyhow::Error::new(FormatError::Row {
-                path: grid_path.to_path_buf(),
-                line: grid.rows[i].line,
-                column: axis.map(|a| AXES[a].to_string()),
-                message: format!("--query needs a lattice grid: {message}"),
-            }),
+            ProbeError::NotLattice(ref fault) if let Some(i) = fault.point() => {
+                anyhow::Error::new(FormatError::Row {
+                    path: grid_path.to_path_buf(),
+                    line: grid.rows[i].line,
+                    column: fault.axis().map(|a| AXES[a].to_string()),
+                    message: format!("--query needs a lattice grid: {fault}"),
+                })
+            }
             other => anyhow::anyhow!(
                 "{}: --query needs a lattice grid: {other}",
                 grid_path.display()

@@ -167,10 +167,8 @@ pub fn run(args: &Args) -> Result<()> {
                     m.axis
                 );
             }
-            let coefficients = order_n
-                .map_or(probe::volumetric::series::POINTS_PER_COEFFICIENT * 3, |n| {
-                    2 * n + 1
-                });
+            let coefficients =
+                order_n.map_or(probe::volumetric::POINTS_PER_COEFFICIENT * 3, |n| 2 * n + 1);
             if m.positions.len() < coefficients {
                 bail!(
                     "{}: lines {first}–{last}, axis {}: {} points, fewer than the {coefficients} coefficients {}",
@@ -240,7 +238,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let analysis = analyse(curves, &setup, campaign_curves.as_ref())
         .with_context(|| format!("volumetric model from {}", setup.source))?;
-    let page = html::render(&analysis)?;
+    let page = html(&analysis)?;
 
     // Outputs: refuse before writing anything.
     let out = &args.out;
