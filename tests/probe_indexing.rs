@@ -6,12 +6,12 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod probe_common;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use probe_common::{kept_unless_forced, ok, refused, s, trinocular};
+use common::{kept_unless_forced, ok_stdout, one_line_refusal, s, trinocular};
 
 /// `trinocular probe indexing --centres CENTRES --out OUT EXTRA…`.
 fn probe(centres: &Path, out: &Path, extra: &[&str]) -> Output {
@@ -35,7 +35,7 @@ fn synth(args: &[&str]) -> Output {
 }
 
 fn testdata(name: &str) -> PathBuf {
-    probe_common::testdata("indexing", name)
+    common::probe_data("indexing", name)
 }
 
 /// The centres of the check data with `edit` applied to its data lines
@@ -53,14 +53,14 @@ fn edited(dir: &Path, name: &str, edit: impl Fn(&mut Vec<String>)) -> PathBuf {
 fn synth_then_probe_follows_the_contract() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("d");
-    let out = ok(&synth(&["--out", s(&data), "--seed", "5"]));
+    let out = ok_stdout(&synth(&["--out", s(&data), "--seed", "5"]));
     assert!(out.contains("720 positions"), "{out}");
     for f in ["centres.csv", "truth.json"] {
         assert!(data.join(f).is_file(), "{f}");
     }
     let report = dir.path().join("r");
     let centres = data.join("centres.csv");
-    let out = ok(&probe(
+    let out = ok_stdout(&probe(
         &centres,
         &report,
         &["--nominal-radius", "117", "--tolerance", "3"],
@@ -116,7 +116,7 @@ fn synth_then_probe_follows_the_contract() {
 fn check_data_through_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    ok(&probe(&testdata("centres.csv"), &out, &[]));
+    ok_stdout(&probe(&testdata("centres.csv"), &out, &[]));
     let mut got = csv::Reader::from_path(out.join("indexing.csv")).unwrap();
     let mut want = csv::Reader::from_path(testdata("expected_indexing.csv")).unwrap();
     for (g, w) in got.records().zip(want.records()) {
@@ -148,8 +148,8 @@ fn outputs_are_kept_unless_forced() {
     assert!(e.contains("already exists"), "{e}");
 
     let data = dir.path().join("d");
-    ok(&synth(&["--out", s(&data)]));
-    let e = refused(&synth(&["--out", s(&data)]));
+    ok_stdout(&synth(&["--out", s(&data)]));
+    let e = one_line_refusal(&synth(&["--out", s(&data)]));
     assert!(e.contains("already exists"), "{e}");
 }
 
@@ -158,7 +158,7 @@ fn an_input_is_never_overwritten() {
     let dir = tempfile::tempdir().unwrap();
     let centres = dir.path().join("indexing.csv");
     std::fs::copy(testdata("centres.csv"), &centres).unwrap();
-    let e = refused(&probe(&centres, dir.path(), &["--force"]));
+    let e = one_line_refusal(&probe(&centres, dir.path(), &["--force"]));
     assert!(e.contains("overwrite an input"), "{e}");
     assert_eq!(
         std::fs::read(&centres).unwrap(),
@@ -258,7 +258,7 @@ fn bad_input_names_file_line_and_column() {
             "out-{}",
             file.file_stem().unwrap().to_str().unwrap()
         ));
-        let e = refused(&probe(&file, &out, &[]));
+        let e = one_line_refusal(&probe(&file, &out, &[]));
         for w in wants {
             assert!(e.contains(w), "{}: '{w}' missing from {e}", file.display());
         }
@@ -284,7 +284,7 @@ fn usage_errors_exit_2_and_options_are_checked() {
 
 #[test]
 fn synth_config_is_printed_read_and_checked() {
-    let text = ok(&synth(&["--print-config"]));
+    let text = ok_stdout(&synth(&["--print-config"]));
     assert!(text.contains("b_step_deg = 7.5") && text.contains("[a_errors]"));
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("head.toml");
@@ -294,15 +294,15 @@ fn synth_config_is_printed_read_and_checked() {
     )
     .unwrap();
     let data = dir.path().join("d");
-    let out = ok(&synth(&["--config", s(&config), "--out", s(&data)]));
+    let out = ok_stdout(&synth(&["--config", s(&config), "--out", s(&data)]));
     assert!(out.contains("120 positions"), "{out}");
-    ok(&probe(
+    ok_stdout(&probe(
         &data.join("centres.csv"),
         &dir.path().join("r"),
         &[],
     ));
     std::fs::write(&config, "b_step_deg = 7\n").unwrap();
-    let e = refused(&synth(&[
+    let e = one_line_refusal(&synth(&[
         "--config",
         s(&config),
         "--out",

@@ -7,14 +7,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod probe_common;
+mod common;
 
 use std::path::PathBuf;
 
-use probe_common::{failure, kept_unless_forced, ok, s, trinocular};
+use common::{failure, kept_unless_forced, ok_stdout, s, trinocular};
 
 fn testdata(name: &str) -> PathBuf {
-    probe_common::testdata("rotary", name)
+    common::probe_data("rotary", name)
 }
 
 /// Run the method (`flag`: `--centres` or `--points`) on the check data's
@@ -64,7 +64,7 @@ fn each_row(text: &str, f: impl Fn(&[&str]) -> Option<String>) -> String {
 fn centres_give_the_contract_outputs() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    let stdout = ok(&trinocular(&[
+    let stdout = ok_stdout(&trinocular(&[
         "probe",
         "rotary",
         "--centres",
@@ -137,7 +137,7 @@ fn centres_give_the_contract_outputs() {
 fn probed_points_give_sphere_fits_too() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "probe",
         "rotary",
         "--points",
@@ -149,7 +149,7 @@ fn probed_points_give_sphere_fits_too() {
     assert!(spheres.starts_with("ball,angle_deg,x,y,z,radius,rms_residual,max_residual,points\n"));
     assert_eq!(spheres.lines().count(), 1 + 36);
     // spheres.csv is a centres file: the method runs on it.
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "probe",
         "rotary",
         "--centres",
@@ -378,7 +378,7 @@ fn clockwise_angles_name_the_line() {
 fn synth_then_method_recovers_the_truth() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("d");
-    let stdout = ok(&trinocular(&[
+    let stdout = ok_stdout(&trinocular(&[
         "synth",
         "probe",
         "rotary",
@@ -403,7 +403,7 @@ fn synth_then_method_recovers_the_truth() {
     ]));
     assert_eq!(code, 1);
     let again = dir.path().join("again");
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "synth",
         "probe",
         "rotary",
@@ -417,7 +417,7 @@ fn synth_then_method_recovers_the_truth() {
         std::fs::read(again.join("points.csv")).unwrap()
     );
     let out = dir.path().join("r");
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "probe",
         "rotary",
         "--points",
@@ -440,6 +440,6 @@ fn synth_then_method_recovers_the_truth() {
         let want = truth["location"][key].as_f64().unwrap();
         assert!((got - want).abs() < tol, "{key}: {got} vs {want}");
     }
-    let printed = ok(&trinocular(&["synth", "probe", "rotary", "--print-config"]));
+    let printed = ok_stdout(&trinocular(&["synth", "probe", "rotary", "--print-config"]));
     assert!(printed.contains("[location]") && printed.contains("step_deg = 30.0"));
 }

@@ -5,15 +5,15 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod probe_common;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use probe_common::{failure, s, trinocular};
+use common::{failure, s, trinocular};
 
 fn testdata(name: &str) -> PathBuf {
-    probe_common::testdata("tracer", name)
+    common::probe_data("tracer", name)
 }
 
 /// Stderr of a failed run with exit status `status`: one line starting with the program name.

@@ -8,18 +8,18 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod probe_common;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
+use common::{failure, kept_unless_forced, ok_stdout, s, trinocular};
 use geom::Vector3;
 use geom::nalgebra::{DMatrix, DVector};
-use probe_common::{failure, kept_unless_forced, ok, s, trinocular};
 use serde_json::Value;
 
 fn check_data(name: &str) -> PathBuf {
-    probe_common::testdata("volumetric", name)
+    common::probe_data("volumetric", name)
 }
 
 fn read_json(p: &Path) -> Value {
@@ -84,7 +84,7 @@ fn csv_rows(p: &Path) -> (Vec<String>, Vec<Vec<String>>) {
 fn check_data_through_the_binary_keeps_the_contract() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    let stdout = ok(&run_check(&out, &[]));
+    let stdout = ok_stdout(&run_check(&out, &[]));
     assert!(stdout.contains("circular deviation 7.560 µm"), "{stdout}");
     for f in [
         "report.json",
@@ -152,7 +152,7 @@ fn check_data_through_the_binary_keeps_the_contract() {
     }
     // The same with --model fourier, into a second folder.
     let out2 = dir.path().join("f");
-    ok(&run_check(&out2, &["--model", "fourier"]));
+    ok_stdout(&run_check(&out2, &["--model", "fourier"]));
     let report = read_json(&out2.join("report.json"));
     for key in ["radial_range_um", "circular_deviation_um"] {
         let (g, w) = (
@@ -198,7 +198,7 @@ fn check_comp_file(path: &Path) -> Vec<[f64; 3]> {
 fn compensation_files_follow_the_linuxcnc_format() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("d");
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "synth",
         "probe",
         "volumetric",
@@ -206,7 +206,7 @@ fn compensation_files_follow_the_linuxcnc_format() {
         s(&data),
     ]));
     let out = dir.path().join("r");
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "probe",
         "volumetric",
         "--errors",
@@ -493,7 +493,7 @@ fn from_report(report_dir: &Path, errors: &Value, out: &Path) -> (Vec<Compared>,
     }
     std::fs::write(&at, text).unwrap();
     let tool = format!("{},{},{}", TOOL[0], TOOL[1], TOOL[2]);
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "probe",
         "volumetric",
         "--from-report",
@@ -548,7 +548,7 @@ fn from_report_on_exact_positions_follows_the_conventions() {
     // default configuration with those three keys zeroed), evaluated by
     // `trinocular evaluate`. 11 targets: x = 0 and y = 0 are targets.
     let dir = tempfile::tempdir().unwrap();
-    let config = ok(&trinocular(&["synth", "config"]))
+    let config = ok_stdout(&trinocular(&["synth", "config"]))
         .lines()
         .map(|l| {
             let key = l.split('=').next().unwrap_or("").trim();
@@ -573,7 +573,7 @@ fn from_report_on_exact_positions_follows_the_conventions() {
     let toml = dir.path().join("exact.toml");
     std::fs::write(&toml, config).unwrap();
     let campaign = dir.path().join("campaign");
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "synth",
         "campaign",
         "--config",
@@ -592,7 +592,7 @@ fn from_report_on_exact_positions_follows_the_conventions() {
         s(&campaign),
     ]));
     let eval = dir.path().join("eval");
-    ok(&trinocular(&[
+    ok_stdout(&trinocular(&[
         "evaluate",
         "--points",
         s(&campaign.join("truth_points.csv")),
@@ -683,7 +683,7 @@ fn from_report_on_exact_positions_follows_the_conventions() {
 fn from_report_on_a_demo_campaign_agrees_within_its_accuracy() {
     let dir = tempfile::tempdir().unwrap();
     let demo = dir.path().join("demo");
-    ok(&trinocular(&["demo", "--out", s(&demo)]));
+    ok_stdout(&trinocular(&["demo", "--out", s(&demo)]));
     let truth = read_json(&demo.join("campaign/truth.json"));
     let (rows, out) = from_report(
         &demo.join("report"),

@@ -28,6 +28,11 @@ pub fn testdata(rel: &str) -> PathBuf {
         .join(rel)
 }
 
+/// A file of a probe method's check data, `testdata/probe/METHOD/NAME`.
+pub fn probe_data(method: &str, name: &str) -> PathBuf {
+    testdata("probe").join(method).join(name)
+}
+
 /// The bytes of a file; a missing one fails the test with its name.
 pub fn read(p: &Path) -> Vec<u8> {
     std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
@@ -36,6 +41,12 @@ pub fn read(p: &Path) -> Vec<u8> {
 /// Stderr as text.
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Stdout of a run that must succeed.
+pub fn ok_stdout(out: &Output) -> String {
+    ok(out);
+    String::from_utf8(out.stdout.clone()).unwrap()
 }
 
 /// A successful run; returns its stderr.
@@ -51,16 +62,28 @@ pub fn ok(out: &Output) -> String {
 }
 
 /// A failed run whose stderr is exactly one line starting with the program
-/// name; returns that line.
-pub fn one_line_error(out: &Output) -> String {
+/// name: its exit status and that line.
+pub fn failure(out: &Output) -> (i32, String) {
     assert!(
         !out.status.success(),
-        "expected failure, got {:?}",
-        out.status
+        "expected failure: {}",
+        String::from_utf8_lossy(&out.stdout)
     );
     let err = stderr(out);
     assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err:?}");
     assert!(err.starts_with("trinocular: error: "), "{err:?}");
+    (out.status.code().unwrap(), err)
+}
+
+/// The line of a failed run ([`failure`]).
+pub fn one_line_error(out: &Output) -> String {
+    failure(out).1
+}
+
+/// The line of a run refused with exit status 1 ([`failure`]).
+pub fn one_line_refusal(out: &Output) -> String {
+    let (code, err) = failure(out);
+    assert_eq!(code, 1, "{err}");
     err
 }
 
@@ -135,4 +158,19 @@ pub fn write_true_rig(c: &Path, rig: &Path) -> formats::Truth {
         .collect();
     formats::write_json(rig, &formats::Rig { cameras }).unwrap();
     truth
+}
+
+/// `args` run, run again and refused (exit status 1, one line that names
+/// `--force`), then run with `--force`: `written` as before. Returns the
+/// refusal.
+pub fn kept_unless_forced(args: &[&str], written: &Path) -> String {
+    ok(&trinocular(args));
+    let before = read(written);
+    let err = one_line_refusal(&trinocular(args));
+    assert!(err.contains("--force"), "{err}");
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    ok(&trinocular(&forced));
+    assert_eq!(read(written), before, "same input, same output");
+    err
 }
