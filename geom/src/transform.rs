@@ -52,6 +52,19 @@ impl SmallError {
         epsilon: Vector3::new(0.0, 0.0, 0.0),
     };
 
+    /// The six components `[δx, δy, δz, εx, εy, εz]` (mm, rad), the order of
+    /// [`SmallError::design_rows`]' columns.
+    pub fn components(&self) -> [f64; 6] {
+        [
+            self.delta.x,
+            self.delta.y,
+            self.delta.z,
+            self.epsilon.x,
+            self.epsilon.y,
+            self.epsilon.z,
+        ]
+    }
+
     /// Displacement `δ + ε × p` of a point.
     pub fn displacement(&self, p: &Point3<f64>) -> Vector3<f64> {
         self.delta + self.epsilon.cross(&p.coords)
@@ -230,14 +243,7 @@ mod tests {
         // Second-order term ≈ |ε|²·|p| ≈ 1.4e-9·120 mm.
         assert!((exact - e.apply(&p)).norm() < 1e-6);
         let rows = SmallError::design_rows(&p);
-        let x = [
-            e.delta.x,
-            e.delta.y,
-            e.delta.z,
-            e.epsilon.x,
-            e.epsilon.y,
-            e.epsilon.z,
-        ];
+        let x = e.components();
         let d = e.displacement(&p);
         for i in 0..3 {
             let lin: f64 = rows[i].iter().zip(&x).map(|(a, b)| a * b).sum();

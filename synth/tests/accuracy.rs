@@ -67,17 +67,7 @@ fn quantised_frame_centroid_is_the_ellipse_centre() {
     let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, None).unwrap();
     for (sphere, signal) in s.iter().zip(&signals) {
         let sig = signal.as_ref().unwrap();
-        let mut sum = Vector2::zeros();
-        let mut total = 0.0;
-        for r in 0..sig.height as i64 {
-            for c in 0..sig.width as i64 {
-                let (u, v) = (sig.x0 + c, sig.y0 + r);
-                let f = f64::from(img.get_pixel(u as u32, v as u32).0[0]) - cam.sensor.offset_dn;
-                sum += Vector2::new(u as f64, v as f64) * f;
-                total += f;
-            }
-        }
-        let c = sum / total;
+        let c = common::window_centroid(&img, sig, cam.sensor.offset_dn);
         let e = ellipse_centre_px(&cam.camera, sphere).unwrap();
         let err = (c - e.coords).norm();
         eprintln!(

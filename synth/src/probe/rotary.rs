@@ -514,15 +514,7 @@ pub fn generate(config: &RotaryConfig) -> Result<RotaryData> {
         let q = motion
             * home.inverse()
             * Isometry3::from_parts(Translation3::identity(), ideal.inverse());
-        let e = SmallError::from_isometry(&q);
-        let six = [
-            e.delta.x,
-            e.delta.y,
-            e.delta.z,
-            e.epsilon.x,
-            e.epsilon.y,
-            e.epsilon.z,
-        ];
+        let six = SmallError::from_isometry(&q).components();
         let fixed = config.fixed_axis(a);
         components.push(std::array::from_fn(|k| six[k] - fixed[k]));
         truth_mm_rad.push(six);

@@ -2,8 +2,8 @@
 //! spheres far off its axis.
 
 use geom::Distortion;
-use geom::nalgebra::Point3;
-use synth::{Config, Image16, NoiseKey, Sphere, SynthCamera, SynthRig};
+use geom::nalgebra::{Point3, Vector2};
+use synth::{Config, Image16, NoiseKey, Signal, Sphere, SynthCamera, SynthRig};
 
 /// The seed camera 3 (true model of the default config), optionally without
 /// distortion; its relative illumination as the default config gives it.
@@ -50,4 +50,19 @@ pub fn noise_free_frame(cam: &mut SynthCamera, spheres: &[Sphere]) -> Image16 {
         camera: 3,
     };
     cam.render(spheres, key, 4).unwrap()
+}
+
+/// The gray centroid (px) of `img` over a sphere's signal window, the
+/// sensor offset `offset_dn` removed.
+pub fn window_centroid(img: &Image16, sig: &Signal, offset_dn: f64) -> Vector2<f64> {
+    let (mut sum, mut total) = (Vector2::zeros(), 0.0);
+    for r in 0..sig.height as i64 {
+        for c in 0..sig.width as i64 {
+            let (u, v) = (sig.x0 + c, sig.y0 + r);
+            let f = f64::from(img.get_pixel(u as u32, v as u32).0[0]) - offset_dn;
+            sum += Vector2::new(u as f64, v as f64) * f;
+            total += f;
+        }
+    }
+    sum / total
 }
