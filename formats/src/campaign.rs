@@ -127,6 +127,18 @@ pub struct InstantKey {
     pub nominal_bits: [u64; 3],
 }
 
+/// `X + run 1 target 0 capture 1 at (−75, 0, 0)`: how messages name an instant.
+impl std::fmt::Display for InstantKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [x, y, z] = self.nominal();
+        write!(
+            f,
+            "{} {} run {} target {} capture {} at ({x}, {y}, {z})",
+            self.axis, self.direction, self.run, self.target, self.capture
+        )
+    }
+}
+
 impl InstantKey {
     /// The key of (axis, direction), [run, target, capture] and the commanded
     /// position (mm), compared bit for bit.

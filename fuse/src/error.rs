@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use formats::InstantKey;
 use thiserror::Error;
 
 /// Why a measurement could not be made or started.
@@ -11,12 +12,12 @@ pub enum FuseError {
     #[error(transparent)]
     Format(#[from] formats::FormatError),
     /// The inputs do not describe a campaign that can be measured; every problem found is listed.
-    #[error("{} cannot be measured ({} problem{}): {}", manifest.display(), problems.len(), if problems.len() == 1 { "" } else { "s" }, problems.join("; "))]
+    #[error("{} cannot be measured ({} problem{}): {}", manifest.display(), problems.len(), if problems.len() == 1 { "" } else { "s" }, joined(problems))]
     Campaign {
         /// The manifest.
         manifest: PathBuf,
         /// Every problem found, each naming its row or file.
-        problems: Vec<String>,
+        problems: Vec<CampaignProblem>,
     },
     /// A partial output belongs to a different run.
     #[error("{}: partial output of a run with other inputs or options; give --force to discard it and start afresh", .0.display())]
@@ -88,6 +89,106 @@ impl FuseError {
     pub fn geometry(what: &'static str, source: geom::GeomError) -> Self {
         Self::Geometry { what, source }
     }
+}
+
+/// One reason a campaign cannot be measured, naming its manifest line or file.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CampaignProblem {
+    /// The sphere set cannot be told apart by size (formats' check).
+    #[error("spheres: {0}")]
+    Spheres(String),
+    /// An empty manifest.
+    #[error("the manifest has no rows")]
+    NoRows,
+    /// A row names a camera the rig does not have.
+    #[error("line {line}: camera {camera} is not in the rig")]
+    UnknownCamera {
+        /// Manifest line.
+        line: u64,
+        /// Camera number.
+        camera: u8,
+    },
+    /// A row's image file does not exist.
+    #[error("line {line}: image {} not found", path.display())]
+    ImageMissing {
+        /// Manifest line.
+        line: u64,
+        /// The image.
+        path: PathBuf,
+    },
+    /// One file given as the image of two frames.
+    #[error(
+        "line {line}: image {} is also the image of camera {camera} for {instant} (line {first_line}): one file cannot be two frames",
+        path.display()
+    )]
+    OneFileTwoFrames {
+        /// Manifest line.
+        line: u64,
+        /// The image.
+        path: PathBuf,
+        /// Camera of the first row that gave it.
+        camera: u8,
+        /// Instant of the first row that gave it.
+        instant: InstantKey,
+        /// Line of that row.
+        first_line: u64,
+    },
+    /// A camera with two images of one instant.
+    #[error("line {line}: camera {camera} already has an image for {instant} (line {first_line})")]
+    CameraTwice {
+        /// Manifest line.
+        line: u64,
+        /// Camera number.
+        camera: u8,
+        /// The instant.
+        instant: InstantKey,
+        /// Line of its first image.
+        first_line: u64,
+    },
+    /// The cameras of an instant give different nominal positions.
+    #[error(
+        "line {line}: cameras disagree on the nominal position of {instant}: camera {camera} (line {other_line}) has {other_nominal:?}"
+    )]
+    NominalDisagrees {
+        /// Manifest line of the instant's first image.
+        line: u64,
+        /// The instant.
+        instant: InstantKey,
+        /// The camera that disagrees.
+        camera: u8,
+        /// Its line.
+        other_line: u64,
+        /// The nominal position it gives (mm).
+        other_nominal: [f64; 3],
+    },
+    /// An instant lacks the image of a camera its motion needs.
+    #[error(
+        "line {line}: {instant} has no image of camera {camera} (needed for {} motion)",
+        instant.axis
+    )]
+    MissingCamera {
+        /// Manifest line of the instant's first image.
+        line: u64,
+        /// The instant.
+        instant: InstantKey,
+        /// The missing camera.
+        camera: u8,
+    },
+    /// Fewer than two cameras of the rig can see the instant's motion.
+    #[error("{instant}: fewer than two cameras of the rig can measure {} motion", instant.axis)]
+    TooFewCameras {
+        /// The instant.
+        instant: InstantKey,
+    },
+}
+
+/// The problems of a campaign, `; `-separated.
+fn joined(problems: &[CampaignProblem]) -> String {
+    problems
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// Result alias for `fuse`.

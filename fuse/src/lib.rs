@@ -46,7 +46,7 @@ mod plausibility;
 mod pose;
 mod triangulate;
 
-pub use error::{FuseError, Result};
+pub use error::{CampaignProblem, FuseError, Result};
 pub use measure::{Fusion, Inputs, MeasureOptions, SPHERE_LAYOUT_MM, Summary, measure};
 pub use plan::RigModel;
 pub use plausibility::ResidualGate;

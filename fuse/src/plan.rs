@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use formats::{Axis, InstantKey, LineKey, ManifestRow, Row, SphereRow, read_csv};
 use geom::{Camera, Illumination, Point3, Vector3};
 
-use crate::{FuseError, Result};
+use crate::{CampaignProblem, FuseError, Result};
 
 /// One instant to measure: its key and one image per camera.
 #[derive(Debug, Clone, PartialEq)]
@@ -23,15 +23,6 @@ pub struct InstantPlan {
     pub line: LineKey,
     /// Camera id → image path (resolved against the manifest's folder).
     pub images: BTreeMap<u8, PathBuf>,
-}
-
-/// `X + run 2 target 7 capture 1 at (21, 0, 0)`.
-pub fn describe(k: &InstantKey) -> String {
-    let [x, y, z] = k.nominal();
-    format!(
-        "{} {} run {} target {} capture {} at ({x}, {y}, {z})",
-        k.axis, k.direction, k.run, k.target, k.capture
-    )
 }
 
 /// The calibrated rig as the measurement uses it.
@@ -136,10 +127,10 @@ pub fn plan(
     if let Err((_, _, message)) =
         formats::check_sphere_set(spheres.iter().map(|s| (s.name.as_str(), s.diameter)))
     {
-        problems.push(format!("spheres: {message}"));
+        problems.push(CampaignProblem::Spheres(message));
     }
     if rows.is_empty() {
-        problems.push("the manifest has no rows".into());
+        problems.push(CampaignProblem::NoRows);
     }
 
     // Instant → camera → (line, image); and key-without-nominal groups for consistency.
@@ -150,30 +141,30 @@ pub fn plan(
     for r in &rows {
         let m = &r.record;
         if !rig.cameras.contains_key(&m.camera) {
-            problems.push(format!(
-                "line {}: camera {} is not in the rig",
-                r.line, m.camera
-            ));
+            problems.push(CampaignProblem::UnknownCamera {
+                line: r.line,
+                camera: m.camera,
+            });
             continue;
         }
         let path = base.join(&m.image);
         if !path.is_file() {
-            problems.push(format!(
-                "line {}: image {} not found",
-                r.line,
-                path.display()
-            ));
+            problems.push(CampaignProblem::ImageMissing {
+                line: r.line,
+                path: path.clone(),
+            });
         }
         let key = m.instant();
         let file = std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone());
         if let Some((line, camera, instant)) = frames.get(&file) {
             if (*camera, *instant) != (m.camera, key) {
-                problems.push(format!(
-                    "line {}: image {} is also the image of camera {camera} for {} (line {line}): one file cannot be two frames",
-                    r.line,
-                    path.display(),
-                    describe(instant)
-                ));
+                problems.push(CampaignProblem::OneFileTwoFrames {
+                    line: r.line,
+                    path: path.clone(),
+                    camera: *camera,
+                    instant: *instant,
+                    first_line: *line,
+                });
             }
         } else {
             frames.insert(file, (r.line, m.camera, key));
@@ -183,12 +174,12 @@ pub fn plan(
             BTreeMap::new()
         });
         if let Some((first, _)) = entry.get(&m.camera) {
-            problems.push(format!(
-                "line {}: camera {} already has an image for {} (line {first})",
-                r.line,
-                m.camera,
-                describe(&key)
-            ));
+            problems.push(CampaignProblem::CameraTwice {
+                line: r.line,
+                camera: m.camera,
+                instant: key,
+                first_line: *first,
+            });
             continue;
         }
         entry.insert(m.camera, (r.line, path));
@@ -225,25 +216,23 @@ pub fn plan(
                     .find_map(|k| images[k].get(c).map(|(line, _)| (k, *line)));
                 let (first_line, _) = cams.values().next().map_or((0, ()), |(l, _)| (*l, ()));
                 problems.push(match elsewhere {
-                    Some((other, line)) => format!(
-                        "line {first_line}: cameras disagree on the nominal position of {}: camera {c} (line {line}) has {:?}",
-                        describe(key),
-                        other.nominal()
-                    ),
-                    None => format!(
-                        "line {first_line}: {} has no image of camera {c} (needed for {} motion)",
-                        describe(key),
-                        key.axis
-                    ),
+                    Some((other, line)) => CampaignProblem::NominalDisagrees {
+                        line: first_line,
+                        instant: *key,
+                        camera: *c,
+                        other_line: line,
+                        other_nominal: other.nominal(),
+                    },
+                    None => CampaignProblem::MissingCamera {
+                        line: first_line,
+                        instant: *key,
+                        camera: *c,
+                    },
                 });
             }
         }
         if needed.len() < 2 {
-            problems.push(format!(
-                "{}: fewer than two cameras of the rig can measure {} motion",
-                describe(key),
-                key.axis
-            ));
+            problems.push(CampaignProblem::TooFewCameras { instant: *key });
         }
         plans.push(InstantPlan {
             index,

@@ -244,7 +244,8 @@ fn an_unusable_manifest_is_reported_in_full_before_any_work() {
     let FuseError::Campaign { problems, .. } = &err else {
         panic!("{err}");
     };
-    let text = problems.join("\n");
+    let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+    let text = text.join("\n");
     assert!(text.contains(&gone1) && text.contains(&gone2), "{text}");
     assert!(text.contains("has no image of camera"), "{text}");
     assert!(text.contains("disagree on the nominal position"), "{text}");
