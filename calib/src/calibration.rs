@@ -8,7 +8,6 @@ use formats::{CorrespondenceRow, TargetRow};
 
 use geom::lm::Residuals;
 use geom::{Camera, Matrix3x4, Point2, Point3, Vector2};
-use serde::Serialize;
 
 use crate::dlt::{self, MIN_POINTS};
 use crate::outliers::{inliers, robust_sigma};
@@ -88,7 +87,7 @@ impl Options {
 }
 
 /// A point's reprojection residual under the final camera.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PointResidual {
     /// Marker id.
     pub id: u32,
@@ -101,7 +100,7 @@ pub struct PointResidual {
 }
 
 /// An estimated parameter with its standard deviation.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Parameter {
     /// Name (`fx`, `fy`, `cx`, `cy`, `skew`, `rx`…`rz`, `tx`…`tz`, `k1`, `k2`, `p1`, `p2`, `k3`).
     pub name: &'static str,

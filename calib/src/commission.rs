@@ -26,9 +26,13 @@
 use formats::Axis;
 use geom::nalgebra::{Matrix3, Vector3};
 use geom::{Camera, Illumination, Point3};
-use serde::Serialize;
 
-use crate::illumination::{FlatFieldFit, ProfilePoint, profile, scale_error_ppm};
+use formats::commissioning::{
+    AxisPair, CameraReport, DepthOfField, FlatFieldFit, IlluminationReport, Report, ScaleCost,
+    TravelCamera, TravelReport,
+};
+
+use crate::illumination::{profile, scale_error_ppm};
 
 /// Field positions of the relative-illumination profile.
 const PROFILE_POINTS: usize = 6;
@@ -36,23 +40,13 @@ const PROFILE_POINTS: usize = 6;
 /// a warning, as a fraction of the image diagonal.
 const RI_CENTRE_TOLERANCE: f64 = 0.02;
 
-/// What a user must capture for the relative illumination, in the report.
-pub const FLAT_FIELD_ADVICE: &str = "A pixel's value is the sphere's radiance times the lens's \
-relative illumination, which falls off towards the edge of the field (cos⁴θ for an ideal lens, \
-more or less for a real one); left uncorrected, or corrected with the wrong model, it moves each \
-sphere's centroid along the radius and scales every displacement by up to ≈ 480 ppm. Capture per \
-camera, with the same lens, aperture, focus and exposure settings as the measurement: a flat \
-field (a uniform radiance source, e.g. an opal diffuser or integrating sphere, filling the whole \
-view, at about ¾ of full scale, never saturated) and a dark frame (lens capped), and give them to \
-`trinocular calibrate --flat-fields … --dark-frames …`.";
-
 /// Default f-number when the nominal rig does not give one.
 pub const DEFAULT_F_NUMBER: f64 = 8.0;
 /// Default circle of confusion (px) when the nominal rig does not give one.
 pub const DEFAULT_COC_PX: f64 = 2.0;
 
 /// Lens and sensor data for the depth of field.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Optics {
     /// Pixel pitch (mm).
     pub pixel_mm: f64,
@@ -117,141 +111,6 @@ impl Default for CommissionOptions {
             spheres: vec![("A".into(), 20.0), ("B".into(), 15.0), ("C".into(), 10.0)],
         }
     }
-}
-
-/// Per-camera figures.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct CameraReport {
-    /// Camera number.
-    pub id: u8,
-    /// Machine axis it should look along.
-    pub machine_axis: String,
-    /// Projection centre (mm).
-    pub centre_mm: [f64; 3],
-    /// Optical axis (unit vector, world frame).
-    pub optical_axis: [f64; 3],
-    /// Angle between the optical axis and its machine axis (deg, as lines).
-    pub axis_angle_deg: f64,
-    /// Cosine error of that angle, `(1 − cos α)·10⁶`.
-    pub cosine_error_ppm: f64,
-    /// Depth of the working point (mm).
-    pub working_distance_mm: f64,
-    /// Pixel size at the working distance along u, `Z/fx` (mm/px).
-    pub pixel_size_u_mm: f64,
-    /// Pixel size at the working distance along v, `Z/fy` (mm/px).
-    pub pixel_size_v_mm: f64,
-    /// Mean of the two (the seed's p_k, mm/px).
-    pub pixel_size_mm: f64,
-    /// Principal point (px).
-    pub principal_point_px: [f64; 2],
-    /// Principal point minus the image centre `((W − 1)/2, (H − 1)/2)` (px).
-    pub principal_point_offset_px: [f64; 2],
-    /// Reprojection RMS of the calibration (px).
-    pub rms_px: f64,
-    /// Depth of field, when the optics are known.
-    pub depth_of_field: Option<DepthOfField>,
-    /// Relative illumination: model, profile and scale costs.
-    pub relative_illumination: IlluminationReport,
-}
-
-/// The relative illumination of one camera in the report.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct IlluminationReport {
-    /// `radial` (measured from a flat field), `ideal` (assumed: no flat
-    /// field given) or `uniform`.
-    pub model: String,
-    /// The flat-field fit, when measured.
-    pub flat_field: Option<FlatFieldFit>,
-    /// Centre of the measured fall-off minus the principal point (px): a
-    /// decentred lens, or a source that is not uniform (a smooth gradient in
-    /// the flat moves the centre).
-    pub centre_offset_px: Option<[f64; 2]>,
-    /// RI against the ideal lens from the principal point to the farthest corner.
-    pub profile: Vec<ProfilePoint>,
-    /// Scale errors of wrong assumptions, per sphere and travel end.
-    pub scale_costs: Vec<ScaleCost>,
-}
-
-/// What a wrong relative illumination would cost one sphere at the end of a travel.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ScaleCost {
-    /// Machine axis of the travel.
-    pub axis: String,
-    /// Sphere name.
-    pub sphere: String,
-    /// Sphere diameter (mm).
-    pub diameter_mm: f64,
-    /// Correcting with the ideal lens (cos⁴θ) instead of this camera's model (ppm).
-    pub ideal_lens_ppm: f64,
-    /// Not correcting at all (flat RI) (ppm).
-    pub flat_ppm: f64,
-}
-
-/// Near and far limits of acceptable sharpness.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct DepthOfField {
-    /// Lens focal length used (mm).
-    pub focal_mm: f64,
-    /// f-number.
-    pub f_number: f64,
-    /// Circle of confusion (mm on the sensor).
-    pub coc_mm: f64,
-    /// Focus distance (mm).
-    pub focus_mm: f64,
-    /// Near limit (mm).
-    pub near_mm: f64,
-    /// Far limit (mm; infinite beyond the hyperfocal distance, written as null).
-    pub far_mm: Option<f64>,
-}
-
-/// Angle between two optical axes.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct AxisPair {
-    /// The two cameras.
-    pub cameras: [u8; 2],
-    /// Angle between the axes as lines (deg, 0…90).
-    pub angle_deg: f64,
-    /// 90° minus that angle (deg).
-    pub deviation_deg: f64,
-}
-
-/// One camera's view of one axis's travel.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TravelCamera {
-    /// Camera number.
-    pub id: u8,
-    /// Depth range of the travel (mm).
-    pub depth_mm: [f64; 2],
-    /// Within the depth of field over the whole travel (`None`: optics unknown).
-    pub within_depth_of_field: Option<bool>,
-    /// The working point stays inside the image over the whole travel.
-    pub in_view: bool,
-}
-
-/// A machine axis's travel and the cameras used for it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TravelReport {
-    /// Machine axis.
-    pub axis: String,
-    /// Travel (mm), centred on the working point.
-    pub travel_mm: f64,
-    /// The cameras used for this axis.
-    pub cameras: Vec<TravelCamera>,
-}
-
-/// The commissioning report (`commissioning.json`; [`Report::text`] for `commissioning.txt`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Report {
-    /// Working point (mm).
-    pub working_point_mm: [f64; 3],
-    /// Per camera.
-    pub cameras: Vec<CameraReport>,
-    /// Between each pair of optical axes.
-    pub axis_pairs: Vec<AxisPair>,
-    /// Per machine axis.
-    pub travel: Vec<TravelReport>,
-    /// Everything past a tolerance.
-    pub warnings: Vec<String>,
 }
 
 fn line_angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
@@ -584,169 +443,6 @@ fn travel_report(
         axis: axis.to_string(),
         travel_mm: length,
         cameras: used,
-    }
-}
-
-/// The relative-illumination lines of one camera in the text report.
-fn illumination_text(s: &mut String, r: &IlluminationReport) {
-    use std::fmt::Write;
-    match &r.flat_field {
-        Some(f) => {
-            let [du, dv] = r.centre_offset_px.unwrap_or_default();
-            let _ = writeln!(
-                s,
-                "  relative illumination measured from the flat field: RI {:.4}…{:.4} of the centre, \
-                 centred ({du:+.1}, {dv:+.1}) px from the principal point, fit residual {:.4} % RMS \
-                 (noise {:.4} %), dark {:.1} DN, flat {:.0} DN above it",
-                f.ri_range[0],
-                f.ri_range[1],
-                100.0 * f.residual_rms,
-                100.0 * f.noise_rms,
-                f.dark_dn,
-                f.flat_level_dn
-            );
-        }
-        None => {
-            let _ = writeln!(
-                s,
-                "  relative illumination ASSUMED: the {} lens (no flat field given)",
-                r.model
-            );
-        }
-    }
-    let row = |label: &str, f: &dyn Fn(&ProfilePoint) -> String| {
-        let cells: Vec<String> = r.profile.iter().map(f).collect();
-        format!("    {label:<22}{}", cells.join(""))
-    };
-    let _ = writeln!(
-        s,
-        "{}",
-        row("field angle (deg)", &|p| format!(
-            "{:>9.2}",
-            p.field_angle_deg
-        ))
-    );
-    let _ = writeln!(s, "{}", row("RI", &|p| format!("{:>9.4}", p.ri)));
-    let _ = writeln!(
-        s,
-        "{}",
-        row("ideal lens cos⁴θ·J", &|p| format!("{:>9.4}", p.ideal))
-    );
-    let _ = writeln!(s, "{}", row("RI / ideal", &|p| format!("{:>9.4}", p.ratio)));
-    for c in &r.scale_costs {
-        let _ = writeln!(
-            s,
-            "    sphere {} ({} mm) at the end of the {} travel: assuming cos⁴θ would cost {:+.1} ppm of scale, no correction {:+.1} ppm",
-            c.sphere, c.diameter_mm, c.axis, c.ideal_lens_ppm, c.flat_ppm
-        );
-    }
-}
-
-impl Report {
-    /// Plain-text rendering for `commissioning.txt`.
-    pub fn text(&self) -> String {
-        use std::fmt::Write;
-        let mut s = String::new();
-        let wp = self.working_point_mm;
-        let _ = writeln!(s, "Rig commissioning");
-        let _ = writeln!(s, "=================");
-        let _ = writeln!(
-            s,
-            "Working point: ({:.2}, {:.2}, {:.2}) mm (nearest point to the optical axes unless given)",
-            wp[0], wp[1], wp[2]
-        );
-        let _ = writeln!(s);
-        for c in &self.cameras {
-            let _ = writeln!(s, "Camera {} (looks along {})", c.id, c.machine_axis);
-            let _ = writeln!(
-                s,
-                "  optical axis {:.4}° from {} (cosine error {:.0} ppm); centre ({:.2}, {:.2}, {:.2}) mm",
-                c.axis_angle_deg,
-                c.machine_axis,
-                c.cosine_error_ppm,
-                c.centre_mm[0],
-                c.centre_mm[1],
-                c.centre_mm[2]
-            );
-            let _ = writeln!(
-                s,
-                "  working distance {:.2} mm; pixel size {:.6} mm/px (u {:.6}, v {:.6})",
-                c.working_distance_mm, c.pixel_size_mm, c.pixel_size_u_mm, c.pixel_size_v_mm
-            );
-            let _ = writeln!(
-                s,
-                "  principal point ({:.2}, {:.2}) px, ({:+.2}, {:+.2}) px from the image centre; reprojection RMS {:.4} px",
-                c.principal_point_px[0],
-                c.principal_point_px[1],
-                c.principal_point_offset_px[0],
-                c.principal_point_offset_px[1],
-                c.rms_px
-            );
-            match c.depth_of_field {
-                Some(d) => {
-                    let _ = writeln!(
-                        s,
-                        "  depth of field {:.1}…{} mm (lens {:.2} mm, f/{}, circle of confusion {:.4} mm, focus {:.1} mm)",
-                        d.near_mm,
-                        d.far_mm.map_or("∞".to_string(), |f| format!("{f:.1}")),
-                        d.focal_mm,
-                        d.f_number,
-                        d.coc_mm,
-                        d.focus_mm
-                    );
-                }
-                None => {
-                    let _ = writeln!(s, "  depth of field unknown (no optics given)");
-                }
-            }
-            illumination_text(&mut s, &c.relative_illumination);
-            let _ = writeln!(s);
-        }
-        let _ = writeln!(s, "Angles between optical axes (the method needs 90°):");
-        for p in &self.axis_pairs {
-            let _ = writeln!(
-                s,
-                "  cameras {} and {}: {:.4}° ({:+.4}° from perpendicular)",
-                p.cameras[0], p.cameras[1], p.angle_deg, -p.deviation_deg
-            );
-        }
-        let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "Travel through the working point, cameras used for each axis:"
-        );
-        for t in &self.travel {
-            for c in &t.cameras {
-                let dof = match c.within_depth_of_field {
-                    Some(true) => "within depth of field",
-                    Some(false) => "OUTSIDE depth of field",
-                    None => "depth of field unknown",
-                };
-                let view = if c.in_view {
-                    "in view"
-                } else {
-                    "LEAVES the image"
-                };
-                let _ = writeln!(
-                    s,
-                    "  {} {:.0} mm, camera {}: depth {:.2}…{:.2} mm, {dof}, {view}",
-                    t.axis, t.travel_mm, c.id, c.depth_mm[0], c.depth_mm[1]
-                );
-            }
-        }
-        let _ = writeln!(s);
-        let _ = writeln!(s, "Relative illumination:");
-        let _ = writeln!(s, "  {FLAT_FIELD_ADVICE}");
-        let _ = writeln!(s);
-        if self.warnings.is_empty() {
-            let _ = writeln!(s, "No warnings.");
-        } else {
-            let _ = writeln!(s, "Warnings:");
-            for w in &self.warnings {
-                let _ = writeln!(s, "  - {w}");
-            }
-        }
-        s
     }
 }
 

@@ -18,10 +18,10 @@
 //! a residual well above it says the flat has structure a radial lens model
 //! does not follow (a non-uniform source, dust, a tilted or decentred lens).
 
+use formats::commissioning::{FlatFieldFit, ProfilePoint};
 use geom::lm::{LmOptions, Residuals, minimize};
 use geom::nalgebra::{DMatrix, DVector};
 use geom::{Camera, Illumination, Point2, Point3, RadialIllumination};
-use serde::Serialize;
 
 use crate::error::FlatFieldProblem;
 use crate::{CalibError, Result};
@@ -52,33 +52,6 @@ pub struct Pixels<'a> {
     pub height: u32,
     /// The largest value the sensor gives (saturation, DN).
     pub saturation: u16,
-}
-
-/// The fitted relative illumination and what is known about it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FlatFieldFit {
-    /// The model, normalised to 1 at its centre.
-    #[serde(skip)]
-    pub model: RadialIllumination,
-    /// Flat-field level at the centre above the dark (DN).
-    pub flat_level_dn: f64,
-    /// Mean of the dark frame (DN).
-    pub dark_dn: f64,
-    /// Smallest and largest RI over the image (relative to the centre).
-    pub ri_range: [f64; 2],
-    /// RMS of the block residuals relative to the model.
-    pub residual_rms: f64,
-    /// Largest block residual relative to the model.
-    pub residual_max: f64,
-    /// RMS noise of the block means relative to the level (what the residual
-    /// would be for a perfect model).
-    pub noise_rms: f64,
-    /// Blocks fitted.
-    pub blocks: usize,
-    /// Block size (px).
-    pub block_px: u32,
-    /// Set when the residual shows structure the radial model does not follow.
-    pub warning: Option<String>,
 }
 
 /// Block means of `flat − dark` and their noise.
@@ -313,23 +286,6 @@ pub fn fit_flat_field(
         block_px: b.size,
         warning,
     })
-}
-
-/// The relative illumination at one field position: the camera's model
-/// against the ideal lens (cos⁴θ, energy-conserving under distortion), both
-/// relative to their value at the principal point.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ProfilePoint {
-    /// Field angle θ (deg).
-    pub field_angle_deg: f64,
-    /// Distance from the principal point (observed px).
-    pub radius_px: f64,
-    /// The camera's RI.
-    pub ri: f64,
-    /// The ideal lens's RI, cos⁴θ·J.
-    pub ideal: f64,
-    /// `ri / ideal`: the lens's own vignetting V.
-    pub ratio: f64,
 }
 
 /// `illumination` at observed pixel `p` of `camera`, with the ideal lens's

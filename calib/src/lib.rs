@@ -73,16 +73,19 @@ pub use calibration::{
     PointResidual, calibrate, check_target, observations,
 };
 pub use commission::{
-    AxisPair, CameraInput, CameraReport, CommissionOptions, DEFAULT_COC_PX, DEFAULT_F_NUMBER,
-    DepthOfField, FLAT_FIELD_ADVICE, IlluminationReport, Optics, Report, ScaleCost, TravelCamera,
-    TravelReport, commission, depth_of_field,
+    CameraInput, CommissionOptions, DEFAULT_COC_PX, DEFAULT_F_NUMBER, Optics, commission,
+    depth_of_field,
 };
 pub use correspond::{
     CorrespondOptions, Correspondence, GATE_SIGMAS, MIN_GATE_PX, Marker, Match, correspond, markers,
 };
 pub use dlt::{MIN_POINTS, residuals as dlt_residuals};
 pub use error::{Ambiguity, CalibError, FlatFieldProblem, OptionProblem, Result};
-pub use illumination::{FlatFieldFit, Pixels, ProfilePoint, fit_flat_field};
+pub use formats::commissioning::{
+    AxisPair, CameraReport, DepthOfField, FLAT_FIELD_ADVICE, FlatFieldFit, IlluminationReport,
+    ProfilePoint, Report, ScaleCost, TravelCamera, TravelReport,
+};
+pub use illumination::{Pixels, fit_flat_field};
 pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};
 pub use opencv::opencv_yaml;
 pub use refine::{Layout, Model};

@@ -76,6 +76,7 @@ mod atomic;
 mod blobs;
 mod campaign;
 mod capture;
+pub mod commissioning;
 pub mod evaluation;
 mod figures;
 pub mod interrupt;
