@@ -63,11 +63,8 @@ fn centroid_is_the_ellipse_centre() {
 fn quantised_frame_centroid_is_the_ellipse_centre() {
     let mut cam = seed_camera(false);
     let s = spheres();
-    let img = common::noise_free_frame(&mut cam, &s);
-    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, None).unwrap();
-    for (sphere, signal) in s.iter().zip(&signals) {
-        let sig = signal.as_ref().unwrap();
-        let c = common::window_centroid(&img, sig, cam.sensor.offset_dn);
+    let centroids = common::quantised_centroids(&mut cam, &s, false);
+    for (sphere, c) in s.iter().zip(centroids) {
         let e = ellipse_centre_px(&cam.camera, sphere).unwrap();
         let err = (c - e.coords).norm();
         eprintln!(

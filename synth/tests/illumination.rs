@@ -219,11 +219,8 @@ fn vignetting_moves_the_centroid_by_half_v1_of_the_bias() {
 fn quantised_lens_frame_centroid_is_the_projected_centre() {
     let mut cam = lens_camera([0.0, 0.0], false);
     let s = spheres();
-    let img = common::noise_free_frame(&mut cam, &s);
-    let signals = sphere_signals(&cam.camera, &cam.optics, &s, 4, cam.lens.as_ref()).unwrap();
-    for (sphere, signal) in s.iter().zip(&signals) {
-        let sig = signal.as_ref().unwrap();
-        let c = common::window_centroid(&img, sig, cam.sensor.offset_dn);
+    let centroids = common::quantised_centroids(&mut cam, &s, true);
+    for (sphere, c) in s.iter().zip(centroids) {
         let proj = cam.camera.project_pinhole(&sphere.centre).unwrap();
         let err = (c - proj.coords).norm();
         eprintln!(

@@ -3,7 +3,7 @@
 
 use geom::Distortion;
 use geom::nalgebra::{Point3, Vector2};
-use synth::{Config, Image16, NoiseKey, Signal, Sphere, SynthCamera, SynthRig};
+use synth::{Config, Image16, NoiseKey, Signal, Sphere, SynthCamera, SynthRig, sphere_signals};
 
 /// The seed camera 3 (true model of the default config), optionally without
 /// distortion; its relative illumination as the default config gives it.
@@ -65,4 +65,21 @@ pub fn window_centroid(img: &Image16, sig: &Signal, offset_dn: f64) -> Vector2<f
         }
     }
     sum / total
+}
+
+/// The centroid (px) of each sphere in `cam`'s noise-free frame
+/// ([`noise_free_frame`]), over its signal window (computed through the
+/// camera's lens illumination when `with_lens`).
+pub fn quantised_centroids(
+    cam: &mut SynthCamera,
+    spheres: &[Sphere],
+    with_lens: bool,
+) -> Vec<Vector2<f64>> {
+    let img = noise_free_frame(cam, spheres);
+    let lens = if with_lens { cam.lens.as_ref() } else { None };
+    let signals = sphere_signals(&cam.camera, &cam.optics, spheres, 4, lens).unwrap();
+    signals
+        .iter()
+        .map(|s| window_centroid(&img, s.as_ref().unwrap(), cam.sensor.offset_dn))
+        .collect()
 }
