@@ -65,15 +65,9 @@ impl ExtractError {
                 path: path.to_path_buf(),
                 message: problem.to_string(),
             },
-            ExtractError::TooManyRuns {
-                runs,
-                limit,
-                threshold,
-            } => ExtractError::Unsupported {
+            runs @ ExtractError::TooManyRuns { .. } => ExtractError::Unsupported {
                 path: path.to_path_buf(),
-                message: format!(
-                    "{runs} above-threshold runs (limit {limit}): threshold {threshold} is too low for this frame"
-                ),
+                message: runs.to_string(),
             },
             other => other,
         }

@@ -5,7 +5,7 @@
 //! Figures of an axis or direction not present in the data are `None` and
 //! left out of the JSON, never zero-filled.
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 /// Key names of the angular convention, written into every angular report.
 pub const ANGULAR_CONVENTION: &str = "rotation vector of the table's rigid motion from the first target \
@@ -13,7 +13,7 @@ pub const ANGULAR_CONVENTION: &str = "rotation vector of the table's rigid motio
      Y axis roll=εy pitch=εx yaw=εz; Z axis roll=εz pitch=εx yaw=εy; right-handed, µrad";
 
 /// Everything `evaluate` found: per axis, flatness, and what it was computed from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
     /// Per-axis figures (`axes.X`, `axes.Y`, `axes.Z`).
     pub axes: Axes,
@@ -36,7 +36,7 @@ pub struct Report {
 }
 
 /// The axes present in the data.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Axes {
     /// X axis, when measured.
     #[serde(rename = "X", skip_serializing_if = "Option::is_none")]
@@ -78,7 +78,7 @@ impl Axes {
 
 /// One axis: the figures of its main line (the one with the most runs; tie:
 /// nearest the origin) flattened in, and every line in `lines`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AxisReport {
     /// The main line's figures (`axes.X.positioning`, …).
     #[serde(flatten)]
@@ -88,7 +88,7 @@ pub struct AxisReport {
 }
 
 /// Figures of one line: one sweep of an axis at fixed off-axis nominal coordinates.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LineReport {
     /// Index of this line in `lines` (ordered by off-axis coordinates).
     pub line: usize,
@@ -108,7 +108,7 @@ pub struct LineReport {
 }
 
 /// Positioning figures of a line (µm), ISO 230-2 names.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PositioningReport {
     /// Bidirectional accuracy A = max(x̄ + 2s) − min(x̄ − 2s) over both directions.
     #[serde(rename = "A_um", skip_serializing_if = "Option::is_none")]
@@ -160,7 +160,7 @@ pub struct PositioningReport {
 }
 
 /// One target of the positioning table (µm; `nominal` in mm).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PositioningTarget {
     /// Target index.
     pub target: u32,
@@ -206,7 +206,7 @@ pub struct PositioningTarget {
 }
 
 /// VDI/DGQ 3441 (1977) figures (µm).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Vdi3441Report {
     /// Positional uncertainty P = max(x̄ⱼ + (Uⱼ + Psⱼ)/2) − min(x̄ⱼ − (Uⱼ + Psⱼ)/2).
     #[serde(rename = "P_um")]
@@ -226,7 +226,7 @@ pub struct Vdi3441Report {
 }
 
 /// Straightness in one perpendicular direction (µm).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StraightnessReport {
     /// Range (max − min) of the deviations from the least-squares reference line.
     pub lsq_um: f64,
@@ -237,7 +237,7 @@ pub struct StraightnessReport {
 }
 
 /// One target of a straightness profile (µm; `nominal` in mm).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StraightnessTarget {
     /// Target index.
     pub target: u32,
@@ -252,7 +252,7 @@ pub struct StraightnessTarget {
 }
 
 /// Angular errors of a line (µrad): ranges and the per-target values.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AngularReport {
     /// Range (max − min) of the roll over the targets.
     pub roll_urad: f64,
@@ -274,7 +274,7 @@ pub struct AngularReport {
 }
 
 /// Roll, pitch, yaw at one target relative to the first target (µrad).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AngularTarget {
     /// Target index.
     pub target: u32,
@@ -289,7 +289,7 @@ pub struct AngularTarget {
 }
 
 /// Flatness of the combined X- and Y-run points (µm).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FlatnessReport {
     /// Range of the vertical deviations from the least-squares plane z = aX + bY + c.
     pub lsq_um: f64,
@@ -306,7 +306,7 @@ pub struct FlatnessReport {
 }
 
 /// One point of the flatness cloud.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FlatnessPoint {
     /// Axis of the run it comes from.
     pub axis: String,

@@ -105,7 +105,7 @@ pub use figures::{AxisFigures, PositioningFigures, ReportFigures, ZoneFigures};
 pub use json::{read_json, write_json};
 pub use lock::OutputLock;
 pub use measure::{InstantProblemRow, Missing, PoseRow};
-pub use nist::{parse_ds, read_ds};
+pub use nist::read_ds;
 pub use output::{OutputPlan, Stage};
 pub use points::PointRow;
 pub use rig::{

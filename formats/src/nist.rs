@@ -17,7 +17,7 @@ pub fn read_ds(path: &Path) -> Result<Vec<Point3<f64>>> {
 }
 
 /// Parse the text of a `.ds` file read from `path` (named in errors).
-pub fn parse_ds(text: &str, path: &Path) -> Result<Vec<Point3<f64>>> {
+pub(crate) fn parse_ds(text: &str, path: &Path) -> Result<Vec<Point3<f64>>> {
     let row = |line: usize, message: String| FormatError::Row {
         path: path.into(),
         line: line as u64 + 1,

@@ -106,6 +106,14 @@ pub enum TimeError {
         /// The parser's complaint.
         reason: String,
     },
+    /// A date-time with no UTC time stamp (the converter's complaint).
+    #[error("time '{text}': {reason}")]
+    Timestamp {
+        /// The stamp as written.
+        text: String,
+        /// The converter's complaint.
+        reason: String,
+    },
     /// A date-time outside the range of a UTC time stamp in nanoseconds.
     #[error("time '{0}' is out of range")]
     Range(String),

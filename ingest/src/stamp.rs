@@ -36,11 +36,13 @@ pub fn parse_time(text: &str) -> std::result::Result<FrameTime, TimeError> {
         text: text.to_string(),
         reason: e.to_string(),
     })?;
-    let range = || TimeError::Range(text.to_string());
     let ts = jiff::tz::TimeZone::UTC
         .to_timestamp(dt)
-        .map_err(|_| range())?;
-    let ns = i64::try_from(ts.as_nanosecond()).map_err(|_| range())?;
+        .map_err(|e| TimeError::Timestamp {
+            text: text.to_string(),
+            reason: e.to_string(),
+        })?;
+    let ns = i64::try_from(ts.as_nanosecond()).map_err(|_| TimeError::Range(text.to_string()))?;
     let digits = text.split_once('.').map_or(0, |(_, f)| {
         f.chars().take_while(char::is_ascii_digit).count()
     });
