@@ -1,11 +1,15 @@
 //! `report.json` of `trinocular evaluate` (docs/formats.md; µm, µrad), with
 //! extra keys for the per-target tables and plots: the file's types, filled
-//! by the `evaluate` crate.
+//! by the `evaluate` crate, and the report's CSV tables ([`write_tables`]).
 //!
 //! Figures of an axis or direction not present in the data are `None` and
 //! left out of the JSON, never zero-filled.
 
 use serde::Serialize;
+
+mod tables;
+
+pub use tables::write_tables;
 
 /// Key names of the angular convention, written into every angular report.
 pub const ANGULAR_CONVENTION: &str = "rotation vector of the table's rigid motion from the first target \

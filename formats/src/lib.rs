@@ -76,6 +76,7 @@ mod atomic;
 mod blobs;
 mod campaign;
 mod capture;
+mod cloud;
 pub mod commissioning;
 pub mod evaluation;
 mod figures;
@@ -100,6 +101,7 @@ pub use campaign::{
     read_spheres,
 };
 pub use capture::{AxisProcedure, Dwell, MAX_INSTANTS, ManifestProblemRow, ProcedureConfig};
+pub use cloud::read_cloud;
 pub use error::{FormatError, Result, RigError};
 pub use figures::{AxisFigures, PositioningFigures, ReportFigures, ZoneFigures};
 pub use json::{read_json, write_json};
@@ -113,5 +115,5 @@ pub use rig::{
     RigCamera, read_nominal, read_rig,
 };
 pub use table::{Invalid, Record, Row, finite, read_csv, read_csv_from, write_csv, write_records};
-pub use target::{CorrespondenceRow, TargetRow, read_correspondences, read_target};
+pub use target::{CorrespondenceRow, ResidualRow, TargetRow, read_correspondences, read_target};
 pub use truth::{Truth, TruthCamera, TruthInstant};

@@ -1,4 +1,5 @@
-//! Calibration target (`target.csv`) and image correspondences (`id,u,v`).
+//! Calibration target (`target.csv`), image correspondences (`id,u,v`) and
+//! the per-point residuals of a calibration (`<stem>.residuals.csv`).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -62,6 +63,32 @@ impl Record for CorrespondenceRow {
         finite("u", self.u)?;
         finite("v", self.v)
     }
+}
+
+/// One row of a calibration's `<stem>.residuals.csv`: a marker seen by a
+/// camera, its target and image coordinates and the residual of the fit.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResidualRow {
+    /// Camera id.
+    pub camera: u8,
+    /// Target marker id.
+    pub id: u32,
+    /// Target x (mm).
+    pub x: f64,
+    /// Target y (mm).
+    pub y: f64,
+    /// Target z (mm).
+    pub z: f64,
+    /// Observed image u (px).
+    pub u: f64,
+    /// Observed image v (px).
+    pub v: f64,
+    /// Predicted − observed u (px).
+    pub du: f64,
+    /// Predicted − observed v (px).
+    pub dv: f64,
+    /// Rejected as an outlier (not used in the final fit).
+    pub outlier: bool,
 }
 
 /// Read `target.csv` (or an `id,u,v` file): every row, and each marker id

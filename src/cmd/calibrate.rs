@@ -27,11 +27,10 @@ use calib::{
 use clap::ValueEnum;
 use extract::{Blob, FrameReader, observed_centroids};
 use formats::{
-    Axis, CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, Rig,
-    RigCamera, TargetRow, read_correspondences, read_nominal, read_spheres, read_target,
+    Axis, CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, ResidualRow,
+    Rig, RigCamera, TargetRow, read_correspondences, read_nominal, read_spheres, read_target,
 };
 use geom::{Illumination, Point2};
-use serde::Serialize;
 use serde_json::{Value, json};
 
 use crate::cmd::extract::ExtractOptions;
@@ -131,21 +130,6 @@ pub struct Args {
     alignment_tolerance: f64,
     #[command(flatten)]
     extract: ExtractOptions,
-}
-
-/// One row of `<stem>.residuals.csv`.
-#[derive(Debug, Serialize)]
-struct ResidualRow {
-    camera: u8,
-    id: u32,
-    x: f64,
-    y: f64,
-    z: f64,
-    u: f64,
-    v: f64,
-    du: f64,
-    dv: f64,
-    outlier: bool,
 }
 
 /// `--nominal` (empty when not given: only used in messages of steps that need it).

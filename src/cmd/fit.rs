@@ -2,13 +2,11 @@
 //! point file (CSV `x,y[,z]` or a NIST `.ds` file), and minimum-zone
 //! straightness/flatness. Prints one JSON object.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::ValueEnum;
-use formats::{Invalid, Record, read_csv};
-use geom::{Point2, Point3, fit, min_zone, stats};
-use serde::{Deserialize, Serialize};
+use geom::{Point2, fit, min_zone, stats};
 use serde_json::{Value, json};
 
 /// Element to fit.
@@ -42,45 +40,6 @@ pub struct Args {
     file: PathBuf,
 }
 
-#[derive(Debug, Serialize, Deserialize)]
-struct XyzRow {
-    x: f64,
-    y: f64,
-    #[serde(default)]
-    z: Option<f64>,
-}
-
-impl Record for XyzRow {
-    const COLUMNS: &'static [&'static str] = &["x", "y"];
-    fn validate(&self) -> std::result::Result<(), Invalid> {
-        formats::finite("x", self.x)?;
-        formats::finite("y", self.y)?;
-        if let Some(z) = self.z {
-            formats::finite("z", z)?;
-        }
-        Ok(())
-    }
-}
-
-/// Points as 3-D (z = 0 where a CSV has no z column).
-fn read_points(path: &Path, need_z: bool) -> Result<Vec<Point3<f64>>> {
-    if path.extension().is_some_and(|e| e == "ds") {
-        return Ok(formats::read_ds(path)?);
-    }
-    let rows = read_csv::<XyzRow>(path)?;
-    rows.iter()
-        .map(|r| match (r.record.z, need_z) {
-            (Some(z), _) => Ok(Point3::new(r.record.x, r.record.y, z)),
-            (None, false) => Ok(Point3::new(r.record.x, r.record.y, 0.0)),
-            (None, true) => bail!(
-                "{}: line {}, column 'z': this fit needs 3-D points",
-                path.display(),
-                r.line
-            ),
-        })
-        .collect()
-}
-
 fn summary(residuals: &[f64]) -> Result<Value> {
     let (lo, hi) = stats::min_max(residuals)?;
     Ok(json!({ "rms": stats::rms(residuals)?, "min": lo, "max": hi, "points": residuals.len() }))
@@ -89,7 +48,7 @@ fn summary(residuals: &[f64]) -> Result<Value> {
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
     let need_z = !matches!(args.kind, Kind::Line2d | Kind::Straightness);
-    let pts = read_points(&args.file, need_z)?;
+    let pts = formats::read_cloud(&args.file, need_z)?;
     let xy: Vec<Point2<f64>> = pts.iter().map(|p| Point2::new(p.x, p.y)).collect();
     let ctx = || format!("{}", args.file.display());
     let out = match args.kind {
