@@ -36,6 +36,15 @@ fn campaign(dir: &Path, width: u32, targets: u32, runs: u32, captures: u32) -> P
     c
 }
 
+/// The small campaign of the output tests (256 px, 3 targets, 2 runs), its
+/// rig, and its points measured into `dir/<name>`: the campaign and that path.
+fn measured(dir: &Path, name: &str) -> (PathBuf, PathBuf) {
+    let c = campaign(dir, 256, 3, 2, 1);
+    let points = dir.join(name);
+    ok(&measure(dir, &c, &points, &[]));
+    (c, points)
+}
+
 fn measure_args<'a>(dir: &'a Path, c: &'a Path, out: &'a Path) -> Vec<String> {
     [
         "measure",
@@ -301,9 +310,7 @@ fn synth_keeps_a_campaign_unless_forced() {
 fn evaluate_replaces_its_report_as_one_set() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let c = campaign(d, 256, 3, 2, 1);
-    let points = d.join("points.csv");
-    ok(&measure(d, &c, &points, &[]));
+    let (_, points) = measured(d, "points.csv");
     let report = d.join("report");
     let run = |points: &Path, out: &Path, extra: &[&str]| {
         bin()
@@ -353,9 +360,7 @@ fn evaluate_replaces_its_report_as_one_set() {
 fn measure_keeps_its_outputs_and_sidecars_unless_forced() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let c = campaign(d, 256, 3, 2, 1);
-    let a = d.join("a.csv");
-    ok(&measure(d, &c, &a, &[]));
+    let (c, a) = measured(d, "a.csv");
     let (points, poses) = (read(&a), read(&d.join("poses.csv")));
     refused(
         &measure(d, &c, &a, &[]),

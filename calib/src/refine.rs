@@ -19,13 +19,11 @@ use geom::nalgebra::{
 };
 use geom::sphere_image::ellipse_centre_jacobian;
 use geom::{Camera, Distortion, Intrinsics, Point2, Point3, Vector2, Vector3};
-use serde::{Deserialize, Serialize};
 
 use crate::{CalibError, OptionProblem, Result};
 
 /// Lens distortion model (`--model`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Model {
     /// No distortion.
     Pinhole,

@@ -90,6 +90,7 @@ mod output;
 mod points;
 pub mod probe;
 mod rig;
+mod rig_record;
 mod table;
 mod target;
 mod truth;
@@ -114,6 +115,7 @@ pub use rig::{
     CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalOptics, NominalRig, Rig,
     RigCamera, read_nominal, read_rig,
 };
+pub use rig_record::{ASSUMED_ILLUMINATION, CalibrationRecord, Matching};
 pub use table::{Invalid, Record, Row, finite, read_csv, read_csv_from, write_csv, write_records};
 pub use target::{CorrespondenceRow, ResidualRow, TargetRow, read_correspondences, read_target};
 pub use truth::{Truth, TruthCamera, TruthInstant};

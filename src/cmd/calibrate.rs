@@ -27,11 +27,11 @@ use calib::{
 use clap::ValueEnum;
 use extract::{Blob, FrameReader, observed_centroids};
 use formats::{
-    Axis, CorrespondenceRow, IlluminationJson, NominalCamera, NominalRig, OutputPlan, ResidualRow,
-    Rig, RigCamera, TargetRow, read_correspondences, read_nominal, read_spheres, read_target,
+    Axis, CalibrationRecord, CorrespondenceRow, IlluminationJson, Matching, NominalCamera,
+    NominalRig, OutputPlan, ResidualRow, Rig, RigCamera, TargetRow, read_correspondences,
+    read_nominal, read_spheres, read_target,
 };
 use geom::{Illumination, Point2};
-use serde_json::{Value, json};
 
 use crate::cmd::extract::ExtractOptions;
 use crate::cmd::{OrUsage, Usage, values};
@@ -488,7 +488,7 @@ fn calibrate_camera(
         .collect();
     let mut entry = RigCamera::new(id, &cal.camera, cal.rms_px, cal.points_used());
     entry.relative_illumination = illumination_json(&illumination, flat_fit.as_ref(), args, k);
-    entry.extra = extra(&cal, input, setup.spheres, matching);
+    entry.extra = record(&cal, input, setup.spheres, matching).to_keys();
     let yaml = (
         beside(&args.out, &format!(".cam{id}.opencv.yml")),
         calib::opencv_yaml(id, &cal.camera, cal.rms_px, None),
@@ -521,7 +521,7 @@ fn from_image(
     params: &extract::ExtractParams,
     illumination: &Illumination,
     reader: &mut FrameReader,
-) -> Result<(Vec<calib::Observation>, Calibration, Value)> {
+) -> Result<(Vec<calib::Observation>, Calibration, Matching)> {
     let id = nominal.id;
     let context = || format!("camera {id} ({})", input.display());
     let nominal_path = nominal_path(args);
@@ -566,15 +566,15 @@ fn from_image(
     )
     .with_context(context)?;
     let c = &result.correspondence;
-    let info = json!({
-        "detections": detections.len(),
-        "matched": c.matches.len(),
-        "unmatched_detections": c.unmatched_detections.len(),
-        "missing_markers": c.missing_markers,
-        "assignment_sigma_px": c.sigma_px,
-        "corrected_centroids": calib::RECENTROID_ROUNDS,
-    });
-    Ok((result.observations, result.calibration, info))
+    let matching = Matching::Detected {
+        detections: detections.len(),
+        matched: c.matches.len(),
+        unmatched_detections: c.unmatched_detections.len(),
+        missing_markers: c.missing_markers.clone(),
+        assignment_sigma_px: c.sigma_px,
+        corrected_centroids: calib::RECENTROID_ROUNDS,
+    };
+    Ok((result.observations, result.calibration, matching))
 }
 
 /// A camera from its correspondence file `id,u,v`.
@@ -582,7 +582,7 @@ fn from_points(
     setup: &Setup,
     camera: &CameraSpec,
     input: &Path,
-) -> Result<(Vec<calib::Observation>, Calibration, Value)> {
+) -> Result<(Vec<calib::Observation>, Calibration, Matching)> {
     let context = || format!("camera {} ({})", camera.id, input.display());
     let rows: Vec<CorrespondenceRow> = read_correspondences(input)?
         .into_iter()
@@ -591,7 +591,7 @@ fn from_points(
     let obs = calib::observations(&setup.target, &rows, setup.spheres).with_context(context)?;
     let cal = calib::calibrate(&obs, camera.width, camera.height, &setup.options)
         .with_context(context)?;
-    Ok((obs, cal, json!({ "points": rows.len() })))
+    Ok((obs, cal, Matching::Given { points: rows.len() }))
 }
 
 /// Step 4: every camera is calibrated; only now write the outputs (YAML,
@@ -658,66 +658,52 @@ fn illumination_json(
     k: usize,
 ) -> IlluminationJson {
     let mut j = IlluminationJson::from_model(model);
-    let extra = j.extra_mut();
-    match fit {
-        Some(f) => {
-            if let Value::Object(m) = json!(f) {
-                extra.extend(m);
-            }
-            for (key, files) in [
-                ("flat_field", &args.flat_fields),
-                ("dark_frame", &args.dark_frames),
-            ] {
-                if let Some(p) = files.get(k) {
-                    extra.insert(key.into(), json!(p.display().to_string()));
-                }
-            }
-        }
-        None => {
-            extra.insert(
-                "note".into(),
-                json!("assumed: no flat field was given (cos⁴θ natural vignetting, energy-conserving under distortion)"),
-            );
-        }
-    }
+    j.record_source(
+        fit,
+        args.flat_fields.get(k).map(PathBuf::as_path),
+        args.dark_frames.get(k).map(PathBuf::as_path),
+    );
     j
 }
 
-/// The extra `rig.json` keys of one camera.
-fn extra(
+/// How camera `cal` was calibrated, as recorded in `rig.json`.
+fn record(
     cal: &Calibration,
     source: &Path,
     spheres: bool,
-    matching: Value,
-) -> serde_json::Map<String, Value> {
-    let std: serde_json::Map<String, Value> = cal
-        .parameters
-        .iter()
-        .filter_map(|p| p.std_dev.map(|s| (p.name.to_string(), json!(s))))
-        .collect();
-    let mut m = serde_json::Map::new();
-    m.insert("model".into(), json!(cal.options.model.name()));
-    m.insert("k3_estimated".into(), json!(cal.options.k3));
-    m.insert("skew_estimated".into(), json!(cal.options.skew));
-    m.insert("sphere_markers".into(), json!(spheres));
-    m.insert("std_dev".into(), Value::Object(std));
-    m.insert("sigma_px".into(), json!(cal.sigma_px));
-    m.insert("dlt_rms_px".into(), json!(cal.dlt_rms_px));
-    m.insert("outliers".into(), json!(cal.outliers));
-    m.insert("outlier_k".into(), json!(cal.options.outlier_k));
-    m.insert("source".into(), json!(source.display().to_string()));
-    m.insert("matching".into(), matching);
-    m
+    matching: Matching,
+) -> CalibrationRecord {
+    CalibrationRecord {
+        model: cal.options.model.name(),
+        k3_estimated: cal.options.k3,
+        skew_estimated: cal.options.skew,
+        sphere_markers: spheres,
+        std_dev: cal
+            .parameters
+            .iter()
+            .filter_map(|p| p.std_dev.map(|s| (p.name, s)))
+            .collect(),
+        sigma_px: cal.sigma_px,
+        dlt_rms_px: cal.dlt_rms_px,
+        outliers: cal.outliers.clone(),
+        outlier_k: cal.options.outlier_k,
+        source: source.display().to_string(),
+        matching,
+    }
 }
 
 /// One line per camera on stdout.
-fn summarise(id: u8, cal: &Calibration, matching: &Value) {
+fn summarise(id: u8, cal: &Calibration, matching: &Matching) {
     let k = cal.camera.intrinsics;
     let sd = |n: &str| cal.parameter(n).and_then(|p| p.std_dev).unwrap_or(f64::NAN);
-    let matched = matching["matched"]
-        .as_u64()
-        .map(|m| format!("{m} of {} detections matched, ", matching["detections"]))
-        .unwrap_or_default();
+    let matched = match matching {
+        Matching::Detected {
+            detections,
+            matched,
+            ..
+        } => format!("{matched} of {detections} detections matched, "),
+        Matching::Given { .. } => String::new(),
+    };
     println!(
         "camera {id}: {matched}{} points, RMS {:.4} px (DLT {:.3} px), fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, \
          cx {:.2} ± {:.2}, cy {:.2} ± {:.2} px, outliers {}",
