@@ -76,10 +76,10 @@ mod atomic;
 mod blobs;
 mod campaign;
 mod capture;
-mod cloud;
 pub mod commissioning;
 pub mod evaluation;
 mod figures;
+mod fit;
 pub mod interrupt;
 mod json;
 pub mod limits;
@@ -102,9 +102,9 @@ pub use campaign::{
     read_spheres,
 };
 pub use capture::{AxisProcedure, Dwell, MAX_INSTANTS, ManifestProblemRow, ProcedureConfig};
-pub use cloud::read_cloud;
 pub use error::{FormatError, Result, RigError};
 pub use figures::{AxisFigures, PositioningFigures, ReportFigures, ZoneFigures};
+pub use fit::{FitResult, ResidualSummary, read_cloud};
 pub use json::{read_json, write_json};
 pub use lock::OutputLock;
 pub use measure::{InstantProblemRow, Missing, PoseRow};

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::ValueEnum;
-use geom::{Point2, fit, min_zone, stats};
-use serde_json::{Value, json};
+use formats::{FitResult, ResidualSummary};
+use geom::{Point2, Point3, Vector3, fit, min_zone, stats};
 
 /// Element to fit.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -40,9 +40,15 @@ pub struct Args {
     file: PathBuf,
 }
 
-fn summary(residuals: &[f64]) -> Result<Value> {
-    let (lo, hi) = stats::min_max(residuals)?;
-    Ok(json!({ "rms": stats::rms(residuals)?, "min": lo, "max": hi, "points": residuals.len() }))
+/// Residual figures of a fit.
+fn summary(residuals: &[f64]) -> Result<ResidualSummary> {
+    let (min, max) = stats::min_max(residuals)?;
+    Ok(ResidualSummary {
+        rms: stats::rms(residuals)?,
+        min,
+        max,
+        points: residuals.len(),
+    })
 }
 
 /// Run the command.
@@ -51,42 +57,79 @@ pub fn run(args: &Args) -> Result<()> {
     let pts = formats::read_cloud(&args.file, need_z)?;
     let xy: Vec<Point2<f64>> = pts.iter().map(|p| Point2::new(p.x, p.y)).collect();
     let ctx = || format!("{}", args.file.display());
+    let p3 = |p: &Point3<f64>| [p.x, p.y, p.z];
+    let v3 = |v: &Vector3<f64>| [v.x, v.y, v.z];
     let out = match args.kind {
         Kind::Line2d => {
             let f = fit::line_2d(&xy).with_context(ctx)?;
-            json!({ "element": "line2d", "point": [f.point.x, f.point.y], "direction": [f.direction.x, f.direction.y], "residuals": summary(&f.residuals)? })
+            FitResult::Line2d {
+                point: [f.point.x, f.point.y],
+                direction: [f.direction.x, f.direction.y],
+                residuals: summary(&f.residuals)?,
+            }
         }
         Kind::Line3d => {
             let f = fit::line_3d(&pts).with_context(ctx)?;
-            json!({ "element": "line3d", "point": f.point.coords.as_slice(), "direction": f.direction.as_slice(), "residuals": summary(&f.residuals)? })
+            FitResult::Line3d {
+                point: p3(&f.point),
+                direction: v3(&f.direction),
+                residuals: summary(&f.residuals)?,
+            }
         }
         Kind::Plane => {
             let f = fit::plane(&pts).with_context(ctx)?;
-            json!({ "element": "plane", "point": f.point.coords.as_slice(), "normal": f.normal.as_slice(), "residuals": summary(&f.residuals)? })
+            FitResult::Plane {
+                point: p3(&f.point),
+                normal: v3(&f.normal),
+                residuals: summary(&f.residuals)?,
+            }
         }
         Kind::Circle => {
             let f = fit::circle_3d(&pts).with_context(ctx)?;
-            json!({ "element": "circle", "centre": f.centre.coords.as_slice(), "normal": f.normal.as_slice(), "diameter": f.diameter, "residuals": summary(&f.residuals)? })
+            FitResult::Circle {
+                centre: p3(&f.centre),
+                normal: v3(&f.normal),
+                diameter: f.diameter,
+                residuals: summary(&f.residuals)?,
+            }
         }
         Kind::Sphere => {
             let f = fit::sphere(&pts).with_context(ctx)?;
-            json!({ "element": "sphere", "centre": f.centre.coords.as_slice(), "diameter": f.diameter, "residuals": summary(&f.residuals)? })
+            FitResult::Sphere {
+                centre: p3(&f.centre),
+                diameter: f.diameter,
+                residuals: summary(&f.residuals)?,
+            }
         }
         Kind::Cylinder => {
             let f = fit::cylinder(&pts).with_context(ctx)?;
-            json!({ "element": "cylinder", "point": f.point.coords.as_slice(), "direction": f.direction.as_slice(), "diameter": f.diameter, "residuals": summary(&f.residuals)? })
+            FitResult::Cylinder {
+                point: p3(&f.point),
+                direction: v3(&f.direction),
+                diameter: f.diameter,
+                residuals: summary(&f.residuals)?,
+            }
         }
         Kind::Straightness => {
             let lsq = fit::line_2d(&xy).with_context(ctx)?;
             let zone = min_zone::straightness(&xy).with_context(ctx)?;
-            json!({ "element": "straightness", "lsq": stats::range(&lsq.residuals)?, "min_zone": zone.width, "direction": [zone.direction.x, zone.direction.y] })
+            FitResult::Straightness {
+                lsq: stats::range(&lsq.residuals)?,
+                min_zone: zone.width,
+                direction: [zone.direction.x, zone.direction.y],
+            }
         }
         Kind::Flatness => {
             let lsq = fit::plane_z_on_xy(&pts).with_context(ctx)?;
             let zone = min_zone::flatness(&pts).with_context(ctx)?;
-            json!({ "element": "flatness", "lsq": stats::range(&lsq.residuals)?, "lsq_plane": [lsq.a, lsq.b, lsq.c], "min_zone": zone.width, "min_zone_plane": [zone.a, zone.b, zone.c] })
+            FitResult::Flatness {
+                lsq: stats::range(&lsq.residuals)?,
+                lsq_plane: [lsq.a, lsq.b, lsq.c],
+                min_zone: zone.width,
+                min_zone_plane: [zone.a, zone.b, zone.c],
+            }
         }
     };
-    println!("{}", serde_json::to_string_pretty(&out)?);
+    println!("{}", out.to_json()?);
     Ok(())
 }
