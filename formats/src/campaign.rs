@@ -262,9 +262,57 @@ impl Record for SphereRow {
 /// blobs to spheres by size (`fuse::matching`).
 pub const SAME_DIAMETER: f64 = 1e-6;
 
-/// What is wrong with a sphere set as a whole: the index of the sphere at
-/// fault, its column (`name` or `diameter`) and why.
-pub type SphereSetProblem = (usize, &'static str, String);
+/// What is wrong with a sphere set as a whole.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SphereSetProblem {
+    /// No sphere at all.
+    #[error("no spheres")]
+    Empty,
+    /// A name given to two spheres.
+    #[error("sphere {name} is listed twice")]
+    Twice {
+        /// Index of the second sphere of that name.
+        index: usize,
+        /// The name.
+        name: String,
+    },
+    /// Two diameters within [`SAME_DIAMETER`] of each other.
+    #[error(
+        "spheres {other} ({other_mm} mm) and {name} ({diameter_mm} mm) share a diameter: \
+         blobs are matched to spheres by size, so they could not be told apart"
+    )]
+    SharedDiameter {
+        /// Index of the later sphere of the two.
+        index: usize,
+        /// Its name.
+        name: String,
+        /// Its diameter (mm).
+        diameter_mm: f64,
+        /// The earlier sphere of the same diameter.
+        other: String,
+        /// Its diameter (mm).
+        other_mm: f64,
+    },
+}
+
+impl SphereSetProblem {
+    /// Index of the sphere at fault (0 for an empty set).
+    pub fn index(&self) -> usize {
+        match self {
+            SphereSetProblem::Empty => 0,
+            SphereSetProblem::Twice { index, .. }
+            | SphereSetProblem::SharedDiameter { index, .. } => *index,
+        }
+    }
+
+    /// Column at fault: `name` or `diameter`.
+    pub fn column(&self) -> &'static str {
+        match self {
+            SphereSetProblem::SharedDiameter { .. } => "diameter",
+            _ => "name",
+        }
+    }
+}
 
 /// Check a sphere set as a whole (`spheres.csv`, the renderer's `[[spheres]]`):
 /// at least one sphere, names unique, and no two diameters within
@@ -275,24 +323,26 @@ pub fn check_sphere_set<'a>(
 ) -> std::result::Result<(), SphereSetProblem> {
     let spheres: Vec<(&str, f64)> = spheres.into_iter().collect();
     if spheres.is_empty() {
-        return Err((0, "name", "no spheres".into()));
+        return Err(SphereSetProblem::Empty);
     }
     for (i, &(name, diameter)) in spheres.iter().enumerate() {
         if let Some((first, _)) = spheres[..i].iter().find(|(n, _)| *n == name) {
-            return Err((i, "name", format!("sphere {first} is listed twice")));
+            return Err(SphereSetProblem::Twice {
+                index: i,
+                name: (*first).to_string(),
+            });
         }
         if let Some((other, d)) = spheres[..i]
             .iter()
             .find(|(_, d)| (d - diameter).abs() <= SAME_DIAMETER * d.abs().max(diameter.abs()))
         {
-            return Err((
-                i,
-                "diameter",
-                format!(
-                    "spheres {other} ({d} mm) and {name} ({diameter} mm) share a diameter: \
-                     blobs are matched to spheres by size, so they could not be told apart"
-                ),
-            ));
+            return Err(SphereSetProblem::SharedDiameter {
+                index: i,
+                name: name.to_string(),
+                diameter_mm: diameter,
+                other: (*other).to_string(),
+                other_mm: *d,
+            });
         }
     }
     Ok(())
@@ -306,14 +356,14 @@ pub fn read_spheres(path: &Path) -> Result<Vec<Row<SphereRow>>> {
         rows.iter()
             .map(|r| (r.record.name.as_str(), r.record.diameter)),
     )
-    .map_err(|(i, column, message)| match rows.get(i) {
+    .map_err(|problem| match rows.get(problem.index()) {
         Some(r) => FormatError::Row {
             path: path.to_path_buf(),
             line: r.line,
-            column: Some(column.into()),
-            message,
+            column: Some(problem.column().into()),
+            message: problem.to_string(),
         },
-        None => FormatError::file(path, format!("{message}: the file has a header only")),
+        None => FormatError::file(path, format!("{problem}: the file has a header only")),
     })?;
     Ok(rows)
 }
@@ -338,18 +388,19 @@ mod tests {
     #[test]
     fn sphere_sets_that_cannot_be_matched_are_refused() {
         assert!(check_sphere_set([("A", 20.0), ("B", 15.0), ("C", 10.0)]).is_ok());
-        let (i, column, m) = check_sphere_set([("A", 20.0), ("B", 15.0), ("C", 15.0)]).unwrap_err();
-        assert_eq!((i, column), (2, "diameter"));
-        assert!(
-            m.contains("B (15 mm) and C (15 mm) share a diameter"),
-            "{m}"
-        );
-        let (i, column, m) = check_sphere_set([("A", 20.0), ("A", 15.0)]).unwrap_err();
+        let p = check_sphere_set([("A", 20.0), ("B", 15.0), ("C", 15.0)]).unwrap_err();
+        assert_eq!((p.index(), p.column()), (2, "diameter"));
         assert_eq!(
-            (i, column, m.as_str()),
+            p.to_string(),
+            "spheres B (15 mm) and C (15 mm) share a diameter: blobs are matched to spheres by \
+             size, so they could not be told apart"
+        );
+        let p = check_sphere_set([("A", 20.0), ("A", 15.0)]).unwrap_err();
+        assert_eq!(
+            (p.index(), p.column(), p.to_string().as_str()),
             (1, "name", "sphere A is listed twice")
         );
-        assert!(check_sphere_set([]).is_err());
+        assert_eq!(check_sphere_set([]), Err(SphereSetProblem::Empty));
         // One part in 10⁵ apart is still two spheres.
         assert!(check_sphere_set([("A", 20.0), ("B", 20.0002)]).is_ok());
     }

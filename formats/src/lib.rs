@@ -98,8 +98,8 @@ mod truth;
 pub use atomic::{AtomicFile, beside, folder_of, write_atomic};
 pub use blobs::{BlobRow, ProblemRow};
 pub use campaign::{
-    Axis, Direction, InstantKey, LineKey, ManifestRow, SAME_DIAMETER, SphereRow, check_sphere_set,
-    read_spheres,
+    Axis, Direction, InstantKey, LineKey, ManifestRow, SAME_DIAMETER, SphereRow, SphereSetProblem,
+    check_sphere_set, read_spheres,
 };
 pub use capture::{AxisProcedure, Dwell, MAX_INSTANTS, ManifestProblemRow, ProcedureConfig};
 pub use error::{FormatError, Result, RigError};

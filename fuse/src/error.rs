@@ -96,7 +96,7 @@ impl FuseError {
 pub enum CampaignProblem {
     /// The sphere set cannot be told apart by size (formats' check).
     #[error("spheres: {0}")]
-    Spheres(String),
+    Spheres(formats::SphereSetProblem),
     /// An empty manifest.
     #[error("the manifest has no rows")]
     NoRows,

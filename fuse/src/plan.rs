@@ -124,10 +124,10 @@ pub fn plan(
 
     // The binary refuses such a set when it reads spheres.csv; a library
     // caller gets the same check here.
-    if let Err((_, _, message)) =
+    if let Err(problem) =
         formats::check_sphere_set(spheres.iter().map(|s| (s.name.as_str(), s.diameter)))
     {
-        problems.push(CampaignProblem::Spheres(message));
+        problems.push(CampaignProblem::Spheres(problem));
     }
     if rows.is_empty() {
         problems.push(CampaignProblem::NoRows);

@@ -59,13 +59,12 @@ impl SphereConfig {
             non_negative(&format!("{key}.radiance_e"), sp.radiance_e)?;
         }
         formats::check_sphere_set(spheres.iter().map(|s| (s.name.as_str(), s.diameter_mm))).map_err(
-            |(i, column, message)| {
-                let field = if column == "diameter" {
-                    "diameter_mm"
-                } else {
-                    column
+            |problem| {
+                let field = match problem.column() {
+                    "diameter" => "diameter_mm",
+                    column => column,
                 };
-                bad(&format!("spheres[{i}].{field}"), message)
+                bad(&format!("spheres[{}].{field}", problem.index()), problem)
             },
         )
     }
