@@ -3,7 +3,13 @@
 
 use std::path::PathBuf;
 
+use std::fmt;
+
+use formats::{Axis, Direction, PointRow, Record};
 use thiserror::Error;
+
+use crate::iso230_2::MIN_RUNS;
+use crate::points::{MAX_COORDINATE_MM, UNIT_FACTOR, measured_column};
 
 /// Why an evaluation could not be made or its outputs not written.
 #[derive(Debug, Error)]
@@ -14,16 +20,17 @@ pub enum EvaluateError {
     Format(#[from] formats::FormatError),
     /// A row is well formed but does not fit the campaign (one run at a
     /// target, mixed units, inconsistent nominal positions, duplicates).
-    #[error("{source_name}: line {line}, column '{column}': {message}")]
+    #[error("{source_name}: line {line}, column '{column}': {problem}")]
     Row {
         /// The points file (or `points` for rows given in memory).
         source_name: String,
         /// 1-based line of the row in the file (the header is line 1).
         line: u64,
         /// Column at fault.
-        column: String,
-        /// What is wrong, with the offending value.
-        message: String,
+        column: &'static str,
+        /// What is wrong, with the offending value (boxed: the largest reason
+        /// would make every `Result` of the crate large).
+        problem: Box<RowProblem>,
     },
     /// The points hold no sphere.
     #[error("evaluate: no spheres in the points")]
@@ -42,8 +49,8 @@ pub enum EvaluateError {
     /// A fit failed on degenerate data.
     #[error("{what}: {source}")]
     Geom {
-        /// What was being fitted (axis and line).
-        what: String,
+        /// What was being fitted.
+        what: Fitted,
         /// The geometric failure.
         source: geom::GeomError,
     },
@@ -57,6 +64,222 @@ pub enum EvaluateError {
         path: PathBuf,
         /// The underlying error.
         source: std::io::Error,
+    },
+}
+
+/// A measured line, as messages name it: `axis X at y = 0, z = 0 mm`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LineName {
+    /// The axis moved.
+    pub axis: Axis,
+    /// The two off-axis world coordinates of the line (mm), sorted by axis.
+    pub off_axis: [(Axis, f64); 2],
+}
+
+impl fmt::Display for LineName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let [(a, u), (b, v)] = self.off_axis;
+        write!(
+            f,
+            "axis {} at {} = {u}, {} = {v} mm",
+            self.axis,
+            measured_column(a),
+            measured_column(b)
+        )
+    }
+}
+
+/// What a failed fit was fitting.
+#[derive(Debug, Clone, Copy, PartialEq, Error)]
+pub enum Fitted {
+    /// The flatness plane of all X and Y lines.
+    #[error("flatness")]
+    Flatness,
+    /// The direction of a line's axis.
+    #[error("axis direction of {0}")]
+    AxisDirection(LineName),
+    /// The straightness of a line in a world direction.
+    #[error("straightness in {world} of {line}")]
+    Straightness {
+        /// The world direction of the deviations.
+        world: Axis,
+        /// The line.
+        line: LineName,
+    },
+    /// The positioning figures of a line.
+    #[error("{0}")]
+    Positioning(LineName),
+}
+
+/// Why a row of the points does not fit the file or the campaign.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum RowProblem {
+    /// The file holds nothing, not even a header.
+    #[error("the file is empty: expected the header {}", PointRow::COLUMNS.join(","))]
+    EmptyFile,
+    /// The file holds a header only.
+    #[error("no data rows: the file has a header only")]
+    HeaderOnly,
+    /// A value breaks the file contract (`formats::Invalid`'s complaint, kept
+    /// as the file contract words it).
+    #[error("{0}")]
+    Contract(String),
+    /// A coordinate beyond any machine's travel, yet a length in µm.
+    #[error(
+        "{column} = {value} mm lies more than {MAX_COORDINATE_MM} mm from the origin, beyond the \
+         travel of any machine the rig measures: is the file in µm? (points.csv is in millimetres)"
+    )]
+    BeyondTravel {
+        /// The coordinate's column.
+        column: &'static str,
+        /// Its value (mm).
+        value: f64,
+    },
+    /// A coordinate that is no length in any unit.
+    #[error(
+        "{column} = {value:e} is not a length in millimetres (more than {:e} mm from the origin)",
+        MAX_COORDINATE_MM * UNIT_FACTOR
+    )]
+    NotALength {
+        /// The coordinate's column.
+        column: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// The same sphere at the same instant twice.
+    #[error(
+        "sphere {sphere} at axis {axis} {direction} run {run} target {target} capture {capture} \
+         appears twice (first on line {first_line})"
+    )]
+    Duplicate {
+        /// The sphere.
+        sphere: String,
+        /// Axis moved.
+        axis: Axis,
+        /// Approach direction.
+        direction: Direction,
+        /// Run.
+        run: u32,
+        /// Target.
+        target: u32,
+        /// Capture.
+        capture: u32,
+        /// Line of the first row of that instant and sphere.
+        first_line: u64,
+    },
+    /// A measured coordinate about 1000 times (or 1/1000 of) what its row leads to expect.
+    #[error(
+        "{column} = {value} is about {ratio} times the {expected:.3} mm its commanded position \
+         leads to expect: mixed units? (points.csv is in millimetres; rows of this sphere and \
+         axis agree to within {tolerance:.3} mm)"
+    )]
+    MeasuredScaled {
+        /// The measured column.
+        column: &'static str,
+        /// Its value.
+        value: f64,
+        /// `1000` or `1/1000`.
+        ratio: &'static str,
+        /// The value expected from the commanded position and the other rows (mm).
+        expected: f64,
+        /// How closely the other rows agree (mm).
+        tolerance: f64,
+    },
+    /// A commanded coordinate about 1000 times (or 1/1000 of) what the measured one leads to expect.
+    #[error(
+        "{column} = {value} is about {ratio} times the {expected:.3} mm the measured position \
+         leads to expect: mixed units? (points.csv is in millimetres)"
+    )]
+    NominalScaled {
+        /// The nominal column.
+        column: &'static str,
+        /// Its value.
+        value: f64,
+        /// `1000` or `1/1000`.
+        ratio: &'static str,
+        /// The value expected from the measured position (mm).
+        expected: f64,
+    },
+    /// A measured coordinate far from what the other rows lead to expect.
+    #[error(
+        "{column} = {value} lies {off:.3} mm from the {expected:.3} mm expected from its commanded \
+         position and the other rows of sphere {sphere} on axis {axis} (tolerance {tolerance:.3} \
+         mm): mixed units or a wrong row?"
+    )]
+    FarFromExpected {
+        /// The measured column.
+        column: &'static str,
+        /// Its value.
+        value: f64,
+        /// Distance from the expected value (mm).
+        off: f64,
+        /// The expected value (mm).
+        expected: f64,
+        /// The sphere.
+        sphere: String,
+        /// The axis moved.
+        axis: Axis,
+        /// How closely the other rows agree (mm).
+        tolerance: f64,
+    },
+    /// A line without rows of the sphere that carries positioning and straightness.
+    #[error("{line} has no rows of sphere {sphere}, which carries positioning and straightness")]
+    NoMainSphere {
+        /// The line.
+        line: LineName,
+        /// The sphere.
+        sphere: String,
+    },
+    /// A line of one target.
+    #[error("{0} has a single target: an axis needs at least two")]
+    SingleTarget(LineName),
+    /// A target commanded at two positions.
+    #[error(
+        "target {target} of {line} is commanded at {here} mm here but at {first} mm on line {first_line}"
+    )]
+    TargetMoved {
+        /// The target.
+        target: u32,
+        /// The line.
+        line: LineName,
+        /// Its commanded coordinate on this row (mm).
+        here: f64,
+        /// Its commanded coordinate on its first row (mm).
+        first: f64,
+        /// Line of its first row.
+        first_line: u64,
+    },
+    /// A target without approaches in a direction the other targets have.
+    #[error(
+        "target {target} of {line} has no '{direction}' approaches of sphere {sphere}, while \
+         other targets of the line have"
+    )]
+    MissingDirection {
+        /// The target.
+        target: u32,
+        /// The line.
+        line: LineName,
+        /// The direction missing.
+        direction: Direction,
+        /// The sphere.
+        sphere: String,
+    },
+    /// A target with a single run in a direction.
+    #[error(
+        "target {target} of {line} has a single '{direction}' run (run {run}) of sphere {sphere}: \
+         ISO 230-2 needs at least {MIN_RUNS} runs per direction"
+    )]
+    SingleRun {
+        /// The target.
+        target: u32,
+        /// The line.
+        line: LineName,
+        /// The direction.
+        direction: Direction,
+        /// The run.
+        run: u32,
+        /// The sphere.
+        sphere: String,
     },
 }
 
@@ -106,3 +329,29 @@ pub enum Iso230_2Problem {
 
 /// Result alias for `evaluate`.
 pub type Result<T> = std::result::Result<T, EvaluateError>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_line_and_a_failed_fit_are_named_as_messages_always_named_them() {
+        let line = LineName {
+            axis: Axis::X,
+            off_axis: [(Axis::Y, 0.0), (Axis::Z, 12.5)],
+        };
+        assert_eq!(line.to_string(), "axis X at y = 0, z = 12.5 mm");
+        let fitted = Fitted::Straightness {
+            world: Axis::Z,
+            line,
+        };
+        assert_eq!(
+            fitted.to_string(),
+            "straightness in Z of axis X at y = 0, z = 12.5 mm"
+        );
+        assert_eq!(
+            Fitted::AxisDirection(line).to_string(),
+            "axis direction of axis X at y = 0, z = 12.5 mm"
+        );
+    }
+}

@@ -83,7 +83,7 @@ use formats::{Axis, PointRow, Row};
 use geom::Point3;
 
 pub use angular::MIN_LEVER_MM;
-pub use error::{EvaluateError, Iso230_2Problem, Result};
+pub use error::{EvaluateError, Fitted, Iso230_2Problem, LineName, Result, RowProblem};
 pub use formats::evaluation::{
     ANGULAR_CONVENTION, AngularReport, AngularTarget, Axes, AxisReport, FlatnessPoint,
     FlatnessReport, LineReport, PositioningReport, PositioningTarget, Report, StraightnessReport,
@@ -243,7 +243,7 @@ fn flatness_report(
         }
         Err(e) => {
             return Err(EvaluateError::Geom {
-                what: "flatness".into(),
+                what: Fitted::Flatness,
                 source: e,
             });
         }

@@ -10,7 +10,9 @@ use geom::{Point2, Point3, Vector3};
 use crate::axis_frame::AxisFrame;
 use crate::iso230_2::TargetDeviations;
 use crate::points::{Located, measured_column, nominal_column, row_error};
-use crate::{EvaluateError, Result, angular, iso230_2, straightness, vdi3441};
+use crate::{
+    EvaluateError, Fitted, LineName, Result, RowProblem, angular, iso230_2, straightness, vdi3441,
+};
 use formats::evaluation::{
     ANGULAR_CONVENTION, AngularReport, AngularTarget, LineReport, PositioningReport,
     PositioningTarget, StraightnessReport, StraightnessTarget, Vdi3441Report,
@@ -43,16 +45,12 @@ pub(crate) struct Line<'a> {
 }
 
 impl Line<'_> {
-    /// Description for messages: `X at y = 0, z = 0`.
-    pub fn describe(&self) -> String {
-        format!(
-            "axis {} at {} = {}, {} = {} mm",
-            self.axis,
-            measured_column(self.off_axis[0].0),
-            self.off_axis[0].1,
-            measured_column(self.off_axis[1].0),
-            self.off_axis[1].1
-        )
+    /// The line as messages name it.
+    pub fn name(&self) -> LineName {
+        LineName {
+            axis: self.axis,
+            off_axis: self.off_axis,
+        }
     }
 
     /// Distance of the line from the origin in the off-axis coordinates.
@@ -150,26 +148,27 @@ pub(crate) fn evaluate_line(
 ) -> Result<LineResult> {
     let axis = line.axis;
     let first_line = line.rows.first().map_or(2, |r| r.line);
-    let what = line.describe();
-    let nominal = commanded_targets(line, &what, source)?;
+    let what = line.name();
+    let nominal = commanded_targets(line, what, source)?;
     let data = captures(line);
     let Some(main) = data.get(sphere) else {
         return Err(row_error(
             source,
             first_line,
             "sphere",
-            format!(
-                "{what} has no rows of sphere {sphere}, which carries positioning and straightness"
-            ),
+            RowProblem::NoMainSphere {
+                line: what,
+                sphere: sphere.to_string(),
+            },
         ));
     };
-    check_runs(main, &nominal, &what, sphere, source)?;
+    check_runs(main, &nominal, what, sphere, source)?;
     if main.len() < 2 {
         return Err(row_error(
             source,
             first_line,
             "target",
-            format!("{what} has a single target: an axis needs at least two"),
+            RowProblem::SingleTarget(what),
         ));
     }
 
@@ -180,7 +179,7 @@ pub(crate) fn evaluate_line(
         .map(|t| nominal.get(t).map_or(0.0, |n| n.0))
         .collect();
     let frame = AxisFrame::fit(axis, &means, &commanded).map_err(|e| EvaluateError::Geom {
-        what: format!("axis direction of {what}"),
+        what: Fitted::AxisDirection(what),
         source: e,
     })?;
     let sweep = Sweep {
@@ -188,7 +187,7 @@ pub(crate) fn evaluate_line(
         targets: &targets,
         commanded: &commanded,
         frame: &frame,
-        what: &what,
+        what,
     };
     let positioning = sweep.positioning(vdi)?;
     let straightness = sweep.straightness(&means)?;
@@ -220,7 +219,7 @@ pub(crate) fn evaluate_line(
 /// line: target → (coordinate mm, line of its first row).
 fn commanded_targets(
     line: &Line<'_>,
-    what: &str,
+    what: LineName,
     source: &str,
 ) -> Result<BTreeMap<u32, (f64, u64)>> {
     let axis = line.axis;
@@ -233,10 +232,13 @@ fn commanded_targets(
                     source,
                     r.line,
                     nominal_column(axis),
-                    format!(
-                        "target {} of {what} is commanded at {n} mm here but at {n0} mm on line {l0}",
-                        r.row.target
-                    ),
+                    RowProblem::TargetMoved {
+                        target: r.row.target,
+                        line: what,
+                        here: n,
+                        first: n0,
+                        first_line: l0,
+                    },
                 ));
             }
             Some(_) => {}
@@ -277,7 +279,7 @@ struct Sweep<'a> {
     /// The axis frame through its per-target means.
     frame: &'a AxisFrame,
     /// The line, for messages.
-    what: &'a str,
+    what: LineName,
 }
 
 impl Sweep<'_> {
@@ -302,8 +304,8 @@ impl Sweep<'_> {
                 }
                 all.extend(captures.iter().map(|(_, p)| self.deviation(k, p)));
             }
-            let m = geom::stats::mean(&all).map_err(|e| geom_error(self.what, e))?;
-            let s = geom::stats::sample_std(&all).map_err(|e| geom_error(self.what, e))?;
+            let m = geom::stats::mean(&all).map_err(|e| positioning_error(self.what, e))?;
+            let s = geom::stats::sample_std(&all).map_err(|e| positioning_error(self.what, e))?;
             seed.push((m, s));
             deviations.push(dev);
         }
@@ -400,7 +402,10 @@ impl Sweep<'_> {
                 .collect();
             let what = self.what;
             let s = straightness::straightness(&profile).map_err(|e| EvaluateError::Geom {
-                what: format!("straightness in {world} of {what}"),
+                what: Fitted::Straightness {
+                    world: *world,
+                    line: what,
+                },
                 source: e,
             })?;
             straight.insert(
@@ -487,10 +492,10 @@ fn angular_errors(
     }
 }
 
-/// A geometric failure on a line.
-fn geom_error(what: &str, e: geom::GeomError) -> EvaluateError {
+/// A failed statistic of a line's positioning.
+fn positioning_error(line: LineName, e: geom::GeomError) -> EvaluateError {
     EvaluateError::Geom {
-        what: what.to_string(),
+        what: Fitted::Positioning(line),
         source: e,
     }
 }
@@ -500,7 +505,7 @@ fn geom_error(what: &str, e: geom::GeomError) -> EvaluateError {
 fn check_runs(
     main: &SphereData,
     nominal: &BTreeMap<u32, (f64, u64)>,
-    what: &str,
+    what: LineName,
     sphere: &str,
     source: &str,
 ) -> Result<()> {
@@ -524,10 +529,12 @@ fn check_runs(
                         source,
                         line,
                         "direction",
-                        format!(
-                            "target {target} of {what} has no '{d}' approaches of sphere {sphere}, \
-                             while other targets of the line have"
-                        ),
+                        RowProblem::MissingDirection {
+                            target,
+                            line: what,
+                            direction: d,
+                            sphere: sphere.to_string(),
+                        },
                     ));
                 }
                 [((_, run), captures)] => {
@@ -536,11 +543,13 @@ fn check_runs(
                         source,
                         line,
                         "run",
-                        format!(
-                            "target {target} of {what} has a single '{d}' run (run {run}) of sphere \
-                             {sphere}: ISO 230-2 needs at least {} runs per direction",
-                            iso230_2::MIN_RUNS
-                        ),
+                        RowProblem::SingleRun {
+                            target,
+                            line: what,
+                            direction: d,
+                            run: *run,
+                            sphere: sphere.to_string(),
+                        },
                     ));
                 }
                 _ => {}

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use formats::{Axis, PointRow, Record, Row};
 
-use crate::{EvaluateError, Result};
+use crate::{EvaluateError, Result, RowProblem};
 
 /// A row and where it came from.
 #[derive(Debug, Clone, Copy)]
@@ -25,7 +25,7 @@ pub const UNITS_TOLERANCE_MM: f64 = 1.0;
 /// world frame turned by a few mrad against the machine's.
 pub const UNITS_TOLERANCE_OF_TRAVEL: f64 = 0.02;
 /// The factor between the units a stray row may have used and millimetres (µm, m).
-const UNIT_FACTOR: f64 = 1000.0;
+pub(crate) const UNIT_FACTOR: f64 = 1000.0;
 /// Largest coordinate (mm), measured or commanded: 10 m from the origin is
 /// beyond the travel of any machine a rig of cameras measures, so a value
 /// past it is a length in µm (a whole file in µm puts a 150 mm travel at
@@ -43,11 +43,8 @@ pub fn read_points(path: &Path) -> Result<Vec<Row<PointRow>>> {
         return Err(EvaluateError::Row {
             source_name: path.display().to_string(),
             line: 1,
-            column: PointRow::COLUMNS[0].into(),
-            message: format!(
-                "the file is empty: expected the header {}",
-                PointRow::COLUMNS.join(",")
-            ),
+            column: PointRow::COLUMNS[0],
+            problem: Box::new(RowProblem::EmptyFile),
         });
     }
     Ok(formats::read_csv_from(bytes.as_slice(), path)?)
@@ -57,14 +54,14 @@ pub fn read_points(path: &Path) -> Result<Vec<Row<PointRow>>> {
 pub(crate) fn row_error(
     source: &str,
     line: u64,
-    column: impl Into<String>,
-    message: impl Into<String>,
+    column: &'static str,
+    problem: RowProblem,
 ) -> EvaluateError {
     EvaluateError::Row {
         source_name: source.into(),
         line,
-        column: column.into(),
-        message: message.into(),
+        column,
+        problem: Box::new(problem),
     }
 }
 
@@ -86,13 +83,18 @@ pub(crate) fn check(rows: &[Located<'_>], source: &str) -> Result<()> {
             source,
             2,
             PointRow::COLUMNS[0],
-            "no data rows: the file has a header only",
+            RowProblem::HeaderOnly,
         ));
     }
     for r in rows {
-        r.row
-            .validate()
-            .map_err(|inv| row_error(source, r.line, inv.column, inv.message))?;
+        r.row.validate().map_err(|inv| {
+            row_error(
+                source,
+                r.line,
+                inv.column,
+                RowProblem::Contract(inv.message),
+            )
+        })?;
         check_reach(r, source, MAX_COORDINATE_MM * UNIT_FACTOR)?;
     }
     check_duplicates(rows, source)?;
@@ -115,20 +117,12 @@ fn check_reach(r: &Located<'_>, source: &str, limit: f64) -> Result<()> {
         ("z", p.z),
     ] {
         if value.abs() > limit {
-            let message = if value.abs() <= MAX_COORDINATE_MM * UNIT_FACTOR {
-                format!(
-                    "{column} = {value} mm lies more than {MAX_COORDINATE_MM} mm from the origin, \
-                     beyond the travel of any machine the rig measures: is the file in µm? \
-                     (points.csv is in millimetres)"
-                )
+            let problem = if value.abs() <= MAX_COORDINATE_MM * UNIT_FACTOR {
+                RowProblem::BeyondTravel { column, value }
             } else {
-                format!(
-                    "{column} = {value:e} is not a length in millimetres (more than {:e} mm \
-                     from the origin)",
-                    MAX_COORDINATE_MM * UNIT_FACTOR
-                )
+                RowProblem::NotALength { column, value }
             };
-            return Err(row_error(source, r.line, column, message));
+            return Err(row_error(source, r.line, column, problem));
         }
     }
     Ok(())
@@ -153,10 +147,15 @@ fn check_duplicates(rows: &[Located<'_>], source: &str) -> Result<()> {
                 source,
                 r.line,
                 "capture",
-                format!(
-                    "sphere {} at axis {} {} run {} target {} capture {} appears twice (first on line {first})",
-                    p.sphere, p.axis, p.direction, p.run, p.target, p.capture
-                ),
+                RowProblem::Duplicate {
+                    sphere: p.sphere.clone(),
+                    axis: p.axis,
+                    direction: p.direction,
+                    run: p.run,
+                    target: p.target,
+                    capture: p.capture,
+                    first_line: first,
+                },
             ));
         }
     }
@@ -186,7 +185,7 @@ fn check_units(rows: &[Located<'_>], source: &str) -> Result<()> {
     }
     let mut groups: Vec<_> = groups.into_iter().collect();
     groups.sort_by_key(|(_, g)| g.first().map_or(0, |r| r.line));
-    let mut worst: Option<(u64, String, String)> = None;
+    let mut worst: Option<(u64, &'static str, RowProblem)> = None;
     for ((axis, _), group) in &groups {
         let nominal_axis: Vec<f64> = group
             .iter()
@@ -222,47 +221,48 @@ fn check_units(rows: &[Located<'_>], source: &str) -> Result<()> {
                     .iter()
                     .any(|s| (s - e).abs() <= tolerance)
             };
-            let (column, message) = if fits(measured[c], expected) {
+            let (column, problem) = if fits(measured[c], expected) {
+                let column = measured_column(world);
+                let ratio = ratio_word(measured[c], expected);
                 (
-                    measured_column(world),
-                    format!(
-                        "{} = {} is about {} times the {:.3} mm its commanded position leads to expect: \
-                         mixed units? (points.csv is in millimetres; rows of this sphere and axis \
-                         agree to within {tolerance:.3} mm)",
-                        measured_column(world),
-                        measured[c],
-                        ratio_word(measured[c], expected),
-                        expected
-                    ),
+                    column,
+                    RowProblem::MeasuredScaled {
+                        column,
+                        value: measured[c],
+                        ratio,
+                        expected,
+                        tolerance,
+                    },
                 )
             } else if fits(nominal[c], measured[c] - offset[c]) {
+                let column = nominal_column(world);
+                let expected = measured[c] - offset[c];
                 (
-                    nominal_column(world),
-                    format!(
-                        "{} = {} is about {} times the {:.3} mm the measured position leads to expect: \
-                         mixed units? (points.csv is in millimetres)",
-                        nominal_column(world),
-                        nominal[c],
-                        ratio_word(nominal[c], measured[c] - offset[c]),
-                        measured[c] - offset[c]
-                    ),
+                    column,
+                    RowProblem::NominalScaled {
+                        column,
+                        value: nominal[c],
+                        ratio: ratio_word(nominal[c], expected),
+                        expected,
+                    },
                 )
             } else {
+                let column = measured_column(world);
                 (
-                    measured_column(world),
-                    format!(
-                        "{} = {} lies {off:.3} mm from the {expected:.3} mm expected from its commanded \
-                         position and the other rows of sphere {} on axis {} (tolerance {tolerance:.3} mm): \
-                         mixed units or a wrong row?",
-                        measured_column(world),
-                        measured[c],
-                        r.row.sphere,
-                        axis
-                    ),
+                    column,
+                    RowProblem::FarFromExpected {
+                        column,
+                        value: measured[c],
+                        off,
+                        expected,
+                        sphere: r.row.sphere.clone(),
+                        axis: *axis,
+                        tolerance,
+                    },
                 )
             };
             if worst.as_ref().is_none_or(|w| r.line < w.0) {
-                worst = Some((r.line, column.to_string(), message));
+                worst = Some((r.line, column, problem));
             }
             break;
         }
