@@ -10,6 +10,12 @@
 //! `chromium` or `chromium-browser` on the PATH. Without one the test prints
 //! a notice that it is skipped, unless `TRINOCULAR_REQUIRE_BROWSER=1`, when
 //! that is an error (CI sets it).
+//!
+//! Why a client of its own: the crates that drive Chromium
+//! (`headless_chrome`, `chromiumoxide`) speak the protocol over a WebSocket,
+//! with a WebSocket stack and (chromiumoxide) an async runtime; over
+//! `--remote-debugging-pipe` the protocol is NUL-separated JSON on two file
+//! descriptors, which serde_json and a reader thread handle here.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, Write};
@@ -18,18 +24,20 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
 use std::time::{Duration, Instant};
 
+use base64::Engine;
+use base64::engine::general_purpose::STANDARD;
 use image::RgbaImage;
 use serde_json::{Value, json};
 
-use crate::{ReportError, Result};
+use crate::{BrowserFault, ReportError, Result};
 
 /// Longest wait for one browser answer.
 const TIMEOUT: Duration = Duration::from_secs(60);
 /// Page width (CSS px, device scale 1).
 pub const PAGE_WIDTH: u32 = 1280;
 
-fn fail(message: impl Into<String>) -> ReportError {
-    ReportError::Browser(message.into())
+fn fail(fault: BrowserFault) -> ReportError {
+    ReportError::Browser(fault)
 }
 
 /// The browser to use: `TRINOCULAR_CHROMIUM`, else `chromium` or
@@ -50,9 +58,9 @@ pub fn find_browser() -> Option<PathBuf> {
 pub fn browser_or_skip(test: &str) -> Result<Option<PathBuf>> {
     match find_browser() {
         Some(b) => Ok(Some(b)),
-        None if std::env::var("TRINOCULAR_REQUIRE_BROWSER").as_deref() == Ok("1") => Err(fail(
-            "TRINOCULAR_REQUIRE_BROWSER=1 but no chromium on the PATH (apt-get install chromium)",
-        )),
+        None if std::env::var("TRINOCULAR_REQUIRE_BROWSER").as_deref() == Ok("1") => {
+            Err(fail(BrowserFault::Required))
+        }
         None => {
             // Straight to stderr, past the test harness's capture, so that the skip is seen.
             let _ = writeln!(
@@ -63,31 +71,6 @@ pub fn browser_or_skip(test: &str) -> Result<Option<PathBuf>> {
             Ok(None)
         }
     }
-}
-
-/// Standard base64 (with padding) to bytes.
-fn base64(text: &str) -> Result<Vec<u8>> {
-    let value = |c: u8| match c {
-        b'A'..=b'Z' => Ok(c - b'A'),
-        b'a'..=b'z' => Ok(c - b'a' + 26),
-        b'0'..=b'9' => Ok(c - b'0' + 52),
-        b'+' => Ok(62),
-        b'/' => Ok(63),
-        _ => Err(fail(format!("screenshot: not base64: {c}"))),
-    };
-    let clean: Vec<u8> = text
-        .bytes()
-        .filter(|c| !c.is_ascii_whitespace() && *c != b'=')
-        .collect();
-    let mut out = Vec::with_capacity(clean.len() * 3 / 4);
-    for chunk in clean.chunks(4) {
-        let mut n = 0u32;
-        for (i, &c) in chunk.iter().enumerate() {
-            n |= u32::from(value(c)?) << (18 - 6 * i);
-        }
-        out.extend(n.to_be_bytes()[1..chunk.len()].iter());
-    }
-    Ok(out)
 }
 
 /// A headless Chromium driven over `--remote-debugging-pipe` (fd 3 in, fd 4
@@ -106,7 +89,12 @@ struct Browser {
 
 impl Browser {
     fn launch(browser: &Path) -> Result<Browser> {
-        let io = |e: std::io::Error| fail(format!("starting {}: {e}", browser.display()));
+        let io = |e: std::io::Error| {
+            fail(BrowserFault::Start {
+                browser: browser.to_path_buf(),
+                reason: e.to_string(),
+            })
+        };
         let dir = tempfile::tempdir().map_err(io)?;
         let (fifo_in, fifo_out) = (dir.path().join("in"), dir.path().join("out"));
         for f in [&fifo_in, &fifo_out] {
@@ -116,7 +104,7 @@ impl Browser {
                 .map_err(io)?
                 .success()
             {
-                return Err(fail(format!("mkfifo {} failed", f.display())));
+                return Err(fail(BrowserFault::Fifo(f.to_path_buf())));
             }
         }
         let stderr = dir.path().join("stderr.txt");
@@ -175,12 +163,13 @@ impl Browser {
     }
 
     fn send(&mut self, msg: &Value) -> Result<()> {
-        let mut bytes = serde_json::to_vec(msg).map_err(|e| fail(e.to_string()))?;
+        let mut bytes =
+            serde_json::to_vec(msg).map_err(|e| fail(BrowserFault::Encode(e.to_string())))?;
         bytes.push(0);
         self.to
             .write_all(&bytes)
             .and_then(|()| self.to.flush())
-            .map_err(|e| fail(format!("writing to the browser: {e}")))
+            .map_err(|e| fail(BrowserFault::Write(e.to_string())))
     }
 
     /// Send a command (to the page session once attached) and wait for its result.
@@ -198,16 +187,19 @@ impl Browser {
             match self.from.recv_timeout(left) {
                 Ok(v) if v["id"] == json!(id) => {
                     if let Some(e) = v.get("error") {
-                        return Err(fail(format!("{method} failed: {e}")));
+                        return Err(fail(BrowserFault::Refused {
+                            method: method.to_string(),
+                            error: e.to_string(),
+                        }));
                     }
                     return Ok(v["result"].clone());
                 }
                 Ok(v) => self.events.push(v),
                 Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => {
-                    return Err(fail(format!(
-                        "no answer to {method}; its stderr:\n{}",
-                        self.stderr_tail()
-                    )));
+                    return Err(fail(BrowserFault::NoAnswer {
+                        method: method.to_string(),
+                        stderr: self.stderr_tail(),
+                    }));
                 }
             }
         }
@@ -230,10 +222,10 @@ impl Browser {
                     }
                 }
                 Err(_) => {
-                    return Err(fail(format!(
-                        "no {method}; its stderr:\n{}",
-                        self.stderr_tail()
-                    )));
+                    return Err(fail(BrowserFault::NoEvent {
+                        event: method.to_string(),
+                        stderr: self.stderr_tail(),
+                    }));
                 }
             }
         }
@@ -248,7 +240,7 @@ impl Browser {
         )?;
         let session = attached["sessionId"]
             .as_str()
-            .ok_or_else(|| fail("no session id"))?;
+            .ok_or_else(|| fail(BrowserFault::NoSession))?;
         self.session = Some(session.to_string());
         for domain in ["Runtime.enable", "Log.enable", "Page.enable"] {
             self.call(domain, json!({}))?;
@@ -281,10 +273,14 @@ impl Browser {
     /// Screenshot of the whole viewport as RGBA.
     fn screenshot(&mut self) -> Result<RgbaImage> {
         let r = self.call("Page.captureScreenshot", json!({"format": "png"}))?;
-        let data = r["data"].as_str().ok_or_else(|| fail("no screenshot"))?;
-        let png = base64(data)?;
+        let data = r["data"]
+            .as_str()
+            .ok_or_else(|| fail(BrowserFault::NoScreenshot))?;
+        let png = STANDARD
+            .decode(data)
+            .map_err(|e| fail(BrowserFault::NotBase64(e.to_string())))?;
         Ok(image::load_from_memory(&png)
-            .map_err(|e| fail(format!("screenshot: {e}")))?
+            .map_err(|e| fail(BrowserFault::Screenshot(e.to_string())))?
             .to_rgba8())
     }
 
@@ -379,8 +375,8 @@ const LAYOUT: &str = "JSON.stringify({height: document.documentElement.scrollHei
 
 fn layout(b: &mut Browser) -> Result<Value> {
     let text = b.eval(LAYOUT)?;
-    let text = text.as_str().ok_or_else(|| fail("no layout"))?;
-    serde_json::from_str(text).map_err(|e| fail(format!("layout: {e}")))
+    let text = text.as_str().ok_or_else(|| fail(BrowserFault::NoLayout))?;
+    serde_json::from_str(text).map_err(|e| fail(BrowserFault::Layout(e.to_string())))
 }
 
 fn px(v: &Value) -> u32 {
@@ -485,14 +481,6 @@ pub fn rgb(c: crate::plot::RGBColor) -> [u8; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn base64_decodes() {
-        assert_eq!(base64("aGVsbG8=").ok(), Some(b"hello".to_vec()));
-        assert_eq!(base64("aGVsbG8h").ok(), Some(b"hello!".to_vec()));
-        assert_eq!(base64("aGk=").ok(), Some(b"hi".to_vec()));
-        assert!(base64("a*").is_err());
-    }
 
     /// The harness can fail: a page with a console error and a missing image
     /// is caught, and a blank region is rejected.

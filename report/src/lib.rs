@@ -17,5 +17,5 @@ mod page;
 pub mod browser;
 pub mod plot;
 
-pub use error::{ReportError, Result};
+pub use error::{BrowserFault, ReportError, Result};
 pub use page::{Page, escape, num};
