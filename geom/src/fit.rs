@@ -30,7 +30,7 @@ use nalgebra::{
 };
 
 use crate::lm::{self, LmOptions, Residuals};
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 /// Singular values below this fraction of the largest count as zero: the
 /// input then does not determine the element (collinear, coplanar, …).
@@ -114,9 +114,9 @@ pub(crate) fn principal_axes(
             last_step: f64::NAN,
         },
     )?;
-    let v_t = svd.v_t.ok_or(GeomError::Degenerate(
-        "singular value decomposition returned no vectors".into(),
-    ))?;
+    let v_t = svd
+        .v_t
+        .ok_or(GeomError::Degenerate(Degeneracy::NoSingularVectors))?;
     let mut sigma = Vector3::zeros();
     let mut axes = Matrix3::zeros();
     for k in 0..3 {
@@ -159,12 +159,10 @@ pub(crate) fn solve_least_squares(
     let largest = svd.singular_values.max();
     let smallest = svd.singular_values.min();
     if svd.singular_values.len() < cols || smallest <= RANK_TOLERANCE * largest {
-        return Err(GeomError::Degenerate(format!(
-            "{what}: the points do not determine the element"
-        )));
+        return Err(Degeneracy::Underdetermined { what }.into());
     }
     svd.solve(b, 0.0)
-        .map_err(|e| GeomError::Degenerate(format!("{what}: {e}")))
+        .map_err(|reason| Degeneracy::SolveFailed { what, reason }.into())
 }
 
 /// Smallest eigenvalue of a symmetric matrix and its unit eigenvector

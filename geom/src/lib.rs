@@ -52,7 +52,7 @@ pub mod transform;
 
 pub use camera::{Camera, Intrinsics};
 pub use distortion::Distortion;
-pub use error::{GeomError, Result};
+pub use error::{Degeneracy, GeomError, Result, Spread};
 pub use illumination::{Illumination, RadialIllumination};
 
 /// nalgebra types used throughout the workspace, re-exported so every crate

@@ -19,7 +19,7 @@ use microlp::{ComparisonOp, OptimizationDirection, Problem};
 use nalgebra::{Point2, Point3, Vector2, Vector3};
 
 use crate::fit::{self, canonical_sign, centroid, validate};
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 /// A point touches a zone boundary when it lies within this fraction of the
 /// data's extent of it.
@@ -129,9 +129,7 @@ fn extent<const D: usize>(local: &[nalgebra::SVector<f64, D>], what: &'static st
     if e > 0.0 {
         Ok(e)
     } else {
-        Err(GeomError::Degenerate(format!(
-            "{what}: all points coincide"
-        )))
+        Err(Degeneracy::Coincide { what }.into())
     }
 }
 
@@ -222,9 +220,7 @@ pub fn straightness_vertical(points: &[Point2<f64>]) -> Result<SlopeZone> {
         })
         .collect();
     if slopes.is_empty() {
-        return Err(GeomError::Degenerate(format!(
-            "{WHAT}: all points have the same x"
-        )));
+        return Err(Degeneracy::SameX { what: WHAT }.into());
     }
     slopes.sort_by(f64::total_cmp);
     slopes.dedup();
@@ -381,10 +377,10 @@ fn chebyshev_lp(
     }
     let solution = lp
         .solve()
-        .map_err(|e| GeomError::Degenerate(format!("flatness linear programme failed: {e}")))?;
+        .map_err(|e| GeomError::Degenerate(Degeneracy::LpFailed(e)))?;
     let solution = solution
         .into_solution()
-        .map_err(|_| GeomError::Degenerate("flatness linear programme was interrupted".into()))?;
+        .map_err(|_| GeomError::Degenerate(Degeneracy::LpInterrupted))?;
     let to_slope = s_r / s_xy;
     Ok((
         solution.var_value(da) * to_slope,
