@@ -25,8 +25,8 @@ pub use sphere::{SphereFit, sphere};
 
 use nalgebra::allocator::Allocator;
 use nalgebra::{
-    Const, DMatrix, DVector, DefaultAllocator, DimDiff, DimSub, Matrix3, OPoint, Point3, SMatrix,
-    SVD, SVector, U1, Vector3,
+    Const, DMatrix, DVector, DefaultAllocator, DimDiff, DimSub, Dyn, Matrix3, OPoint, Point3,
+    SMatrix, SVD, SVector, U1, Vector3,
 };
 
 use crate::lm::{self, LmOptions, Residuals};
@@ -96,6 +96,16 @@ pub(crate) fn canonical_sign<const D: usize>(v: SVector<f64, D>) -> SVector<f64,
     if largest < 0.0 { -v } else { v }
 }
 
+/// SVD of `a` with its right singular vectors (and the left ones when
+/// `left`), at most [`SVD_MAX_ITERATIONS`] sweeps.
+fn svd_of(a: DMatrix<f64>, left: bool) -> Result<SVD<f64, Dyn, Dyn>> {
+    SVD::try_new(a, left, true, f64::EPSILON, SVD_MAX_ITERATIONS).ok_or(GeomError::NotConverged {
+        what: "singular value decomposition",
+        iterations: SVD_MAX_ITERATIONS,
+        last_step: f64::NAN,
+    })
+}
+
 /// Singular values (descending) and right singular vectors (columns, same
 /// order) of the `n×3` matrix of points minus `origin`: the principal axes.
 pub(crate) fn principal_axes(
@@ -107,13 +117,7 @@ pub(crate) fn principal_axes(
     let centred = DMatrix::from_fn(rows, 3, |i, j| {
         points.get(i).map_or(0.0, |p| p[j] - origin[j])
     });
-    let svd = SVD::try_new(centred, false, true, f64::EPSILON, SVD_MAX_ITERATIONS).ok_or(
-        GeomError::NotConverged {
-            what: "singular value decomposition",
-            iterations: SVD_MAX_ITERATIONS,
-            last_step: f64::NAN,
-        },
-    )?;
+    let svd = svd_of(centred, false)?;
     let v_t = svd
         .v_t
         .ok_or(GeomError::Degenerate(Degeneracy::NoSingularVectors))?;
@@ -149,13 +153,7 @@ pub(crate) fn solve_least_squares(
     what: &'static str,
 ) -> Result<DVector<f64>> {
     let cols = a.ncols();
-    let svd = SVD::try_new(a, true, true, f64::EPSILON, SVD_MAX_ITERATIONS).ok_or(
-        GeomError::NotConverged {
-            what: "singular value decomposition",
-            iterations: SVD_MAX_ITERATIONS,
-            last_step: f64::NAN,
-        },
-    )?;
+    let svd = svd_of(a, true)?;
     let largest = svd.singular_values.max();
     let smallest = svd.singular_values.min();
     if svd.singular_values.len() < cols || smallest <= RANK_TOLERANCE * largest {

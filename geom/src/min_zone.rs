@@ -523,6 +523,21 @@ mod tests {
         );
     }
 
+    /// A zone of the exhaustive optimum's width, every residual within it.
+    fn is_optimum(
+        width: f64,
+        exhaustive: f64,
+        residuals: &[f64],
+        contacts: &[usize],
+    ) -> std::result::Result<(), TestCaseError> {
+        prop_assert!(
+            (width - exhaustive).abs() <= EXHAUSTIVE_TOLERANCE,
+            "{width} vs {exhaustive}"
+        );
+        assert_residuals_in_zone(residuals, width, contacts);
+        Ok(())
+    }
+
     #[test]
     fn straightness_of_a_triangle_is_its_least_altitude() {
         let pts = [
@@ -708,10 +723,7 @@ mod tests {
         fn straightness_is_exhaustive_optimum(pts in axis_points(2..9), other in scattered(3..9)) {
             for set in [&pts, &other] {
                 let zone = straightness(set).unwrap();
-                let exhaustive = straightness_exhaustive(set);
-                prop_assert!((zone.width - exhaustive).abs() <= EXHAUSTIVE_TOLERANCE,
-                    "{} vs {}", zone.width, exhaustive);
-                assert_residuals_in_zone(&zone.residuals, zone.width, &zone.contacts);
+                is_optimum(zone.width, straightness_exhaustive(set), &zone.residuals, &zone.contacts)?;
             }
         }
 
@@ -719,10 +731,7 @@ mod tests {
         fn vertical_straightness_is_exhaustive_optimum(pts in axis_points(2..9), other in scattered(3..9)) {
             for set in [&pts, &other] {
                 let zone = straightness_vertical(set).unwrap();
-                let exhaustive = vertical_exhaustive(set);
-                prop_assert!((zone.width - exhaustive).abs() <= EXHAUSTIVE_TOLERANCE,
-                    "{} vs {}", zone.width, exhaustive);
-                assert_residuals_in_zone(&zone.residuals, zone.width, &zone.contacts);
+                is_optimum(zone.width, vertical_exhaustive(set), &zone.residuals, &zone.contacts)?;
             }
         }
 
@@ -730,9 +739,7 @@ mod tests {
         fn flatness_is_exhaustive_optimum(pts in surface(4..9), off in (-1.0..1.0_f64, -1.0..1.0_f64)) {
             let zone = flatness(&pts).unwrap();
             let exhaustive = flatness_exhaustive(&pts);
-            prop_assert!((zone.width - exhaustive).abs() <= EXHAUSTIVE_TOLERANCE,
-                "{} vs {}", zone.width, exhaustive);
-            assert_residuals_in_zone(&zone.residuals, zone.width, &zone.contacts);
+            is_optimum(zone.width, exhaustive, &zone.residuals, &zone.contacts)?;
             // The exact recomputation alone finds the vertex from a start off
             // by 1e-4 of the width across the data (far more than the LP's error).
             let local: Vec<Vector3<f64>> = pts.iter().map(|p| p.coords).collect();
