@@ -3,7 +3,8 @@
 //! interpolation and the statistics the standards use.
 //!
 //! `geom` does no I/O and cannot fail except on degenerate input, which is
-//! reported as a typed [`GeomError`].
+//! reported as a typed [`GeomError`]; [`GeomError::Degenerate`] names its
+//! reason, a [`Degeneracy`], with the values that show it.
 //!
 //! # Conventions
 //! - Lengths in millimetres, angles in radians, all geometry in `f64`.
