@@ -147,7 +147,7 @@ pub enum Degeneracy {
         /// The fit.
         what: &'static str,
         /// The spread whose direction is the result.
-        spread: Spread,
+        spread: PrincipalSpread,
     },
     /// 2-D points spread equally in every direction (no line direction).
     #[error("{what}: the points spread equally in every direction")]
@@ -255,18 +255,18 @@ fn prefix(what: &Option<&'static str>) -> String {
 
 /// Which principal spread of the points gives a fit's direction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Spread {
+pub enum PrincipalSpread {
     /// The least spread: a plane's normal.
     Least,
     /// The largest spread: a line's direction.
     Largest,
 }
 
-impl std::fmt::Display for Spread {
+impl std::fmt::Display for PrincipalSpread {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
-            Spread::Least => "least",
-            Spread::Largest => "largest",
+            PrincipalSpread::Least => "least",
+            PrincipalSpread::Largest => "largest",
         })
     }
 }

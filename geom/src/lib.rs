@@ -53,7 +53,7 @@ pub mod transform;
 
 pub use camera::{Camera, Intrinsics};
 pub use distortion::Distortion;
-pub use error::{Degeneracy, GeomError, Result, Spread};
+pub use error::{Degeneracy, GeomError, PrincipalSpread, Result};
 pub use illumination::{Illumination, RadialIllumination};
 
 /// nalgebra types used throughout the workspace, re-exported so every crate

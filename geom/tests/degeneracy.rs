@@ -5,7 +5,7 @@
 use geom::fit::{line_3d, plane, sphere};
 use geom::interp::{Grid3, linear};
 use geom::transform::rigid_fit;
-use geom::{Camera, Degeneracy, GeomError, Intrinsics, Point3, Spread, Vector3};
+use geom::{Camera, Degeneracy, GeomError, Intrinsics, Point3, PrincipalSpread, Vector3};
 
 fn text(reason: Degeneracy) -> String {
     GeomError::Degenerate(reason).to_string()
@@ -100,14 +100,14 @@ fn every_reason_reads_as_before() {
         (
             Degeneracy::NoSingleDirection {
                 what: "plane fit",
-                spread: Spread::Least,
+                spread: PrincipalSpread::Least,
             },
             "plane fit: no single direction of least spread",
         ),
         (
             Degeneracy::NoSingleDirection {
                 what: "3-D line fit",
-                spread: Spread::Largest,
+                spread: PrincipalSpread::Largest,
             },
             "3-D line fit: no single direction of largest spread",
         ),

@@ -4,7 +4,7 @@
 use nalgebra::{Matrix2, Point2, Point3, SymmetricEigen, Vector2, Vector3};
 
 use super::{RANK_TOLERANCE, canonical_sign, centroid, principal_axes, validate};
-use crate::{Degeneracy, Result, Spread};
+use crate::{Degeneracy, PrincipalSpread, Result};
 
 /// Orthogonal least-squares line in the plane.
 #[derive(Debug, Clone, PartialEq)]
@@ -96,7 +96,7 @@ pub fn line_3d(points: &[Point3<f64>]) -> Result<Line3Fit> {
     if sigma[0] - sigma[1] <= RANK_TOLERANCE * sigma[0] {
         return Err(Degeneracy::NoSingleDirection {
             what: "3-D line fit",
-            spread: Spread::Largest,
+            spread: PrincipalSpread::Largest,
         }
         .into());
     }

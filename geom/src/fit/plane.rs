@@ -5,7 +5,7 @@ use nalgebra::{DMatrix, DVector, Point3, Vector3};
 use super::{
     RANK_TOLERANCE, canonical_sign, centroid, principal_axes, solve_least_squares, validate,
 };
-use crate::{Degeneracy, Result, Spread};
+use crate::{Degeneracy, PrincipalSpread, Result};
 
 /// Orthogonal least-squares plane.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,7 +43,7 @@ pub fn plane(points: &[Point3<f64>]) -> Result<PlaneFit> {
     if sigma[1] - sigma[2] <= RANK_TOLERANCE * sigma[0] {
         return Err(Degeneracy::NoSingleDirection {
             what: "plane fit",
-            spread: Spread::Least,
+            spread: PrincipalSpread::Least,
         }
         .into());
     }
