@@ -9,7 +9,7 @@
 
 use geom::camera::normalize_projection;
 use geom::nalgebra::{DMatrix, Matrix3, Matrix4, SymmetricEigen};
-use geom::{Matrix3x4, Point2, Point3, Vector2};
+use geom::{Degeneracy, Matrix3x4, Point2, Point3, Vector2};
 
 use crate::{CalibError, OptionProblem, Result};
 
@@ -98,7 +98,7 @@ pub fn normalise_2d(points: &[Point2<f64>]) -> Result<Matrix3<f64>> {
     if !(mean.is_finite() && mean > 0.0) {
         return Err(CalibError::Geom {
             what: "DLT image normalisation",
-            source: geom::GeomError::Degenerate("all image points coincide".into()),
+            source: geom::GeomError::Degenerate(Degeneracy::SetCoincides { set: "image" }),
         });
     }
     let s = std::f64::consts::SQRT_2 / mean;
@@ -127,7 +127,7 @@ pub fn normalise_3d(points: &[Point3<f64>]) -> Result<Matrix4<f64>> {
     if !(mean.is_finite() && mean > 0.0) {
         return Err(CalibError::Geom {
             what: "DLT space normalisation",
-            source: geom::GeomError::Degenerate("all target points coincide".into()),
+            source: geom::GeomError::Degenerate(Degeneracy::SetCoincides { set: "target" }),
         });
     }
     let s = 3f64.sqrt() / mean;
@@ -177,9 +177,9 @@ pub fn dlt(world: &[Point3<f64>], image: &[Point2<f64>]) -> Result<Matrix3x4<f64
         }
     }
     let svd = a.svd(false, true);
-    let v_t = svd.v_t.ok_or_else(|| CalibError::Geom {
+    let v_t = svd.v_t.ok_or(CalibError::Geom {
         what: "DLT",
-        source: geom::GeomError::Degenerate("SVD did not converge".into()),
+        source: geom::GeomError::Degenerate(Degeneracy::SvdNotConverged),
     })?;
     let s = &svd.singular_values;
     let mut order: Vec<usize> = (0..s.len()).collect();
@@ -188,16 +188,16 @@ pub fn dlt(world: &[Point3<f64>], image: &[Point2<f64>]) -> Result<Matrix3x4<f64
     if s[second].is_nan() || s[second] <= 1e-10 * s[order[0]] {
         return Err(CalibError::Geom {
             what: "DLT",
-            source: geom::GeomError::Degenerate(
-                "the linear system has more than one solution (critical configuration)".into(),
-            ),
+            source: geom::GeomError::Degenerate(Degeneracy::MultipleSolutions),
         });
     }
     let h = v_t.row(smallest);
     let pn = Matrix3x4::from_fn(|r, c| h[4 * r + c]);
-    let t_inv = t.try_inverse().ok_or_else(|| CalibError::Geom {
+    let t_inv = t.try_inverse().ok_or(CalibError::Geom {
         what: "DLT",
-        source: geom::GeomError::Degenerate("singular image normalisation".into()),
+        source: geom::GeomError::Degenerate(Degeneracy::Singular {
+            matrix: "image normalisation",
+        }),
     })?;
     let p = t_inv * pn * u;
     normalize_projection(&p).map_err(CalibError::geom("DLT"))

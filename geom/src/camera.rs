@@ -11,7 +11,7 @@ use nalgebra::{
     Vector2, Vector3,
 };
 
-use crate::{Distortion, GeomError, Result};
+use crate::{Degeneracy, Distortion, GeomError, Result};
 
 /// Pixel tolerance of [`Camera::undistort_pixel`] (docs/methods.md: converged ≤ 1e-10 px).
 pub const UNDISTORT_TOLERANCE_PX: f64 = 1e-10;
@@ -59,15 +59,11 @@ impl Intrinsics {
         }
         let lower = k[(1, 0)].abs() + k[(2, 0)].abs() + k[(2, 1)].abs();
         if s == 0.0 || lower > 1e-9 * k.norm() {
-            return Err(GeomError::Degenerate(
-                "intrinsic matrix is not upper triangular with K[2][2] ≠ 0".into(),
-            ));
+            return Err(Degeneracy::NotIntrinsic.into());
         }
         let k = k / s;
         if k[(0, 0)] <= 0.0 || k[(1, 1)] <= 0.0 {
-            return Err(GeomError::Degenerate(
-                "focal lengths must be positive".into(),
-            ));
+            return Err(Degeneracy::FocalNotPositive.into());
         }
         Ok(Self {
             fx: k[(0, 0)],
@@ -121,16 +117,12 @@ impl Camera {
     ) -> Result<Self> {
         let z = target - position;
         if z.norm() == 0.0 || !z.iter().all(|v| v.is_finite()) {
-            return Err(GeomError::Degenerate(
-                "camera looks at its own position".into(),
-            ));
+            return Err(Degeneracy::LooksAtItself.into());
         }
         let z = z.normalize();
         let up_perp = up - z * up.dot(&z);
         if up_perp.norm() < 1e-9 * up.norm().max(1.0) {
-            return Err(GeomError::Degenerate(
-                "camera up vector is parallel to its optical axis".into(),
-            ));
+            return Err(Degeneracy::UpAlongAxis.into());
         }
         let y = -up_perp.normalize();
         let x = y.cross(&z);
@@ -259,10 +251,11 @@ impl Camera {
     fn area_at(&self, observed: Point2<f64>, n: Vector2<f64>) -> Result<(Point2<f64>, f64)> {
         let det = self.distortion.jacobian(n).determinant();
         if det <= 0.0 {
-            return Err(GeomError::Degenerate(format!(
-                "distortion folds the image at ({:.1}, {:.1}) px",
-                observed.x, observed.y
-            )));
+            return Err(Degeneracy::DistortionFolds {
+                u: observed.x,
+                v: observed.y,
+            }
+            .into());
         }
         Ok((self.intrinsics.to_pixel(n), 1.0 / det))
     }
@@ -300,9 +293,7 @@ pub fn normalize_projection(p: &Matrix3x4<f64>) -> Result<Matrix3x4<f64>> {
     let det = m.determinant();
     let n = m.row(2).norm();
     if !det.is_finite() || det == 0.0 || n == 0.0 {
-        return Err(GeomError::Degenerate(
-            "projection matrix has a singular left 3×3 block".into(),
-        ));
+        return Err(Degeneracy::SingularProjection.into());
     }
     Ok(p * (det.signum() / n))
 }
@@ -322,7 +313,7 @@ pub fn rq3(m: &Matrix3<f64>) -> Result<(Matrix3<f64>, Matrix3<f64>)> {
     // Make U's diagonal positive: U·D, D·Q with D = diag(sign(U_ii)), D² = I.
     for i in 0..3 {
         if u[(i, i)] == 0.0 {
-            return Err(GeomError::Degenerate("RQ of a singular matrix".into()));
+            return Err(Degeneracy::SingularRq.into());
         }
         if u[(i, i)] < 0.0 {
             u.column_mut(i).neg_mut();
@@ -342,7 +333,9 @@ pub fn decompose_projection(
     // det M > 0 and diag K > 0 ⇒ det R = +1.
     let t = k
         .try_inverse()
-        .ok_or_else(|| GeomError::Degenerate("singular intrinsic matrix".into()))?
+        .ok_or(GeomError::Degenerate(Degeneracy::Singular {
+            matrix: "intrinsic matrix",
+        }))?
         * p.column(3);
     let intrinsics = Intrinsics::from_matrix(&k)?;
     // Re-orthonormalise against round-off.

@@ -6,7 +6,7 @@
 
 use nalgebra::{Matrix2, Vector2};
 
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 /// Maximum Newton iterations of [`Distortion::undistort`].
 const MAX_UNDISTORT_ITERATIONS: usize = 100;
@@ -114,11 +114,11 @@ impl Distortion {
             if norm <= aim {
                 return Ok(x);
             }
-            let step = self
-                .jacobian(x)
-                .try_inverse()
-                .ok_or_else(|| GeomError::Degenerate("singular distortion Jacobian".into()))?
-                * err;
+            let step = self.jacobian(x).try_inverse().ok_or(GeomError::Degenerate(
+                Degeneracy::Singular {
+                    matrix: "distortion Jacobian",
+                },
+            ))? * err;
             // Halve the step until the residual decreases (globalises Newton
             // for strong distortion far from the centre).
             let mut scale = 1.0;

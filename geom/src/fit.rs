@@ -25,12 +25,12 @@ pub use sphere::{SphereFit, sphere};
 
 use nalgebra::allocator::Allocator;
 use nalgebra::{
-    Const, DMatrix, DVector, DefaultAllocator, DimDiff, DimSub, Matrix3, OPoint, Point3, SMatrix,
-    SVD, SVector, U1, Vector3,
+    Const, DMatrix, DVector, DefaultAllocator, DimDiff, DimSub, Dyn, Matrix3, OPoint, Point3,
+    SMatrix, SVD, SVector, U1, Vector3,
 };
 
 use crate::lm::{self, LmOptions, Residuals};
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 /// Singular values below this fraction of the largest count as zero: the
 /// input then does not determine the element (collinear, coplanar, …).
@@ -96,6 +96,16 @@ pub(crate) fn canonical_sign<const D: usize>(v: SVector<f64, D>) -> SVector<f64,
     if largest < 0.0 { -v } else { v }
 }
 
+/// SVD of `a` with its right singular vectors (and the left ones when
+/// `left`), at most [`SVD_MAX_ITERATIONS`] sweeps.
+fn svd_of(a: DMatrix<f64>, left: bool) -> Result<SVD<f64, Dyn, Dyn>> {
+    SVD::try_new(a, left, true, f64::EPSILON, SVD_MAX_ITERATIONS).ok_or(GeomError::NotConverged {
+        what: "singular value decomposition",
+        iterations: SVD_MAX_ITERATIONS,
+        last_step: f64::NAN,
+    })
+}
+
 /// Singular values (descending) and right singular vectors (columns, same
 /// order) of the `n×3` matrix of points minus `origin`: the principal axes.
 pub(crate) fn principal_axes(
@@ -107,16 +117,10 @@ pub(crate) fn principal_axes(
     let centred = DMatrix::from_fn(rows, 3, |i, j| {
         points.get(i).map_or(0.0, |p| p[j] - origin[j])
     });
-    let svd = SVD::try_new(centred, false, true, f64::EPSILON, SVD_MAX_ITERATIONS).ok_or(
-        GeomError::NotConverged {
-            what: "singular value decomposition",
-            iterations: SVD_MAX_ITERATIONS,
-            last_step: f64::NAN,
-        },
-    )?;
-    let v_t = svd.v_t.ok_or(GeomError::Degenerate(
-        "singular value decomposition returned no vectors".into(),
-    ))?;
+    let svd = svd_of(centred, false)?;
+    let v_t = svd
+        .v_t
+        .ok_or(GeomError::Degenerate(Degeneracy::NoSingularVectors))?;
     let mut sigma = Vector3::zeros();
     let mut axes = Matrix3::zeros();
     for k in 0..3 {
@@ -149,22 +153,14 @@ pub(crate) fn solve_least_squares(
     what: &'static str,
 ) -> Result<DVector<f64>> {
     let cols = a.ncols();
-    let svd = SVD::try_new(a, true, true, f64::EPSILON, SVD_MAX_ITERATIONS).ok_or(
-        GeomError::NotConverged {
-            what: "singular value decomposition",
-            iterations: SVD_MAX_ITERATIONS,
-            last_step: f64::NAN,
-        },
-    )?;
+    let svd = svd_of(a, true)?;
     let largest = svd.singular_values.max();
     let smallest = svd.singular_values.min();
     if svd.singular_values.len() < cols || smallest <= RANK_TOLERANCE * largest {
-        return Err(GeomError::Degenerate(format!(
-            "{what}: the points do not determine the element"
-        )));
+        return Err(Degeneracy::Underdetermined { what }.into());
     }
     svd.solve(b, 0.0)
-        .map_err(|e| GeomError::Degenerate(format!("{what}: {e}")))
+        .map_err(|reason| Degeneracy::SolveFailed { what, reason }.into())
 }
 
 /// Smallest eigenvalue of a symmetric matrix and its unit eigenvector

@@ -5,14 +5,18 @@ use std::ops::{Add, Mul};
 
 use nalgebra::{Point3, Vector3};
 
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 fn check_knots(knots: &[f64], values: usize) -> Result<()> {
     if knots.len() != values {
-        return Err(GeomError::Degenerate(format!(
-            "{} knots but {values} values",
-            knots.len()
-        )));
+        return Err(Degeneracy::LengthsDiffer {
+            what: None,
+            first: knots.len(),
+            first_items: "knots",
+            second: values,
+            second_items: "values",
+        }
+        .into());
     }
     if knots.is_empty() {
         return Err(GeomError::TooFewPoints {
@@ -25,9 +29,7 @@ fn check_knots(knots: &[f64], values: usize) -> Result<()> {
         return Err(GeomError::NonFinite("interpolation knots"));
     }
     if knots.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(GeomError::Degenerate(
-            "interpolation knots must increase strictly".into(),
-        ));
+        return Err(Degeneracy::KnotsNotIncreasing.into());
     }
     Ok(())
 }
@@ -41,10 +43,12 @@ where
     check_knots(knots, values.len())?;
     let last = knots.len() - 1;
     if !(x >= knots[0] && x <= knots[last]) {
-        return Err(GeomError::Degenerate(format!(
-            "{x} outside the interpolation range [{}, {}]",
-            knots[0], knots[last]
-        )));
+        return Err(Degeneracy::OutsideRange {
+            x,
+            first: knots[0],
+            last: knots[last],
+        }
+        .into());
     }
     let i = knots.partition_point(|k| *k <= x).clamp(1, last.max(1));
     if last == 0 {
@@ -67,9 +71,7 @@ where
     }
     let last = knots.len() - 1;
     if knots[0] < 0.0 || knots[last] >= period {
-        return Err(GeomError::Degenerate(
-            "periodic knots must lie in [0, period)".into(),
-        ));
+        return Err(Degeneracy::KnotsOutsidePeriod.into());
     }
     let x = x.rem_euclid(period);
     let (x0, v0, x1, v1) = if x < knots[0] {
@@ -109,22 +111,17 @@ where
         values: Vec<T>,
     ) -> Result<Self> {
         if dims.iter().any(|d| *d < 2) {
-            return Err(GeomError::Degenerate(
-                "a trilinear grid needs ≥ 2 nodes per axis".into(),
-            ));
+            return Err(Degeneracy::GridTooSmall.into());
         }
         if step.iter().any(|s| !(*s > 0.0 && s.is_finite())) {
-            return Err(GeomError::Degenerate("grid steps must be positive".into()));
+            return Err(Degeneracy::GridStepNotPositive.into());
         }
         if values.len() != dims[0] * dims[1] * dims[2] {
-            return Err(GeomError::Degenerate(format!(
-                "grid of {}×{}×{} nodes needs {} values, got {}",
-                dims[0],
-                dims[1],
-                dims[2],
-                dims[0] * dims[1] * dims[2],
-                values.len()
-            )));
+            return Err(Degeneracy::GridValues {
+                dims,
+                got: values.len(),
+            }
+            .into());
         }
         Ok(Self {
             origin,
@@ -147,10 +144,10 @@ where
             let g = (p[a] - self.origin[a]) / self.step[a];
             let max = (self.dims[a] - 1) as f64;
             if !(g >= -1e-12 && g <= max + 1e-12) {
-                return Err(GeomError::Degenerate(format!(
-                    "point {:?} outside the interpolation grid",
-                    p.coords.as_slice()
-                )));
+                return Err(Degeneracy::OutsideGrid {
+                    point: [p.x, p.y, p.z],
+                }
+                .into());
             }
             let g = g.clamp(0.0, max);
             let i = (g.floor() as usize).min(self.dims[a] - 2);

@@ -3,7 +3,8 @@
 //! interpolation and the statistics the standards use.
 //!
 //! `geom` does no I/O and cannot fail except on degenerate input, which is
-//! reported as a typed [`GeomError`].
+//! reported as a typed [`GeomError`]; [`GeomError::Degenerate`] names its
+//! reason, a [`Degeneracy`], with the values that show it.
 //!
 //! # Conventions
 //! - Lengths in millimetres, angles in radians, all geometry in `f64`.
@@ -52,7 +53,7 @@ pub mod transform;
 
 pub use camera::{Camera, Intrinsics};
 pub use distortion::Distortion;
-pub use error::{GeomError, Result};
+pub use error::{Degeneracy, GeomError, PrincipalSpread, Result};
 pub use illumination::{Illumination, RadialIllumination};
 
 /// nalgebra types used throughout the workspace, re-exported so every crate

@@ -252,15 +252,19 @@ mod tests {
         Decay { t, y }
     }
 
-    #[test]
-    fn recovers_exact_parameters() {
-        let p = decay(0.0);
-        let sol = minimize(
-            &p,
+    /// The decay's fit from a start far from its parameters.
+    fn fit_decay(noise: f64) -> LmSolution {
+        minimize(
+            &decay(noise),
             DVector::from_vec(vec![1.0, 0.1, 0.0]),
             &LmOptions::default(),
         )
-        .unwrap();
+        .unwrap()
+    }
+
+    #[test]
+    fn recovers_exact_parameters() {
+        let sol = fit_decay(0.0);
         assert!((sol.params[0] - 5.0).abs() < 1e-10);
         assert!((sol.params[1] - 0.7).abs() < 1e-10);
         assert!((sol.params[2] - 1.5).abs() < 1e-10);
@@ -269,13 +273,7 @@ mod tests {
 
     #[test]
     fn covariance_matches_residual_scatter() {
-        let p = decay(0.01);
-        let sol = minimize(
-            &p,
-            DVector::from_vec(vec![1.0, 0.1, 0.0]),
-            &LmOptions::default(),
-        )
-        .unwrap();
+        let sol = fit_decay(0.01);
         let sd = sol.std_devs().unwrap();
         // σ of the offset c is of the order of noise/√n.
         assert!(sd[2] > 0.0005 && sd[2] < 0.01, "σc = {}", sd[2]);

@@ -19,7 +19,7 @@ use microlp::{ComparisonOp, OptimizationDirection, Problem};
 use nalgebra::{Point2, Point3, Vector2, Vector3};
 
 use crate::fit::{self, canonical_sign, centroid, validate};
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 /// A point touches a zone boundary when it lies within this fraction of the
 /// data's extent of it.
@@ -129,9 +129,7 @@ fn extent<const D: usize>(local: &[nalgebra::SVector<f64, D>], what: &'static st
     if e > 0.0 {
         Ok(e)
     } else {
-        Err(GeomError::Degenerate(format!(
-            "{what}: all points coincide"
-        )))
+        Err(Degeneracy::Coincide { what }.into())
     }
 }
 
@@ -222,9 +220,7 @@ pub fn straightness_vertical(points: &[Point2<f64>]) -> Result<SlopeZone> {
         })
         .collect();
     if slopes.is_empty() {
-        return Err(GeomError::Degenerate(format!(
-            "{WHAT}: all points have the same x"
-        )));
+        return Err(Degeneracy::SameX { what: WHAT }.into());
     }
     slopes.sort_by(f64::total_cmp);
     slopes.dedup();
@@ -381,10 +377,10 @@ fn chebyshev_lp(
     }
     let solution = lp
         .solve()
-        .map_err(|e| GeomError::Degenerate(format!("flatness linear programme failed: {e}")))?;
+        .map_err(|e| GeomError::Degenerate(Degeneracy::LpFailed(e)))?;
     let solution = solution
         .into_solution()
-        .map_err(|_| GeomError::Degenerate("flatness linear programme was interrupted".into()))?;
+        .map_err(|_| GeomError::Degenerate(Degeneracy::LpInterrupted))?;
     let to_slope = s_r / s_xy;
     Ok((
         solution.var_value(da) * to_slope,
@@ -525,6 +521,21 @@ mod tests {
             contacts.len() >= 2.min(residuals.len()),
             "contacts {contacts:?}"
         );
+    }
+
+    /// A zone of the exhaustive optimum's width, every residual within it.
+    fn is_optimum(
+        width: f64,
+        exhaustive: f64,
+        residuals: &[f64],
+        contacts: &[usize],
+    ) -> std::result::Result<(), TestCaseError> {
+        prop_assert!(
+            (width - exhaustive).abs() <= EXHAUSTIVE_TOLERANCE,
+            "{width} vs {exhaustive}"
+        );
+        assert_residuals_in_zone(residuals, width, contacts);
+        Ok(())
     }
 
     #[test]
@@ -712,10 +723,7 @@ mod tests {
         fn straightness_is_exhaustive_optimum(pts in axis_points(2..9), other in scattered(3..9)) {
             for set in [&pts, &other] {
                 let zone = straightness(set).unwrap();
-                let exhaustive = straightness_exhaustive(set);
-                prop_assert!((zone.width - exhaustive).abs() <= EXHAUSTIVE_TOLERANCE,
-                    "{} vs {}", zone.width, exhaustive);
-                assert_residuals_in_zone(&zone.residuals, zone.width, &zone.contacts);
+                is_optimum(zone.width, straightness_exhaustive(set), &zone.residuals, &zone.contacts)?;
             }
         }
 
@@ -723,10 +731,7 @@ mod tests {
         fn vertical_straightness_is_exhaustive_optimum(pts in axis_points(2..9), other in scattered(3..9)) {
             for set in [&pts, &other] {
                 let zone = straightness_vertical(set).unwrap();
-                let exhaustive = vertical_exhaustive(set);
-                prop_assert!((zone.width - exhaustive).abs() <= EXHAUSTIVE_TOLERANCE,
-                    "{} vs {}", zone.width, exhaustive);
-                assert_residuals_in_zone(&zone.residuals, zone.width, &zone.contacts);
+                is_optimum(zone.width, vertical_exhaustive(set), &zone.residuals, &zone.contacts)?;
             }
         }
 
@@ -734,9 +739,7 @@ mod tests {
         fn flatness_is_exhaustive_optimum(pts in surface(4..9), off in (-1.0..1.0_f64, -1.0..1.0_f64)) {
             let zone = flatness(&pts).unwrap();
             let exhaustive = flatness_exhaustive(&pts);
-            prop_assert!((zone.width - exhaustive).abs() <= EXHAUSTIVE_TOLERANCE,
-                "{} vs {}", zone.width, exhaustive);
-            assert_residuals_in_zone(&zone.residuals, zone.width, &zone.contacts);
+            is_optimum(zone.width, exhaustive, &zone.residuals, &zone.contacts)?;
             // The exact recomputation alone finds the vertex from a start off
             // by 1e-4 of the width across the data (far more than the LP's error).
             let local: Vec<Vector3<f64>> = pts.iter().map(|p| p.coords).collect();

@@ -10,21 +10,17 @@
 
 use nalgebra::{Matrix2x3, Matrix3, Point3, Vector2, Vector3};
 
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 fn check(centre: &Point3<f64>, radius: f64) -> Result<()> {
     if !(centre.iter().all(|v| v.is_finite()) && radius.is_finite()) {
         return Err(GeomError::NonFinite("sphere image"));
     }
     if radius <= 0.0 {
-        return Err(GeomError::Degenerate(format!(
-            "sphere radius {radius} mm is not positive"
-        )));
+        return Err(Degeneracy::RadiusNotPositive { radius }.into());
     }
     if centre.z * centre.z <= radius * radius || centre.z <= 0.0 {
-        return Err(GeomError::Degenerate(
-            "sphere is not wholly in front of the camera (its image is not an ellipse)".into(),
-        ));
+        return Err(Degeneracy::SphereNotInFront.into());
     }
     Ok(())
 }
@@ -89,7 +85,7 @@ pub fn projected_centre(
 pub fn cone_half_angle(centre: &Point3<f64>, radius: f64) -> Result<f64> {
     let d = centre.coords.norm();
     if d.is_nan() || d <= radius {
-        return Err(GeomError::Degenerate("camera is inside the sphere".into()));
+        return Err(Degeneracy::CameraInsideSphere.into());
     }
     Ok((radius / d).asin())
 }

@@ -3,7 +3,7 @@
 
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 /// Rotation from a rotation vector (axis × angle, rad) by Rodrigues' formula.
 pub fn rotation_from_vector(v: Vector3<f64>) -> Rotation3<f64> {
@@ -142,11 +142,14 @@ pub fn rigid_fit_rms(from: &[Point3<f64>], to: &[Point3<f64>]) -> Result<RigidFi
 /// cross-covariance, with the reflection guard). Needs ≥ 3 non-collinear pairs.
 pub fn rigid_fit(from: &[Point3<f64>], to: &[Point3<f64>]) -> Result<Isometry3<f64>> {
     if from.len() != to.len() {
-        return Err(GeomError::Degenerate(format!(
-            "rigid fit: {} source points but {} target points",
-            from.len(),
-            to.len()
-        )));
+        return Err(Degeneracy::LengthsDiffer {
+            what: Some("rigid fit"),
+            first: from.len(),
+            first_items: "source points",
+            second: to.len(),
+            second_items: "target points",
+        }
+        .into());
     }
     if from.len() < 3 {
         return Err(GeomError::TooFewPoints {
@@ -170,15 +173,13 @@ pub fn rigid_fit(from: &[Point3<f64>], to: &[Point3<f64>]) -> Result<Isometry3<f
     });
     let svd = h.svd(true, true);
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return Err(GeomError::Degenerate("rigid fit: SVD failed".into()));
+        return Err(Degeneracy::SvdFailed { what: "rigid fit" }.into());
     };
     let mut s = svd.singular_values;
     // Sort-independent rank test: the two largest singular values must be non-zero.
     s.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
     if s[1] <= 1e-12 * s[0].max(f64::MIN_POSITIVE) {
-        return Err(GeomError::Degenerate(
-            "rigid fit: points are collinear".into(),
-        ));
+        return Err(Degeneracy::Collinear { what: "rigid fit" }.into());
     }
     let v = v_t.transpose();
     let d = (v * u.transpose()).determinant().signum();

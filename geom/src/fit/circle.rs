@@ -5,7 +5,7 @@ use nalgebra::{DMatrix, DVector, Point2, Point3, Vector2, Vector3};
 
 use super::{centroid, least_squares, orthonormal_basis, plane, solve_least_squares, validate};
 use crate::lm::Residuals;
-use crate::{GeomError, Result};
+use crate::{Degeneracy, Result};
 
 /// Geometric least-squares circle in the plane.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,9 +83,7 @@ pub(super) fn kasa(points: &[Vector2<f64>]) -> Result<(Vector2<f64>, f64)> {
         / n as f64)
         .sqrt();
     if scale <= 0.0 {
-        return Err(GeomError::Degenerate(format!(
-            "{WHAT}: all points coincide"
-        )));
+        return Err(Degeneracy::Coincide { what: WHAT }.into());
     }
     let local: Vec<Vector2<f64>> = points.iter().map(|q| (q - mean) / scale).collect();
     let design = DMatrix::from_fn(n, 3, |i, j| match j {
@@ -98,7 +96,11 @@ pub(super) fn kasa(points: &[Vector2<f64>]) -> Result<(Vector2<f64>, f64)> {
     let centre = Vector2::new(-sol[0] / 2.0, -sol[1] / 2.0);
     let r2 = centre.norm_squared() - sol[2];
     if r2 <= 0.0 {
-        return Err(GeomError::Degenerate(format!("{WHAT}: no real circle")));
+        return Err(Degeneracy::NoRealElement {
+            what: WHAT,
+            element: "circle",
+        }
+        .into());
     }
     Ok((mean + centre * scale, r2.sqrt() * scale))
 }
@@ -161,6 +163,7 @@ mod tests {
     use std::f64::consts::TAU;
 
     use super::*;
+    use crate::GeomError;
 
     #[test]
     fn circle_jacobian_is_analytic() {

@@ -9,7 +9,7 @@ use super::{
     validate,
 };
 use crate::lm::Residuals;
-use crate::{GeomError, Result};
+use crate::{Degeneracy, GeomError, Result};
 
 /// Least-squares cylinder.
 #[derive(Debug, Clone, PartialEq)]
@@ -152,9 +152,10 @@ pub fn cylinder(points: &[Point3<f64>]) -> Result<CylinderFit> {
     let origin = centroid(points);
     let (sigma, axes) = principal_axes(points, &origin)?;
     if sigma[1] <= RANK_TOLERANCE * sigma[0] {
-        return Err(GeomError::Degenerate(
-            "cylinder fit: the points are collinear or coincide".into(),
-        ));
+        return Err(Degeneracy::CollinearOrCoincide {
+            what: "cylinder fit",
+        }
+        .into());
     }
     let local: Vec<Vector3<f64>> = points.iter().map(|p| p - origin).collect();
 
@@ -180,7 +181,7 @@ pub fn cylinder(points: &[Point3<f64>]) -> Result<CylinderFit> {
     }
 
     let mut best: Option<Candidate> = None;
-    let mut last_error = GeomError::Degenerate("cylinder fit: no start axis found".into());
+    let mut last_error = GeomError::Degenerate(Degeneracy::NoStartAxis);
     for start in &distinct {
         match refine(&local, start).and_then(|c| refine(&local, &c)) {
             Ok(c) if best.is_none_or(|b| c.cost < b.cost) => best = Some(c),

@@ -4,7 +4,7 @@
 use nalgebra::{Matrix2, Point2, Point3, SymmetricEigen, Vector2, Vector3};
 
 use super::{RANK_TOLERANCE, canonical_sign, centroid, principal_axes, validate};
-use crate::{GeomError, Result};
+use crate::{Degeneracy, PrincipalSpread, Result};
 
 /// Orthogonal least-squares line in the plane.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,14 +59,16 @@ pub fn line_2d(points: &[Point2<f64>]) -> Result<Line2Fit> {
     };
     let (l_big, l_small) = (eigen.eigenvalues[big], eigen.eigenvalues[small]);
     if l_big <= 0.0 {
-        return Err(GeomError::Degenerate(
-            "2-D line fit: all points coincide".into(),
-        ));
+        return Err(Degeneracy::Coincide {
+            what: "2-D line fit",
+        }
+        .into());
     }
     if l_big - l_small <= RANK_TOLERANCE * l_big {
-        return Err(GeomError::Degenerate(
-            "2-D line fit: the points spread equally in every direction".into(),
-        ));
+        return Err(Degeneracy::Isotropic {
+            what: "2-D line fit",
+        }
+        .into());
     }
     let direction = canonical_sign(eigen.eigenvectors.column(big).normalize());
     let normal = Vector2::new(-direction.y, direction.x);
@@ -86,14 +88,17 @@ pub fn line_3d(points: &[Point3<f64>]) -> Result<Line3Fit> {
     let point = centroid(points);
     let (sigma, axes) = principal_axes(points, &point)?;
     if sigma[0] <= 0.0 {
-        return Err(GeomError::Degenerate(
-            "3-D line fit: all points coincide".into(),
-        ));
+        return Err(Degeneracy::Coincide {
+            what: "3-D line fit",
+        }
+        .into());
     }
     if sigma[0] - sigma[1] <= RANK_TOLERANCE * sigma[0] {
-        return Err(GeomError::Degenerate(
-            "3-D line fit: no single direction of largest spread".into(),
-        ));
+        return Err(Degeneracy::NoSingleDirection {
+            what: "3-D line fit",
+            spread: PrincipalSpread::Largest,
+        }
+        .into());
     }
     let direction = canonical_sign(axes.column(0).into_owned());
     let residuals = points
@@ -121,9 +126,10 @@ pub fn line_y_on_x(points: &[Point2<f64>]) -> Result<SlopeLine> {
         .map(|p| (p.x - mean.x).abs())
         .fold(0.0, f64::max);
     if x_extent <= RANK_TOLERANCE * mean.x.abs() || sxx <= 0.0 {
-        return Err(GeomError::Degenerate(
-            "line y = kx + b: all points have the same x".into(),
-        ));
+        return Err(Degeneracy::SameX {
+            what: "line y = kx + b",
+        }
+        .into());
     }
     let k = sxy / sxx;
     let b = mean.y - k * mean.x;
@@ -138,6 +144,7 @@ pub fn line_y_on_x(points: &[Point2<f64>]) -> Result<SlopeLine> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::GeomError;
 
     #[test]
     fn line_2d_recovers_an_exact_line() {

@@ -5,7 +5,7 @@ use nalgebra::{DMatrix, DVector, Point3, Vector3};
 use super::{
     RANK_TOLERANCE, canonical_sign, centroid, principal_axes, solve_least_squares, validate,
 };
-use crate::{GeomError, Result};
+use crate::{Degeneracy, PrincipalSpread, Result};
 
 /// Orthogonal least-squares plane.
 #[derive(Debug, Clone, PartialEq)]
@@ -38,14 +38,14 @@ pub fn plane(points: &[Point3<f64>]) -> Result<PlaneFit> {
     let point = centroid(points);
     let (sigma, axes) = principal_axes(points, &point)?;
     if sigma[1] <= RANK_TOLERANCE * sigma[0] {
-        return Err(GeomError::Degenerate(
-            "plane fit: the points are collinear or coincide".into(),
-        ));
+        return Err(Degeneracy::CollinearOrCoincide { what: "plane fit" }.into());
     }
     if sigma[1] - sigma[2] <= RANK_TOLERANCE * sigma[0] {
-        return Err(GeomError::Degenerate(
-            "plane fit: no single direction of least spread".into(),
-        ));
+        return Err(Degeneracy::NoSingleDirection {
+            what: "plane fit",
+            spread: PrincipalSpread::Least,
+        }
+        .into());
     }
     let normal = canonical_sign(axes.column(2).into_owned());
     let residuals = points.iter().map(|p| (p - point).dot(&normal)).collect();
@@ -77,6 +77,7 @@ pub fn plane_z_on_xy(points: &[Point3<f64>]) -> Result<HeightPlane> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::GeomError;
 
     fn tilted_grid() -> Vec<Point3<f64>> {
         let mut pts = Vec::new();

@@ -4,7 +4,7 @@ use nalgebra::{DMatrix, DVector, Point3, Vector3};
 
 use super::{centroid, least_squares, solve_least_squares, validate};
 use crate::lm::Residuals;
-use crate::{GeomError, Result};
+use crate::{Degeneracy, Result};
 
 /// Geometric least-squares sphere.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,9 +59,7 @@ fn algebraic(points: &[Vector3<f64>]) -> Result<(Vector3<f64>, f64)> {
     let n = points.len();
     let scale = (points.iter().map(|q| q.norm_squared()).sum::<f64>() / n as f64).sqrt();
     if scale <= 0.0 {
-        return Err(GeomError::Degenerate(format!(
-            "{WHAT}: all points coincide"
-        )));
+        return Err(Degeneracy::Coincide { what: WHAT }.into());
     }
     let local: Vec<Vector3<f64>> = points.iter().map(|q| q / scale).collect();
     let design = DMatrix::from_fn(n, 4, |i, j| if j < 3 { local[i][j] } else { 1.0 });
@@ -70,7 +68,11 @@ fn algebraic(points: &[Vector3<f64>]) -> Result<(Vector3<f64>, f64)> {
     let centre = Vector3::new(-sol[0] / 2.0, -sol[1] / 2.0, -sol[2] / 2.0);
     let r2 = centre.norm_squared() - sol[3];
     if r2 <= 0.0 {
-        return Err(GeomError::Degenerate(format!("{WHAT}: no real sphere")));
+        return Err(Degeneracy::NoRealElement {
+            what: WHAT,
+            element: "sphere",
+        }
+        .into());
     }
     Ok((centre * scale, r2.sqrt() * scale))
 }
@@ -98,6 +100,7 @@ pub fn sphere(points: &[Point3<f64>]) -> Result<SphereFit> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::GeomError;
 
     #[test]
     fn sphere_jacobian_is_analytic() {
