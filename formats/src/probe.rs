@@ -24,6 +24,14 @@ pub(crate) fn name(column: &'static str, value: &str) -> Result<(), Invalid> {
     }
 }
 
+/// Fails the test unless the error text `e` contains each of `parts`.
+#[cfg(test)]
+pub(crate) fn assert_mentions(e: &str, parts: &[&str]) {
+    for p in parts {
+        assert!(e.contains(p), "{p:?} not in: {e}");
+    }
+}
+
 /// [`finite_all`] of the listed `f64` fields of a row, each column named
 /// like its field: `finite_fields!(self, x, y, z)`.
 macro_rules! finite_fields {

@@ -39,9 +39,9 @@
 use std::collections::BTreeMap;
 
 use formats::Axis;
+pub use formats::probe::volumetric::report::SweepInfo;
 use formats::probe::volumetric::{EvaluateLine, EvaluateReport};
 use geom::Vector3;
-use serde::Serialize;
 
 use super::chain::{Chain, Side};
 use super::curves::MeasuredAxis;
@@ -54,37 +54,15 @@ const URAD: f64 = 1e-6;
 /// Off-axis coordinates of lines closer than this (mm) are the same.
 const LINE_TOLERANCE_MM: f64 = 0.01;
 
-/// What the conversion found for one swept axis.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SweepInfo {
-    /// The axis.
-    pub axis: Axis,
-    /// Index of the main line in the report.
-    pub line: usize,
-    /// Commanded off-axis coordinates of the line (mm), x, y, z.
-    pub off_axis_mm: [f64; 3],
-    /// Position where the curves are zero (mm).
-    pub reference_mm: f64,
-    /// Lever from the carriage's reference point to the sphere (mm).
-    pub lever_mm: [f64; 3],
-    /// The direction evaluate fitted (unit, world frame).
-    pub fitted_direction: [f64; 3],
-    /// The carriage direction after removing the Abbe terms (unit, world frame).
-    pub direction: [f64; 3],
-}
-
 /// Squareness as measured by the campaign (rad); a value is absent when the
 /// axes it relates were not both swept.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MeasuredSquareness {
     /// Y against X.
-    #[serde(rename = "EC0Y", skip_serializing_if = "Option::is_none")]
     pub ec0y: Option<f64>,
     /// Z against X.
-    #[serde(rename = "EB0Z", skip_serializing_if = "Option::is_none")]
     pub eb0z: Option<f64>,
     /// Z against Y.
-    #[serde(rename = "EA0Z", skip_serializing_if = "Option::is_none")]
     pub ea0z: Option<f64>,
 }
 

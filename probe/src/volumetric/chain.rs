@@ -9,7 +9,6 @@
 
 use formats::Axis;
 use geom::{Isometry3, Point3, Rotation3, Vector3};
-use serde::Serialize;
 
 pub use formats::probe::volumetric::Squareness;
 
@@ -21,8 +20,7 @@ use crate::{ProbeError, Result};
 pub const DEFAULT_CHAIN: &str = "WXYFZT";
 
 /// Which end of the chain an axis carries.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Side {
     /// Between the workpiece and the frame: moving it moves the workpiece.
     Workpiece,
@@ -41,7 +39,7 @@ impl Side {
 }
 
 /// A kinematic chain `W a1 … ak F b1 … bl T`.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Chain {
     /// The string it was parsed from, upper case.
     pub text: String,

@@ -7,7 +7,6 @@
 
 use formats::Axis;
 use geom::{Point2, Vector3};
-use serde::Serialize;
 
 use super::chain::{Machine, Positions};
 use super::model::{Evaluation, TRAVEL_TOLERANCE_MM};
@@ -17,7 +16,7 @@ use crate::{ProbeError, Result};
 pub(crate) const STEP_DEG: usize = 1;
 
 /// A circle in the workpiece frame, in the plane XY.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CircleSpec {
     /// Centre c (mm).
     pub centre: [f64; 3],
@@ -26,7 +25,7 @@ pub struct CircleSpec {
 }
 
 /// One point of the predicted path.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CirclePoint {
     /// θ (degrees).
     pub angle_deg: f64,
@@ -37,7 +36,7 @@ pub struct CirclePoint {
 }
 
 /// The predicted circular test.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct CirclePrediction {
     /// The path, θ = 0°, 1°, … 359°.
     pub points: Vec<CirclePoint>,

@@ -4,99 +4,9 @@
 
 use formats::Axis;
 use formats::probe::volumetric::ErrorRow;
-use serde::Serialize;
+pub use formats::probe::volumetric::Motion;
 
 use crate::{ProbeError, Result};
-
-/// One of the six error motions of a linear axis (ISO 230-1 names for axis
-/// X in brackets): translations `ex` (EXX), `ey` (EYX), `ez` (EZX) along, and
-/// rotations `ea` (EAX), `eb` (EBX), `ec` (ECX) about, the machine X, Y, Z.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Motion {
-    /// Translation along X (mm).
-    Ex,
-    /// Translation along Y (mm).
-    Ey,
-    /// Translation along Z (mm).
-    Ez,
-    /// Rotation about X (rad).
-    Ea,
-    /// Rotation about Y (rad).
-    Eb,
-    /// Rotation about Z (rad).
-    Ec,
-}
-
-impl Motion {
-    /// The six motions in file-column order `ex, ey, ez, ea, eb, ec`.
-    pub const ALL: [Motion; 6] = [
-        Motion::Ex,
-        Motion::Ey,
-        Motion::Ez,
-        Motion::Ea,
-        Motion::Eb,
-        Motion::Ec,
-    ];
-
-    /// Index 0–5 in [`Motion::ALL`].
-    pub fn index(self) -> usize {
-        self as usize
-    }
-
-    /// The column name `ex` … `ec`.
-    pub fn name(self) -> &'static str {
-        ["ex", "ey", "ez", "ea", "eb", "ec"][self.index()]
-    }
-
-    /// The motion of column `name` (`ex` … `ec`).
-    pub fn from_name(name: &str) -> Option<Motion> {
-        Motion::ALL.into_iter().find(|m| m.name() == name)
-    }
-
-    /// A rotation (`ea`, `eb`, `ec`, rad) rather than a translation (mm).
-    pub fn is_rotation(self) -> bool {
-        self.index() >= 3
-    }
-
-    /// The machine axis (X, Y, Z) the translation runs along or the rotation turns about.
-    pub fn direction(self) -> Axis {
-        match self {
-            Motion::Ex | Motion::Ea => Axis::X,
-            Motion::Ey | Motion::Eb => Axis::Y,
-            Motion::Ez | Motion::Ec => Axis::Z,
-        }
-    }
-
-    /// A straightness of `axis`: a translation across it.
-    pub fn is_straightness(self, axis: Axis) -> bool {
-        !self.is_rotation() && self.direction() != axis
-    }
-
-    /// The positioning error of `axis`: the translation along it.
-    pub fn is_positioning(self, axis: Axis) -> bool {
-        !self.is_rotation() && self.direction() == axis
-    }
-
-    /// The ISO 230-1 symbol of this motion of `axis`, e.g. `EYX` (straightness
-    /// of X in Y) or `EBX` (pitch of X).
-    pub fn symbol(self, axis: Axis) -> String {
-        let letter = match self {
-            Motion::Ex => "X",
-            Motion::Ey => "Y",
-            Motion::Ez => "Z",
-            Motion::Ea => "A",
-            Motion::Eb => "B",
-            Motion::Ec => "C",
-        };
-        format!("E{letter}{}", axis.name())
-    }
-
-    /// The translation along `axis` (its positioning error).
-    pub fn along(axis: Axis) -> Motion {
-        Motion::ALL[axis.index()]
-    }
-}
 
 /// The six error curves of one axis as measured: carriage positions `q`
 /// (mm, strictly increasing) and the six motions at each (mm, rad), plus
@@ -156,7 +66,7 @@ pub fn measured_axes(rows: &[ErrorRow]) -> Vec<MeasuredAxis> {
 
 /// The slope removed from a straightness curve with its least-squares line
 /// (rad: mm per mm), which belongs to the axis's squareness and alignment.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RemovedSlope {
     /// The axis.
     pub axis: Axis,

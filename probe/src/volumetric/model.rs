@@ -4,8 +4,8 @@
 //! what compensation with a series would leave (raw minus the series).
 
 use formats::Axis;
+pub use formats::probe::volumetric::Model;
 use geom::Vector3;
-use serde::Serialize;
 
 use super::curves::{AxisCurves, Motion};
 use super::series::{OrderScore, Series, SeriesFit, choose_order};
@@ -17,41 +17,8 @@ pub const DEFAULT_ORDER: usize = 3;
 /// rounding of positions computed from a circle or a frame, not an extrapolation.
 pub(crate) const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
 
-/// How a curve is evaluated between measured positions (`--model`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Model {
-    /// Linear between the measured positions.
-    Raw,
-    /// The fitted Fourier series.
-    Fourier,
-    /// The fitted polynomial.
-    Polynomial,
-}
-
-impl Model {
-    /// `raw`, `fourier` or `polynomial`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Model::Raw => "raw",
-            Model::Fourier => "fourier",
-            Model::Polynomial => "polynomial",
-        }
-    }
-
-    /// The series of a fitted model.
-    pub fn series(self) -> Option<Series> {
-        match self {
-            Model::Raw => None,
-            Model::Fourier => Some(Series::Fourier),
-            Model::Polynomial => Some(Series::Polynomial),
-        }
-    }
-}
-
 /// The order N of the series (`--order N` or `--order auto`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Order {
     /// The same N for every curve and both series.
     Fixed(usize),

@@ -4,8 +4,9 @@
 //! coefficients), fitted by linear least squares; their figures R², SSE,
 //! RMSE, e_max; and the order chosen by leave-one-out cross-validation.
 
+pub use formats::probe::volumetric::Series;
+pub use formats::probe::volumetric::report::OrderScore;
 use geom::nalgebra::{DMatrix, DVector, SVD};
-use serde::Serialize;
 
 use crate::{Conditioning, ProbeError, Result, Unsolvable};
 
@@ -30,31 +31,8 @@ const ZERO_COLUMN: f64 = 1e-9;
 /// Iteration limit of the SVD.
 const SVD_ITERATIONS: usize = 1000;
 
-/// The kind of a fitted series.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Series {
-    /// Fourier series of order N (2N + 1 coefficients).
-    Fourier,
-    /// Polynomial of degree 2N (2N + 1 coefficients), in Chebyshev form.
-    Polynomial,
-}
-
-impl Series {
-    /// Both kinds, Fourier first.
-    pub const BOTH: [Series; 2] = [Series::Fourier, Series::Polynomial];
-
-    /// `fourier` or `polynomial`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Series::Fourier => "fourier",
-            Series::Polynomial => "polynomial",
-        }
-    }
-}
-
 /// How well a model follows the measured values: residuals `r = v − v̂`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Figures {
     /// R² = 1 − SSE/SST; `None` when the values are all equal (SST = 0).
     pub r2: Option<f64>,
@@ -288,16 +266,6 @@ impl SeriesFit {
                 .sum()
         })
     }
-}
-
-/// One candidate of an order choice: its leave-one-out RMSE.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct OrderScore {
-    /// Order N.
-    pub order: usize,
-    /// `√(PRESS/n)`, PRESS = Σ (rᵢ/(1 − hᵢᵢ))²: the RMS error of predicting
-    /// each point from a fit to the others (value unit).
-    pub loo_rmse: f64,
 }
 
 /// Leave-one-out scores of orders 1 ..= [`MAX_AUTO_ORDER`] (those with at
