@@ -1,7 +1,7 @@
 //! `report.json` of the indexing method: the construction's figures, the
 //! maxima and RMS of ΔθA and ΔθB, the radius against a nominal, per-detent
 //! means and the positions beyond a tolerance. The types live in
-//! `formats::probe::indexing::report`; [`report`] fills them.
+//! `formats::probe::indexing::report`; [`report()`] fills them.
 
 pub use formats::probe::indexing::report::{
     ADetent, AxesReport, BDetent, Exceedance, Extreme, GridReport, Report, SphereReport,

@@ -4,7 +4,7 @@
 //! the layout's condition number (`condition`), and beyond the contract the
 //! component errors, the ranges a user signs off, the sphere fits and the
 //! interpolated angles. The types live in `formats::probe::rotary::report`;
-//! [`report`] fills them.
+//! [`report()`] fills them.
 
 use formats::probe::rotary::LocationErrors;
 pub use formats::probe::rotary::report::{

@@ -2,7 +2,7 @@
 //! (`residual_rms_um`, `iterations`, `points`, `stations`, `unknowns`,
 //! `equations`, `condition`) and what else a user needs to judge the result,
 //! in micrometres. The types live in `formats::probe::tracer::report`;
-//! [`report`] fills them.
+//! [`report()`] fills them.
 
 pub use formats::probe::tracer::report::{
     OutlierReading, Outliers, StationReport, TracerReport, WeakItem, Weakness,
