@@ -1,5 +1,6 @@
 //! The one error type of `probe`.
 
+use formats::Axis;
 use thiserror::Error;
 
 /// What went wrong in a probe method. Input rows are named by their position
@@ -14,6 +15,23 @@ pub enum ProbeError {
         what: String,
         /// What is wrong.
         message: String,
+    },
+    /// Volumetric: the kinematic chain string (`--chain`) is not a chain, or
+    /// does not fit the curves' source.
+    #[error("--chain '{text}': {fault}")]
+    Chain {
+        /// The chain string as given.
+        text: String,
+        /// What is wrong with it.
+        fault: ChainFault,
+    },
+    /// Volumetric: the measured curves of an axis are not usable curves.
+    #[error("axis {axis}{fault}")]
+    Curve {
+        /// The axis.
+        axis: Axis,
+        /// Where in its curves and what is wrong.
+        fault: CurveFault,
     },
     /// Rotary table: one measured centre (a ball at an angle) the method cannot use.
     #[error("{}: {fault}", crate::rotary::centre_label(.ball, *.angle_deg))]
@@ -92,6 +110,116 @@ pub enum CentreFault {
         angle_deg: f64,
         /// Whether a clockwise turn by the angle would fit.
         clockwise: bool,
+    },
+}
+
+/// What is wrong with a kinematic chain string `W a1 … ak F b1 … bl T`.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ChainFault {
+    /// A letter that is none of W, X, Y, Z, F, T.
+    #[error("letter {position} '{letter}' is none of W, X, Y, Z, F, T")]
+    Letter {
+        /// Its position, 1-based.
+        position: usize,
+        /// The letter (upper case).
+        letter: char,
+    },
+    /// No W, F or T.
+    #[error("no {letter} ({name}) in the chain")]
+    Missing {
+        /// W, F or T.
+        letter: char,
+        /// `workpiece`, `frame` or `tool`.
+        name: &'static str,
+    },
+    /// W, F or T more than once.
+    #[error("{letter} ({name}) appears {count} times")]
+    Repeated {
+        /// W, F or T.
+        letter: char,
+        /// `workpiece`, `frame` or `tool`.
+        name: &'static str,
+        /// How often.
+        count: usize,
+    },
+    /// The first letter is not W.
+    #[error("the chain must start with W (the workpiece)")]
+    NoStartW,
+    /// The last letter is not T.
+    #[error("the chain must end with T (the tool)")]
+    NoEndT,
+    /// An axis more than once.
+    #[error("axis {axis} appears {count} times")]
+    RepeatedAxis {
+        /// The axis.
+        axis: Axis,
+        /// How often.
+        count: usize,
+    },
+    /// A swept axis of a vision campaign on the tool side (`--from-report`):
+    /// the spheres ride on the table.
+    #[error(
+        "axis {axis} of {report} moved the table that carries the spheres, so it must be \
+         between W and F (e.g. WXYFZT)"
+    )]
+    SweptOnToolSide {
+        /// The axis.
+        axis: Axis,
+        /// The campaign's report (where it was read).
+        report: String,
+    },
+}
+
+/// What is wrong with the measured curves of one axis; each reads as the
+/// place within the axis's curves (point 1-based), then the fault.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CurveFault {
+    /// Fewer than two positions.
+    #[error(": {count} measured position(s): a curve needs at least 2")]
+    TooFewPositions {
+        /// Positions measured.
+        count: usize,
+    },
+    /// A column with another number of values than positions.
+    #[error(", column '{column}': {values} values for {positions} positions")]
+    Length {
+        /// The column (`ex` … `ec`, `positioning_up`, `positioning_down`).
+        column: &'static str,
+        /// Its values.
+        values: usize,
+        /// The positions.
+        positions: usize,
+    },
+    /// A value that is not finite.
+    #[error(", point {point}, column '{column}': value {value} is not a finite number")]
+    NotFinite {
+        /// The point (1-based).
+        point: usize,
+        /// The column.
+        column: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A position that is not finite.
+    #[error(", point {point}, column 'position': position {value} is not a finite number")]
+    PositionNotFinite {
+        /// The point (1-based).
+        point: usize,
+        /// The position (mm).
+        value: f64,
+    },
+    /// Positions not strictly increasing.
+    #[error(
+        ", point {point}, column 'position': positions must increase: {position} mm follows \
+         {previous} mm"
+    )]
+    NotIncreasing {
+        /// The point (1-based).
+        point: usize,
+        /// Its position (mm).
+        position: f64,
+        /// The position before it (mm).
+        previous: f64,
     },
 }
 
@@ -523,6 +651,55 @@ mod tests {
     /// The typed reasons read as the messages they replace.
     #[test]
     fn messages_keep_their_wording() {
+        let curve = |fault| {
+            ProbeError::Curve {
+                axis: Axis::Y,
+                fault,
+            }
+            .to_string()
+        };
+        assert_eq!(
+            curve(CurveFault::TooFewPositions { count: 1 }),
+            "axis Y: 1 measured position(s): a curve needs at least 2"
+        );
+        assert_eq!(
+            curve(CurveFault::NotIncreasing {
+                point: 3,
+                position: 10.0,
+                previous: 20.5
+            }),
+            "axis Y, point 3, column 'position': positions must increase: 10 mm follows 20.5 mm"
+        );
+        let chain = |fault| ProbeError::Chain {
+            text: "WXFT".into(),
+            fault,
+        };
+        assert_eq!(
+            chain(ChainFault::Letter {
+                position: 2,
+                letter: 'Q'
+            })
+            .to_string(),
+            "--chain 'WXFT': letter 2 'Q' is none of W, X, Y, Z, F, T"
+        );
+        assert_eq!(
+            chain(ChainFault::Repeated {
+                letter: 'F',
+                name: "frame",
+                count: 2
+            })
+            .to_string(),
+            "--chain 'WXFT': F (frame) appears 2 times"
+        );
+        assert_eq!(
+            chain(ChainFault::SweptOnToolSide {
+                axis: Axis::Z,
+                report: "r/report.json".into()
+            })
+            .to_string(),
+            "--chain 'WXFT': axis Z of r/report.json moved the table that carries the spheres, so \
+             it must be between W and F (e.g. WXYFZT)"
+        );
         let e = ProbeError::from(Unsolvable::TooFewBalls {
             names: vec!["A".into(), "B".into()],
         });

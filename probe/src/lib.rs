@@ -41,4 +41,6 @@ pub mod rotary;
 pub mod tracer;
 pub mod volumetric;
 
-pub use error::{CentreFault, Conditioning, LatticeFault, ProbeError, Result, Unsolvable};
+pub use error::{
+    CentreFault, ChainFault, Conditioning, CurveFault, LatticeFault, ProbeError, Result, Unsolvable,
+};

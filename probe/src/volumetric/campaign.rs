@@ -45,7 +45,7 @@ use geom::Vector3;
 
 use super::chain::{Chain, Side};
 use super::curves::MeasuredAxis;
-use crate::{ProbeError, Result};
+use crate::{ChainFault, ProbeError, Result};
 
 /// µm → mm.
 const UM: f64 = 1e-3;
@@ -251,12 +251,12 @@ pub fn from_evaluate(
         let axis = axis_of(name)
             .ok_or_else(|| input(source, format!("axes.{name}"), "not an axis X, Y or Z"))?;
         if chain.side(axis) != Some(Side::Workpiece) {
-            return Err(ProbeError::Input {
-                what: format!("--chain '{}'", chain.text),
-                message: format!(
-                    "axis {axis} of {source} moved the table that carries the spheres, so it must be \
-                     between W and F (e.g. WXYFZT)"
-                ),
+            return Err(ProbeError::Chain {
+                text: chain.text.clone(),
+                fault: ChainFault::SweptOnToolSide {
+                    axis,
+                    report: source.to_string(),
+                },
             });
         }
         lines.push((axis, line));

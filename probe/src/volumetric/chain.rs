@@ -13,7 +13,7 @@ use geom::{Isometry3, Point3, Rotation3, Vector3};
 pub use formats::probe::volumetric::Squareness;
 
 use super::model::{ErrorModel, Evaluation};
-use crate::{ProbeError, Result};
+use crate::{ChainFault, ProbeError, Result};
 
 /// The source's chain: the workpiece rides on X, X on Y, Y on the frame; Z on
 /// the frame, the tool on Z.
@@ -49,10 +49,10 @@ pub struct Chain {
     pub tool: Vec<Axis>,
 }
 
-fn chain_error(text: &str, message: impl Into<String>) -> ProbeError {
-    ProbeError::Input {
-        what: format!("--chain '{text}'"),
-        message: message.into(),
+fn chain_error(text: &str, fault: ChainFault) -> ProbeError {
+    ProbeError::Chain {
+        text: text.to_string(),
+        fault,
     }
 }
 
@@ -66,25 +66,36 @@ impl Chain {
             if !"WXYZFT".contains(*c) {
                 return Err(chain_error(
                     text,
-                    format!("letter {} '{c}' is none of W, X, Y, Z, F, T", k + 1),
+                    ChainFault::Letter {
+                        position: k + 1,
+                        letter: *c,
+                    },
                 ));
             }
         }
         for (c, name) in [('W', "workpiece"), ('F', "frame"), ('T', "tool")] {
             match letters.iter().filter(|&&l| l == c).count() {
-                0 => return Err(chain_error(text, format!("no {c} ({name}) in the chain"))),
+                0 => {
+                    return Err(chain_error(text, ChainFault::Missing { letter: c, name }));
+                }
                 1 => {}
-                n => return Err(chain_error(text, format!("{c} ({name}) appears {n} times"))),
+                count => {
+                    return Err(chain_error(
+                        text,
+                        ChainFault::Repeated {
+                            letter: c,
+                            name,
+                            count,
+                        },
+                    ));
+                }
             }
         }
         if letters.first() != Some(&'W') {
-            return Err(chain_error(
-                text,
-                "the chain must start with W (the workpiece)",
-            ));
+            return Err(chain_error(text, ChainFault::NoStartW));
         }
         if letters.last() != Some(&'T') {
-            return Err(chain_error(text, "the chain must end with T (the tool)"));
+            return Err(chain_error(text, ChainFault::NoEndT));
         }
         let f = letters.iter().position(|&c| c == 'F').unwrap_or(0);
         let axis = |c: &char| match c {
@@ -99,9 +110,12 @@ impl Chain {
             .filter_map(axis)
             .collect();
         for a in [Axis::X, Axis::Y, Axis::Z] {
-            let n = workpiece.iter().chain(&tool).filter(|&&b| b == a).count();
-            if n > 1 {
-                return Err(chain_error(text, format!("axis {a} appears {n} times")));
+            let count = workpiece.iter().chain(&tool).filter(|&&b| b == a).count();
+            if count > 1 {
+                return Err(chain_error(
+                    text,
+                    ChainFault::RepeatedAxis { axis: a, count },
+                ));
             }
         }
         Ok(Chain {

@@ -6,7 +6,7 @@ use formats::Axis;
 use formats::probe::volumetric::ErrorRow;
 pub use formats::probe::volumetric::Motion;
 
-use crate::{ProbeError, Result};
+use crate::{CurveFault, ProbeError, Result};
 
 /// The six error curves of one axis as measured: carriage positions `q`
 /// (mm, strictly increasing) and the six motions at each (mm, rad), plus
@@ -103,11 +103,9 @@ impl AxisCurves {
     pub fn new(m: MeasuredAxis) -> Result<AxisCurves> {
         let axis = m.axis;
         let n = m.positions.len();
+        let curve = |fault| ProbeError::Curve { axis, fault };
         if n < 2 {
-            return Err(ProbeError::Input {
-                what: format!("axis {axis}"),
-                message: format!("{n} measured position(s): a curve needs at least 2"),
-            });
+            return Err(curve(CurveFault::TooFewPositions { count: n }));
         }
         let columns = m
             .values
@@ -118,33 +116,32 @@ impl AxisCurves {
             .chain(m.positioning_down.iter().map(|v| ("positioning_down", v)));
         for (name, v) in columns {
             if v.len() != n {
-                return Err(ProbeError::Input {
-                    what: format!("axis {axis}, column '{name}'"),
-                    message: format!("{} values for {n} positions", v.len()),
-                });
+                return Err(curve(CurveFault::Length {
+                    column: name,
+                    values: v.len(),
+                    positions: n,
+                }));
             }
             if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-                return Err(ProbeError::Input {
-                    what: format!("axis {axis}, point {}, column '{name}'", k + 1),
-                    message: format!("value {} is not a finite number", v[k]),
-                });
+                return Err(curve(CurveFault::NotFinite {
+                    point: k + 1,
+                    column: name,
+                    value: v[k],
+                }));
             }
         }
         if let Some(k) = m.positions.iter().position(|x| !x.is_finite()) {
-            return Err(ProbeError::Input {
-                what: format!("axis {axis}, point {}, column 'position'", k + 1),
-                message: format!("position {} is not a finite number", m.positions[k]),
-            });
+            return Err(curve(CurveFault::PositionNotFinite {
+                point: k + 1,
+                value: m.positions[k],
+            }));
         }
         if let Some(k) = m.positions.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(ProbeError::Input {
-                what: format!("axis {axis}, point {}, column 'position'", k + 2),
-                message: format!(
-                    "positions must increase: {} mm follows {} mm",
-                    m.positions[k + 1],
-                    m.positions[k]
-                ),
-            });
+            return Err(curve(CurveFault::NotIncreasing {
+                point: k + 2,
+                position: m.positions[k + 1],
+                previous: m.positions[k],
+            }));
         }
         let mut values = m.values;
         let mut removed = Vec::new();
