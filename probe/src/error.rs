@@ -33,6 +33,9 @@ pub enum ProbeError {
         /// Where in its curves and what is wrong.
         fault: CurveFault,
     },
+    /// Tracer: a network, option or query the method cannot take.
+    #[error("{0}")]
+    Tracer(TracerFault),
     /// Rotary table: one measured centre (a ball at an angle) the method cannot use.
     #[error("{}: {fault}", crate::rotary::centre_label(.ball, *.angle_deg))]
     Centre {
@@ -220,6 +223,98 @@ pub enum CurveFault {
         position: f64,
         /// The position before it (mm).
         previous: f64,
+    },
+}
+
+/// What is wrong with the tracer's network (readings named by their
+/// position, 1-based), its options or a query point.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum TracerFault {
+    /// Point names and points of different counts.
+    #[error("point names: {names} names for {points} points")]
+    NameCount {
+        /// Names.
+        names: usize,
+        /// Points.
+        points: usize,
+    },
+    /// A nominal point with a coordinate that is not finite.
+    #[error("point '{point}': nominal coordinates are not finite")]
+    PointNotFinite {
+        /// The point's name.
+        point: String,
+    },
+    /// A reading of a station that does not exist.
+    #[error("reading {reading}: station index {station} of {stations}")]
+    StationIndex {
+        /// The reading.
+        reading: usize,
+        /// Its station index.
+        station: usize,
+        /// The stations.
+        stations: usize,
+    },
+    /// A reading of a point that does not exist.
+    #[error("reading {reading}: point index {point} of {points}")]
+    PointIndex {
+        /// The reading.
+        reading: usize,
+        /// Its point index.
+        point: usize,
+        /// The points.
+        points: usize,
+    },
+    /// A reading that is not finite.
+    #[error("reading {reading}: reading {value} is not finite")]
+    ReadingNotFinite {
+        /// The reading.
+        reading: usize,
+        /// Its value (mm).
+        value: f64,
+    },
+    /// A second reading of one point from one station.
+    #[error("reading {reading}: station '{station}' already has a reading of point '{point}'")]
+    DuplicateReading {
+        /// The reading.
+        reading: usize,
+        /// The station.
+        station: String,
+        /// The point.
+        point: String,
+    },
+    /// An outlier limit k that is not a positive number.
+    #[error("outlier k: {k} is not a positive number")]
+    OutlierK {
+        /// The k given.
+        k: f64,
+    },
+    /// An a-priori σ of a reading that is not a positive number.
+    #[error("a-priori σ of a reading: {sigma_mm} mm is not a positive number")]
+    Sigma {
+        /// The σ given (mm).
+        sigma_mm: f64,
+    },
+    /// No iterations allowed.
+    #[error("iterations: at least one iteration is needed")]
+    NoIterations,
+    /// A query point outside the grid on an axis (0, 1, 2 = x, y, z).
+    #[error(
+        "query ({}, {}, {}): {} = {} is outside the grid [{lo}, {hi}]",
+        .query[0],
+        .query[1],
+        .query[2],
+        axis_name(.axis),
+        .query[*.axis]
+    )]
+    QueryOutside {
+        /// The query point (mm).
+        query: [f64; 3],
+        /// The axis.
+        axis: usize,
+        /// The grid's smallest value on it (mm).
+        lo: f64,
+        /// Its largest (mm).
+        hi: f64,
     },
 }
 

@@ -42,5 +42,6 @@ pub mod tracer;
 pub mod volumetric;
 
 pub use error::{
-    CentreFault, ChainFault, Conditioning, CurveFault, LatticeFault, ProbeError, Result, Unsolvable,
+    CentreFault, ChainFault, Conditioning, CurveFault, LatticeFault, ProbeError, Result,
+    TracerFault, Unsolvable,
 };
