@@ -36,6 +36,10 @@ pub enum ProbeError {
     /// Tracer: a network, option or query the method cannot take.
     #[error("{0}")]
     Tracer(TracerFault),
+    /// Rotary table: a measurement, angle or set of probed points the method
+    /// cannot take.
+    #[error("{0}")]
+    Rotary(RotaryFault),
     /// Rotary table: one measured centre (a ball at an angle) the method cannot use.
     #[error("{}: {fault}", crate::rotary::centre_label(.ball, *.angle_deg))]
     Centre {
@@ -223,6 +227,101 @@ pub enum CurveFault {
         position: f64,
         /// The position before it (mm).
         previous: f64,
+    },
+}
+
+/// What is wrong with a rotary-table measurement (its angles, balls and
+/// counts), an angle asked for, or the probed points of a sphere.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum RotaryFault {
+    /// A measured angle outside [0°, 360°).
+    #[error("angle_deg: angle {angle}° is not in [0°, 360°)")]
+    AngleRange {
+        /// The angle (degrees).
+        angle: f64,
+    },
+    /// No measurement at 0°, the reference.
+    #[error(
+        "angle_deg: no measurement at 0° (the first angle is {first}°): the centre at 0° is each \
+         ball's reference"
+    )]
+    NoZero {
+        /// The first angle (degrees).
+        first: f64,
+    },
+    /// Angles not strictly increasing.
+    #[error("angle_deg: angles must increase strictly: {angle}° follows {previous}°")]
+    NotIncreasing {
+        /// The angle (degrees).
+        angle: f64,
+        /// The angle before it (degrees).
+        previous: f64,
+    },
+    /// A ball without a name.
+    #[error("ball: ball number {number} has no name")]
+    Unnamed {
+        /// Its number (1-based).
+        number: usize,
+    },
+    /// Two balls of one name.
+    #[error("ball: ball {ball} is given twice")]
+    DuplicateBall {
+        /// The name.
+        ball: String,
+    },
+    /// A ball without one centre per angle.
+    #[error(
+        "ball {ball}: {centres} centres for {angles} angles: every ball needs one centre per angle"
+    )]
+    CentreCount {
+        /// The ball.
+        ball: String,
+        /// Its centres.
+        centres: usize,
+        /// The angles.
+        angles: usize,
+    },
+    /// A ball without one sphere fit per angle while others have fits.
+    #[error(
+        "ball {ball}: {fits} sphere fits for {angles} angles: with probed points every ball needs \
+         one fit per angle"
+    )]
+    FitCount {
+        /// The ball.
+        ball: String,
+        /// Its fits.
+        fits: usize,
+        /// The angles.
+        angles: usize,
+    },
+    /// A ball without probed points at every angle.
+    #[error(
+        "ball {ball}: probed points at {groups} angles of {angles}: every ball needs points at \
+         every angle"
+    )]
+    PointGroups {
+        /// The ball.
+        ball: String,
+        /// The angles it has points at.
+        groups: usize,
+        /// The angles.
+        angles: usize,
+    },
+    /// An angle asked for that is not finite.
+    #[error("angle: {angle} is not a finite angle")]
+    AngleNotFinite {
+        /// The angle (degrees).
+        angle: f64,
+    },
+    /// Too few probed points for a sphere.
+    #[error(
+        "probed points: {count} point(s): a sphere needs at least {} (the seed probes the north \
+         pole and four on the equator)",
+        crate::rotary::MIN_POINTS
+    )]
+    TooFewPoints {
+        /// The points given.
+        count: usize,
     },
 }
 
