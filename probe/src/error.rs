@@ -40,6 +40,18 @@ pub enum ProbeError {
     /// cannot take.
     #[error("{0}")]
     Rotary(RotaryFault),
+    /// Indexing: positions that do not support the construction, their
+    /// rows 1-based among the positions ([`crate::indexing::Fault::located`]).
+    #[error("{}", located(.0))]
+    Layout(crate::indexing::Fault),
+    /// An option that must be a positive number and is not.
+    #[error("{option}: {value} must be a positive number")]
+    NotPositive {
+        /// The option, e.g. `--tolerance`.
+        option: &'static str,
+        /// The value given.
+        value: f64,
+    },
     /// Rotary table: one measured centre (a ball at an angle) the method cannot use.
     #[error("{}: {fault}", crate::rotary::centre_label(.ball, *.angle_deg))]
     Centre {
@@ -80,6 +92,12 @@ pub enum ProbeError {
     /// A plot of the report could not be drawn.
     #[error(transparent)]
     Report(#[from] report::ReportError),
+}
+
+/// `row k, column 'c': what` of a layout fault.
+fn located(fault: &crate::indexing::Fault) -> String {
+    let (what, message) = fault.located();
+    format!("{what}: {message}")
 }
 
 /// The matrix a tracer step solves for the station unknowns, as errors name it.

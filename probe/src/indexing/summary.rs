@@ -34,9 +34,9 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
         if let Some(v) = value
             && !(v.is_finite() && v > 0.0)
         {
-            return Err(ProbeError::Input {
-                what: name.into(),
-                message: format!("{v} must be a positive number"),
+            return Err(ProbeError::NotPositive {
+                option: name,
+                value: v,
             });
         }
     }
