@@ -1,6 +1,7 @@
 //! The one error type of `probe`.
 
 use formats::Axis;
+use formats::probe::volumetric::Series;
 use thiserror::Error;
 
 /// What went wrong in a probe method. Input rows are named by their position
@@ -51,6 +52,18 @@ pub enum ProbeError {
         option: &'static str,
         /// The value given.
         value: f64,
+    },
+    /// Volumetric: a set-up (order, chain, tool, circle) or position the
+    /// curves cannot serve.
+    #[error("{0}")]
+    Volumetric(VolumetricFault),
+    /// An error of one named input (a position of `--at`, the circle).
+    #[error("{label}: {error}")]
+    At {
+        /// The input, e.g. `at.csv: line 5` or `--circle`.
+        label: String,
+        /// What went wrong there.
+        error: Box<ProbeError>,
     },
     /// Rotary table: one measured centre (a ball at an angle) the method cannot use.
     #[error("{}: {fault}", crate::rotary::centre_label(.ball, *.angle_deg))]
@@ -340,6 +353,168 @@ pub enum RotaryFault {
     TooFewPoints {
         /// The points given.
         count: usize,
+    },
+}
+
+/// What the volumetric model refuses: its set-up, or a position it cannot
+/// evaluate. A fit is named as the fits name it (e.g. `axis X, ey, fourier`).
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum VolumetricFault {
+    /// `--order 0`.
+    #[error("--order: the order N must be at least 1")]
+    OrderZero,
+    /// Fewer points than a series of that order has coefficients.
+    #[error(
+        "{fit}: {points} points, fewer than the {coefficients} coefficients of a {} of order \
+         {order}",
+        .series.name()
+    )]
+    TooFewForOrder {
+        /// The fit.
+        fit: String,
+        /// Points of the curve.
+        points: usize,
+        /// Coefficients of the series, 2N + 1.
+        coefficients: usize,
+        /// The series.
+        series: Series,
+        /// The order N.
+        order: usize,
+    },
+    /// Too few points for `--order auto` to cross-validate any order.
+    #[error(
+        "{fit}: {points} points leave no {} order to cross-validate (order 1 needs 6)",
+        .series.name()
+    )]
+    NothingToCrossValidate {
+        /// The fit.
+        fit: String,
+        /// Points of the curve.
+        points: usize,
+        /// The series.
+        series: Series,
+    },
+    /// A position outside the measured travel of an axis.
+    #[error(
+        "axis {axis} at {position} mm: outside the measured travel [{lo}, {hi}] mm: the model \
+         does not extrapolate"
+    )]
+    OutsideTravel {
+        /// The axis.
+        axis: Axis,
+        /// The position (mm).
+        position: f64,
+        /// Start of the measured travel (mm).
+        lo: f64,
+        /// Its end (mm).
+        hi: f64,
+    },
+    /// Curves of one axis given twice.
+    #[error("axis {axis}: given twice")]
+    AxisTwice {
+        /// The axis.
+        axis: Axis,
+    },
+    /// An axis of the chain without curves.
+    #[error(
+        "axis {axis}: in the chain {chain} but without error curves (give its curves, or leave it \
+         out of --chain)"
+    )]
+    ChainAxisWithoutCurves {
+        /// The axis.
+        axis: Axis,
+        /// The chain.
+        chain: String,
+    },
+    /// Curves of an axis that is not in the chain.
+    #[error("axis {axis}: has error curves but is not in the chain {chain} (add it to --chain)")]
+    CurvesOffChain {
+        /// The axis.
+        axis: Axis,
+        /// The chain.
+        chain: String,
+    },
+    /// A tool offset that is not three finite numbers.
+    #[error("--tool: not three finite numbers")]
+    ToolNotFinite,
+    /// A carriage position that is not finite.
+    #[error("position {}: {value} is not a finite number", .axis.name().to_lowercase())]
+    PositionNotFinite {
+        /// The axis.
+        axis: Axis,
+        /// The position (mm).
+        value: f64,
+    },
+    /// A non-zero position of an axis outside the chain.
+    #[error(
+        "position {}: {value} mm, but axis {axis} is not in the chain {chain}: it must be 0",
+        .axis.name().to_lowercase()
+    )]
+    PositionOffChain {
+        /// The axis.
+        axis: Axis,
+        /// The position (mm).
+        value: f64,
+        /// The chain.
+        chain: String,
+    },
+    /// An axis evaluated without curves.
+    #[error("axis {axis}: without error curves")]
+    NoCurves {
+        /// The axis.
+        axis: Axis,
+    },
+    /// A workpiece point that needs an axis outside the chain.
+    #[error(
+        "workpiece point ({}, {}, {}): needs axis {axis}, which is not in the chain {chain} (the \
+         tool stays at {} = {tool_mm} mm)",
+        .point[0],
+        .point[1],
+        .point[2],
+        .axis.name().to_lowercase()
+    )]
+    PointOffChain {
+        /// The point (mm, workpiece frame).
+        point: [f64; 3],
+        /// The axis.
+        axis: Axis,
+        /// The chain.
+        chain: String,
+        /// The tool's coordinate on that axis (mm).
+        tool_mm: f64,
+    },
+    /// A circle of no positive finite radius (or a centre not finite).
+    #[error("--circle: radius {radius} must be a positive finite number")]
+    CircleRadius {
+        /// The radius (mm).
+        radius: f64,
+    },
+    /// A circle in XY with the chain lacking X or Y.
+    #[error(
+        "--circle: a circle in the plane XY needs axis {axis}, which is not in the chain {chain}"
+    )]
+    CircleOffChain {
+        /// The axis.
+        axis: Axis,
+        /// The chain.
+        chain: String,
+    },
+    /// A circle whose path leaves an axis's measured travel.
+    #[error(
+        "--circle: the circle leaves the measured travel: axis {axis} would run from {from} to \
+         {to} mm, measured from {lo} to {hi} mm"
+    )]
+    CircleOutsideTravel {
+        /// The axis.
+        axis: Axis,
+        /// Smallest position of the path (mm).
+        from: f64,
+        /// Largest (mm).
+        to: f64,
+        /// Start of the measured travel (mm).
+        lo: f64,
+        /// Its end (mm).
+        hi: f64,
     },
 }
 

@@ -43,5 +43,5 @@ pub mod volumetric;
 
 pub use error::{
     CentreFault, ChainFault, Conditioning, CurveFault, LatticeFault, ProbeError, Result,
-    RotaryFault, TracerFault, Unsolvable,
+    RotaryFault, TracerFault, Unsolvable, VolumetricFault,
 };

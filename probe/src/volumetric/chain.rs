@@ -13,7 +13,7 @@ use geom::{Isometry3, Point3, Rotation3, Vector3};
 pub use formats::probe::volumetric::Squareness;
 
 use super::model::{ErrorModel, Evaluation};
-use crate::{ChainFault, ProbeError, Result};
+use crate::{ChainFault, ProbeError, Result, VolumetricFault};
 
 /// The source's chain: the workpiece rides on X, X on Y, Y on the frame; Z on
 /// the frame, the tool on Z.
@@ -184,31 +184,24 @@ impl Machine<'_> {
     ) -> Result<Machine<'a>> {
         for a in chain.axes() {
             if model.axis(a).is_none() {
-                return Err(ProbeError::Input {
-                    what: format!("axis {a}"),
-                    message: format!(
-                        "in the chain {} but without error curves (give its curves, or leave it out of --chain)",
-                        chain.text
-                    ),
-                });
+                return Err(ProbeError::Volumetric(
+                    VolumetricFault::ChainAxisWithoutCurves {
+                        axis: a,
+                        chain: chain.text.clone(),
+                    },
+                ));
             }
         }
         for a in &model.axes {
             if chain.side(a.axis()).is_none() {
-                return Err(ProbeError::Input {
-                    what: format!("axis {}", a.axis()),
-                    message: format!(
-                        "has error curves but is not in the chain {} (add it to --chain)",
-                        chain.text
-                    ),
-                });
+                return Err(ProbeError::Volumetric(VolumetricFault::CurvesOffChain {
+                    axis: a.axis(),
+                    chain: chain.text.clone(),
+                }));
             }
         }
         if !(tool.iter().all(|v| v.is_finite())) {
-            return Err(ProbeError::Input {
-                what: "--tool".into(),
-                message: "not three finite numbers".into(),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::ToolNotFinite));
         }
         Ok(Machine {
             chain,
@@ -223,19 +216,17 @@ impl Machine<'_> {
         for a in [Axis::X, Axis::Y, Axis::Z] {
             let v = q[a.index()];
             if !v.is_finite() {
-                return Err(ProbeError::Input {
-                    what: format!("position {}", a.name().to_lowercase()),
-                    message: format!("{v} is not a finite number"),
-                });
+                return Err(ProbeError::Volumetric(VolumetricFault::PositionNotFinite {
+                    axis: a,
+                    value: v,
+                }));
             }
             if self.chain.side(a).is_none() && v != 0.0 {
-                return Err(ProbeError::Input {
-                    what: format!("position {}", a.name().to_lowercase()),
-                    message: format!(
-                        "{v} mm, but axis {a} is not in the chain {}: it must be 0",
-                        self.chain.text
-                    ),
-                });
+                return Err(ProbeError::Volumetric(VolumetricFault::PositionOffChain {
+                    axis: a,
+                    value: v,
+                    chain: self.chain.text.clone(),
+                }));
             }
         }
         Ok(())
@@ -250,10 +241,10 @@ impl Machine<'_> {
                 Vector3::ith(axis.index(), q),
             ));
         };
-        let model = self.model.axis(axis).ok_or_else(|| ProbeError::Input {
-            what: format!("axis {axis}"),
-            message: "without error curves".into(),
-        })?;
+        let model = self
+            .model
+            .axis(axis)
+            .ok_or(ProbeError::Volumetric(VolumetricFault::NoCurves { axis }))?;
         let (delta, epsilon) = model.motions(q, how)?;
         let squareness = match how {
             Evaluation::Model(_) => self.squareness,
@@ -299,15 +290,12 @@ impl Machine<'_> {
             match self.chain.side(a) {
                 Some(side) => q[i] = side.sign() * (w0[i] - self.tool[i]),
                 None if (w0[i] - self.tool[i]).abs() > POSITION_TOLERANCE_MM => {
-                    return Err(ProbeError::Input {
-                        what: format!("workpiece point {}", fmt_point(w0)),
-                        message: format!(
-                            "needs axis {a}, which is not in the chain {} (the tool stays at {} = {} mm)",
-                            self.chain.text,
-                            a.name().to_lowercase(),
-                            self.tool[i]
-                        ),
-                    });
+                    return Err(ProbeError::Volumetric(VolumetricFault::PointOffChain {
+                        point: [w0.x, w0.y, w0.z],
+                        axis: a,
+                        chain: self.chain.text.clone(),
+                        tool_mm: self.tool[i],
+                    }));
                 }
                 None => {}
             }
@@ -319,10 +307,6 @@ impl Machine<'_> {
 /// A workpiece point agrees with the tool's fixed coordinate on an axis
 /// outside the chain to this (mm).
 pub(crate) const POSITION_TOLERANCE_MM: f64 = 1e-9;
-
-fn fmt_point(p: &Vector3<f64>) -> String {
-    format!("({}, {}, {})", p.x, p.y, p.z)
-}
 
 #[cfg(test)]
 mod tests {

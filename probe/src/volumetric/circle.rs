@@ -10,7 +10,7 @@ use geom::{Point2, Vector3};
 
 use super::chain::{Machine, Positions};
 use super::model::{Evaluation, TRAVEL_TOLERANCE_MM};
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, VolumetricFault};
 
 /// Angular step of the predicted path (degrees).
 pub(crate) const STEP_DEG: usize = 1;
@@ -67,29 +67,25 @@ fn nominal(spec: &CircleSpec, angle_deg: f64) -> Vector3<f64> {
 pub(crate) fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<Positions>> {
     if !(spec.radius > 0.0 && spec.radius.is_finite() && spec.centre.iter().all(|c| c.is_finite()))
     {
-        return Err(ProbeError::Input {
-            what: "--circle".into(),
-            message: format!("radius {} must be a positive finite number", spec.radius),
-        });
+        return Err(ProbeError::Volumetric(VolumetricFault::CircleRadius {
+            radius: spec.radius,
+        }));
     }
     for a in [Axis::X, Axis::Y] {
         if machine.chain.side(a).is_none() {
-            return Err(ProbeError::Input {
-                what: "--circle".into(),
-                message: format!(
-                    "a circle in the plane XY needs axis {a}, which is not in the chain {}",
-                    machine.chain.text
-                ),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::CircleOffChain {
+                axis: a,
+                chain: machine.chain.text.clone(),
+            }));
         }
     }
     let q: Vec<Positions> = (0..360)
         .step_by(STEP_DEG)
         .map(|d| machine.positions_for(&nominal(spec, d as f64)))
         .collect::<Result<_>>()
-        .map_err(|e| ProbeError::Input {
-            what: "--circle".into(),
-            message: e.to_string(),
+        .map_err(|e| ProbeError::At {
+            label: "--circle".into(),
+            error: Box::new(e),
         })?;
     for a in machine.chain.axes() {
         let i = a.index();
@@ -101,13 +97,15 @@ pub(crate) fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<
         if let Some(model) = machine.model.axis(a) {
             let (t0, t1) = model.curves.travel();
             if lo < t0 - TRAVEL_TOLERANCE_MM || hi > t1 + TRAVEL_TOLERANCE_MM {
-                return Err(ProbeError::Input {
-                    what: "--circle".into(),
-                    message: format!(
-                        "the circle leaves the measured travel: axis {a} would run from {lo} to {hi} mm, \
-                         measured from {t0} to {t1} mm"
-                    ),
-                });
+                return Err(ProbeError::Volumetric(
+                    VolumetricFault::CircleOutsideTravel {
+                        axis: a,
+                        from: lo,
+                        to: hi,
+                        lo: t0,
+                        hi: t1,
+                    },
+                ));
             }
         }
     }

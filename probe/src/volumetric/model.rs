@@ -9,7 +9,7 @@ use geom::Vector3;
 
 use super::curves::{AxisCurves, Motion};
 use super::series::{OrderScore, Series, SeriesFit, choose_order};
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{ProbeError, Result, Unsolvable, VolumetricFault};
 
 /// Default Fourier order N (§5; the polynomial then has degree 6).
 pub const DEFAULT_ORDER: usize = 3;
@@ -102,12 +102,12 @@ impl AxisModel {
     pub fn value(&self, motion: Motion, q: f64, how: Evaluation) -> Result<f64> {
         let (lo, hi) = self.curves.travel();
         if !(q >= lo - TRAVEL_TOLERANCE_MM && q <= hi + TRAVEL_TOLERANCE_MM) {
-            return Err(ProbeError::Input {
-                what: format!("axis {} at {q} mm", self.axis()),
-                message: format!(
-                    "outside the measured travel [{lo}, {hi}] mm: the model does not extrapolate"
-                ),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::OutsideTravel {
+                axis: self.axis(),
+                position: q,
+                lo,
+                hi,
+            }));
         }
         let q = q.clamp(lo, hi);
         let raw = || geom::interp::linear(&self.curves.positions, self.curves.curve(motion), q);
@@ -153,18 +153,14 @@ impl ErrorModel {
     /// Fit every curve of every axis; each axis at most once.
     pub fn new(curves: Vec<AxisCurves>, order: Order) -> Result<ErrorModel> {
         if let Order::Fixed(0) = order {
-            return Err(ProbeError::Input {
-                what: "--order".into(),
-                message: "the order N must be at least 1".into(),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::OrderZero));
         }
         let mut axes: Vec<AxisModel> = Vec::with_capacity(curves.len());
         for c in curves {
             if axes.iter().any(|a| a.axis() == c.axis) {
-                return Err(ProbeError::Input {
-                    what: format!("axis {}", c.axis),
-                    message: "given twice".into(),
-                });
+                return Err(ProbeError::Volumetric(VolumetricFault::AxisTwice {
+                    axis: c.axis,
+                }));
             }
             axes.push(AxisModel::new(c, order)?);
         }

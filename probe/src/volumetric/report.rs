@@ -98,9 +98,9 @@ pub fn analyse(
             machine
                 .volumetric_error(q, how)
                 .map(|d| (*q, d))
-                .map_err(|e| ProbeError::Input {
-                    what: label.clone(),
-                    message: e.to_string(),
+                .map_err(|e| ProbeError::At {
+                    label: label.clone(),
+                    error: Box::new(e),
                 })
         })
         .collect::<Result<Vec<_>>>()?;

@@ -8,7 +8,7 @@ pub use formats::probe::volumetric::Series;
 pub use formats::probe::volumetric::report::OrderScore;
 use geom::nalgebra::{DMatrix, DVector, SVD};
 
-use crate::{Conditioning, ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable, VolumetricFault};
 
 /// Largest condition number (largest over smallest singular value of the
 /// design matrix with unit-norm columns) accepted for a fit: beyond it the
@@ -221,20 +221,16 @@ impl SeriesFit {
     ) -> Result<SeriesFit> {
         let count = 2 * order + 1;
         if order == 0 {
-            return Err(ProbeError::Input {
-                what: "--order".into(),
-                message: "the order N must be at least 1".into(),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::OrderZero));
         }
         if positions.len() < count {
-            return Err(ProbeError::Input {
-                what: what.to_string(),
-                message: format!(
-                    "{} points, fewer than the {count} coefficients of a {} of order {order}",
-                    positions.len(),
-                    series.name()
-                ),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::TooFewForOrder {
+                fit: what.to_string(),
+                points: positions.len(),
+                coefficients: count,
+                series,
+                order,
+            }));
         }
         let start = positions[0];
         let length = positions[positions.len() - 1] - start;
@@ -314,12 +310,12 @@ pub(crate) fn choose_order(
             Some(b) if b.loo_rmse <= s.loo_rmse => Some(b),
             _ => Some(*s),
         })
-        .ok_or_else(|| ProbeError::Input {
-            what: what.to_string(),
-            message: format!(
-                "{n} points leave no {} order to cross-validate (order 1 needs 6)",
-                series.name()
-            ),
+        .ok_or_else(|| {
+            ProbeError::Volumetric(VolumetricFault::NothingToCrossValidate {
+                fit: what.to_string(),
+                points: n,
+                series,
+            })
         })?;
     Ok((best.order, scores))
 }
