@@ -9,14 +9,6 @@ use thiserror::Error;
 /// them); the binary maps them to file lines.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ProbeError {
-    /// An input value or row is invalid (NaN, out of range, duplicate, wrong unit).
-    #[error("{what}: {message}")]
-    Input {
-        /// The row, column or option at fault, e.g. "row 12, column 'x'".
-        what: String,
-        /// What is wrong.
-        message: String,
-    },
     /// Volumetric: the kinematic chain string (`--chain`) is not a chain, or
     /// does not fit the curves' source.
     #[error("--chain '{text}': {fault}")]
@@ -64,6 +56,15 @@ pub enum ProbeError {
         label: String,
         /// What went wrong there.
         error: Box<ProbeError>,
+    },
+    /// Volumetric: an evaluate report (`--from-report`) that does not give
+    /// the curves.
+    #[error("{report}: {fault}")]
+    Campaign {
+        /// The report, as the caller names it.
+        report: String,
+        /// The key at fault and what is wrong.
+        fault: CampaignFault,
     },
     /// Rotary table: one measured centre (a ball at an angle) the method cannot use.
     #[error("{}: {fault}", crate::rotary::centre_label(.ball, *.angle_deg))]
@@ -353,6 +354,85 @@ pub enum RotaryFault {
     TooFewPoints {
         /// The points given.
         count: usize,
+    },
+}
+
+/// What an evaluate report lacks for the curves of `--from-report`, each
+/// reading as the report's key, then the fault.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CampaignFault {
+    /// A key under `axes` that is not X, Y or Z.
+    #[error("axes.{name}: not an axis X, Y or Z")]
+    NotAnAxis {
+        /// The key.
+        name: String,
+    },
+    /// No axis at all.
+    #[error("axes: no axis was evaluated")]
+    NoAxis,
+    /// An axis without roll, pitch and yaw.
+    #[error(
+        "axes.{axis}.angular: missing: roll, pitch and yaw need three spheres measured at every \
+         target"
+    )]
+    NoAngular {
+        /// The axis.
+        axis: Axis,
+    },
+    /// No flatness points.
+    #[error(
+        "flatness.points: missing: the sphere centres per target are needed for the Abbe offsets"
+    )]
+    NoFlatness,
+    /// An axis without its straightness across another.
+    #[error("axes.{axis}.straightness.{across}: missing")]
+    NoStraightness {
+        /// The axis.
+        axis: Axis,
+        /// The direction across it.
+        across: Axis,
+    },
+    /// A table of an axis without a value at a target.
+    #[error("axes.{axis}.{table}: no value for target {target}")]
+    NoValue {
+        /// The axis.
+        axis: Axis,
+        /// The table (`straightness`, `angular.targets`, `flatness points`).
+        table: &'static str,
+        /// The target.
+        target: u32,
+    },
+    /// A target without a mean positioning deviation.
+    #[error("axes.{axis}.positioning.targets: target {target} has no mean deviation")]
+    NoMean {
+        /// The axis.
+        axis: Axis,
+        /// The target.
+        target: u32,
+    },
+    /// Two targets at one position.
+    #[error(
+        "axes.{axis}.positioning.targets: two targets at {position} mm: positions must increase"
+    )]
+    TwoTargets {
+        /// The axis.
+        axis: Axis,
+        /// The position (mm).
+        position: f64,
+    },
+    /// Fewer than two targets.
+    #[error("axes.{axis}.positioning.targets: {count} target(s): a curve needs at least 2")]
+    TooFewTargets {
+        /// The axis.
+        axis: Axis,
+        /// The targets.
+        count: usize,
+    },
+    /// A fitted direction that is the zero vector.
+    #[error("axes.{axis}.direction: zero vector")]
+    ZeroDirection {
+        /// The axis.
+        axis: Axis,
     },
 }
 

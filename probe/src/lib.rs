@@ -42,6 +42,6 @@ pub mod tracer;
 pub mod volumetric;
 
 pub use error::{
-    CentreFault, ChainFault, Conditioning, CurveFault, LatticeFault, ProbeError, Result,
-    RotaryFault, TracerFault, Unsolvable, VolumetricFault,
+    CampaignFault, CentreFault, ChainFault, Conditioning, CurveFault, LatticeFault, ProbeError,
+    Result, RotaryFault, TracerFault, Unsolvable, VolumetricFault,
 };
