@@ -21,8 +21,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::row_error;
+use crate::Result;
 use crate::table::{Invalid, Record, Row, finite, read_csv};
-use crate::{FormatError, Result};
 
 /// One turn (degrees); angles lie in `[0, 360)`.
 pub const FULL_TURN_DEG: f64 = 360.0;
@@ -178,15 +179,6 @@ impl RotaryInput {
                 (b.name.clone(), c)
             })
             .collect()
-    }
-}
-
-fn row_error(path: &Path, line: u64, column: &str, message: String) -> FormatError {
-    FormatError::Row {
-        path: path.to_path_buf(),
-        line,
-        column: Some(column.to_string()),
-        message,
     }
 }
 

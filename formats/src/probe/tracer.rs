@@ -20,7 +20,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{finite_fields, name};
+use super::{finite_fields, name, row_error};
 use crate::table::{Invalid, Record, Row, finite, read_csv};
 use crate::{FormatError, Result};
 
@@ -296,15 +296,6 @@ impl Grid {
             self.rows[b].record.position(),
         );
         ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-    }
-}
-
-fn row_error(path: &Path, line: u64, column: &str, message: String) -> FormatError {
-    FormatError::Row {
-        path: path.to_path_buf(),
-        line,
-        column: Some(column.to_string()),
-        message,
     }
 }
 
