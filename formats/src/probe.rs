@@ -6,13 +6,26 @@ pub mod rotary;
 pub mod tracer;
 pub mod volumetric;
 
+use std::path::Path;
+
 use serde::{Deserialize, Serialize};
 
+use crate::FormatError;
 use crate::table::{Invalid, Record, finite};
 
 /// Fails unless every value is finite, naming the first column that is not.
 pub(crate) fn finite_all(values: &[(&'static str, f64)]) -> Result<(), Invalid> {
     values.iter().try_for_each(|&(c, v)| finite(c, v))
+}
+
+/// The error of a row of `path` at `line`, `column`.
+pub(crate) fn row_error(path: &Path, line: u64, column: &str, message: String) -> FormatError {
+    FormatError::Row {
+        path: path.to_path_buf(),
+        line,
+        column: Some(column.to_string()),
+        message,
+    }
 }
 
 /// Fails on an empty (or blank) name.
@@ -21,6 +34,14 @@ pub(crate) fn name(column: &'static str, value: &str) -> Result<(), Invalid> {
         Err(Invalid::new(column, "empty name"))
     } else {
         Ok(())
+    }
+}
+
+/// Fails the test unless the error text `e` contains each of `parts`.
+#[cfg(test)]
+pub(crate) fn assert_mentions(e: &str, parts: &[&str]) {
+    for p in parts {
+        assert!(e.contains(p), "{p:?} not in: {e}");
     }
 }
 

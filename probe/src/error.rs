@@ -1,5 +1,7 @@
 //! The one error type of `probe`.
 
+use formats::Axis;
+use formats::probe::volumetric::Series;
 use thiserror::Error;
 
 /// What went wrong in a probe method. Input rows are named by their position
@@ -7,13 +9,62 @@ use thiserror::Error;
 /// them); the binary maps them to file lines.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ProbeError {
-    /// An input value or row is invalid (NaN, out of range, duplicate, wrong unit).
-    #[error("{what}: {message}")]
-    Input {
-        /// The row, column or option at fault, e.g. "row 12, column 'x'".
-        what: String,
-        /// What is wrong.
-        message: String,
+    /// Volumetric: the kinematic chain string (`--chain`) is not a chain, or
+    /// does not fit the curves' source.
+    #[error("--chain '{text}': {fault}")]
+    Chain {
+        /// The chain string as given.
+        text: String,
+        /// What is wrong with it.
+        fault: ChainFault,
+    },
+    /// Volumetric: the measured curves of an axis are not usable curves.
+    #[error("axis {axis}{fault}")]
+    Curve {
+        /// The axis.
+        axis: Axis,
+        /// Where in its curves and what is wrong.
+        fault: CurveFault,
+    },
+    /// Tracer: a network, option or query the method cannot take.
+    #[error("{0}")]
+    Tracer(TracerFault),
+    /// Rotary table: a measurement, angle or set of probed points the method
+    /// cannot take.
+    #[error("{0}")]
+    Rotary(RotaryFault),
+    /// Indexing: positions that do not support the construction, their
+    /// rows 1-based among the positions ([`crate::indexing::Fault::located`]).
+    #[error("{}", located(.0))]
+    Layout(crate::indexing::Fault),
+    /// An option that must be a positive number and is not.
+    #[error("{option}: {value} must be a positive number")]
+    NotPositive {
+        /// The option, e.g. `--tolerance`.
+        option: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// Volumetric: a set-up (order, chain, tool, circle) or position the
+    /// curves cannot serve.
+    #[error("{0}")]
+    Volumetric(VolumetricFault),
+    /// An error of one named input (a position of `--at`, the circle).
+    #[error("{label}: {error}")]
+    At {
+        /// The input, e.g. `at.csv: line 5` or `--circle`.
+        label: String,
+        /// What went wrong there.
+        error: Box<ProbeError>,
+    },
+    /// Volumetric: an evaluate report (`--from-report`) that does not give
+    /// the curves.
+    #[error("{report}: {fault}")]
+    Campaign {
+        /// The report, as the caller names it.
+        report: String,
+        /// The key at fault and what is wrong.
+        fault: CampaignFault,
     },
     /// Rotary table: one measured centre (a ball at an angle) the method cannot use.
     #[error("{}: {fault}", crate::rotary::centre_label(.ball, *.angle_deg))]
@@ -57,6 +108,12 @@ pub enum ProbeError {
     Report(#[from] report::ReportError),
 }
 
+/// `row k, column 'c': what` of a layout fault.
+fn located(fault: &crate::indexing::Fault) -> String {
+    let (what, message) = fault.located();
+    format!("{what}: {message}")
+}
+
 /// The matrix a tracer step solves for the station unknowns, as errors name it.
 pub(crate) const REDUCED_NORMAL: &str = "the reduced normal matrix of the station unknowns \
      (stations and dead paths weakly determined by the layout, or readings in groups that share \
@@ -92,6 +149,544 @@ pub enum CentreFault {
         angle_deg: f64,
         /// Whether a clockwise turn by the angle would fit.
         clockwise: bool,
+    },
+}
+
+/// What is wrong with a kinematic chain string `W a1 … ak F b1 … bl T`.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ChainFault {
+    /// A letter that is none of W, X, Y, Z, F, T.
+    #[error("letter {position} '{letter}' is none of W, X, Y, Z, F, T")]
+    Letter {
+        /// Its position, 1-based.
+        position: usize,
+        /// The letter (upper case).
+        letter: char,
+    },
+    /// No W, F or T.
+    #[error("no {letter} ({name}) in the chain")]
+    Missing {
+        /// W, F or T.
+        letter: char,
+        /// `workpiece`, `frame` or `tool`.
+        name: &'static str,
+    },
+    /// W, F or T more than once.
+    #[error("{letter} ({name}) appears {count} times")]
+    Repeated {
+        /// W, F or T.
+        letter: char,
+        /// `workpiece`, `frame` or `tool`.
+        name: &'static str,
+        /// How often.
+        count: usize,
+    },
+    /// The first letter is not W.
+    #[error("the chain must start with W (the workpiece)")]
+    NoStartW,
+    /// The last letter is not T.
+    #[error("the chain must end with T (the tool)")]
+    NoEndT,
+    /// An axis more than once.
+    #[error("axis {axis} appears {count} times")]
+    RepeatedAxis {
+        /// The axis.
+        axis: Axis,
+        /// How often.
+        count: usize,
+    },
+    /// A swept axis of a vision campaign on the tool side (`--from-report`):
+    /// the spheres ride on the table.
+    #[error(
+        "axis {axis} of {report} moved the table that carries the spheres, so it must be \
+         between W and F (e.g. WXYFZT)"
+    )]
+    SweptOnToolSide {
+        /// The axis.
+        axis: Axis,
+        /// The campaign's report (where it was read).
+        report: String,
+    },
+}
+
+/// What is wrong with the measured curves of one axis; each reads as the
+/// place within the axis's curves (point 1-based), then the fault.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CurveFault {
+    /// Fewer than two positions.
+    #[error(": {count} measured position(s): a curve needs at least 2")]
+    TooFewPositions {
+        /// Positions measured.
+        count: usize,
+    },
+    /// A column with another number of values than positions.
+    #[error(", column '{column}': {values} values for {positions} positions")]
+    Length {
+        /// The column (`ex` … `ec`, `positioning_up`, `positioning_down`).
+        column: &'static str,
+        /// Its values.
+        values: usize,
+        /// The positions.
+        positions: usize,
+    },
+    /// A value that is not finite.
+    #[error(", point {point}, column '{column}': value {value} is not a finite number")]
+    NotFinite {
+        /// The point (1-based).
+        point: usize,
+        /// The column.
+        column: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A position that is not finite.
+    #[error(", point {point}, column 'position': position {value} is not a finite number")]
+    PositionNotFinite {
+        /// The point (1-based).
+        point: usize,
+        /// The position (mm).
+        value: f64,
+    },
+    /// Positions not strictly increasing.
+    #[error(
+        ", point {point}, column 'position': positions must increase: {position} mm follows \
+         {previous} mm"
+    )]
+    NotIncreasing {
+        /// The point (1-based).
+        point: usize,
+        /// Its position (mm).
+        position: f64,
+        /// The position before it (mm).
+        previous: f64,
+    },
+}
+
+/// What is wrong with a rotary-table measurement (its angles, balls and
+/// counts), an angle asked for, or the probed points of a sphere.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum RotaryFault {
+    /// A measured angle outside [0°, 360°).
+    #[error("angle_deg: angle {angle}° is not in [0°, 360°)")]
+    AngleRange {
+        /// The angle (degrees).
+        angle: f64,
+    },
+    /// No measurement at 0°, the reference.
+    #[error(
+        "angle_deg: no measurement at 0° (the first angle is {first}°): the centre at 0° is each \
+         ball's reference"
+    )]
+    NoZero {
+        /// The first angle (degrees).
+        first: f64,
+    },
+    /// Angles not strictly increasing.
+    #[error("angle_deg: angles must increase strictly: {angle}° follows {previous}°")]
+    NotIncreasing {
+        /// The angle (degrees).
+        angle: f64,
+        /// The angle before it (degrees).
+        previous: f64,
+    },
+    /// A ball without a name.
+    #[error("ball: ball number {number} has no name")]
+    Unnamed {
+        /// Its number (1-based).
+        number: usize,
+    },
+    /// Two balls of one name.
+    #[error("ball: ball {ball} is given twice")]
+    DuplicateBall {
+        /// The name.
+        ball: String,
+    },
+    /// A ball without one centre per angle.
+    #[error(
+        "ball {ball}: {centres} centres for {angles} angles: every ball needs one centre per angle"
+    )]
+    CentreCount {
+        /// The ball.
+        ball: String,
+        /// Its centres.
+        centres: usize,
+        /// The angles.
+        angles: usize,
+    },
+    /// A ball without one sphere fit per angle while others have fits.
+    #[error(
+        "ball {ball}: {fits} sphere fits for {angles} angles: with probed points every ball needs \
+         one fit per angle"
+    )]
+    FitCount {
+        /// The ball.
+        ball: String,
+        /// Its fits.
+        fits: usize,
+        /// The angles.
+        angles: usize,
+    },
+    /// A ball without probed points at every angle.
+    #[error(
+        "ball {ball}: probed points at {groups} angles of {angles}: every ball needs points at \
+         every angle"
+    )]
+    PointGroups {
+        /// The ball.
+        ball: String,
+        /// The angles it has points at.
+        groups: usize,
+        /// The angles.
+        angles: usize,
+    },
+    /// An angle asked for that is not finite.
+    #[error("angle: {angle} is not a finite angle")]
+    AngleNotFinite {
+        /// The angle (degrees).
+        angle: f64,
+    },
+    /// Too few probed points for a sphere.
+    #[error(
+        "probed points: {count} point(s): a sphere needs at least {} (the seed probes the north \
+         pole and four on the equator)",
+        crate::rotary::MIN_POINTS
+    )]
+    TooFewPoints {
+        /// The points given.
+        count: usize,
+    },
+}
+
+/// What an evaluate report lacks for the curves of `--from-report`, each
+/// reading as the report's key, then the fault.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CampaignFault {
+    /// A key under `axes` that is not X, Y or Z.
+    #[error("axes.{name}: not an axis X, Y or Z")]
+    NotAnAxis {
+        /// The key.
+        name: String,
+    },
+    /// No axis at all.
+    #[error("axes: no axis was evaluated")]
+    NoAxis,
+    /// An axis without roll, pitch and yaw.
+    #[error(
+        "axes.{axis}.angular: missing: roll, pitch and yaw need three spheres measured at every \
+         target"
+    )]
+    NoAngular {
+        /// The axis.
+        axis: Axis,
+    },
+    /// No flatness points.
+    #[error(
+        "flatness.points: missing: the sphere centres per target are needed for the Abbe offsets"
+    )]
+    NoFlatness,
+    /// An axis without its straightness across another.
+    #[error("axes.{axis}.straightness.{across}: missing")]
+    NoStraightness {
+        /// The axis.
+        axis: Axis,
+        /// The direction across it.
+        across: Axis,
+    },
+    /// A table of an axis without a value at a target.
+    #[error("axes.{axis}.{table}: no value for target {target}")]
+    NoValue {
+        /// The axis.
+        axis: Axis,
+        /// The table (`straightness`, `angular.targets`, `flatness points`).
+        table: &'static str,
+        /// The target.
+        target: u32,
+    },
+    /// A target without a mean positioning deviation.
+    #[error("axes.{axis}.positioning.targets: target {target} has no mean deviation")]
+    NoMean {
+        /// The axis.
+        axis: Axis,
+        /// The target.
+        target: u32,
+    },
+    /// Two targets at one position.
+    #[error(
+        "axes.{axis}.positioning.targets: two targets at {position} mm: positions must increase"
+    )]
+    TwoTargets {
+        /// The axis.
+        axis: Axis,
+        /// The position (mm).
+        position: f64,
+    },
+    /// Fewer than two targets.
+    #[error("axes.{axis}.positioning.targets: {count} target(s): a curve needs at least 2")]
+    TooFewTargets {
+        /// The axis.
+        axis: Axis,
+        /// The targets.
+        count: usize,
+    },
+    /// A fitted direction that is the zero vector.
+    #[error("axes.{axis}.direction: zero vector")]
+    ZeroDirection {
+        /// The axis.
+        axis: Axis,
+    },
+}
+
+/// What the volumetric model refuses: its set-up, or a position it cannot
+/// evaluate. A fit is named as the fits name it (e.g. `axis X, ey, fourier`).
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum VolumetricFault {
+    /// `--order 0`.
+    #[error("--order: the order N must be at least 1")]
+    OrderZero,
+    /// Fewer points than a series of that order has coefficients.
+    #[error(
+        "{fit}: {points} points, fewer than the {coefficients} coefficients of a {} of order \
+         {order}",
+        .series.name()
+    )]
+    TooFewForOrder {
+        /// The fit.
+        fit: String,
+        /// Points of the curve.
+        points: usize,
+        /// Coefficients of the series, 2N + 1.
+        coefficients: usize,
+        /// The series.
+        series: Series,
+        /// The order N.
+        order: usize,
+    },
+    /// Too few points for `--order auto` to cross-validate any order.
+    #[error(
+        "{fit}: {points} points leave no {} order to cross-validate (order 1 needs 6)",
+        .series.name()
+    )]
+    NothingToCrossValidate {
+        /// The fit.
+        fit: String,
+        /// Points of the curve.
+        points: usize,
+        /// The series.
+        series: Series,
+    },
+    /// A position outside the measured travel of an axis.
+    #[error(
+        "axis {axis} at {position} mm: outside the measured travel [{lo}, {hi}] mm: the model \
+         does not extrapolate"
+    )]
+    OutsideTravel {
+        /// The axis.
+        axis: Axis,
+        /// The position (mm).
+        position: f64,
+        /// Start of the measured travel (mm).
+        lo: f64,
+        /// Its end (mm).
+        hi: f64,
+    },
+    /// Curves of one axis given twice.
+    #[error("axis {axis}: given twice")]
+    AxisTwice {
+        /// The axis.
+        axis: Axis,
+    },
+    /// An axis of the chain without curves.
+    #[error(
+        "axis {axis}: in the chain {chain} but without error curves (give its curves, or leave it \
+         out of --chain)"
+    )]
+    ChainAxisWithoutCurves {
+        /// The axis.
+        axis: Axis,
+        /// The chain.
+        chain: String,
+    },
+    /// Curves of an axis that is not in the chain.
+    #[error("axis {axis}: has error curves but is not in the chain {chain} (add it to --chain)")]
+    CurvesOffChain {
+        /// The axis.
+        axis: Axis,
+        /// The chain.
+        chain: String,
+    },
+    /// A tool offset that is not three finite numbers.
+    #[error("--tool: not three finite numbers")]
+    ToolNotFinite,
+    /// A carriage position that is not finite.
+    #[error("position {}: {value} is not a finite number", .axis.name().to_lowercase())]
+    PositionNotFinite {
+        /// The axis.
+        axis: Axis,
+        /// The position (mm).
+        value: f64,
+    },
+    /// A non-zero position of an axis outside the chain.
+    #[error(
+        "position {}: {value} mm, but axis {axis} is not in the chain {chain}: it must be 0",
+        .axis.name().to_lowercase()
+    )]
+    PositionOffChain {
+        /// The axis.
+        axis: Axis,
+        /// The position (mm).
+        value: f64,
+        /// The chain.
+        chain: String,
+    },
+    /// An axis evaluated without curves.
+    #[error("axis {axis}: without error curves")]
+    NoCurves {
+        /// The axis.
+        axis: Axis,
+    },
+    /// A workpiece point that needs an axis outside the chain.
+    #[error(
+        "workpiece point ({}, {}, {}): needs axis {axis}, which is not in the chain {chain} (the \
+         tool stays at {} = {tool_mm} mm)",
+        .point[0],
+        .point[1],
+        .point[2],
+        .axis.name().to_lowercase()
+    )]
+    PointOffChain {
+        /// The point (mm, workpiece frame).
+        point: [f64; 3],
+        /// The axis.
+        axis: Axis,
+        /// The chain.
+        chain: String,
+        /// The tool's coordinate on that axis (mm).
+        tool_mm: f64,
+    },
+    /// A circle of no positive finite radius (or a centre not finite).
+    #[error("--circle: radius {radius} must be a positive finite number")]
+    CircleRadius {
+        /// The radius (mm).
+        radius: f64,
+    },
+    /// A circle in XY with the chain lacking X or Y.
+    #[error(
+        "--circle: a circle in the plane XY needs axis {axis}, which is not in the chain {chain}"
+    )]
+    CircleOffChain {
+        /// The axis.
+        axis: Axis,
+        /// The chain.
+        chain: String,
+    },
+    /// A circle whose path leaves an axis's measured travel.
+    #[error(
+        "--circle: the circle leaves the measured travel: axis {axis} would run from {from} to \
+         {to} mm, measured from {lo} to {hi} mm"
+    )]
+    CircleOutsideTravel {
+        /// The axis.
+        axis: Axis,
+        /// Smallest position of the path (mm).
+        from: f64,
+        /// Largest (mm).
+        to: f64,
+        /// Start of the measured travel (mm).
+        lo: f64,
+        /// Its end (mm).
+        hi: f64,
+    },
+}
+
+/// What is wrong with the tracer's network (readings named by their
+/// position, 1-based), its options or a query point.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum TracerFault {
+    /// Point names and points of different counts.
+    #[error("point names: {names} names for {points} points")]
+    NameCount {
+        /// Names.
+        names: usize,
+        /// Points.
+        points: usize,
+    },
+    /// A nominal point with a coordinate that is not finite.
+    #[error("point '{point}': nominal coordinates are not finite")]
+    PointNotFinite {
+        /// The point's name.
+        point: String,
+    },
+    /// A reading of a station that does not exist.
+    #[error("reading {reading}: station index {station} of {stations}")]
+    StationIndex {
+        /// The reading.
+        reading: usize,
+        /// Its station index.
+        station: usize,
+        /// The stations.
+        stations: usize,
+    },
+    /// A reading of a point that does not exist.
+    #[error("reading {reading}: point index {point} of {points}")]
+    PointIndex {
+        /// The reading.
+        reading: usize,
+        /// Its point index.
+        point: usize,
+        /// The points.
+        points: usize,
+    },
+    /// A reading that is not finite.
+    #[error("reading {reading}: reading {value} is not finite")]
+    ReadingNotFinite {
+        /// The reading.
+        reading: usize,
+        /// Its value (mm).
+        value: f64,
+    },
+    /// A second reading of one point from one station.
+    #[error("reading {reading}: station '{station}' already has a reading of point '{point}'")]
+    DuplicateReading {
+        /// The reading.
+        reading: usize,
+        /// The station.
+        station: String,
+        /// The point.
+        point: String,
+    },
+    /// An outlier limit k that is not a positive number.
+    #[error("outlier k: {k} is not a positive number")]
+    OutlierK {
+        /// The k given.
+        k: f64,
+    },
+    /// An a-priori σ of a reading that is not a positive number.
+    #[error("a-priori σ of a reading: {sigma_mm} mm is not a positive number")]
+    Sigma {
+        /// The σ given (mm).
+        sigma_mm: f64,
+    },
+    /// No iterations allowed.
+    #[error("iterations: at least one iteration is needed")]
+    NoIterations,
+    /// A query point outside the grid on an axis (0, 1, 2 = x, y, z).
+    #[error(
+        "query ({}, {}, {}): {} = {} is outside the grid [{lo}, {hi}]",
+        .query[0],
+        .query[1],
+        .query[2],
+        axis_name(.axis),
+        .query[*.axis]
+    )]
+    QueryOutside {
+        /// The query point (mm).
+        query: [f64; 3],
+        /// The axis.
+        axis: usize,
+        /// The grid's smallest value on it (mm).
+        lo: f64,
+        /// Its largest (mm).
+        hi: f64,
     },
 }
 
@@ -523,6 +1118,55 @@ mod tests {
     /// The typed reasons read as the messages they replace.
     #[test]
     fn messages_keep_their_wording() {
+        let curve = |fault| {
+            ProbeError::Curve {
+                axis: Axis::Y,
+                fault,
+            }
+            .to_string()
+        };
+        assert_eq!(
+            curve(CurveFault::TooFewPositions { count: 1 }),
+            "axis Y: 1 measured position(s): a curve needs at least 2"
+        );
+        assert_eq!(
+            curve(CurveFault::NotIncreasing {
+                point: 3,
+                position: 10.0,
+                previous: 20.5
+            }),
+            "axis Y, point 3, column 'position': positions must increase: 10 mm follows 20.5 mm"
+        );
+        let chain = |fault| ProbeError::Chain {
+            text: "WXFT".into(),
+            fault,
+        };
+        assert_eq!(
+            chain(ChainFault::Letter {
+                position: 2,
+                letter: 'Q'
+            })
+            .to_string(),
+            "--chain 'WXFT': letter 2 'Q' is none of W, X, Y, Z, F, T"
+        );
+        assert_eq!(
+            chain(ChainFault::Repeated {
+                letter: 'F',
+                name: "frame",
+                count: 2
+            })
+            .to_string(),
+            "--chain 'WXFT': F (frame) appears 2 times"
+        );
+        assert_eq!(
+            chain(ChainFault::SweptOnToolSide {
+                axis: Axis::Z,
+                report: "r/report.json".into()
+            })
+            .to_string(),
+            "--chain 'WXFT': axis Z of r/report.json moved the table that carries the spheres, so \
+             it must be between W and F (e.g. WXYFZT)"
+        );
         let e = ProbeError::from(Unsolvable::TooFewBalls {
             names: vec!["A".into(), "B".into()],
         });

@@ -154,10 +154,7 @@ pub fn solve(positions: &[Position]) -> Result<Indexing> {
         .iter()
         .map(|p| [p.centre.x, p.centre.y, p.centre.z])
         .collect();
-    let layout = layout::check(&angles, &xyz).map_err(|fault| {
-        let (what, message) = fault.located();
-        ProbeError::Input { what, message }
-    })?;
+    let layout = layout::check(&angles, &xyz).map_err(ProbeError::Layout)?;
     let centres: Vec<Point3<f64>> = positions.iter().map(|p| p.centre).collect();
     let c = construction::construct(&centres, &layout)?;
     let angles = positions

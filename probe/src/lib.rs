@@ -6,13 +6,14 @@
 //! ([`volumetric`]).
 //!
 //! Each method takes plain measured values, returns plain results with their
-//! uncertainties and a report (`report.json` types and the HTML page); the
-//! binary reads and writes the files. `probe` does no I/O.
+//! uncertainties and a report (the `report.json` types of
+//! `formats::probe::<method>::report`, filled here and re-exported, and the
+//! HTML page); the binary reads and writes the files. `probe` does no I/O.
 //!
 //! # Entry points
 //! - [`rotary::solve`] of a [`rotary::Measurement`] (centres, or probed
 //!   points through [`rotary::Measurement::from_points`]);
-//!   [`rotary::report::Report`] and [`rotary::html`] for its report.
+//!   [`rotary::report::report()`] and [`rotary::html`] for its report.
 //! - [`indexing::solve`] of [`indexing::Position`]s (checked first by
 //!   [`indexing::layout::check`]); [`indexing::report`], [`indexing::html`].
 //! - [`tracer::solve`] of a [`tracer::Network`]; [`tracer::report`],
@@ -40,4 +41,7 @@ pub mod rotary;
 pub mod tracer;
 pub mod volumetric;
 
-pub use error::{CentreFault, Conditioning, LatticeFault, ProbeError, Result, Unsolvable};
+pub use error::{
+    CampaignFault, CentreFault, ChainFault, Conditioning, CurveFault, LatticeFault, ProbeError,
+    Result, RotaryFault, TracerFault, Unsolvable, VolumetricFault,
+};

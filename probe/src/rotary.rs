@@ -42,7 +42,7 @@ pub mod report;
 
 use geom::nalgebra::{Point3, Rotation3, Vector3, Vector6};
 
-use crate::{CentreFault, Conditioning, ProbeError, Result, Unsolvable};
+use crate::{CentreFault, Conditioning, ProbeError, Result, RotaryFault, Unsolvable};
 
 pub use centres::{CentreFit, MIN_POINTS, fit_centre};
 pub use html::render as html;
@@ -98,10 +98,7 @@ impl Measurement {
     /// `[0, 360)` starting at 0; ≥ 3 balls with distinct names, one finite
     /// centre per angle each (and one fit per angle or none).
     pub fn validate(&self) -> Result<()> {
-        let input = |what: &str, message: String| ProbeError::Input {
-            what: what.to_string(),
-            message,
-        };
+        let fault = |f: RotaryFault| Err(ProbeError::Rotary(f));
         if self.angles_deg.len() < 2 {
             return Err(Unsolvable::TooFewAngles {
                 angles: self.angles_deg.len(),
@@ -113,25 +110,18 @@ impl Measurement {
             .iter()
             .find(|a| !(a.is_finite() && (0.0..FULL_TURN_DEG).contains(*a)))
         {
-            return Err(input(
-                "angle_deg",
-                format!("angle {a}° is not in [0°, 360°)"),
-            ));
+            return fault(RotaryFault::AngleRange { angle: *a });
         }
         if self.angles_deg[0] != 0.0 {
-            return Err(input(
-                "angle_deg",
-                format!(
-                    "no measurement at 0° (the first angle is {}°): the centre at 0° is each ball's reference",
-                    self.angles_deg[0]
-                ),
-            ));
+            return fault(RotaryFault::NoZero {
+                first: self.angles_deg[0],
+            });
         }
         if let Some(w) = self.angles_deg.windows(2).find(|w| w[1] <= w[0]) {
-            return Err(input(
-                "angle_deg",
-                format!("angles must increase strictly: {}° follows {}°", w[1], w[0]),
-            ));
+            return fault(RotaryFault::NotIncreasing {
+                angle: w[1],
+                previous: w[0],
+            });
         }
         if self.balls.len() < 3 {
             return Err(Unsolvable::TooFewBalls {
@@ -141,31 +131,27 @@ impl Measurement {
         }
         for (k, ball) in self.balls.iter().enumerate() {
             if ball.name.trim().is_empty() {
-                return Err(input("ball", format!("ball number {} has no name", k + 1)));
+                return fault(RotaryFault::Unnamed { number: k + 1 });
             }
             if self.balls[..k].iter().any(|b| b.name == ball.name) {
-                return Err(input("ball", format!("ball {} is given twice", ball.name)));
+                return fault(RotaryFault::DuplicateBall {
+                    ball: ball.name.clone(),
+                });
             }
             if ball.centres.len() != self.angles_deg.len() {
-                return Err(input(
-                    &format!("ball {}", ball.name),
-                    format!(
-                        "{} centres for {} angles: every ball needs one centre per angle",
-                        ball.centres.len(),
-                        self.angles_deg.len()
-                    ),
-                ));
+                return fault(RotaryFault::CentreCount {
+                    ball: ball.name.clone(),
+                    centres: ball.centres.len(),
+                    angles: self.angles_deg.len(),
+                });
             }
             let fitted = self.balls.iter().any(|b| !b.fits.is_empty());
             if fitted && ball.fits.len() != self.angles_deg.len() {
-                return Err(input(
-                    &format!("ball {}", ball.name),
-                    format!(
-                        "{} sphere fits for {} angles: with probed points every ball needs one fit per angle",
-                        ball.fits.len(),
-                        self.angles_deg.len()
-                    ),
-                ));
+                return fault(RotaryFault::FitCount {
+                    ball: ball.name.clone(),
+                    fits: ball.fits.len(),
+                    angles: self.angles_deg.len(),
+                });
             }
             for (c, a) in ball.centres.iter().zip(&self.angles_deg) {
                 if !c.iter().all(|v| v.is_finite()) {
@@ -207,14 +193,11 @@ impl Measurement {
         let mut out = Vec::with_capacity(balls.len());
         for (name, groups) in balls {
             if groups.len() != angles_deg.len() {
-                return Err(ProbeError::Input {
-                    what: format!("ball {name}"),
-                    message: format!(
-                        "probed points at {} angles of {}: every ball needs points at every angle",
-                        groups.len(),
-                        angles_deg.len()
-                    ),
-                });
+                return Err(ProbeError::Rotary(RotaryFault::PointGroups {
+                    ball: name,
+                    groups: groups.len(),
+                    angles: angles_deg.len(),
+                }));
             }
             let mut fits = Vec::with_capacity(groups.len());
             for (points, a) in groups.iter().zip(&angles_deg) {
@@ -382,10 +365,9 @@ impl Solution {
     /// wrapping from the last measured angle to 360° = 0°.
     pub fn at(&self, angle_deg: f64) -> Result<Interpolated> {
         if !angle_deg.is_finite() {
-            return Err(ProbeError::Input {
-                what: "angle".into(),
-                message: format!("{angle_deg} is not a finite angle"),
-            });
+            return Err(ProbeError::Rotary(RotaryFault::AngleNotFinite {
+                angle: angle_deg,
+            }));
         }
         let values: Vec<SixErrors> = self.errors.iter().map(|e| e.errors).collect();
         let u: Vec<SixErrors> = self.errors.iter().map(|e| e.uncertainty).collect();

@@ -66,7 +66,7 @@ mod start;
 
 use geom::nalgebra::{Point3, Vector3};
 
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, TracerFault};
 
 pub use html::html;
 pub use lattice::CorrectionGrid;
@@ -294,24 +294,17 @@ pub fn solve(network: &Network, options: &Options) -> Result<Solution> {
 
 fn check_options(options: &Options) -> Result<()> {
     if !(options.outlier_k.is_finite() && options.outlier_k > 0.0) {
-        return Err(ProbeError::Input {
-            what: "outlier k".into(),
-            message: format!("{} is not a positive number", options.outlier_k),
-        });
+        return Err(ProbeError::Tracer(TracerFault::OutlierK {
+            k: options.outlier_k,
+        }));
     }
     if let Some(s) = options.sigma_mm
         && !(s.is_finite() && s > 0.0)
     {
-        return Err(ProbeError::Input {
-            what: "a-priori σ of a reading".into(),
-            message: format!("{s} mm is not a positive number"),
-        });
+        return Err(ProbeError::Tracer(TracerFault::Sigma { sigma_mm: s }));
     }
     if options.max_iterations == 0 {
-        return Err(ProbeError::Input {
-            what: "iterations".into(),
-            message: "at least one iteration is needed".into(),
-        });
+        return Err(ProbeError::Tracer(TracerFault::NoIterations));
     }
     Ok(())
 }

@@ -333,7 +333,7 @@ fn grid(a: &[f64], b_step: f64) -> Vec<Position> {
 
 fn input_error(positions: &[Position]) -> (String, String) {
     match solve(positions) {
-        Err(ProbeError::Input { what, message }) => (what, message),
+        Err(ProbeError::Layout(fault)) => fault.located(),
         other => panic!("expected an input error, got {other:?}"),
     }
 }
@@ -413,7 +413,7 @@ fn bad_options_are_named() {
     ] {
         assert!(matches!(
             report(&ind, &options),
-            Err(ProbeError::Input { .. })
+            Err(ProbeError::NotPositive { .. })
         ));
     }
 }

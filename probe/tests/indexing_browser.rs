@@ -43,7 +43,7 @@ fn indexing_report_renders_in_chromium() {
     .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("report.html");
-    std::fs::write(&page, html(&r).unwrap()).unwrap();
+    std::fs::write(&page, html(&r, &solved.angles).unwrap()).unwrap();
     browser_common::check_page(
         &chromium,
         &page,

@@ -496,7 +496,7 @@ fn clockwise_angles_are_refused_naming_the_centre() {
 fn report_json_has_the_contract_keys() {
     let s = solve(&from_points_file()).unwrap();
     let at = [s.at(15.0).unwrap()];
-    let r = probe::rotary::report::Report::new(&s, "points.csv", &at);
+    let r = probe::rotary::report::report(&s, "points.csv", &at);
     let v = serde_json::to_value(&r).unwrap();
     let e = &v["errors"][1];
     for key in [

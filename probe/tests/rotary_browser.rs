@@ -16,7 +16,7 @@ mod browser_common;
 use std::path::PathBuf;
 
 use formats::probe::rotary::read_points;
-use probe::rotary::report::Report;
+use probe::rotary::report::report as rotary_report;
 use probe::rotary::{Measurement, html, solve};
 use report::browser::{self, rgb};
 use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, SIX, ZONE};
@@ -44,7 +44,7 @@ fn rotary_report_html_renders_in_chromium() {
     let m = Measurement::from_points(input.angles_deg.clone(), input.points()).unwrap();
     let s = solve(&m).unwrap();
     let at = [s.at(15.0).unwrap(), s.at(345.0).unwrap()];
-    let page = html(&Report::new(&s, "points.csv", &at)).unwrap();
+    let page = html(&rotary_report(&s, "points.csv", &at)).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("report.html");
     std::fs::write(&file, &page).unwrap();

@@ -2,6 +2,8 @@
 //! reference-sphere centre per head position `centres.csv`, the result
 //! `indexing.csv`, and the generator's `truth.json`.
 
+pub mod report;
+
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -196,6 +198,7 @@ pub struct TrueHead {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::probe::assert_mentions;
     use crate::table::read_csv_from;
 
     #[test]
@@ -204,10 +207,7 @@ mod tests {
         let e = read_csv_from::<CentreRow, _>(text.as_bytes(), Path::new("c.csv"))
             .unwrap_err()
             .to_string();
-        assert!(
-            e.contains("c.csv: line 3, column 'x'") && e.contains("µm"),
-            "{e}"
-        );
+        assert_mentions(&e, &["c.csv: line 3, column 'x'", "µm"]);
     }
 
     #[test]
@@ -222,7 +222,7 @@ mod tests {
         )
         .unwrap();
         let e = read_centres(&path).unwrap_err().to_string();
-        assert!(e.contains("line 3, column 'x'") && e.contains("µm"), "{e}");
+        assert_mentions(&e, &["line 3, column 'x'", "µm"]);
     }
 
     #[test]

@@ -15,12 +15,15 @@
 //! disagrees with the ball's other rows while the value ÷ or × 1000 would
 //! fit.
 
+pub mod report;
+
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::row_error;
+use crate::Result;
 use crate::table::{Invalid, Record, Row, finite, read_csv};
-use crate::{FormatError, Result};
 
 /// One turn (degrees); angles lie in `[0, 360)`.
 pub const FULL_TURN_DEG: f64 = 360.0;
@@ -176,15 +179,6 @@ impl RotaryInput {
                 (b.name.clone(), c)
             })
             .collect()
-    }
-}
-
-fn row_error(path: &Path, line: u64, column: &str, message: String) -> FormatError {
-    FormatError::Row {
-        path: path.to_path_buf(),
-        line,
-        column: Some(column.to_string()),
-        message,
     }
 }
 
@@ -630,9 +624,10 @@ impl Record for SphereFitRow {
     }
 }
 
-/// Location errors of the axis average line in the truth (ISO 230-7 names).
+/// Location errors of the axis average line (ISO 230-7 names), as
+/// `truth.json` and `report.json` ([`report::LocationReport`]) give them.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct LocationTruth {
+pub struct LocationErrors {
     /// X0C (µm).
     #[serde(rename = "X0C_um")]
     pub x0c_um: f64,
@@ -670,7 +665,7 @@ pub struct RotaryTruth {
     pub truth_mm_rad: Vec<[f64; 6]>,
     /// True location errors of the axis average line.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub location: Option<LocationTruth>,
+    pub location: Option<LocationErrors>,
     /// True component errors per angle (errors − fixed-axis part; mm, rad).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub components_mm_rad: Option<Vec<[f64; 6]>>,
@@ -694,6 +689,7 @@ pub struct RotaryTruth {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::probe::assert_mentions;
 
     fn write(text: &str) -> (tempfile::TempDir, PathBuf) {
         let dir = tempfile::tempdir().unwrap();
@@ -745,12 +741,7 @@ mod tests {
         let mut dup = good();
         dup.push_str("2,90,1,2,95\n");
         let e = error_of(&dup);
-        assert!(
-            e.contains("line 14, column 'angle_deg'")
-                && e.contains("twice")
-                && e.contains("line 6"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 14, column 'angle_deg'", "twice", "line 6"]);
 
         let missing: String = good()
             .lines()
@@ -758,10 +749,7 @@ mod tests {
             .map(|l| format!("{l}\n"))
             .collect();
         let e = error_of(&missing);
-        assert!(
-            e.contains("ball 3 has no row at 180°") && e.contains("column 'angle_deg'"),
-            "{e}"
-        );
+        assert_mentions(&e, &["ball 3 has no row at 180°", "column 'angle_deg'"]);
 
         let mut other = good();
         other.push_str("1,45,10,150,60\n");
@@ -778,13 +766,13 @@ mod tests {
             .map(|l| format!("{l}\n"))
             .collect();
         let e = error_of(&no_zero);
-        assert!(e.contains("no row at 0°") && e.contains("line 2"), "{e}");
+        assert_mentions(&e, &["no row at 0°", "line 2"]);
     }
 
     #[test]
     fn wrong_units_name_the_column() {
         let e = error_of("ball,angle_deg,x,y,z\n1,0,150000,10,60\n");
-        assert!(e.contains("line 2, column 'x'") && e.contains("µm"), "{e}");
+        assert_mentions(&e, &["line 2, column 'x'", "µm"]);
         // One value in µm or m within reach of the absolute limit: the ball's other rows tell.
         let e = error_of(&table(|b, a, p| {
             if b == 3 && a == 180.0 {
@@ -793,10 +781,7 @@ mod tests {
                 p
             }
         }));
-        assert!(
-            e.contains("line 10, column 'z'") && e.contains("in µm"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 10, column 'z'", "in µm"]);
         let e = error_of(&table(|b, a, p| {
             if b == 2 && a == 90.0 {
                 [p[0], p[1] / 1e3, p[2]]
@@ -804,10 +789,7 @@ mod tests {
                 p
             }
         }));
-        assert!(
-            e.contains("line 6, column 'y'") && e.contains("in m:"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 6, column 'y'", "in m:"]);
         let e = error_of(&table(|b, a, p| {
             if b == 1 && a == 270.0 {
                 [p[0] + 40.0, p[1], p[2]]
@@ -815,22 +797,13 @@ mod tests {
                 p
             }
         }));
-        assert!(
-            e.contains("line 11") && e.contains("wrong ball name"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 11", "wrong ball name"]);
         let e = error_of("ball,angle_deg,x,y,z\n1,0,NaN,10,60\n");
-        assert!(
-            e.contains("line 2, column 'x'") && e.contains("not a finite"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 2, column 'x'", "not a finite"]);
         let e = error_of("ball,angle_deg,x,y,z\n1,360,150,10,60\n");
-        assert!(
-            e.contains("column 'angle_deg'") && e.contains("[0°, 360°)"),
-            "{e}"
-        );
+        assert_mentions(&e, &["column 'angle_deg'", "[0°, 360°)"]);
         let e = error_of("ball,angle_deg,x,y,z\n");
-        assert!(e.contains("line 2") && e.contains("no data rows"), "{e}");
+        assert_mentions(&e, &["line 2", "no data rows"]);
     }
 
     #[test]
@@ -851,13 +824,13 @@ mod tests {
         }
         let (_d, p) = write(&s);
         let e = read_points(&p).unwrap_err().to_string();
-        assert!(
-            e.contains("ball 2 at 90° has 3 probed point(s)") && e.contains("column 'ball'"),
-            "{e}"
+        assert_mentions(
+            &e,
+            &["ball 2 at 90° has 3 probed point(s)", "column 'ball'"],
         );
         assert!(e.contains("line 24"), "{e}");
         let (_d, p) = write(&s.replace("201,0,50", "201000,0,50"));
         let e = read_points(&p).unwrap_err().to_string();
-        assert!(e.contains("column 'x'") && e.contains("µm"), "{e}");
+        assert_mentions(&e, &["column 'x'", "µm"]);
     }
 }

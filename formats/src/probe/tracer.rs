@@ -12,13 +12,15 @@
 //! readings in µm instead of mm are caught; a grid spanning more than
 //! [`MAX_GRID_EXTENT_MM`] is taken for one in µm.
 
+pub mod report;
+
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{finite_fields, name};
+use super::{finite_fields, name, row_error};
 use crate::table::{Invalid, Record, Row, finite, read_csv};
 use crate::{FormatError, Result};
 
@@ -297,15 +299,6 @@ impl Grid {
     }
 }
 
-fn row_error(path: &Path, line: u64, column: &str, message: String) -> FormatError {
-    FormatError::Row {
-        path: path.to_path_buf(),
-        line,
-        column: Some(column.to_string()),
-        message,
-    }
-}
-
 /// Read `grid.csv`: every row checked, then no data rows, duplicate point
 /// names, two points at the same position, and a span beyond
 /// [`MAX_GRID_EXTENT_MM`] (coordinates in µm) are errors.
@@ -505,6 +498,7 @@ pub fn read_query(path: &Path) -> Result<Vec<Row<QueryRow>>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::probe::assert_mentions;
 
     fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
         let p = dir.join(name);
@@ -548,19 +542,13 @@ mod tests {
     #[test]
     fn grid_errors_name_line_and_column() {
         let e = grid_error("point,x,y,z\n1,0,0,0\n1,1,0,0\n");
-        assert!(
-            e.contains("line 3, column 'point'") && e.contains("line 2"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 3, column 'point'", "line 2"]);
         let e = grid_error("point,x,y,z\n1,0,0,0\n2,0,-0,0\n");
-        assert!(
-            e.contains("line 3, column 'x'") && e.contains("same coordinates"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 3, column 'x'", "same coordinates"]);
         let e = grid_error("point,x,y,z\n1,0,0,0\n2,0,NaN,0\n");
         assert!(e.contains("line 3, column 'y'"), "{e}");
         let e = grid_error("point,x,y,z\n1,0,0,0\n2,0,0,400000\n");
-        assert!(e.contains("line 3, column 'z'") && e.contains("µm"), "{e}");
+        assert_mentions(&e, &["line 3, column 'z'", "µm"]);
         let e = grid_error("point,x,y,z\n");
         assert!(e.contains("no grid points"), "{e}");
     }
@@ -568,20 +556,14 @@ mod tests {
     #[test]
     fn reading_errors_name_line_and_column() {
         let e = readings_error("station,point,l\nA,1,0\nA,1,0.5\n");
-        assert!(
-            e.contains("line 3, column 'point'") && e.contains("line 2"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 3, column 'point'", "line 2"]);
         let e = readings_error("station,point,l\nA,1,0\nA,9,0.5\n");
-        assert!(
-            e.contains("line 3, column 'point'") && e.contains("'9'"),
-            "{e}"
-        );
+        assert_mentions(&e, &["line 3, column 'point'", "'9'"]);
         let e = readings_error("station,point,l\nA,1,0\nA,2,nan\n");
         assert!(e.contains("line 3, column 'l'"), "{e}");
         // 100 mm apart, read as 50000 (µm): the spread breaks the triangle inequality.
         let e = readings_error("station,point,l\nA,1,0\nA,2,50000\nB,1,0\n");
-        assert!(e.contains("line 3, column 'l'") && e.contains("µm"), "{e}");
+        assert_mentions(&e, &["line 3, column 'l'", "µm"]);
         let e = readings_error("station,point,l\n");
         assert!(e.contains("no readings"), "{e}");
     }

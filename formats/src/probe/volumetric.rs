@@ -3,7 +3,10 @@
 //! carriage positions `at.csv` (`x,y,z`), the outputs `fits.csv`,
 //! `volumetric.csv`, `circle.csv`, LinuxCNC compensation files, the
 //! generator's `setup.json`, and the parts of `trinocular evaluate`'s
-//! `report.json` that `--from-report` reads.
+//! `report.json` that `--from-report` reads; the error motions, series and
+//! models these files and the method's own `report.json` ([`report`]) name.
+
+pub mod report;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -568,9 +571,155 @@ pub fn read_evaluate_report(dir: &Path) -> Result<EvaluateReport> {
     Ok(report)
 }
 
+/// One of the six error motions of a linear axis (ISO 230-1 names for axis
+/// X in brackets): translations `ex` (EXX), `ey` (EYX), `ez` (EZX) along, and
+/// rotations `ea` (EAX), `eb` (EBX), `ec` (ECX) about, the machine X, Y, Z.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Motion {
+    /// Translation along X (mm).
+    Ex,
+    /// Translation along Y (mm).
+    Ey,
+    /// Translation along Z (mm).
+    Ez,
+    /// Rotation about X (rad).
+    Ea,
+    /// Rotation about Y (rad).
+    Eb,
+    /// Rotation about Z (rad).
+    Ec,
+}
+
+impl Motion {
+    /// The six motions in file-column order `ex, ey, ez, ea, eb, ec`.
+    pub const ALL: [Motion; 6] = [
+        Motion::Ex,
+        Motion::Ey,
+        Motion::Ez,
+        Motion::Ea,
+        Motion::Eb,
+        Motion::Ec,
+    ];
+
+    /// Index 0–5 in [`Motion::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The column name `ex` … `ec`.
+    pub fn name(self) -> &'static str {
+        ["ex", "ey", "ez", "ea", "eb", "ec"][self.index()]
+    }
+
+    /// The motion of column `name` (`ex` … `ec`).
+    pub fn from_name(name: &str) -> Option<Motion> {
+        Motion::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// A rotation (`ea`, `eb`, `ec`, rad) rather than a translation (mm).
+    pub fn is_rotation(self) -> bool {
+        self.index() >= 3
+    }
+
+    /// The machine axis (X, Y, Z) the translation runs along or the rotation turns about.
+    pub fn direction(self) -> Axis {
+        match self {
+            Motion::Ex | Motion::Ea => Axis::X,
+            Motion::Ey | Motion::Eb => Axis::Y,
+            Motion::Ez | Motion::Ec => Axis::Z,
+        }
+    }
+
+    /// A straightness of `axis`: a translation across it.
+    pub fn is_straightness(self, axis: Axis) -> bool {
+        !self.is_rotation() && self.direction() != axis
+    }
+
+    /// The positioning error of `axis`: the translation along it.
+    pub fn is_positioning(self, axis: Axis) -> bool {
+        !self.is_rotation() && self.direction() == axis
+    }
+
+    /// The ISO 230-1 symbol of this motion of `axis`, e.g. `EYX` (straightness
+    /// of X in Y) or `EBX` (pitch of X).
+    pub fn symbol(self, axis: Axis) -> String {
+        let letter = match self {
+            Motion::Ex => "X",
+            Motion::Ey => "Y",
+            Motion::Ez => "Z",
+            Motion::Ea => "A",
+            Motion::Eb => "B",
+            Motion::Ec => "C",
+        };
+        format!("E{letter}{}", axis.name())
+    }
+
+    /// The translation along `axis` (its positioning error).
+    pub fn along(axis: Axis) -> Motion {
+        Motion::ALL[axis.index()]
+    }
+}
+
+/// The kind of a fitted series.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Series {
+    /// Fourier series of order N (2N + 1 coefficients).
+    Fourier,
+    /// Polynomial of degree 2N (2N + 1 coefficients), in Chebyshev form.
+    Polynomial,
+}
+
+impl Series {
+    /// Both kinds, Fourier first.
+    pub const BOTH: [Series; 2] = [Series::Fourier, Series::Polynomial];
+
+    /// `fourier` or `polynomial`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Series::Fourier => "fourier",
+            Series::Polynomial => "polynomial",
+        }
+    }
+}
+
+/// How a curve is evaluated between measured positions (`--model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Model {
+    /// Linear between the measured positions.
+    Raw,
+    /// The fitted Fourier series.
+    Fourier,
+    /// The fitted polynomial.
+    Polynomial,
+}
+
+impl Model {
+    /// `raw`, `fourier` or `polynomial`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Raw => "raw",
+            Model::Fourier => "fourier",
+            Model::Polynomial => "polynomial",
+        }
+    }
+
+    /// The series of a fitted model.
+    pub fn series(self) -> Option<Series> {
+        match self {
+            Model::Raw => None,
+            Model::Fourier => Some(Series::Fourier),
+            Model::Polynomial => Some(Series::Polynomial),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::probe::assert_mentions;
 
     fn read(text: &str) -> Result<Vec<Row<ErrorRow>>> {
         let dir = tempfile::tempdir().map_err(|e| FormatError::io("tmp", e))?;
@@ -626,7 +775,7 @@ mod tests {
             .map(|_| ())
             .unwrap_err()
             .to_string();
-        assert!(e.contains("column 'ec'") && e.contains("missing"), "{e}");
+        assert_mentions(&e, &["column 'ec'", "missing"]);
     }
 
     #[test]

@@ -5,15 +5,16 @@
 use report::{Page, escape};
 
 use super::layout::wrap_deg;
-use super::{Extreme, Report, plot};
+use super::{Angles, Extreme, Report, plot};
 use crate::Result;
 
 /// Most positions beyond the tolerance listed on the page (all are in
 /// `report.json`).
 const EXCEEDING_SHOWN: usize = 40;
 
-/// Render the page.
-pub fn render(r: &Report) -> Result<String> {
+/// Render the page of `r` with the positions' `angles` (the rows of
+/// `indexing.csv`).
+pub fn render(r: &Report, angles: &[Angles]) -> Result<String> {
     let mut h = Page::new(
         "trinocular — probe-head indexing errors",
         "Probe-head indexing errors",
@@ -28,8 +29,8 @@ pub fn render(r: &Report) -> Result<String> {
         r.axes.b_turn_step_deg,
     ));
     summary(&mut h, r);
-    maps(&mut h, r)?;
-    curves(&mut h, r)?;
+    maps(&mut h, r, angles)?;
+    curves(&mut h, r, angles)?;
     detents(&mut h, r);
     exceeding(&mut h, r);
     h.notes("Warnings", &r.warnings, true);
@@ -140,7 +141,7 @@ fn summary(h: &mut Page, r: &Report) {
     h.table(Some("summary"), &["figure", "value", "note"], &rows);
 }
 
-fn maps(h: &mut Page, r: &Report) -> Result<()> {
+fn maps(h: &mut Page, r: &Report, angles: &[Angles]) -> Result<()> {
     h.h2("maps", "Maps over the head positions");
     let levels = (r.grid.a_deg.as_slice(), r.grid.b_deg.as_slice());
     let tolerance = r.tolerance.as_ref().map(|t| t.tolerance_arcsec);
@@ -153,7 +154,7 @@ fn maps(h: &mut Page, r: &Report) -> Result<()> {
         "plot-map-dA",
         &plot::map(
             "ΔθA = θA − A over the head positions",
-            &r.angles,
+            angles,
             |p| Some(p.d_a_arcsec),
             levels,
             tolerance,
@@ -165,7 +166,7 @@ fn maps(h: &mut Page, r: &Report) -> Result<()> {
         "plot-map-dB",
         &plot::map(
             "ΔθB = θB − B over the head positions",
-            &r.angles,
+            angles,
             |p| p.d_b_arcsec,
             levels,
             tolerance,
@@ -176,10 +177,10 @@ fn maps(h: &mut Page, r: &Report) -> Result<()> {
     Ok(())
 }
 
-fn curves(h: &mut Page, r: &Report) -> Result<()> {
+fn curves(h: &mut Page, r: &Report, angles: &[Angles]) -> Result<()> {
     h.h2("curves", "Curves");
     let tolerance = r.tolerance.as_ref().map(|t| t.tolerance_arcsec);
-    let dots: Vec<(f64, f64)> = r.angles.iter().map(|p| (p.a_deg, p.d_a_arcsec)).collect();
+    let dots: Vec<(f64, f64)> = angles.iter().map(|p| (p.a_deg, p.d_a_arcsec)).collect();
     let means: Vec<(f64, f64)> = r
         .a_detents
         .iter()
@@ -197,8 +198,7 @@ fn curves(h: &mut Page, r: &Report) -> Result<()> {
         )?,
         "Dots: ΔθA of every position at that A; line: its mean over B per A detent.",
     );
-    let dots: Vec<(f64, f64)> = r
-        .angles
+    let dots: Vec<(f64, f64)> = angles
         .iter()
         .filter_map(|p| p.d_b_arcsec.map(|d| (wrap_deg(p.b_deg), d)))
         .collect();

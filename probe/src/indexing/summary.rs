@@ -1,8 +1,12 @@
 //! `report.json` of the indexing method: the construction's figures, the
 //! maxima and RMS of ΔθA and ΔθB, the radius against a nominal, per-detent
-//! means and the positions beyond a tolerance.
+//! means and the positions beyond a tolerance. The types live in
+//! `formats::probe::indexing::report`; [`report()`] fills them.
 
-use serde::Serialize;
+pub use formats::probe::indexing::report::{
+    ADetent, AxesReport, BDetent, Exceedance, Extreme, GridReport, Report, SphereReport,
+    ToleranceReport,
+};
 
 use super::{Angles, Indexing, UM_PER_MM, layout};
 use crate::{ProbeError, Result, Unsolvable};
@@ -18,202 +22,6 @@ pub struct Options {
     pub source: String,
 }
 
-/// `report.json`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Report {
-    /// The method.
-    pub method: String,
-    /// Where the centres came from.
-    pub source: String,
-    /// Number of positions.
-    pub positions: usize,
-    /// O, the rotation centre (mm, machine frame).
-    pub rotation_centre: [f64; 3],
-    /// Standard uncertainties of O (µm).
-    pub u_rotation_centre_um: [f64; 3],
-    /// Radius of the sphere through the centres (mm).
-    pub radius_mm: f64,
-    /// Standard uncertainty of the radius (µm).
-    pub u_radius_um: f64,
-    /// Nominal radius, when given (mm).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub nominal_radius_mm: Option<f64>,
-    /// Radius − nominal (µm), when a nominal is given.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub radius_deviation_um: Option<f64>,
-    /// The sphere fit.
-    pub sphere_fit: SphereReport,
-    /// The frame of §3.
-    pub axes: AxesReport,
-    /// max |ΔθA| over all positions (arc-seconds).
-    #[serde(rename = "max_dA_arcsec")]
-    pub max_d_a_arcsec: f64,
-    /// Where max |ΔθA| is, with its sign.
-    #[serde(rename = "max_dA_at")]
-    pub max_d_a_at: Extreme,
-    /// max |ΔθB| over the positions with A > 0° (arc-seconds).
-    #[serde(rename = "max_dB_arcsec")]
-    pub max_d_b_arcsec: f64,
-    /// Where max |ΔθB| is, with its sign.
-    #[serde(rename = "max_dB_at")]
-    pub max_d_b_at: Extreme,
-    /// RMS of ΔθA over all positions (arc-seconds).
-    #[serde(rename = "rms_dA_arcsec")]
-    pub rms_d_a_arcsec: f64,
-    /// RMS of ΔθB over the positions with A > 0° (arc-seconds).
-    #[serde(rename = "rms_dB_arcsec")]
-    pub rms_d_b_arcsec: f64,
-    /// Median standard uncertainty of ΔθA (arc-seconds).
-    #[serde(rename = "median_u_dA_arcsec")]
-    pub median_u_d_a_arcsec: f64,
-    /// Median standard uncertainty of ΔθB (arc-seconds).
-    #[serde(rename = "median_u_dB_arcsec")]
-    pub median_u_d_b_arcsec: f64,
-    /// max |mean ΔθA| over the A detents with A > 0° (arc-seconds): the
-    /// detents' own errors with the noise averaged down (at A = 0° the
-    /// mean tilt magnitude is biased by the noise, so it is left out).
-    #[serde(rename = "max_detent_dA_arcsec")]
-    pub max_detent_d_a_arcsec: f64,
-    /// max |weighted mean ΔθB| over the B detents (arc-seconds).
-    #[serde(rename = "max_detent_dB_arcsec")]
-    pub max_detent_d_b_arcsec: f64,
-    /// ΔθA per A detent: mean over its B positions.
-    pub a_detents: Vec<ADetent>,
-    /// ΔθB per B detent: mean over its A > 0° positions, weighted by 1/u².
-    pub b_detents: Vec<BDetent>,
-    /// The positions beyond the tolerance, when one is given.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub tolerance: Option<ToleranceReport>,
-    /// The measured grid.
-    pub grid: GridReport,
-    /// Things worth knowing that did not stop the evaluation.
-    pub warnings: Vec<String>,
-    /// The conventions of the figures.
-    pub conventions: Vec<String>,
-    /// Per position (in `indexing.csv`, not in `report.json`).
-    #[serde(skip)]
-    pub angles: Vec<Angles>,
-}
-
-/// The sphere through the centres.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SphereReport {
-    /// RMS of the radial residuals (µm).
-    pub residual_rms_um: f64,
-    /// Largest |radial residual| (µm).
-    pub residual_max_um: f64,
-    /// Noise of a centre, `√(Σr²/(n − 4))` (µm).
-    pub noise_um: f64,
-    /// Condition number of JᵀJ.
-    pub condition: f64,
-}
-
-/// The frame's axes and Q.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct AxesReport {
-    /// x = y × z.
-    pub x: [f64; 3],
-    /// y, the A axis.
-    pub y_a_axis: [f64; 3],
-    /// z, the B axis.
-    pub z_b_axis: [f64; 3],
-    /// Q, the centre of the A = 0° circle (mm).
-    pub b_circle_centre: [f64; 3],
-    /// Positions in the B turn at A = 0°.
-    pub b_turn_positions: usize,
-    /// Step of that turn (degrees).
-    pub b_turn_step_deg: f64,
-    /// Positions in the B = 0° sweep (A > 0°).
-    pub a_sweep_positions: usize,
-}
-
-/// A signed extreme value and its position.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Extreme {
-    /// Commanded A (degrees).
-    pub a_deg: f64,
-    /// Commanded B (degrees).
-    pub b_deg: f64,
-    /// The value (arc-seconds).
-    pub value_arcsec: f64,
-}
-
-/// ΔθA of one A detent.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ADetent {
-    /// Commanded A (degrees).
-    pub a_deg: f64,
-    /// Positions at this A.
-    pub positions: usize,
-    /// Mean ΔθA (arc-seconds).
-    #[serde(rename = "mean_dA_arcsec")]
-    pub mean_d_a_arcsec: f64,
-    /// Smallest ΔθA (arc-seconds).
-    #[serde(rename = "min_dA_arcsec")]
-    pub min_d_a_arcsec: f64,
-    /// Largest ΔθA (arc-seconds).
-    #[serde(rename = "max_dA_arcsec")]
-    pub max_d_a_arcsec: f64,
-}
-
-/// ΔθB of one B detent.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct BDetent {
-    /// Commanded B (degrees, wrapped to (−180°, 180°]).
-    pub b_deg: f64,
-    /// Positions at this B with A > 0°.
-    pub positions: usize,
-    /// Mean ΔθB weighted by 1/u² (arc-seconds).
-    #[serde(rename = "mean_dB_arcsec")]
-    pub mean_d_b_arcsec: f64,
-    /// Its standard uncertainty if the positions were independent (arc-seconds).
-    #[serde(rename = "u_mean_dB_arcsec")]
-    pub u_mean_d_b_arcsec: f64,
-}
-
-/// The positions beyond a tolerance.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ToleranceReport {
-    /// The tolerance on |ΔθA| and |ΔθB| (arc-seconds).
-    pub tolerance_arcsec: f64,
-    /// How many positions exceed it in ΔθA.
-    #[serde(rename = "count_dA")]
-    pub count_d_a: usize,
-    /// How many positions exceed it in ΔθB.
-    #[serde(rename = "count_dB")]
-    pub count_d_b: usize,
-    /// The positions, worst first.
-    pub exceeding: Vec<Exceedance>,
-}
-
-/// A position beyond the tolerance.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Exceedance {
-    /// Commanded A (degrees).
-    pub a_deg: f64,
-    /// Commanded B (degrees).
-    pub b_deg: f64,
-    /// ΔθA (arc-seconds).
-    #[serde(rename = "dA_arcsec")]
-    pub d_a_arcsec: f64,
-    /// ΔθB (arc-seconds), absent at A = 0°.
-    #[serde(rename = "dB_arcsec")]
-    pub d_b_arcsec: Option<f64>,
-    /// Which errors exceed: `A`, `B` or `A+B`.
-    pub exceeds: String,
-}
-
-/// The measured grid.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct GridReport {
-    /// Commanded A values (degrees, ascending).
-    pub a_deg: Vec<f64>,
-    /// Commanded B values (degrees, wrapped, ascending).
-    pub b_deg: Vec<f64>,
-    /// (A, B) of the grid that were not measured.
-    pub missing: Vec<[f64; 2]>,
-}
-
 /// Most missing positions a warning lists by name.
 const MISSING_NAMED: usize = 6;
 
@@ -226,9 +34,9 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
         if let Some(v) = value
             && !(v.is_finite() && v > 0.0)
         {
-            return Err(ProbeError::Input {
-                what: name.into(),
-                message: format!("{v} must be a positive number"),
+            return Err(ProbeError::NotPositive {
+                option: name,
+                value: v,
             });
         }
     }
@@ -343,7 +151,6 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
         },
         warnings,
         conventions: conventions(),
-        angles: a.clone(),
     })
 }
 

@@ -6,7 +6,7 @@
 use geom::nalgebra::Point3;
 
 use super::{Measurement, centre_label};
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, RotaryFault};
 
 /// Fewest probed points that determine a sphere (centre and radius).
 pub const MIN_POINTS: usize = 4;
@@ -39,13 +39,9 @@ pub struct CentreFit {
 /// With exactly 4 points the sphere passes through them (no residual).
 pub fn fit_centre(points: &[Point3<f64>]) -> Result<CentreFit> {
     if points.len() < MIN_POINTS {
-        return Err(ProbeError::Input {
-            what: "probed points".into(),
-            message: format!(
-                "{} point(s): a sphere needs at least {MIN_POINTS} (the seed probes the north pole and four on the equator)",
-                points.len()
-            ),
-        });
+        return Err(ProbeError::Rotary(RotaryFault::TooFewPoints {
+            count: points.len(),
+        }));
     }
     let fit = geom::fit::sphere(points)?;
     let n = fit.residuals.len().max(1) as f64;

@@ -7,13 +7,11 @@
 use geom::interp::Grid3;
 use geom::nalgebra::{Point3, Vector3};
 
-use crate::{LatticeFault, ProbeError, Result};
+use crate::{LatticeFault, ProbeError, Result, TracerFault};
 
 /// Nominal coordinates within this distance (mm) of a lattice plane are on
 /// it: room for coordinates written to the µm.
 pub(crate) const LATTICE_TOLERANCE_MM: f64 = 1e-3;
-
-const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// Corrections on a lattice grid, interpolated trilinearly in its cells.
 #[derive(Debug, Clone, PartialEq)]
@@ -181,13 +179,12 @@ impl CorrectionGrid {
     /// outside the grid is an error naming the axis.
     pub fn at(&self, p: &Point3<f64>) -> Result<Vector3<f64>> {
         if let Some(a) = self.outside(p) {
-            return Err(ProbeError::Input {
-                what: format!("query ({}, {}, {})", p.x, p.y, p.z),
-                message: format!(
-                    "{} = {} is outside the grid [{}, {}]",
-                    AXES[a], p[a], self.lo[a], self.hi[a]
-                ),
-            });
+            return Err(ProbeError::Tracer(TracerFault::QueryOutside {
+                query: [p.x, p.y, p.z],
+                axis: a,
+                lo: self.lo[a],
+                hi: self.hi[a],
+            }));
         }
         Ok(self.grid.trilinear(p)?)
     }

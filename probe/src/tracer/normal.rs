@@ -23,7 +23,7 @@ use super::{
     CONDITION_LIMIT, COST_TOLERANCE, MIN_POINT_STATIONS, MIN_STATION_READINGS, MIN_STATIONS,
     Network, STEP_TOLERANCE_MM,
 };
-use crate::{Conditioning, ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, TracerFault, Unsolvable};
 
 /// Points per chunk of the parallel sums (fixed, so that the order of the
 /// floating-point additions never depends on the thread count).
@@ -56,8 +56,8 @@ pub(super) struct Structure {
     pub station_readings: Vec<usize>,
 }
 
-fn input(what: String, message: String) -> ProbeError {
-    ProbeError::Input { what, message }
+fn fault(f: TracerFault) -> ProbeError {
+    ProbeError::Tracer(f)
 }
 
 impl Structure {
@@ -66,17 +66,16 @@ impl Structure {
     pub(crate) fn new(net: &Network) -> Result<Structure> {
         let (n, m) = (net.points.len(), net.station_names.len());
         if net.point_names.len() != n {
-            return Err(input(
-                "point names".into(),
-                format!("{} names for {n} points", net.point_names.len()),
-            ));
+            return Err(fault(TracerFault::NameCount {
+                names: net.point_names.len(),
+                points: n,
+            }));
         }
         for (i, p) in net.points.iter().enumerate() {
             if !p.iter().all(|v| v.is_finite()) {
-                return Err(input(
-                    format!("point '{}'", net.point_names[i]),
-                    "nominal coordinates are not finite".into(),
-                ));
+                return Err(fault(TracerFault::PointNotFinite {
+                    point: net.point_names[i].clone(),
+                }));
             }
         }
         if m < MIN_STATIONS {
@@ -90,24 +89,33 @@ impl Structure {
         let mut per_point = vec![0usize; n];
         let mut station_readings = vec![0usize; m];
         for (k, r) in net.readings.iter().enumerate() {
-            let what = || format!("reading {}", k + 1);
+            let reading = k + 1;
             if r.station >= m {
-                return Err(input(what(), format!("station index {} of {m}", r.station)));
+                return Err(fault(TracerFault::StationIndex {
+                    reading,
+                    station: r.station,
+                    stations: m,
+                }));
             }
             if r.point >= n {
-                return Err(input(what(), format!("point index {} of {n}", r.point)));
+                return Err(fault(TracerFault::PointIndex {
+                    reading,
+                    point: r.point,
+                    points: n,
+                }));
             }
             if !r.l.is_finite() {
-                return Err(input(what(), format!("reading {} is not finite", r.l)));
+                return Err(fault(TracerFault::ReadingNotFinite {
+                    reading,
+                    value: r.l,
+                }));
             }
             if !seen.insert((r.station, r.point)) {
-                return Err(input(
-                    what(),
-                    format!(
-                        "station '{}' already has a reading of point '{}'",
-                        net.station_names[r.station], net.point_names[r.point]
-                    ),
-                ));
+                return Err(fault(TracerFault::DuplicateReading {
+                    reading,
+                    station: net.station_names[r.station].clone(),
+                    point: net.point_names[r.point].clone(),
+                }));
             }
             per_point[r.point] += 1;
             station_readings[r.station] += 1;

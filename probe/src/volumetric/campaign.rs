@@ -39,13 +39,13 @@
 use std::collections::BTreeMap;
 
 use formats::Axis;
+pub use formats::probe::volumetric::report::SweepInfo;
 use formats::probe::volumetric::{EvaluateLine, EvaluateReport};
 use geom::Vector3;
-use serde::Serialize;
 
 use super::chain::{Chain, Side};
 use super::curves::MeasuredAxis;
-use crate::{ProbeError, Result};
+use crate::{CampaignFault, ChainFault, ProbeError, Result};
 
 /// µm → mm.
 const UM: f64 = 1e-3;
@@ -54,37 +54,15 @@ const URAD: f64 = 1e-6;
 /// Off-axis coordinates of lines closer than this (mm) are the same.
 const LINE_TOLERANCE_MM: f64 = 0.01;
 
-/// What the conversion found for one swept axis.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SweepInfo {
-    /// The axis.
-    pub axis: Axis,
-    /// Index of the main line in the report.
-    pub line: usize,
-    /// Commanded off-axis coordinates of the line (mm), x, y, z.
-    pub off_axis_mm: [f64; 3],
-    /// Position where the curves are zero (mm).
-    pub reference_mm: f64,
-    /// Lever from the carriage's reference point to the sphere (mm).
-    pub lever_mm: [f64; 3],
-    /// The direction evaluate fitted (unit, world frame).
-    pub fitted_direction: [f64; 3],
-    /// The carriage direction after removing the Abbe terms (unit, world frame).
-    pub direction: [f64; 3],
-}
-
 /// Squareness as measured by the campaign (rad); a value is absent when the
 /// axes it relates were not both swept.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MeasuredSquareness {
     /// Y against X.
-    #[serde(rename = "EC0Y", skip_serializing_if = "Option::is_none")]
     pub ec0y: Option<f64>,
     /// Z against X.
-    #[serde(rename = "EB0Z", skip_serializing_if = "Option::is_none")]
     pub eb0z: Option<f64>,
     /// Z against Y.
-    #[serde(rename = "EA0Z", skip_serializing_if = "Option::is_none")]
     pub ea0z: Option<f64>,
 }
 
@@ -115,10 +93,10 @@ fn axis_of(name: &str) -> Option<Axis> {
     formats::probe::volumetric::axis_named(name)
 }
 
-fn input(source: &str, path: String, message: impl Into<String>) -> ProbeError {
-    ProbeError::Input {
-        what: format!("{source}: {path}"),
-        message: message.into(),
+fn input(source: &str, fault: CampaignFault) -> ProbeError {
+    ProbeError::Campaign {
+        report: source.to_string(),
+        fault,
     }
 }
 
@@ -141,21 +119,14 @@ fn targets(
     others: [Axis; 2],
     source: &str,
 ) -> Result<Vec<Target>> {
-    let name = axis.name();
-    let angular = line.angular.as_ref().ok_or_else(|| {
-        input(
-            source,
-            format!("axes.{name}.angular"),
-            "missing: roll, pitch and yaw need three spheres measured at every target",
-        )
-    })?;
-    let flatness = report.flatness.as_ref().ok_or_else(|| {
-        input(
-            source,
-            "flatness.points".into(),
-            "missing: the sphere centres per target are needed for the Abbe offsets",
-        )
-    })?;
+    let angular = line
+        .angular
+        .as_ref()
+        .ok_or_else(|| input(source, CampaignFault::NoAngular { axis }))?;
+    let flatness = report
+        .flatness
+        .as_ref()
+        .ok_or_else(|| input(source, CampaignFault::NoFlatness))?;
     let straight: Vec<BTreeMap<u32, f64>> = others
         .iter()
         .map(|o| {
@@ -167,13 +138,7 @@ fn targets(
                         .map(|t| (t.target, t.deviation_um))
                         .collect()
                 })
-                .ok_or_else(|| {
-                    input(
-                        source,
-                        format!("axes.{name}.straightness.{}", o.name()),
-                        "missing",
-                    )
-                })
+                .ok_or_else(|| input(source, CampaignFault::NoStraightness { axis, across: *o }))
         })
         .collect::<Result<_>>()?;
     let rotations: BTreeMap<u32, Vector3<f64>> = angular
@@ -195,24 +160,21 @@ fn targets(
     let mut out = Vec::with_capacity(line.positioning.targets.len());
     for t in &line.positioning.targets {
         let k = t.target;
-        let missing = |table: &str| {
+        let missing = |table: &'static str| {
             input(
                 source,
-                format!("axes.{name}.{table}"),
-                format!("no value for target {k}"),
+                CampaignFault::NoValue {
+                    axis,
+                    table,
+                    target: k,
+                },
             )
         };
         let positioning = t
             .mean_um
             .or(t.mean_up_um)
             .or(t.mean_down_um)
-            .ok_or_else(|| {
-                input(
-                    source,
-                    format!("axes.{name}.positioning.targets"),
-                    format!("target {k} has no mean deviation"),
-                )
-            })?;
+            .ok_or_else(|| input(source, CampaignFault::NoMean { axis, target: k }))?;
         out.push(Target {
             nominal: t.nominal,
             positioning: positioning * UM,
@@ -232,18 +194,19 @@ fn targets(
     if let Some(w) = out.windows(2).find(|w| w[1].nominal <= w[0].nominal) {
         return Err(input(
             source,
-            format!("axes.{name}.positioning.targets"),
-            format!(
-                "two targets at {} mm: positions must increase",
-                w[0].nominal
-            ),
+            CampaignFault::TwoTargets {
+                axis,
+                position: w[0].nominal,
+            },
         ));
     }
     if out.len() < 2 {
         return Err(input(
             source,
-            format!("axes.{name}.positioning.targets"),
-            format!("{} target(s): a curve needs at least 2", out.len()),
+            CampaignFault::TooFewTargets {
+                axis,
+                count: out.len(),
+            },
         ));
     }
     Ok(out)
@@ -271,21 +234,21 @@ pub fn from_evaluate(
     let mut lines: Vec<(Axis, &EvaluateLine)> = Vec::new();
     for (name, line) in &report.axes {
         let axis = axis_of(name)
-            .ok_or_else(|| input(source, format!("axes.{name}"), "not an axis X, Y or Z"))?;
+            .ok_or_else(|| input(source, CampaignFault::NotAnAxis { name: name.clone() }))?;
         if chain.side(axis) != Some(Side::Workpiece) {
-            return Err(ProbeError::Input {
-                what: format!("--chain '{}'", chain.text),
-                message: format!(
-                    "axis {axis} of {source} moved the table that carries the spheres, so it must be \
-                     between W and F (e.g. WXYFZT)"
-                ),
+            return Err(ProbeError::Chain {
+                text: chain.text.clone(),
+                fault: ChainFault::SweptOnToolSide {
+                    axis,
+                    report: source.to_string(),
+                },
             });
         }
         lines.push((axis, line));
     }
     lines.sort_by_key(|(a, _)| *a);
     if lines.is_empty() {
-        return Err(input(source, "axes".into(), "no axis was evaluated"));
+        return Err(input(source, CampaignFault::NoAxis));
     }
     let mut notes = Vec::new();
     let mut axes = Vec::new();
@@ -371,11 +334,7 @@ pub fn from_evaluate(
         let fitted = if fitted.norm() > 0.0 {
             fitted.normalize()
         } else {
-            return Err(input(
-                source,
-                format!("axes.{}.direction", axis.name()),
-                "zero vector",
-            ));
+            return Err(input(source, CampaignFault::ZeroDirection { axis }));
         };
         let mut direction = fitted;
         for o in others {

@@ -9,20 +9,18 @@
 
 use formats::Axis;
 use geom::{Isometry3, Point3, Rotation3, Vector3};
-use serde::Serialize;
 
 pub use formats::probe::volumetric::Squareness;
 
 use super::model::{ErrorModel, Evaluation};
-use crate::{ProbeError, Result};
+use crate::{ChainFault, ProbeError, Result, VolumetricFault};
 
 /// The source's chain: the workpiece rides on X, X on Y, Y on the frame; Z on
 /// the frame, the tool on Z.
 pub const DEFAULT_CHAIN: &str = "WXYFZT";
 
 /// Which end of the chain an axis carries.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Side {
     /// Between the workpiece and the frame: moving it moves the workpiece.
     Workpiece,
@@ -41,7 +39,7 @@ impl Side {
 }
 
 /// A kinematic chain `W a1 … ak F b1 … bl T`.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Chain {
     /// The string it was parsed from, upper case.
     pub text: String,
@@ -51,10 +49,10 @@ pub struct Chain {
     pub tool: Vec<Axis>,
 }
 
-fn chain_error(text: &str, message: impl Into<String>) -> ProbeError {
-    ProbeError::Input {
-        what: format!("--chain '{text}'"),
-        message: message.into(),
+fn chain_error(text: &str, fault: ChainFault) -> ProbeError {
+    ProbeError::Chain {
+        text: text.to_string(),
+        fault,
     }
 }
 
@@ -68,25 +66,36 @@ impl Chain {
             if !"WXYZFT".contains(*c) {
                 return Err(chain_error(
                     text,
-                    format!("letter {} '{c}' is none of W, X, Y, Z, F, T", k + 1),
+                    ChainFault::Letter {
+                        position: k + 1,
+                        letter: *c,
+                    },
                 ));
             }
         }
         for (c, name) in [('W', "workpiece"), ('F', "frame"), ('T', "tool")] {
             match letters.iter().filter(|&&l| l == c).count() {
-                0 => return Err(chain_error(text, format!("no {c} ({name}) in the chain"))),
+                0 => {
+                    return Err(chain_error(text, ChainFault::Missing { letter: c, name }));
+                }
                 1 => {}
-                n => return Err(chain_error(text, format!("{c} ({name}) appears {n} times"))),
+                count => {
+                    return Err(chain_error(
+                        text,
+                        ChainFault::Repeated {
+                            letter: c,
+                            name,
+                            count,
+                        },
+                    ));
+                }
             }
         }
         if letters.first() != Some(&'W') {
-            return Err(chain_error(
-                text,
-                "the chain must start with W (the workpiece)",
-            ));
+            return Err(chain_error(text, ChainFault::NoStartW));
         }
         if letters.last() != Some(&'T') {
-            return Err(chain_error(text, "the chain must end with T (the tool)"));
+            return Err(chain_error(text, ChainFault::NoEndT));
         }
         let f = letters.iter().position(|&c| c == 'F').unwrap_or(0);
         let axis = |c: &char| match c {
@@ -101,9 +110,12 @@ impl Chain {
             .filter_map(axis)
             .collect();
         for a in [Axis::X, Axis::Y, Axis::Z] {
-            let n = workpiece.iter().chain(&tool).filter(|&&b| b == a).count();
-            if n > 1 {
-                return Err(chain_error(text, format!("axis {a} appears {n} times")));
+            let count = workpiece.iter().chain(&tool).filter(|&&b| b == a).count();
+            if count > 1 {
+                return Err(chain_error(
+                    text,
+                    ChainFault::RepeatedAxis { axis: a, count },
+                ));
             }
         }
         Ok(Chain {
@@ -172,31 +184,24 @@ impl Machine<'_> {
     ) -> Result<Machine<'a>> {
         for a in chain.axes() {
             if model.axis(a).is_none() {
-                return Err(ProbeError::Input {
-                    what: format!("axis {a}"),
-                    message: format!(
-                        "in the chain {} but without error curves (give its curves, or leave it out of --chain)",
-                        chain.text
-                    ),
-                });
+                return Err(ProbeError::Volumetric(
+                    VolumetricFault::ChainAxisWithoutCurves {
+                        axis: a,
+                        chain: chain.text.clone(),
+                    },
+                ));
             }
         }
         for a in &model.axes {
             if chain.side(a.axis()).is_none() {
-                return Err(ProbeError::Input {
-                    what: format!("axis {}", a.axis()),
-                    message: format!(
-                        "has error curves but is not in the chain {} (add it to --chain)",
-                        chain.text
-                    ),
-                });
+                return Err(ProbeError::Volumetric(VolumetricFault::CurvesOffChain {
+                    axis: a.axis(),
+                    chain: chain.text.clone(),
+                }));
             }
         }
         if !(tool.iter().all(|v| v.is_finite())) {
-            return Err(ProbeError::Input {
-                what: "--tool".into(),
-                message: "not three finite numbers".into(),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::ToolNotFinite));
         }
         Ok(Machine {
             chain,
@@ -211,19 +216,17 @@ impl Machine<'_> {
         for a in [Axis::X, Axis::Y, Axis::Z] {
             let v = q[a.index()];
             if !v.is_finite() {
-                return Err(ProbeError::Input {
-                    what: format!("position {}", a.name().to_lowercase()),
-                    message: format!("{v} is not a finite number"),
-                });
+                return Err(ProbeError::Volumetric(VolumetricFault::PositionNotFinite {
+                    axis: a,
+                    value: v,
+                }));
             }
             if self.chain.side(a).is_none() && v != 0.0 {
-                return Err(ProbeError::Input {
-                    what: format!("position {}", a.name().to_lowercase()),
-                    message: format!(
-                        "{v} mm, but axis {a} is not in the chain {}: it must be 0",
-                        self.chain.text
-                    ),
-                });
+                return Err(ProbeError::Volumetric(VolumetricFault::PositionOffChain {
+                    axis: a,
+                    value: v,
+                    chain: self.chain.text.clone(),
+                }));
             }
         }
         Ok(())
@@ -238,10 +241,10 @@ impl Machine<'_> {
                 Vector3::ith(axis.index(), q),
             ));
         };
-        let model = self.model.axis(axis).ok_or_else(|| ProbeError::Input {
-            what: format!("axis {axis}"),
-            message: "without error curves".into(),
-        })?;
+        let model = self
+            .model
+            .axis(axis)
+            .ok_or(ProbeError::Volumetric(VolumetricFault::NoCurves { axis }))?;
         let (delta, epsilon) = model.motions(q, how)?;
         let squareness = match how {
             Evaluation::Model(_) => self.squareness,
@@ -287,15 +290,12 @@ impl Machine<'_> {
             match self.chain.side(a) {
                 Some(side) => q[i] = side.sign() * (w0[i] - self.tool[i]),
                 None if (w0[i] - self.tool[i]).abs() > POSITION_TOLERANCE_MM => {
-                    return Err(ProbeError::Input {
-                        what: format!("workpiece point {}", fmt_point(w0)),
-                        message: format!(
-                            "needs axis {a}, which is not in the chain {} (the tool stays at {} = {} mm)",
-                            self.chain.text,
-                            a.name().to_lowercase(),
-                            self.tool[i]
-                        ),
-                    });
+                    return Err(ProbeError::Volumetric(VolumetricFault::PointOffChain {
+                        point: [w0.x, w0.y, w0.z],
+                        axis: a,
+                        chain: self.chain.text.clone(),
+                        tool_mm: self.tool[i],
+                    }));
                 }
                 None => {}
             }
@@ -307,10 +307,6 @@ impl Machine<'_> {
 /// A workpiece point agrees with the tool's fixed coordinate on an axis
 /// outside the chain to this (mm).
 pub(crate) const POSITION_TOLERANCE_MM: f64 = 1e-9;
-
-fn fmt_point(p: &Vector3<f64>) -> String {
-    format!("({}, {}, {})", p.x, p.y, p.z)
-}
 
 #[cfg(test)]
 mod tests {

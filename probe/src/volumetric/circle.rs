@@ -7,17 +7,16 @@
 
 use formats::Axis;
 use geom::{Point2, Vector3};
-use serde::Serialize;
 
 use super::chain::{Machine, Positions};
 use super::model::{Evaluation, TRAVEL_TOLERANCE_MM};
-use crate::{ProbeError, Result};
+use crate::{ProbeError, Result, VolumetricFault};
 
 /// Angular step of the predicted path (degrees).
 pub(crate) const STEP_DEG: usize = 1;
 
 /// A circle in the workpiece frame, in the plane XY.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CircleSpec {
     /// Centre c (mm).
     pub centre: [f64; 3],
@@ -26,7 +25,7 @@ pub struct CircleSpec {
 }
 
 /// One point of the predicted path.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CirclePoint {
     /// θ (degrees).
     pub angle_deg: f64,
@@ -37,7 +36,7 @@ pub struct CirclePoint {
 }
 
 /// The predicted circular test.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct CirclePrediction {
     /// The path, θ = 0°, 1°, … 359°.
     pub points: Vec<CirclePoint>,
@@ -68,29 +67,25 @@ fn nominal(spec: &CircleSpec, angle_deg: f64) -> Vector3<f64> {
 pub(crate) fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<Positions>> {
     if !(spec.radius > 0.0 && spec.radius.is_finite() && spec.centre.iter().all(|c| c.is_finite()))
     {
-        return Err(ProbeError::Input {
-            what: "--circle".into(),
-            message: format!("radius {} must be a positive finite number", spec.radius),
-        });
+        return Err(ProbeError::Volumetric(VolumetricFault::CircleRadius {
+            radius: spec.radius,
+        }));
     }
     for a in [Axis::X, Axis::Y] {
         if machine.chain.side(a).is_none() {
-            return Err(ProbeError::Input {
-                what: "--circle".into(),
-                message: format!(
-                    "a circle in the plane XY needs axis {a}, which is not in the chain {}",
-                    machine.chain.text
-                ),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::CircleOffChain {
+                axis: a,
+                chain: machine.chain.text.clone(),
+            }));
         }
     }
     let q: Vec<Positions> = (0..360)
         .step_by(STEP_DEG)
         .map(|d| machine.positions_for(&nominal(spec, d as f64)))
         .collect::<Result<_>>()
-        .map_err(|e| ProbeError::Input {
-            what: "--circle".into(),
-            message: e.to_string(),
+        .map_err(|e| ProbeError::At {
+            label: "--circle".into(),
+            error: Box::new(e),
         })?;
     for a in machine.chain.axes() {
         let i = a.index();
@@ -102,13 +97,15 @@ pub(crate) fn positions(machine: &Machine<'_>, spec: &CircleSpec) -> Result<Vec<
         if let Some(model) = machine.model.axis(a) {
             let (t0, t1) = model.curves.travel();
             if lo < t0 - TRAVEL_TOLERANCE_MM || hi > t1 + TRAVEL_TOLERANCE_MM {
-                return Err(ProbeError::Input {
-                    what: "--circle".into(),
-                    message: format!(
-                        "the circle leaves the measured travel: axis {a} would run from {lo} to {hi} mm, \
-                         measured from {t0} to {t1} mm"
-                    ),
-                });
+                return Err(ProbeError::Volumetric(
+                    VolumetricFault::CircleOutsideTravel {
+                        axis: a,
+                        from: lo,
+                        to: hi,
+                        lo: t0,
+                        hi: t1,
+                    },
+                ));
             }
         }
     }

@@ -4,99 +4,9 @@
 
 use formats::Axis;
 use formats::probe::volumetric::ErrorRow;
-use serde::Serialize;
+pub use formats::probe::volumetric::Motion;
 
-use crate::{ProbeError, Result};
-
-/// One of the six error motions of a linear axis (ISO 230-1 names for axis
-/// X in brackets): translations `ex` (EXX), `ey` (EYX), `ez` (EZX) along, and
-/// rotations `ea` (EAX), `eb` (EBX), `ec` (ECX) about, the machine X, Y, Z.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Motion {
-    /// Translation along X (mm).
-    Ex,
-    /// Translation along Y (mm).
-    Ey,
-    /// Translation along Z (mm).
-    Ez,
-    /// Rotation about X (rad).
-    Ea,
-    /// Rotation about Y (rad).
-    Eb,
-    /// Rotation about Z (rad).
-    Ec,
-}
-
-impl Motion {
-    /// The six motions in file-column order `ex, ey, ez, ea, eb, ec`.
-    pub const ALL: [Motion; 6] = [
-        Motion::Ex,
-        Motion::Ey,
-        Motion::Ez,
-        Motion::Ea,
-        Motion::Eb,
-        Motion::Ec,
-    ];
-
-    /// Index 0–5 in [`Motion::ALL`].
-    pub fn index(self) -> usize {
-        self as usize
-    }
-
-    /// The column name `ex` … `ec`.
-    pub fn name(self) -> &'static str {
-        ["ex", "ey", "ez", "ea", "eb", "ec"][self.index()]
-    }
-
-    /// The motion of column `name` (`ex` … `ec`).
-    pub fn from_name(name: &str) -> Option<Motion> {
-        Motion::ALL.into_iter().find(|m| m.name() == name)
-    }
-
-    /// A rotation (`ea`, `eb`, `ec`, rad) rather than a translation (mm).
-    pub fn is_rotation(self) -> bool {
-        self.index() >= 3
-    }
-
-    /// The machine axis (X, Y, Z) the translation runs along or the rotation turns about.
-    pub fn direction(self) -> Axis {
-        match self {
-            Motion::Ex | Motion::Ea => Axis::X,
-            Motion::Ey | Motion::Eb => Axis::Y,
-            Motion::Ez | Motion::Ec => Axis::Z,
-        }
-    }
-
-    /// A straightness of `axis`: a translation across it.
-    pub fn is_straightness(self, axis: Axis) -> bool {
-        !self.is_rotation() && self.direction() != axis
-    }
-
-    /// The positioning error of `axis`: the translation along it.
-    pub fn is_positioning(self, axis: Axis) -> bool {
-        !self.is_rotation() && self.direction() == axis
-    }
-
-    /// The ISO 230-1 symbol of this motion of `axis`, e.g. `EYX` (straightness
-    /// of X in Y) or `EBX` (pitch of X).
-    pub fn symbol(self, axis: Axis) -> String {
-        let letter = match self {
-            Motion::Ex => "X",
-            Motion::Ey => "Y",
-            Motion::Ez => "Z",
-            Motion::Ea => "A",
-            Motion::Eb => "B",
-            Motion::Ec => "C",
-        };
-        format!("E{letter}{}", axis.name())
-    }
-
-    /// The translation along `axis` (its positioning error).
-    pub fn along(axis: Axis) -> Motion {
-        Motion::ALL[axis.index()]
-    }
-}
+use crate::{CurveFault, ProbeError, Result};
 
 /// The six error curves of one axis as measured: carriage positions `q`
 /// (mm, strictly increasing) and the six motions at each (mm, rad), plus
@@ -156,7 +66,7 @@ pub fn measured_axes(rows: &[ErrorRow]) -> Vec<MeasuredAxis> {
 
 /// The slope removed from a straightness curve with its least-squares line
 /// (rad: mm per mm), which belongs to the axis's squareness and alignment.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RemovedSlope {
     /// The axis.
     pub axis: Axis,
@@ -193,11 +103,9 @@ impl AxisCurves {
     pub fn new(m: MeasuredAxis) -> Result<AxisCurves> {
         let axis = m.axis;
         let n = m.positions.len();
+        let curve = |fault| ProbeError::Curve { axis, fault };
         if n < 2 {
-            return Err(ProbeError::Input {
-                what: format!("axis {axis}"),
-                message: format!("{n} measured position(s): a curve needs at least 2"),
-            });
+            return Err(curve(CurveFault::TooFewPositions { count: n }));
         }
         let columns = m
             .values
@@ -208,33 +116,32 @@ impl AxisCurves {
             .chain(m.positioning_down.iter().map(|v| ("positioning_down", v)));
         for (name, v) in columns {
             if v.len() != n {
-                return Err(ProbeError::Input {
-                    what: format!("axis {axis}, column '{name}'"),
-                    message: format!("{} values for {n} positions", v.len()),
-                });
+                return Err(curve(CurveFault::Length {
+                    column: name,
+                    values: v.len(),
+                    positions: n,
+                }));
             }
             if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-                return Err(ProbeError::Input {
-                    what: format!("axis {axis}, point {}, column '{name}'", k + 1),
-                    message: format!("value {} is not a finite number", v[k]),
-                });
+                return Err(curve(CurveFault::NotFinite {
+                    point: k + 1,
+                    column: name,
+                    value: v[k],
+                }));
             }
         }
         if let Some(k) = m.positions.iter().position(|x| !x.is_finite()) {
-            return Err(ProbeError::Input {
-                what: format!("axis {axis}, point {}, column 'position'", k + 1),
-                message: format!("position {} is not a finite number", m.positions[k]),
-            });
+            return Err(curve(CurveFault::PositionNotFinite {
+                point: k + 1,
+                value: m.positions[k],
+            }));
         }
         if let Some(k) = m.positions.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(ProbeError::Input {
-                what: format!("axis {axis}, point {}, column 'position'", k + 2),
-                message: format!(
-                    "positions must increase: {} mm follows {} mm",
-                    m.positions[k + 1],
-                    m.positions[k]
-                ),
-            });
+            return Err(curve(CurveFault::NotIncreasing {
+                point: k + 2,
+                position: m.positions[k + 1],
+                previous: m.positions[k],
+            }));
         }
         let mut values = m.values;
         let mut removed = Vec::new();

@@ -4,12 +4,12 @@
 //! what compensation with a series would leave (raw minus the series).
 
 use formats::Axis;
+pub use formats::probe::volumetric::Model;
 use geom::Vector3;
-use serde::Serialize;
 
 use super::curves::{AxisCurves, Motion};
 use super::series::{OrderScore, Series, SeriesFit, choose_order};
-use crate::{ProbeError, Result, Unsolvable};
+use crate::{ProbeError, Result, Unsolvable, VolumetricFault};
 
 /// Default Fourier order N (§5; the polynomial then has degree 6).
 pub const DEFAULT_ORDER: usize = 3;
@@ -17,41 +17,8 @@ pub const DEFAULT_ORDER: usize = 3;
 /// rounding of positions computed from a circle or a frame, not an extrapolation.
 pub(crate) const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
 
-/// How a curve is evaluated between measured positions (`--model`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Model {
-    /// Linear between the measured positions.
-    Raw,
-    /// The fitted Fourier series.
-    Fourier,
-    /// The fitted polynomial.
-    Polynomial,
-}
-
-impl Model {
-    /// `raw`, `fourier` or `polynomial`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Model::Raw => "raw",
-            Model::Fourier => "fourier",
-            Model::Polynomial => "polynomial",
-        }
-    }
-
-    /// The series of a fitted model.
-    pub fn series(self) -> Option<Series> {
-        match self {
-            Model::Raw => None,
-            Model::Fourier => Some(Series::Fourier),
-            Model::Polynomial => Some(Series::Polynomial),
-        }
-    }
-}
-
 /// The order N of the series (`--order N` or `--order auto`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Order {
     /// The same N for every curve and both series.
     Fixed(usize),
@@ -135,12 +102,12 @@ impl AxisModel {
     pub fn value(&self, motion: Motion, q: f64, how: Evaluation) -> Result<f64> {
         let (lo, hi) = self.curves.travel();
         if !(q >= lo - TRAVEL_TOLERANCE_MM && q <= hi + TRAVEL_TOLERANCE_MM) {
-            return Err(ProbeError::Input {
-                what: format!("axis {} at {q} mm", self.axis()),
-                message: format!(
-                    "outside the measured travel [{lo}, {hi}] mm: the model does not extrapolate"
-                ),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::OutsideTravel {
+                axis: self.axis(),
+                position: q,
+                lo,
+                hi,
+            }));
         }
         let q = q.clamp(lo, hi);
         let raw = || geom::interp::linear(&self.curves.positions, self.curves.curve(motion), q);
@@ -186,18 +153,14 @@ impl ErrorModel {
     /// Fit every curve of every axis; each axis at most once.
     pub fn new(curves: Vec<AxisCurves>, order: Order) -> Result<ErrorModel> {
         if let Order::Fixed(0) = order {
-            return Err(ProbeError::Input {
-                what: "--order".into(),
-                message: "the order N must be at least 1".into(),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::OrderZero));
         }
         let mut axes: Vec<AxisModel> = Vec::with_capacity(curves.len());
         for c in curves {
             if axes.iter().any(|a| a.axis() == c.axis) {
-                return Err(ProbeError::Input {
-                    what: format!("axis {}", c.axis),
-                    message: "given twice".into(),
-                });
+                return Err(ProbeError::Volumetric(VolumetricFault::AxisTwice {
+                    axis: c.axis,
+                }));
             }
             axes.push(AxisModel::new(c, order)?);
         }

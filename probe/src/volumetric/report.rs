@@ -1,11 +1,11 @@
 //! The whole analysis of `trinocular probe volumetric` and its `report.json`
 //! (docs/formats.md: `circle.radial_range_um`, `circle.circular_deviation_um`;
-//! µm and µrad, mm for positions).
+//! µm and µrad, mm for positions). The report's types live in
+//! `formats::probe::volumetric::report`; [`analyse`] fills them.
 
 use formats::Axis;
 use formats::probe::volumetric::CompLine;
 use geom::Vector3;
-use serde::Serialize;
 
 use super::campaign::CampaignCurves;
 use super::chain::{Chain, Machine, Positions, Squareness};
@@ -15,6 +15,11 @@ use super::curves::{AxisCurves, MeasuredAxis, Motion, RemovedSlope};
 use super::model::{ErrorModel, Evaluation, Model, Order};
 use super::series::{Figures, OrderScore, Series, SeriesFit};
 use crate::{ProbeError, Result};
+
+pub use formats::probe::volumetric::report::{
+    AxisReport, CampaignReport, CircleFigures, CircleReport, CompensatedReport, CurveReport,
+    FitReport, Report, SeriesReport, SlopeReport, VolumetricPoint, VolumetricReport,
+};
 
 /// mm → µm.
 const UM: f64 = 1e3;
@@ -93,9 +98,9 @@ pub fn analyse(
             machine
                 .volumetric_error(q, how)
                 .map(|d| (*q, d))
-                .map_err(|e| ProbeError::Input {
-                    what: label.clone(),
-                    message: e.to_string(),
+                .map_err(|e| ProbeError::At {
+                    label: label.clone(),
+                    error: Box::new(e),
                 })
         })
         .collect::<Result<Vec<_>>>()?;
@@ -121,7 +126,7 @@ pub fn analyse(
         .iter()
         .map(|a| (a.axis(), compensation::table(&a.curves)))
         .collect();
-    let report = Report::new(setup, &model, &volumetric, circles.as_ref(), campaign);
+    let report = report(setup, &model, &volumetric, circles.as_ref(), campaign);
     Ok(Analysis {
         model,
         volumetric,
@@ -129,204 +134,6 @@ pub fn analyse(
         compensation,
         report,
     })
-}
-
-/// `report.json`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Report {
-    /// `volumetric`.
-    pub method: &'static str,
-    /// Where the curves came from.
-    pub source: String,
-    /// Chain string.
-    pub chain: String,
-    /// Axes between the workpiece and the frame, from the workpiece.
-    pub workpiece_side: Vec<Axis>,
-    /// Axes between the frame and the tool, from the frame.
-    pub tool_side: Vec<Axis>,
-    /// Tool offset t (mm).
-    pub tool_mm: [f64; 3],
-    /// Squareness (µrad).
-    pub squareness_urad: Squareness,
-    /// Model of the predictions: `raw`, `fourier` or `polynomial`.
-    pub model: Model,
-    /// Order setting: a number or `auto`.
-    pub order: String,
-    /// Per axis: curves and fits.
-    pub axes: Vec<AxisReport>,
-    /// The fit table: both series of every curve.
-    pub fits: Vec<FitReport>,
-    /// Volumetric errors at `--at`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub volumetric: Option<VolumetricReport>,
-    /// The circular test, with `--circle`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub circle: Option<CircleReport>,
-    /// The conversion of a vision campaign's figures (`--from-report`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub campaign: Option<CampaignReport>,
-    /// Conventions of the figures.
-    pub conventions: Vec<String>,
-}
-
-/// One axis: its curves.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct AxisReport {
-    /// The axis.
-    pub axis: Axis,
-    /// Measured travel (mm).
-    pub travel_mm: [f64; 2],
-    /// Number of measured positions.
-    pub points: usize,
-    /// Measured positions (mm).
-    pub positions_mm: Vec<f64>,
-    /// The six curves.
-    pub curves: Vec<CurveReport>,
-    /// Lines removed from the straightness curves.
-    pub straightness_lines: Vec<SlopeReport>,
-    /// Whether the compensation table has separate forward and reverse values.
-    pub compensation_bidirectional: bool,
-}
-
-/// One curve and both fits (µm or µrad, see `unit`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct CurveReport {
-    /// `ex` … `ec`.
-    pub error: Motion,
-    /// ISO 230-1 symbol (`EXX`, `EYX`, …).
-    pub symbol: String,
-    /// `um` or `urad`.
-    pub unit: &'static str,
-    /// Values at the positions (straightness lines removed).
-    pub values: Vec<f64>,
-    /// Fourier fit.
-    pub fourier: SeriesReport,
-    /// Polynomial fit.
-    pub polynomial: SeriesReport,
-}
-
-/// A series fit of a curve (values in the curve's unit).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SeriesReport {
-    /// Order N.
-    pub order: usize,
-    /// R².
-    pub r2: Option<f64>,
-    /// SSE (unit²).
-    pub sse: f64,
-    /// RMSE.
-    pub rmse: f64,
-    /// e_max.
-    pub emax: f64,
-    /// The fit at the measured positions.
-    pub fitted: Vec<f64>,
-    /// Leave-one-out scores, under `--order auto`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub order_scores: Option<Vec<OrderScore>>,
-}
-
-/// A removed straightness line.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SlopeReport {
-    /// `ey`, `ez` of X, ….
-    pub error: Motion,
-    /// Slope (µrad = µm/m).
-    pub slope_urad: f64,
-    /// Intercept at q = 0 (µm).
-    pub intercept_um: f64,
-}
-
-/// One row of the fit table (the units of `fits.csv`: mm or rad).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FitReport {
-    /// The axis.
-    pub axis: Axis,
-    /// The curve.
-    pub error: Motion,
-    /// `fourier` or `polynomial`.
-    pub model: Series,
-    /// Order N.
-    pub order: usize,
-    /// R².
-    pub r2: Option<f64>,
-    /// SSE (mm² or rad²).
-    pub sse: f64,
-    /// RMSE (mm or rad).
-    pub rmse: f64,
-    /// e_max (mm or rad).
-    pub emax: f64,
-}
-
-/// Volumetric errors at the given positions (µm).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct VolumetricReport {
-    /// Number of positions.
-    pub points: usize,
-    /// Largest |Δ|.
-    pub max_um: f64,
-    /// RMS of |Δ|.
-    pub rms_um: f64,
-    /// Per position: carriage positions (mm) and Δ (µm).
-    pub rows: Vec<VolumetricPoint>,
-}
-
-/// Δ at one position.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct VolumetricPoint {
-    /// Carriage positions x, y, z (mm).
-    pub q_mm: [f64; 3],
-    /// Volumetric error (µm, workpiece frame).
-    pub d_um: [f64; 3],
-}
-
-/// The circular test (µm).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct CircleReport {
-    /// Centre (mm, workpiece frame).
-    pub centre_mm: [f64; 3],
-    /// Radius (mm).
-    pub radius_mm: f64,
-    /// Range of the radial deviations.
-    pub radial_range_um: f64,
-    /// ISO 230-4 circular deviation about the least-squares centre.
-    pub circular_deviation_um: f64,
-    /// Least-squares centre of the predicted path (mm).
-    pub lsq_centre_mm: [f64; 2],
-    /// Radial deviation per degree, θ = 0 … 359°.
-    pub radial_um: Vec<f64>,
-    /// After compensating with each series.
-    pub compensated: CompensatedReport,
-}
-
-/// The circular test after compensation (µm).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct CompensatedReport {
-    /// With the Fourier series.
-    pub fourier: CircleFigures,
-    /// With the polynomial.
-    pub polynomial: CircleFigures,
-}
-
-/// Figures of a circular test (µm).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct CircleFigures {
-    /// Range of the radial deviations.
-    pub radial_range_um: f64,
-    /// Circular deviation.
-    pub circular_deviation_um: f64,
-    /// Radial deviation per degree.
-    pub radial_um: Vec<f64>,
-}
-
-/// How a vision campaign's figures were converted.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct CampaignReport {
-    /// Per swept axis.
-    pub sweeps: Vec<super::campaign::SweepInfo>,
-    /// Squareness measured by the campaign (µrad).
-    pub measured_squareness_urad: std::collections::BTreeMap<String, f64>,
-    /// Notes of the conversion.
-    pub notes: Vec<String>,
 }
 
 /// The curve unit of a motion in reports, and the factor from file units.
@@ -375,142 +182,141 @@ fn circle_figures(c: &CirclePrediction) -> CircleFigures {
     }
 }
 
-impl Report {
-    fn new(
-        setup: &Setup,
-        model: &ErrorModel,
-        volumetric: &[(Positions, Vector3<f64>)],
-        circles: Option<&Circles>,
-        campaign: Option<&CampaignCurves>,
-    ) -> Report {
-        let mut fits = Vec::new();
-        let axes = model
-            .axes
-            .iter()
-            .map(|a| {
-                let c = &a.curves;
-                let curves = Motion::ALL
-                    .iter()
-                    .map(|&m| {
-                        let (unit, scale) = unit(m);
-                        let values = c.curve(m);
-                        let f = &a.fits[m.index()];
-                        for s in Series::BOTH {
-                            let fit = f.get(s);
-                            fits.push(FitReport {
-                                axis: a.axis(),
-                                error: m,
-                                model: s,
-                                order: fit.order,
-                                r2: fit.figures.r2,
-                                sse: fit.figures.sse,
-                                rmse: fit.figures.rmse,
-                                emax: fit.figures.emax,
-                            });
-                        }
-                        CurveReport {
+/// `report.json` of the analysis.
+fn report(
+    setup: &Setup,
+    model: &ErrorModel,
+    volumetric: &[(Positions, Vector3<f64>)],
+    circles: Option<&Circles>,
+    campaign: Option<&CampaignCurves>,
+) -> Report {
+    let mut fits = Vec::new();
+    let axes = model
+        .axes
+        .iter()
+        .map(|a| {
+            let c = &a.curves;
+            let curves = Motion::ALL
+                .iter()
+                .map(|&m| {
+                    let (unit, scale) = unit(m);
+                    let values = c.curve(m);
+                    let f = &a.fits[m.index()];
+                    for s in Series::BOTH {
+                        let fit = f.get(s);
+                        fits.push(FitReport {
+                            axis: a.axis(),
                             error: m,
-                            symbol: m.symbol(a.axis()),
-                            unit,
-                            values: values.iter().map(|v| v * scale).collect(),
-                            fourier: series_report(
-                                &f.fourier,
-                                values,
-                                scale,
-                                f.scores.as_ref().map(|s| &s[0]),
-                            ),
-                            polynomial: series_report(
-                                &f.polynomial,
-                                values,
-                                scale,
-                                f.scores.as_ref().map(|s| &s[1]),
-                            ),
-                        }
-                    })
-                    .collect();
-                let (lo, hi) = c.travel();
-                AxisReport {
-                    axis: a.axis(),
-                    travel_mm: [lo, hi],
-                    points: c.positions.len(),
-                    positions_mm: c.positions.clone(),
-                    curves,
-                    straightness_lines: c
-                        .removed
-                        .iter()
-                        .map(|r: &RemovedSlope| SlopeReport {
-                            error: r.error,
-                            slope_urad: r.slope * URAD,
-                            intercept_um: r.intercept_mm * UM,
-                        })
-                        .collect(),
-                    compensation_bidirectional: compensation::bidirectional(c),
-                }
-            })
-            .collect();
-        let volumetric = (!volumetric.is_empty()).then(|| {
-            let norms: Vec<f64> = volumetric.iter().map(|(_, d)| d.norm() * UM).collect();
-            VolumetricReport {
-                points: volumetric.len(),
-                max_um: norms.iter().fold(0.0, |m, v| m.max(*v)),
-                rms_um: (norms.iter().map(|v| v * v).sum::<f64>() / norms.len() as f64).sqrt(),
-                rows: volumetric
+                            model: s,
+                            order: fit.order,
+                            r2: fit.figures.r2,
+                            sse: fit.figures.sse,
+                            rmse: fit.figures.rmse,
+                            emax: fit.figures.emax,
+                        });
+                    }
+                    CurveReport {
+                        error: m,
+                        symbol: m.symbol(a.axis()),
+                        unit,
+                        values: values.iter().map(|v| v * scale).collect(),
+                        fourier: series_report(
+                            &f.fourier,
+                            values,
+                            scale,
+                            f.scores.as_ref().map(|s| &s[0]),
+                        ),
+                        polynomial: series_report(
+                            &f.polynomial,
+                            values,
+                            scale,
+                            f.scores.as_ref().map(|s| &s[1]),
+                        ),
+                    }
+                })
+                .collect();
+            let (lo, hi) = c.travel();
+            AxisReport {
+                axis: a.axis(),
+                travel_mm: [lo, hi],
+                points: c.positions.len(),
+                positions_mm: c.positions.clone(),
+                curves,
+                straightness_lines: c
+                    .removed
                     .iter()
-                    .map(|(q, d)| VolumetricPoint {
-                        q_mm: *q,
-                        d_um: [d.x * UM, d.y * UM, d.z * UM],
+                    .map(|r: &RemovedSlope| SlopeReport {
+                        error: r.error,
+                        slope_urad: r.slope * URAD,
+                        intercept_um: r.intercept_mm * UM,
                     })
                     .collect(),
+                compensation_bidirectional: compensation::bidirectional(c),
             }
-        });
-        let circle = circles.map(|c| CircleReport {
-            centre_mm: c.spec.centre,
-            radius_mm: c.spec.radius,
-            radial_range_um: c.predicted.radial_range * UM,
-            circular_deviation_um: c.predicted.circular_deviation * UM,
-            lsq_centre_mm: c.predicted.lsq_centre,
-            radial_um: c.predicted.points.iter().map(|p| p.radial * UM).collect(),
-            compensated: CompensatedReport {
-                fourier: circle_figures(&c.compensated_fourier),
-                polynomial: circle_figures(&c.compensated_polynomial),
-            },
-        });
-        let campaign = campaign.map(|c| CampaignReport {
-            sweeps: c.sweeps.clone(),
-            measured_squareness_urad: [
-                ("EC0Y", c.squareness.ec0y),
-                ("EB0Z", c.squareness.eb0z),
-                ("EA0Z", c.squareness.ea0z),
-            ]
-            .into_iter()
-            .filter_map(|(k, v)| v.map(|v| (k.to_string(), v * URAD)))
-            .collect(),
-            notes: c.notes.clone(),
-        });
-        Report {
-            method: "volumetric",
-            source: setup.source.clone(),
-            chain: setup.chain.text.clone(),
-            workpiece_side: setup.chain.workpiece.clone(),
-            tool_side: setup.chain.tool.clone(),
-            tool_mm: setup.tool,
-            squareness_urad: Squareness {
-                ec0y: setup.squareness.ec0y * URAD,
-                eb0z: setup.squareness.eb0z * URAD,
-                ea0z: setup.squareness.ea0z * URAD,
-            },
-            model: setup.model,
-            order: match setup.order {
-                Order::Fixed(n) => n.to_string(),
-                Order::Auto => "auto".into(),
-            },
-            axes,
-            fits,
-            volumetric,
-            circle,
-            campaign,
-            conventions: conventions(),
+        })
+        .collect();
+    let volumetric = (!volumetric.is_empty()).then(|| {
+        let norms: Vec<f64> = volumetric.iter().map(|(_, d)| d.norm() * UM).collect();
+        VolumetricReport {
+            points: volumetric.len(),
+            max_um: norms.iter().fold(0.0, |m, v| m.max(*v)),
+            rms_um: (norms.iter().map(|v| v * v).sum::<f64>() / norms.len() as f64).sqrt(),
+            rows: volumetric
+                .iter()
+                .map(|(q, d)| VolumetricPoint {
+                    q_mm: *q,
+                    d_um: [d.x * UM, d.y * UM, d.z * UM],
+                })
+                .collect(),
         }
+    });
+    let circle = circles.map(|c| CircleReport {
+        centre_mm: c.spec.centre,
+        radius_mm: c.spec.radius,
+        radial_range_um: c.predicted.radial_range * UM,
+        circular_deviation_um: c.predicted.circular_deviation * UM,
+        lsq_centre_mm: c.predicted.lsq_centre,
+        radial_um: c.predicted.points.iter().map(|p| p.radial * UM).collect(),
+        compensated: CompensatedReport {
+            fourier: circle_figures(&c.compensated_fourier),
+            polynomial: circle_figures(&c.compensated_polynomial),
+        },
+    });
+    let campaign = campaign.map(|c| CampaignReport {
+        sweeps: c.sweeps.clone(),
+        measured_squareness_urad: [
+            ("EC0Y", c.squareness.ec0y),
+            ("EB0Z", c.squareness.eb0z),
+            ("EA0Z", c.squareness.ea0z),
+        ]
+        .into_iter()
+        .filter_map(|(k, v)| v.map(|v| (k.to_string(), v * URAD)))
+        .collect(),
+        notes: c.notes.clone(),
+    });
+    Report {
+        method: "volumetric",
+        source: setup.source.clone(),
+        chain: setup.chain.text.clone(),
+        workpiece_side: setup.chain.workpiece.clone(),
+        tool_side: setup.chain.tool.clone(),
+        tool_mm: setup.tool,
+        squareness_urad: Squareness {
+            ec0y: setup.squareness.ec0y * URAD,
+            eb0z: setup.squareness.eb0z * URAD,
+            ea0z: setup.squareness.ea0z * URAD,
+        },
+        model: setup.model,
+        order: match setup.order {
+            Order::Fixed(n) => n.to_string(),
+            Order::Auto => "auto".into(),
+        },
+        axes,
+        fits,
+        volumetric,
+        circle,
+        campaign,
+        conventions: conventions(),
     }
 }
 

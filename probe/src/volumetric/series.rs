@@ -4,10 +4,11 @@
 //! coefficients), fitted by linear least squares; their figures R², SSE,
 //! RMSE, e_max; and the order chosen by leave-one-out cross-validation.
 
+pub use formats::probe::volumetric::Series;
+pub use formats::probe::volumetric::report::OrderScore;
 use geom::nalgebra::{DMatrix, DVector, SVD};
-use serde::Serialize;
 
-use crate::{Conditioning, ProbeError, Result, Unsolvable};
+use crate::{Conditioning, ProbeError, Result, Unsolvable, VolumetricFault};
 
 /// Largest condition number (largest over smallest singular value of the
 /// design matrix with unit-norm columns) accepted for a fit: beyond it the
@@ -30,31 +31,8 @@ const ZERO_COLUMN: f64 = 1e-9;
 /// Iteration limit of the SVD.
 const SVD_ITERATIONS: usize = 1000;
 
-/// The kind of a fitted series.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Series {
-    /// Fourier series of order N (2N + 1 coefficients).
-    Fourier,
-    /// Polynomial of degree 2N (2N + 1 coefficients), in Chebyshev form.
-    Polynomial,
-}
-
-impl Series {
-    /// Both kinds, Fourier first.
-    pub const BOTH: [Series; 2] = [Series::Fourier, Series::Polynomial];
-
-    /// `fourier` or `polynomial`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Series::Fourier => "fourier",
-            Series::Polynomial => "polynomial",
-        }
-    }
-}
-
 /// How well a model follows the measured values: residuals `r = v − v̂`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Figures {
     /// R² = 1 − SSE/SST; `None` when the values are all equal (SST = 0).
     pub r2: Option<f64>,
@@ -243,20 +221,16 @@ impl SeriesFit {
     ) -> Result<SeriesFit> {
         let count = 2 * order + 1;
         if order == 0 {
-            return Err(ProbeError::Input {
-                what: "--order".into(),
-                message: "the order N must be at least 1".into(),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::OrderZero));
         }
         if positions.len() < count {
-            return Err(ProbeError::Input {
-                what: what.to_string(),
-                message: format!(
-                    "{} points, fewer than the {count} coefficients of a {} of order {order}",
-                    positions.len(),
-                    series.name()
-                ),
-            });
+            return Err(ProbeError::Volumetric(VolumetricFault::TooFewForOrder {
+                fit: what.to_string(),
+                points: positions.len(),
+                coefficients: count,
+                series,
+                order,
+            }));
         }
         let start = positions[0];
         let length = positions[positions.len() - 1] - start;
@@ -288,16 +262,6 @@ impl SeriesFit {
                 .sum()
         })
     }
-}
-
-/// One candidate of an order choice: its leave-one-out RMSE.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct OrderScore {
-    /// Order N.
-    pub order: usize,
-    /// `√(PRESS/n)`, PRESS = Σ (rᵢ/(1 − hᵢᵢ))²: the RMS error of predicting
-    /// each point from a fit to the others (value unit).
-    pub loo_rmse: f64,
 }
 
 /// Leave-one-out scores of orders 1 ..= [`MAX_AUTO_ORDER`] (those with at
@@ -346,12 +310,12 @@ pub(crate) fn choose_order(
             Some(b) if b.loo_rmse <= s.loo_rmse => Some(b),
             _ => Some(*s),
         })
-        .ok_or_else(|| ProbeError::Input {
-            what: what.to_string(),
-            message: format!(
-                "{n} points leave no {} order to cross-validate (order 1 needs 6)",
-                series.name()
-            ),
+        .ok_or_else(|| {
+            ProbeError::Volumetric(VolumetricFault::NothingToCrossValidate {
+                fit: what.to_string(),
+                points: n,
+                series,
+            })
         })?;
     Ok((best.order, scores))
 }

@@ -118,7 +118,7 @@ pub fn run(args: &Args) -> Result<()> {
         source: args.centres.display().to_string(),
     };
     let report = method::report(&solved, &options)?;
-    let page = method::html(&report)?;
+    let page = method::html(&report, &solved.angles)?;
     let rows: Vec<IndexingRow> = solved
         .angles
         .iter()

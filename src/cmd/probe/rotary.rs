@@ -15,7 +15,7 @@ use anyhow::{Result, anyhow};
 use formats::probe::rotary::{
     CentreRow, ErrorRow, RotaryInput, SphereFitRow, read_centres, read_points,
 };
-use probe::rotary::report::Report;
+use probe::rotary::report::{Report, report};
 use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
 use probe::{CentreFault, ProbeError};
 use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
@@ -133,10 +133,10 @@ fn print_summary(solution: &Solution, report: &Report) {
     if let Some(l) = &report.location {
         println!(
             "location: X0C {:.3} µm, Y0C {:.3} µm, A0C {:.3} µrad, B0C {:.3} µrad (u {:.3} µm, {:.3} µrad)",
-            l.x0c_um,
-            l.y0c_um,
-            l.a0c_urad,
-            l.b0c_urad,
+            l.errors.x0c_um,
+            l.errors.y0c_um,
+            l.errors.a0c_urad,
+            l.errors.b0c_urad,
             l.u_x0c_um.max(l.u_y0c_um),
             l.u_a0c_urad.max(l.u_b0c_urad)
         );
@@ -191,7 +191,7 @@ pub fn run(args: &Args) -> Result<()> {
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    let report = Report::new(&solution, &source, &at);
+    let report = report(&solution, &source, &at);
     let html = probe::rotary::html(&report)?;
 
     let mut names = vec!["rotary.csv", "report.json", "report.html"];

@@ -26,7 +26,7 @@
 
 use std::path::Path;
 
-use formats::probe::rotary::{BallTruth, CentreRow, LocationTruth, RotaryTruth};
+use formats::probe::rotary::{BallTruth, CentreRow, LocationErrors, RotaryTruth};
 use geom::nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use geom::transform::{SmallError, rotation_from_vector};
 use rand_chacha::ChaCha8Rng;
@@ -524,7 +524,7 @@ pub fn generate(config: &RotaryConfig) -> Result<RotaryData> {
         angles_deg: angles,
         columns: NAMES.iter().map(|n| (*n).to_string()).collect(),
         truth_mm_rad,
-        location: Some(LocationTruth {
+        location: Some(LocationErrors {
             x0c_um: l.x0c_um,
             y0c_um: l.y0c_um,
             a0c_urad: l.a0c_urad,
