@@ -136,56 +136,95 @@ fn curves_from_file(path: &Path) -> Result<Vec<(MeasuredAxis, (u64, u64))>> {
         .collect())
 }
 
-/// Run the method.
+/// The measured curves and where they came from.
+#[derive(Default)]
+struct Curves {
+    /// Per axis, in the order given.
+    axes: Vec<MeasuredAxis>,
+    /// The files read (never overwritten by an output).
+    inputs: Vec<PathBuf>,
+    /// How the report names each source.
+    sources: Vec<String>,
+    /// A vision campaign's curves (`--from-report`), with its squareness.
+    campaign: Option<campaign::CampaignCurves>,
+}
+
+/// Run the method: gather the curves, set up the model, analyse, write the
+/// outputs (refusing before anything is written), print the summary.
 pub fn run(args: &Args) -> Result<()> {
     let chain = Chain::parse(&args.chain).or_usage()?;
-    let mut inputs: Vec<PathBuf> = Vec::new();
-    let mut curves: Vec<MeasuredAxis> = Vec::new();
-    let mut sources = Vec::new();
-    let mut measured_square = None;
-    let mut campaign_curves = None;
+    let mut curves = Curves::default();
     if let Some(dir) = &args.from_report {
-        let report = files::read_evaluate_report(dir)?;
-        let source = dir.join("report.json").display().to_string();
-        let c = campaign::from_evaluate(&report, &chain, &source)?;
-        inputs.push(dir.join("report.json"));
-        measured_square = Some(c.squareness);
-        curves.extend(c.axes.iter().cloned());
-        sources.push(format!("{} (vision campaign)", dir.display()));
-        campaign_curves = Some(c);
+        curves_from_report(dir, &chain, &mut curves)?;
     }
     if let Some(path) = &args.errors {
-        let order_n = match args.order {
-            Order::Fixed(n) => Some(n),
-            Order::Auto => None,
-        };
-        for (m, (first, last)) in curves_from_file(path)? {
-            if curves.iter().any(|c| c.axis == m.axis) {
-                bail!(
-                    "{}: lines {first}–{last}, column 'axis': axis {} comes from --from-report too; give each axis once",
-                    path.display(),
-                    m.axis
-                );
-            }
-            let coefficients =
-                order_n.map_or(probe::volumetric::POINTS_PER_COEFFICIENT * 3, |n| 2 * n + 1);
-            if m.positions.len() < coefficients {
-                bail!(
-                    "{}: lines {first}–{last}, axis {}: {} points, fewer than the {coefficients} coefficients {}",
-                    path.display(),
-                    m.axis,
-                    m.positions.len(),
-                    match order_n {
-                        Some(n) => format!("of a series of order {n} (--order {n})"),
-                        None => "that --order auto needs for order 1".into(),
-                    }
-                );
-            }
-            curves.push(m);
-        }
-        inputs.push(path.clone());
-        sources.push(path.display().to_string());
+        curves_from_errors(path, args.order, &mut curves)?;
     }
+    let setup = setup(args, chain, &mut curves)?;
+    let analysis = analyse(curves.axes, &setup, curves.campaign.as_ref())
+        .with_context(|| format!("volumetric model from {}", setup.source))?;
+    let page = html(&analysis)?;
+    let written = write_outputs(args, &analysis, &page, &curves.inputs)?;
+    print_summary(&analysis, &setup);
+    println!("wrote {written} files into {}", args.out.display());
+    Ok(())
+}
+
+/// The swept axes' curves of a vision campaign (`--from-report DIR`).
+fn curves_from_report(dir: &Path, chain: &Chain, curves: &mut Curves) -> Result<()> {
+    let report = files::read_evaluate_report(dir)?;
+    let source = dir.join("report.json").display().to_string();
+    let c = campaign::from_evaluate(&report, chain, &source)?;
+    curves.inputs.push(dir.join("report.json"));
+    curves.axes.extend(c.axes.iter().cloned());
+    curves
+        .sources
+        .push(format!("{} (vision campaign)", dir.display()));
+    curves.campaign = Some(c);
+    Ok(())
+}
+
+/// The curves of `E.csv`: each axis once over both sources, and with at
+/// least as many points as the series of `--order` has coefficients.
+fn curves_from_errors(path: &Path, order: Order, curves: &mut Curves) -> Result<()> {
+    let order_n = match order {
+        Order::Fixed(n) => Some(n),
+        Order::Auto => None,
+    };
+    for (m, (first, last)) in curves_from_file(path)? {
+        if curves.axes.iter().any(|c| c.axis == m.axis) {
+            bail!(
+                "{}: lines {first}–{last}, column 'axis': axis {} comes from --from-report too; give each axis once",
+                path.display(),
+                m.axis
+            );
+        }
+        let coefficients =
+            order_n.map_or(probe::volumetric::POINTS_PER_COEFFICIENT * 3, |n| 2 * n + 1);
+        if m.positions.len() < coefficients {
+            bail!(
+                "{}: lines {first}–{last}, axis {}: {} points, fewer than the {coefficients} coefficients {}",
+                path.display(),
+                m.axis,
+                m.positions.len(),
+                match order_n {
+                    Some(n) => format!("of a series of order {n} (--order {n})"),
+                    None => "that --order auto needs for order 1".into(),
+                }
+            );
+        }
+        curves.axes.push(m);
+    }
+    curves.inputs.push(path.to_path_buf());
+    curves.sources.push(path.display().to_string());
+    Ok(())
+}
+
+/// The model's set-up from the options: squareness (given, else the
+/// campaign's, else 0), tool, model, order, the positions of `--at` (read
+/// here, named by file line) and the circle.
+fn setup(args: &Args, chain: Chain, curves: &mut Curves) -> Result<Setup> {
+    let measured_square = curves.campaign.as_ref().map(|c| c.squareness);
     let squareness = match (args.squareness, measured_square) {
         (Some(s), _) => Squareness {
             ec0y: s[0],
@@ -201,7 +240,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let at_rows = match &args.at {
         Some(p) => {
-            inputs.push(p.clone());
+            curves.inputs.push(p.clone());
             files::read_at(p)?
         }
         None => Vec::new(),
@@ -216,7 +255,7 @@ pub fn run(args: &Args) -> Result<()> {
                 .unwrap_or_default()
         )
     };
-    let setup = Setup {
+    Ok(Setup {
         chain,
         squareness,
         tool: args.tool,
@@ -234,13 +273,19 @@ pub fn run(args: &Args) -> Result<()> {
             centre: [c[0], c[1], c[2]],
             radius: c[3],
         }),
-        source: sources.join(" + "),
-    };
-    let analysis = analyse(curves, &setup, campaign_curves.as_ref())
-        .with_context(|| format!("volumetric model from {}", setup.source))?;
-    let page = html(&analysis)?;
+        source: curves.sources.join(" + "),
+    })
+}
 
-    // Outputs: refuse before writing anything.
+/// Write every output into `--out` (refused as a whole before anything is
+/// written when one exists without `--force` or is an input); the number of
+/// files written.
+fn write_outputs(
+    args: &Args,
+    analysis: &probe::volumetric::Analysis,
+    page: &str,
+    inputs: &[PathBuf],
+) -> Result<usize> {
     let out = &args.out;
     let mut names: Vec<String> = vec![
         "report.json".into(),
@@ -257,7 +302,7 @@ pub fn run(args: &Args) -> Result<()> {
         names.push(comp_name(*axis));
     }
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
-    let (output, _) = super::outputs(out, &names, &inputs, args.force)?;
+    let (output, _) = super::outputs(out, &names, inputs, args.force)?;
 
     let fits: Vec<FitRow> = analysis
         .report
@@ -315,10 +360,7 @@ pub fn run(args: &Args) -> Result<()> {
     }
     output.write_json(&out.join("report.json"), &analysis.report)?;
     output.write_bytes(&out.join("report.html"), page.as_bytes())?;
-
-    print_summary(&analysis, &setup);
-    println!("wrote {} files into {}", names.len(), out.display());
-    Ok(())
+    Ok(names.len())
 }
 
 /// The compensation file of an axis.
