@@ -143,7 +143,18 @@ fn check_query(
     Ok(())
 }
 
-/// Run the method.
+/// The tables of a solution.
+struct Tables {
+    corrections: Vec<CorrectionRow>,
+    stations: Vec<StationRow>,
+    residuals: Vec<ResidualRow>,
+    /// The query points corrected (with `--query`).
+    corrected: Option<Vec<CorrectedRow>>,
+}
+
+/// Run the method: read and check the inputs (a query outside the grid is
+/// refused before solving), refuse outputs that exist, solve, tabulate,
+/// write, print the summary.
 pub fn run(args: &Args) -> Result<()> {
     let grid = read_grid(&args.nominal)?;
     let readings = read_readings(&args.readings, &grid, &args.nominal)?;
@@ -180,7 +191,32 @@ pub fn run(args: &Args) -> Result<()> {
     })?;
     let report = tracer::report(&net, &solution);
     let page = tracer::html(&net, &solution, &report)?;
+    let tables = tables(&net, &solution, &readings, query.as_deref())?;
 
+    let out = &args.out;
+    output.write_records(&out.join("corrections.csv"), &tables.corrections)?;
+    output.write_records(&out.join("stations.csv"), &tables.stations)?;
+    output.write_records(&out.join("residuals.csv"), &tables.residuals)?;
+    if let Some(c) = &tables.corrected {
+        output.write_records(&out.join("corrected.csv"), c)?;
+    }
+    output.write_json(&out.join("report.json"), &report)?;
+    output.write_bytes(&out.join("report.html"), page.as_bytes())?;
+
+    print_summary(&report, tables.corrected.as_ref().map(Vec::len));
+    println!("wrote {} files into {}", names.len(), out.display());
+    Ok(())
+}
+
+/// The solution as tables: corrections and stations with their
+/// uncertainties, every reading's residual, and the query points corrected
+/// by trilinear interpolation in the grid.
+fn tables(
+    net: &Network,
+    solution: &tracer::Solution,
+    readings: &formats::probe::tracer::Readings,
+    query: Option<&[Row<QueryRow>]>,
+) -> Result<Tables> {
     let corrections: Vec<CorrectionRow> = net
         .points
         .iter()
@@ -230,7 +266,7 @@ pub fn run(args: &Args) -> Result<()> {
             outlier: v.outlier,
         })
         .collect();
-    let corrected: Option<Vec<CorrectedRow>> = match &query {
+    let corrected: Option<Vec<CorrectedRow>> = match query {
         Some(q) => {
             let vectors: Vec<_> = solution.corrections.iter().map(|c| c.vector).collect();
             let lattice = CorrectionGrid::new(&net.points, &net.point_names, &vectors)?;
@@ -253,17 +289,17 @@ pub fn run(args: &Args) -> Result<()> {
         }
         None => None,
     };
+    Ok(Tables {
+        corrections,
+        stations,
+        residuals,
+        corrected,
+    })
+}
 
-    let out = &args.out;
-    output.write_records(&out.join("corrections.csv"), &corrections)?;
-    output.write_records(&out.join("stations.csv"), &stations)?;
-    output.write_records(&out.join("residuals.csv"), &residuals)?;
-    if let Some(c) = &corrected {
-        output.write_records(&out.join("corrected.csv"), c)?;
-    }
-    output.write_json(&out.join("report.json"), &report)?;
-    output.write_bytes(&out.join("report.html"), page.as_bytes())?;
-
+/// What the solution found, on stdout; weakly determined stations and points
+/// as warnings on stderr.
+fn print_summary(report: &tracer::TracerReport, corrected: Option<usize>) {
     println!(
         "tracer: {} points, {} stations, {} readings, {} unknowns (redundancy {})",
         report.points, report.stations, report.equations, report.unknowns, report.redundancy
@@ -305,14 +341,9 @@ pub fn run(args: &Args) -> Result<()> {
             w.name, w.reason
         );
     }
-    if let Some(c) = &corrected {
-        println!(
-            "corrected {} query points by trilinear interpolation",
-            c.len()
-        );
+    if let Some(n) = corrected {
+        println!("corrected {n} query points by trilinear interpolation");
     }
-    println!("wrote {} files into {}", names.len(), out.display());
-    Ok(())
 }
 
 /// Parse `a,b,c` (x, y, z) for a flag.
