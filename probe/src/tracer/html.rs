@@ -257,6 +257,16 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
         "{} grid points, {} stations, {} readings; {} unknowns after the datum, redundancy {}",
         r.points, r.stations, r.equations, r.unknowns, r.redundancy
     ));
+    figures_section(&mut page, net, s, r)?;
+    stations_table(&mut page, r);
+    largest_corrections(&mut page, net, s);
+    outliers_section(&mut page, r);
+    weak_notes(&mut page, r);
+    Ok(page.finish())
+}
+
+/// The solution's figures, its datum and the three plots.
+fn figures_section(page: &mut Page, net: &Network, s: &Solution, r: &TracerReport) -> Result<()> {
     page.h2("figures", "Figures");
     let rows: Vec<Vec<String>> = vec![
         vec![
@@ -335,7 +345,11 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
         &uncertainty_plot(net, s)?,
         "Largest standard uncertainty of each point's correction, against the median.",
     );
+    Ok(())
+}
 
+/// Every station: position, dead path, uncertainties, readings, residual.
+fn stations_table(page: &mut Page, r: &TracerReport) {
     page.h2("stations", "Stations");
     let rows: Vec<Vec<String>> = r
         .station_positions
@@ -372,7 +386,10 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
         ],
         &rows,
     );
+}
 
+/// The largest corrections, largest first.
+fn largest_corrections(page: &mut Page, net: &Network, s: &Solution) {
     page.h2("largest", "Largest corrections");
     let mut order: Vec<usize> = (0..s.corrections.len()).collect();
     order.sort_by(|&a, &b| {
@@ -408,7 +425,10 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
         ],
         &rows,
     );
+}
 
+/// The flagged readings, when there are any.
+fn outliers_section(page: &mut Page, r: &TracerReport) {
     if r.outliers.count > 0 {
         page.h2("outliers", "Flagged readings");
         page.paragraph(&format!(
@@ -438,6 +458,10 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
             &rows,
         );
     }
+}
+
+/// Stations and points the layout determines weakly.
+fn weak_notes(page: &mut Page, r: &TracerReport) {
     let weak: Vec<String> = r
         .weak
         .stations
@@ -451,5 +475,4 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
         )
         .collect();
     page.notes("Weakly determined", &weak, true);
-    Ok(page.finish())
 }

@@ -16,13 +16,27 @@ fn fig(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "—".into(), |v| format!("{v:.digits$}"))
 }
 
-/// Render the page.
+/// Render the page: set-up, predicted circle, fit table, the curves of each
+/// axis, volumetric errors, compensation tables, the campaign's sweeps.
 pub fn render(a: &Analysis) -> Result<String> {
-    let r = &a.report;
     let mut h = Page::new(
         "trinocular — 21-error volumetric model",
         "21-error volumetric model",
     );
+    setup_section(&mut h, a);
+    circle_section(&mut h, a)?;
+    fit_table(&mut h, a);
+    axis_sections(&mut h, a)?;
+    volumetric_section(&mut h, a);
+    compensation_section(&mut h, a);
+    campaign_section(&mut h, a);
+    h.notes("Conventions", &a.report.conventions, false);
+    Ok(h.finish())
+}
+
+/// Source, chain, tool, model and squareness.
+fn setup_section(h: &mut Page, a: &Analysis) {
+    let r = &a.report;
     h.meta(&format!(
         "Source: {} · chain <b>{}</b> · tool offset ({}, {}, {}) mm · predictions with the <b>{}</b> curves · \
          series order {}",
@@ -52,7 +66,11 @@ pub fn render(a: &Analysis) -> Result<String> {
             ],
         ],
     );
+}
 
+/// The predicted circular test (with `--circle`): figures and two plots.
+fn circle_section(h: &mut Page, a: &Analysis) -> Result<()> {
+    let r = &a.report;
     if let (Some(c), Some(cr)) = (&a.circles, &r.circle) {
         h.h2("circle", "Predicted circular test (ISO 230-4)");
         h.paragraph(&format!(
@@ -88,7 +106,12 @@ pub fn render(a: &Analysis) -> Result<String> {
             "Radial deviation Δ·(cos θ, sin θ, 0) per degree, predicted and after compensation.",
         );
     }
+    Ok(())
+}
 
+/// Both series of every curve, the better RMSE marked.
+fn fit_table(h: &mut Page, a: &Analysis) {
+    let r = &a.report;
     h.h2("fits", "Fit table");
     h.paragraph(
         "Both series of every curve over its measured travel: Fourier of order N against the polynomial of \
@@ -125,7 +148,11 @@ pub fn render(a: &Analysis) -> Result<String> {
         &["curve", "model", "R²", "SSE", "RMSE", "e_max", "lower RMSE"],
         &rows,
     );
+}
 
+/// Per axis: its curves with both fits, the removed straightness lines and the orders chosen.
+fn axis_sections(h: &mut Page, a: &Analysis) -> Result<()> {
+    let r = &a.report;
     for (axis, ar) in a.model.axes.iter().zip(&r.axes) {
         let name = axis.axis().name();
         h.h2(
@@ -198,7 +225,12 @@ pub fn render(a: &Analysis) -> Result<String> {
             );
         }
     }
+    Ok(())
+}
 
+/// The volumetric errors (with `--at`), the first rows.
+fn volumetric_section(h: &mut Page, a: &Analysis) {
+    let r = &a.report;
     if let Some(v) = &r.volumetric {
         h.h2("volumetric", "Volumetric errors");
         h.paragraph(&format!(
@@ -224,7 +256,11 @@ pub fn render(a: &Analysis) -> Result<String> {
             &rows,
         );
     }
+}
 
+/// The LinuxCNC compensation files.
+fn compensation_section(h: &mut Page, a: &Analysis) {
+    let r = &a.report;
     h.h2("compensation", "Pitch compensation tables (LinuxCNC)");
     h.paragraph(
         "comp_<axis>.txt per axis: COMP_FILE_TYPE = 0, each line the nominal position, the actual position \
@@ -248,7 +284,11 @@ pub fn render(a: &Analysis) -> Result<String> {
         })
         .collect();
     h.table(None, &["file", "lines", "directions"], &rows);
+}
 
+/// How a vision campaign's sweeps became curves (with `--from-report`).
+fn campaign_section(h: &mut Page, a: &Analysis) {
+    let r = &a.report;
     if let Some(c) = &r.campaign {
         h.h2("campaign", "Curves from a vision campaign");
         let rows: Vec<Vec<String>> = c
@@ -277,8 +317,6 @@ pub fn render(a: &Analysis) -> Result<String> {
             .collect();
         h.notes("Campaign notes", &[sq, c.notes.clone()].concat(), false);
     }
-    h.notes("Conventions", &r.conventions, false);
-    Ok(h.finish())
 }
 
 /// Rows of the volumetric table on the page (the CSV has them all).
