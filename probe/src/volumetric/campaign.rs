@@ -231,25 +231,7 @@ pub fn from_evaluate(
     chain: &Chain,
     source: &str,
 ) -> Result<CampaignCurves> {
-    let mut lines: Vec<(Axis, &EvaluateLine)> = Vec::new();
-    for (name, line) in &report.axes {
-        let axis = axis_of(name)
-            .ok_or_else(|| input(source, CampaignFault::NotAnAxis { name: name.clone() }))?;
-        if chain.side(axis) != Some(Side::Workpiece) {
-            return Err(ProbeError::Chain {
-                text: chain.text.clone(),
-                fault: ChainFault::SweptOnToolSide {
-                    axis,
-                    report: source.to_string(),
-                },
-            });
-        }
-        lines.push((axis, line));
-    }
-    lines.sort_by_key(|(a, _)| *a);
-    if lines.is_empty() {
-        return Err(input(source, CampaignFault::NoAxis));
-    }
+    let lines = swept_lines(report, chain, source)?;
     let mut notes = Vec::new();
     let mut axes = Vec::new();
     let mut sweeps = Vec::new();
@@ -261,53 +243,9 @@ pub fn from_evaluate(
         let nominal: Vec<f64> = t.iter().map(|t| t.nominal).collect();
         let (first, last) = (nominal[0], nominal[nominal.len() - 1]);
 
-        // The reference position: where another sweep's main line crosses this axis.
-        let crossing: Vec<f64> = lines
-            .iter()
-            .filter(|(b, _)| *b != axis)
-            .map(|(_, l)| off_axis(l)[axis.index()])
-            .collect();
-        let reference = match crossing.first() {
-            Some(&r) if r >= first && r <= last => {
-                if crossing.iter().any(|c| (c - r).abs() > LINE_TOLERANCE_MM) {
-                    notes.push(format!(
-                        "axis {axis}: the other lines cross it at different positions; its curves are zero at {r} mm"
-                    ));
-                }
-                r
-            }
-            Some(&r) => {
-                notes.push(format!(
-                    "axis {axis}: the crossing line at {r} mm lies outside its travel [{first}, {last}] mm; \
-                     its curves are zero at the first target"
-                ));
-                first
-            }
-            None => {
-                notes.push(format!(
-                    "axis {axis}: no other line crosses it; its curves are zero at the first target"
-                ));
-                first
-            }
-        };
-
-        // The lever from the carriage's reference point to the sphere.
-        let own = chain.workpiece.iter().position(|&a| a == axis).unwrap_or(0);
-        let carriers = &chain.workpiece[own..];
+        let reference = reference_position(axis, &lines, (first, last), &mut notes);
         let off = off_axis(line);
-        let lever = t
-            .iter()
-            .map(|t| {
-                let mut q = Vector3::from(off);
-                q[axis.index()] = t.nominal;
-                let moved: Vector3<f64> = carriers
-                    .iter()
-                    .map(|m| Vector3::ith(m.index(), q[m.index()]))
-                    .sum();
-                t.sphere - moved
-            })
-            .sum::<Vector3<f64>>()
-            / t.len() as f64;
+        let lever = lever(chain, axis, off, &t);
 
         // 1. rotations referenced at r; 2. translations at the reference point.
         let rotations: Vec<Vector3<f64>> = t.iter().map(|t| t.rotation).collect();
@@ -336,18 +274,7 @@ pub fn from_evaluate(
         } else {
             return Err(input(source, CampaignFault::ZeroDirection { axis }));
         };
-        let mut direction = fitted;
-        for o in others {
-            let profile: Vec<geom::Point2<f64>> = nominal
-                .iter()
-                .zip(&delta)
-                .map(|(&q, d)| geom::Point2::new(q, d[o.index()]))
-                .collect();
-            let slope = geom::fit::line_y_on_x(&profile)?.k;
-            let e = Vector3::ith(o.index(), 1.0);
-            direction += (e - fitted * e.dot(&fitted)).normalize() * slope;
-        }
-        let direction = direction.normalize();
+        let direction = carriage_direction(fitted, others, &nominal, &delta)?;
         directions.insert(axis, direction);
         let shifted =
             |v: Option<f64>, abbe: &Vector3<f64>| v.map(|v| v - abbe[axis.index()] - offset);
@@ -387,6 +314,114 @@ pub fn from_evaluate(
         sweeps,
         notes,
     })
+}
+
+/// The main line of every swept axis, in axis order; each axis must be on
+/// the workpiece side of the chain.
+fn swept_lines<'r>(
+    report: &'r EvaluateReport,
+    chain: &Chain,
+    source: &str,
+) -> Result<Vec<(Axis, &'r EvaluateLine)>> {
+    let mut lines: Vec<(Axis, &EvaluateLine)> = Vec::new();
+    for (name, line) in &report.axes {
+        let axis = axis_of(name)
+            .ok_or_else(|| input(source, CampaignFault::NotAnAxis { name: name.clone() }))?;
+        if chain.side(axis) != Some(Side::Workpiece) {
+            return Err(ProbeError::Chain {
+                text: chain.text.clone(),
+                fault: ChainFault::SweptOnToolSide {
+                    axis,
+                    report: source.to_string(),
+                },
+            });
+        }
+        lines.push((axis, line));
+    }
+    lines.sort_by_key(|(a, _)| *a);
+    if lines.is_empty() {
+        return Err(input(source, CampaignFault::NoAxis));
+    }
+    Ok(lines)
+}
+
+/// The reference position of `axis` (mm): where another sweep's main line
+/// crosses it, else (with a note) its first target.
+fn reference_position(
+    axis: Axis,
+    lines: &[(Axis, &EvaluateLine)],
+    (first, last): (f64, f64),
+    notes: &mut Vec<String>,
+) -> f64 {
+    let crossing: Vec<f64> = lines
+        .iter()
+        .filter(|(b, _)| *b != axis)
+        .map(|(_, l)| off_axis(l)[axis.index()])
+        .collect();
+    match crossing.first() {
+        Some(&r) if r >= first && r <= last => {
+            if crossing.iter().any(|c| (c - r).abs() > LINE_TOLERANCE_MM) {
+                notes.push(format!(
+                    "axis {axis}: the other lines cross it at different positions; its curves are zero at {r} mm"
+                ));
+            }
+            r
+        }
+        Some(&r) => {
+            notes.push(format!(
+                "axis {axis}: the crossing line at {r} mm lies outside its travel [{first}, {last}] mm; \
+                 its curves are zero at the first target"
+            ));
+            first
+        }
+        None => {
+            notes.push(format!(
+                "axis {axis}: no other line crosses it; its curves are zero at the first target"
+            ));
+            first
+        }
+    }
+}
+
+/// The mean lever from the carriage's reference point to the sphere (mm):
+/// the sphere less the travel of the carriages that carry it.
+fn lever(chain: &Chain, axis: Axis, off: [f64; 3], t: &[Target]) -> Vector3<f64> {
+    let own = chain.workpiece.iter().position(|&a| a == axis).unwrap_or(0);
+    let carriers = &chain.workpiece[own..];
+    t.iter()
+        .map(|t| {
+            let mut q = Vector3::from(off);
+            q[axis.index()] = t.nominal;
+            let moved: Vector3<f64> = carriers
+                .iter()
+                .map(|m| Vector3::ith(m.index(), q[m.index()]))
+                .sum();
+            t.sphere - moved
+        })
+        .sum::<Vector3<f64>>()
+        / t.len() as f64
+}
+
+/// The carriage's direction: the fitted sweep direction turned by the slopes
+/// of the straightness profiles (which §5 counts as direction, not error).
+fn carriage_direction(
+    fitted: Vector3<f64>,
+    others: [Axis; 2],
+    nominal: &[f64],
+    delta: &[Vector3<f64>],
+) -> Result<Vector3<f64>> {
+    let mut direction = fitted;
+    for o in others {
+        let profile: Vec<geom::Point2<f64>> = nominal
+            .iter()
+            .zip(delta)
+            .map(|(&q, d)| geom::Point2::new(q, d[o.index()]))
+            .collect();
+        let slope = geom::fit::line_y_on_x(&profile)?.k;
+        let e = Vector3::ith(o.index(), 1.0);
+        direction += (e - fitted * e.dot(&fitted)).normalize() * slope;
+    }
+    Ok(direction.normalize())
 }
 
 /// Squareness (§5) from carriage directions in any frame: the §5 frame has x
