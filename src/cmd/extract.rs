@@ -239,7 +239,97 @@ pub fn print_notes(plan: &OutputPlan) {
     }
 }
 
-/// Run the command.
+/// What a batch left out, by kind, with a problem row for each.
+#[derive(Default)]
+struct Tally {
+    problems: Vec<ProblemRow>,
+    /// Frames that could not be read or extracted.
+    failed_frames: usize,
+    /// Frames with saturated blobs.
+    saturated: usize,
+    /// Blobs that kept their plain centroid.
+    uncorrected: usize,
+}
+
+impl Tally {
+    /// The batch's outcome once its problems are written: an error when no
+    /// image could be used, else a finished batch that names what it left out.
+    fn outcome(&self, images: usize, problems_file: &Path) -> Result<()> {
+        let Tally {
+            failed_frames,
+            saturated,
+            uncorrected,
+            ..
+        } = *self;
+        if failed_frames == images {
+            // Nothing usable is a failure, not a batch with a few bad items.
+            bail!(
+                "none of the {images} images could be used; listed in {}",
+                problems_file.display()
+            );
+        }
+        let mut what = Vec::new();
+        if failed_frames > 0 {
+            what.push(format!(
+                "{failed_frames} of {images} images could not be used"
+            ));
+        }
+        if saturated > 0 {
+            what.push(format!(
+                "{saturated} image{} with saturated blobs",
+                if saturated == 1 { "" } else { "s" }
+            ));
+        }
+        if uncorrected > 0 {
+            what.push(format!(
+                "{uncorrected} blob{} kept {} plain centroid",
+                if uncorrected == 1 { "" } else { "s" },
+                if uncorrected == 1 { "its" } else { "their" }
+            ));
+        }
+        Err(Finished::with_problems(format!(
+            "{}; listed in {}",
+            what.join("; "),
+            problems_file.display()
+        )))
+    }
+}
+
+/// The `blobs.csv` rows of one frame's blobs.
+fn blob_rows<'a>(
+    name: &'a str,
+    frame: &'a extract::FrameBlobs,
+) -> impl Iterator<Item = BlobRow> + 'a {
+    frame.blobs.iter().enumerate().map(move |(i, b)| {
+        let e = b.ellipse();
+        BlobRow {
+            image: name.to_string(),
+            blob: i as u32,
+            u: b.u,
+            v: b.v,
+            area_px: b.area_px,
+            diameter_px: b.diameter_px(),
+            peak: b.peak,
+            saturated: b.saturated(),
+            touches_border: b.touches_border,
+            sphere: None,
+            signal: b.signal() as f64,
+            major_px: e.major_px,
+            minor_px: e.minor_px,
+            orientation_rad: e.orientation_rad,
+            circularity: b.circularity(),
+            threshold: frame.threshold.clone(),
+            camera_model: frame.metadata.model.clone(),
+            camera_serial: frame.metadata.serial.clone(),
+            datetime: frame.metadata.datetime.clone(),
+            exposure_s: frame.metadata.exposure_s,
+        }
+    })
+}
+
+/// Run the command: plan and lock the outputs, fit the flat field, extract
+/// every image into `blobs.csv` (a bad frame is a problem row, never the end
+/// of the batch), then write the problems and say what was left out.
 pub fn run(args: &Args) -> Result<()> {
     let params = args.options.params()?;
     let backend = args.options.backend()?;
@@ -265,10 +355,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let mut out = plan.create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);
-    let mut problems: Vec<ProblemRow> = Vec::new();
-    // Problems by kind: unreadable frames, frames with saturated blobs, blobs
-    // that kept their plain centroid.
-    let (mut failed_frames, mut saturated, mut uncorrected) = (0usize, 0usize, 0usize);
+    let mut tally = Tally::default();
     let mut write_error: Option<anyhow::Error> = None;
     let bar = progress::bar(files.len() as u64, "extract");
     let sink = |_: usize, path: &Path, result: extract::Result<extract::FrameBlobs>| {
@@ -277,53 +364,30 @@ pub fn run(args: &Args) -> Result<()> {
         match result {
             Ok(frame) => {
                 if let Some(reason) = &frame.saturation {
-                    saturated += 1;
+                    tally.saturated += 1;
                     bar.suspend(|| eprintln!("trinocular: warning: {name}: {reason}"));
-                    problems.push(ProblemRow {
+                    tally.problems.push(ProblemRow {
                         item: name.clone(),
                         reason: reason.clone(),
                     });
                 }
                 for (i, reason) in &frame.uncorrected {
-                    uncorrected += 1;
-                    problems.push(ProblemRow {
+                    tally.uncorrected += 1;
+                    tally.problems.push(ProblemRow {
                         item: format!("{name}#blob{i}"),
                         reason: reason.clone(),
                     });
                 }
-                for (i, b) in frame.blobs.iter().enumerate() {
-                    let e = b.ellipse();
-                    let row = BlobRow {
-                        image: name.clone(),
-                        blob: i as u32,
-                        u: b.u,
-                        v: b.v,
-                        area_px: b.area_px,
-                        diameter_px: b.diameter_px(),
-                        peak: b.peak,
-                        saturated: b.saturated(),
-                        touches_border: b.touches_border,
-                        sphere: None,
-                        signal: b.signal() as f64,
-                        major_px: e.major_px,
-                        minor_px: e.minor_px,
-                        orientation_rad: e.orientation_rad,
-                        circularity: b.circularity(),
-                        threshold: frame.threshold.clone(),
-                        camera_model: frame.metadata.model.clone(),
-                        camera_serial: frame.metadata.serial.clone(),
-                        datetime: frame.metadata.datetime.clone(),
-                        exposure_s: frame.metadata.exposure_s,
-                    };
+                for row in blob_rows(&name, &frame) {
                     if let Err(e) = csv.serialize(row) {
                         write_error.get_or_insert(e.into());
                     }
                 }
             }
             Err(e) => {
-                failed_frames += 1;
+                tally.failed_frames += 1;
                 bar.suspend(|| eprintln!("trinocular: warning: {e}"));
-                problems.push(ProblemRow {
+                tally.problems.push(ProblemRow {
                     item: name,
                     reason: e.to_string(),
                 });
@@ -342,43 +406,11 @@ pub fn run(args: &Args) -> Result<()> {
         .with_context(|| format!("{}", args.out.display()))?;
     drop(csv);
     out.commit()?;
-    if problems.is_empty() {
+    if tally.problems.is_empty() {
         // A stale problems.csv from an earlier run (replaced with --force) would mislead.
         plan.remove(&problems_file)?;
         return Ok(());
     }
-    plan.write_records(&problems_file, &problems)?;
-    if failed_frames == files.len() {
-        // Nothing usable is a failure, not a batch with a few bad items.
-        bail!(
-            "none of the {} images could be used; listed in {}",
-            files.len(),
-            problems_file.display()
-        );
-    }
-    let mut what = Vec::new();
-    if failed_frames > 0 {
-        what.push(format!(
-            "{failed_frames} of {} images could not be used",
-            files.len()
-        ));
-    }
-    if saturated > 0 {
-        what.push(format!(
-            "{saturated} image{} with saturated blobs",
-            if saturated == 1 { "" } else { "s" }
-        ));
-    }
-    if uncorrected > 0 {
-        what.push(format!(
-            "{uncorrected} blob{} kept {} plain centroid",
-            if uncorrected == 1 { "" } else { "s" },
-            if uncorrected == 1 { "its" } else { "their" }
-        ));
-    }
-    Err(Finished::with_problems(format!(
-        "{}; listed in {}",
-        what.join("; "),
-        problems_file.display()
-    )))
+    plan.write_records(&problems_file, &tally.problems)?;
+    tally.outcome(files.len(), &problems_file)
 }
