@@ -16,7 +16,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use formats::Dwell;
 
-use crate::align::{AlignParams, Event, align};
+use crate::align::{AlignParams, Alignment, Event, align};
 use crate::{IngestError, Result};
 
 /// A frame on its camera's clock.
@@ -198,30 +198,13 @@ pub fn place_triggered(
     // (camera, dwell) → its burst.
     let mut bursts: BTreeMap<(u8, usize), Burst> = BTreeMap::new();
     for cam in cameras {
-        let c = cam.camera;
         let Some(first) = cam.frames.first() else {
             continue;
         };
-        let resolution = cam
-            .frames
-            .iter()
-            .map(|f| f.resolution_ns)
-            .max()
-            .unwrap_or(0);
-        if resolution as f64 / NS > 0.5 * timing.cut_s {
-            placed.fault_frames(
-                &cam.frames,
-                c,
-                None,
-                &format!(
-                    "camera {c}'s time stamps resolve only {} s: bursts {:.4} s apart \
-                         cannot be told apart",
-                    resolution as f64 / NS,
-                    timing.cut_s
-                ),
-            );
+        if stamps_too_coarse(cam, timing.cut_s, &mut placed) {
             continue;
         }
+        // The camera's bursts aligned with the program's dwells.
         let ranges = cut_bursts(&cam.frames, cut_ns);
         let events: Vec<Event> = ranges
             .iter()
@@ -232,69 +215,8 @@ pub fn place_triggered(
             })
             .collect();
         let a = align(&events, &program, captures as usize, params);
-        placed.scales.push((c, a.scale));
-        let ambiguous: BTreeMap<usize, _> = a.ambiguous.iter().map(|x| (x.event, *x)).collect();
-        for (e, r) in ranges.iter().enumerate() {
-            let frames = &cam.frames[r.clone()];
-            if let Some(x) = ambiguous.get(&e) {
-                let name = |d: Option<usize>| {
-                    d.map_or("no dwell (a stray)".to_string(), |j| {
-                        format!("dwell {}", describe(&dwells[j]))
-                    })
-                };
-                placed.fault_frames(
-                    frames,
-                    c,
-                    x.chosen,
-                    &format!(
-                        "burst of {} frame(s) cannot be matched to the program unambiguously: \
-                             {} or {} (costs differ by {:.1})",
-                        frames.len(),
-                        name(x.chosen),
-                        name(x.alternative),
-                        x.margin
-                    ),
-                );
-                continue;
-            }
-            match a.dwell_of[e] {
-                Some(j) => {
-                    bursts.insert(
-                        (c, j),
-                        Burst {
-                            frames: frames.to_vec(),
-                        },
-                    );
-                }
-                None => {
-                    let before = (0..e).rev().find_map(|k| a.dwell_of[k]);
-                    let after = (e + 1..ranges.len()).find_map(|k| a.dwell_of[k]);
-                    let place = match (before, after) {
-                        (Some(b), Some(n)) => format!(
-                            "between the captures of {} and {}",
-                            describe(&dwells[b]),
-                            describe(&dwells[n])
-                        ),
-                        (Some(b), None) => {
-                            format!("after the captures of {}", describe(&dwells[b]))
-                        }
-                        (None, Some(n)) => {
-                            format!("before the captures of {}", describe(&dwells[n]))
-                        }
-                        (None, None) => "with no burst of this camera matched".into(),
-                    };
-                    placed.fault_frames(
-                        frames,
-                        c,
-                        None,
-                        &format!(
-                            "frame in no dwell (a stray trigger?): a burst of {} frame(s) {place}",
-                            frames.len()
-                        ),
-                    );
-                }
-            }
-        }
+        placed.scales.push((cam.camera, a.scale));
+        match_bursts(cam, &ranges, &a, dwells, &mut bursts, &mut placed);
     }
     assign_captures(&bursts, dwells, captures, period, &mut placed);
     report_missing(cameras, &bursts, dwells, captures, &mut placed);
@@ -302,6 +224,108 @@ pub fn place_triggered(
         .placements
         .sort_by_key(|p| (p.dwell, p.capture, p.camera));
     Ok(placed)
+}
+
+/// Whether the camera's time stamps resolve more coarsely than half the gap
+/// that tells bursts apart (its frames then faults).
+fn stamps_too_coarse(cam: &CameraFrames, cut_s: f64, placed: &mut Placed) -> bool {
+    let c = cam.camera;
+    let resolution = cam
+        .frames
+        .iter()
+        .map(|f| f.resolution_ns)
+        .max()
+        .unwrap_or(0);
+    if resolution as f64 / NS > 0.5 * cut_s {
+        placed.fault_frames(
+            &cam.frames,
+            c,
+            None,
+            &format!(
+                "camera {c}'s time stamps resolve only {} s: bursts {:.4} s apart \
+                 cannot be told apart",
+                resolution as f64 / NS,
+                cut_s
+            ),
+        );
+        return true;
+    }
+    false
+}
+
+/// Each burst of the camera (`ranges` of its frames) at the dwell the
+/// alignment `a` matched it to; an ambiguous or unmatched burst's frames are faults.
+fn match_bursts(
+    cam: &CameraFrames,
+    ranges: &[std::ops::Range<usize>],
+    a: &Alignment,
+    dwells: &[Dwell],
+    bursts: &mut BTreeMap<(u8, usize), Burst>,
+    placed: &mut Placed,
+) {
+    let c = cam.camera;
+    let ambiguous: BTreeMap<usize, _> = a.ambiguous.iter().map(|x| (x.event, *x)).collect();
+    for (e, r) in ranges.iter().enumerate() {
+        let frames = &cam.frames[r.clone()];
+        if let Some(x) = ambiguous.get(&e) {
+            let name = |d: Option<usize>| {
+                d.map_or("no dwell (a stray)".to_string(), |j| {
+                    format!("dwell {}", describe(&dwells[j]))
+                })
+            };
+            placed.fault_frames(
+                frames,
+                c,
+                x.chosen,
+                &format!(
+                    "burst of {} frame(s) cannot be matched to the program unambiguously: \
+                     {} or {} (costs differ by {:.1})",
+                    frames.len(),
+                    name(x.chosen),
+                    name(x.alternative),
+                    x.margin
+                ),
+            );
+            continue;
+        }
+        match a.dwell_of[e] {
+            Some(j) => {
+                bursts.insert(
+                    (c, j),
+                    Burst {
+                        frames: frames.to_vec(),
+                    },
+                );
+            }
+            None => {
+                let before = (0..e).rev().find_map(|k| a.dwell_of[k]);
+                let after = (e + 1..ranges.len()).find_map(|k| a.dwell_of[k]);
+                let place = match (before, after) {
+                    (Some(b), Some(n)) => format!(
+                        "between the captures of {} and {}",
+                        describe(&dwells[b]),
+                        describe(&dwells[n])
+                    ),
+                    (Some(b), None) => {
+                        format!("after the captures of {}", describe(&dwells[b]))
+                    }
+                    (None, Some(n)) => {
+                        format!("before the captures of {}", describe(&dwells[n]))
+                    }
+                    (None, None) => "with no burst of this camera matched".into(),
+                };
+                placed.fault_frames(
+                    frames,
+                    c,
+                    None,
+                    &format!(
+                        "frame in no dwell (a stray trigger?): a burst of {} frame(s) {place}",
+                        frames.len()
+                    ),
+                );
+            }
+        }
+    }
 }
 
 /// Whether frames lie on a `1/fps` grid: every gap a whole number (≥ 1) of
