@@ -216,6 +216,58 @@ impl Stream {
     }
 }
 
+/// What the steps of continuous placement share: the frame counts of a stay,
+/// the stillness bound and the decoded blobs.
+struct Sampling<'a> {
+    /// Frames per instant.
+    captures: u32,
+    /// `⌈settle_s·fps⌉`: frames from a dwell's arrival to its first capture.
+    settle_frames: i64,
+    /// One frame in `stride` is sampled: three samples in the shortest stay.
+    stride: i64,
+    /// `still_px`: blobs within this of rest are still.
+    eps: f64,
+    /// Blobs of the frames decoded so far.
+    cache: Cache<'a>,
+}
+
+impl<'a> Sampling<'a> {
+    /// `stride = ⌊(⌈settle_s·fps⌉ + captures) / 3⌋`, at least 1.
+    fn new(captures: u32, settle_s: f64, fps: f64, eps: f64, source: &'a dyn Signatures) -> Self {
+        let settle_frames = (settle_s * fps - 1e-9).ceil().max(0.0) as i64;
+        let stay_frames = settle_frames + i64::from(captures);
+        let stride = (stay_frames / 3).max(1);
+        Self {
+            captures,
+            settle_frames,
+            stride,
+            eps,
+            cache: Cache {
+                source,
+                seen: Mutex::new(HashMap::new()),
+            },
+        }
+    }
+}
+
+/// One camera's stays matched to dwells, and how much slower than programmed
+/// its alignment found the campaign.
+struct CameraStays {
+    camera: u8,
+    found: Found,
+    scale: f64,
+}
+
+/// The cameras on the reference camera's frame clock: what the instants are
+/// placed from.
+struct OnReference<'a> {
+    streams: &'a [Stream],
+    /// Camera → its stays matched to dwells.
+    found: BTreeMap<u8, &'a Found>,
+    /// Camera → its slot offset from the reference camera (only the cameras put on its clock).
+    offsets: BTreeMap<u8, i64>,
+}
+
 /// Place the frames of continuous capture.
 pub fn place_continuous(
     cameras: &[CameraFrames],
@@ -227,15 +279,48 @@ pub fn place_continuous(
     params: &ContinuousParams,
 ) -> Placed {
     let mut placed = Placed::default();
-    let settle_frames = (settle_s * fps - 1e-9).ceil().max(0.0) as i64;
-    let stay_frames = settle_frames + i64::from(captures);
-    let stride = (stay_frames / 3).max(1);
-    let eps = params.still_px;
-    let cache = Cache {
-        source,
-        seen: Mutex::new(HashMap::new()),
-    };
+    let sampling = Sampling::new(captures, settle_s, fps, params.still_px, source);
     let program: Vec<f64> = dwells.iter().map(|d| d.time_s).collect();
+    let streams = camera_streams(cameras, fps, &mut placed);
+
+    // Per camera: sampled stays, aligned with the program, arrivals refined.
+    let per_camera: Vec<CameraStays> = streams
+        .par_iter()
+        .map(|s| camera_stays(s, &program, &sampling, &params.align))
+        .collect();
+    for c in &per_camera {
+        placed.scales.push((c.camera, c.scale));
+    }
+
+    // Offsets of the cameras' slots from the reference camera's.
+    let found: BTreeMap<u8, &Found> = per_camera.iter().map(|c| (c.camera, &c.found)).collect();
+    let Some(offsets) = slot_offsets(&per_camera, &found, &streams, &mut placed) else {
+        return placed;
+    };
+    let on_reference = OnReference {
+        streams: &streams,
+        found,
+        offsets,
+    };
+
+    // Arrivals on the reference clock; the instants; the check that the table stays still.
+    for (j, d) in dwells.iter().enumerate() {
+        on_reference.place_instant(j, d, &sampling, &mut placed);
+    }
+
+    // The frames that failed: none of a fault's frames is placed.
+    unreadable_frames(&streams, &sampling.cache, &mut placed);
+    placed.decoded = sampling.cache.decoded();
+    let bad: BTreeSet<usize> = placed.faults.iter().filter_map(|f| f.file).collect();
+    placed.placements.retain(|p| !bad.contains(&p.file));
+    placed
+        .placements
+        .sort_by_key(|p| (p.dwell, p.capture, p.camera));
+    placed
+}
+
+/// Each camera's stream on the frame clock; a camera without frames is a fault.
+fn camera_streams(cameras: &[CameraFrames], fps: f64, placed: &mut Placed) -> Vec<Stream> {
     let mut streams = Vec::new();
     for cam in cameras {
         if cam.frames.is_empty() {
@@ -251,131 +336,175 @@ pub fn place_continuous(
         }
         streams.push(stream(cam, fps, &mut placed.faults));
     }
+    streams
+}
 
-    // Per camera: sampled stays, aligned with the program, arrivals refined.
-    let per_camera: Vec<(u8, Found, f64)> = streams
-        .par_iter()
-        .map(|s| {
-            let (lo, hi) = match (s.by_slot.keys().next(), s.by_slot.keys().next_back()) {
-                (Some(&a), Some(&b)) => (a, b),
-                _ => return (s.camera, BTreeMap::new(), 1.0),
-            };
-            let samples: Vec<i64> = (0..)
-                .map(|k| lo + k * stride)
-                .take_while(|&slot| slot <= hi)
-                .filter_map(|slot| s.by_slot.range(slot..slot + stride).next().map(|(k, _)| *k))
-                .collect();
-            let spots: Vec<Option<Vec<Spot>>> = samples
-                .par_iter()
-                .map(|&slot| s.file(slot).and_then(|f| cache.get(f).ok()))
-                .collect();
-            let mut stays: Vec<Stay> = Vec::new();
-            let mut run: Option<(usize, usize)> = None;
-            let close = |run: Option<(usize, usize)>, stays: &mut Vec<Stay>| {
-                if let Some((a, b)) = run
-                    && b > a
-                    && let Some(anchor) = spots[a].clone()
-                {
-                    stays.push(Stay {
-                        first_sample: samples[a],
-                        before: a.checked_sub(1).map(|p| samples[p]),
-                        anchor,
-                    });
-                }
-            };
-            for k in 0..samples.len() {
-                match (&run, &spots[k]) {
-                    (Some((a, _)), Some(sp))
-                        if spots[*a].as_ref().is_some_and(|an| distance(an, sp) <= eps) =>
-                    {
-                        run = run.map(|(a, _)| (a, k));
-                    }
-                    (_, Some(_)) => {
-                        close(run, &mut stays);
-                        run = Some((k, k));
-                    }
-                    (_, None) => {
-                        close(run, &mut stays);
-                        run = None;
-                    }
-                }
-            }
-            close(run, &mut stays);
-            let events: Vec<Event> = stays
-                .iter()
-                .filter_map(|st| {
-                    Some(Event {
-                        time_s: s.time_s(st.first_sample)?,
-                        size: captures as usize,
-                        irregular: false,
-                    })
-                })
-                .collect();
-            let a = align(&events, &program, captures as usize, &params.align);
-            let ambiguous: BTreeSet<usize> = a.ambiguous.iter().map(|x| x.event).collect();
-            let mut found = BTreeMap::new();
-            for (e, st) in stays.iter().enumerate() {
-                let Some(j) = a.dwell_of[e] else { continue };
-                if ambiguous.contains(&e) {
-                    continue;
-                }
-                let arrival = refine(s, st, stride, eps, &cache);
-                found.insert(j, (arrival, st.clone()));
-            }
-            (s.camera, found, a.scale)
-        })
-        .collect();
-    for (c, _, scale) in &per_camera {
-        placed.scales.push((*c, *scale));
-    }
-
-    // Offsets of the cameras' slots from the reference camera's.
-    let reference = per_camera
-        .iter()
-        .max_by_key(|(c, found, _)| {
-            (
-                found.values().filter(|(a, _)| a.sharp).count(),
-                std::cmp::Reverse(*c),
-            )
-        })
-        .map(|(c, _, _)| *c);
-    let Some(reference) = reference else {
-        return placed;
+/// One camera's sampled stays aligned with the program's dwells, each
+/// matched one with its arrival refined.
+fn camera_stays(
+    s: &Stream,
+    program: &[f64],
+    sampling: &Sampling<'_>,
+    params: &AlignParams,
+) -> CameraStays {
+    let Some(stays) = sampled_stays(s, sampling) else {
+        return CameraStays {
+            camera: s.camera,
+            found: BTreeMap::new(),
+            scale: 1.0,
+        };
     };
-    let found: BTreeMap<u8, &Found> = per_camera.iter().map(|(c, f, _)| (*c, f)).collect();
-    let mut offsets: BTreeMap<u8, i64> = BTreeMap::new();
-    offsets.insert(reference, 0);
-    let pair = |c: u8, r: u8, sharp_only: bool| -> Option<i64> {
-        let (fc, fr) = (found.get(&c)?, found.get(&r)?);
-        let mut votes: BTreeMap<i64, usize> = BTreeMap::new();
-        let mut total = 0;
-        for (j, (a, _)) in fc.iter() {
-            if let Some((b, _)) = fr.get(j)
-                && (!sharp_only || (a.sharp && b.sharp))
+    let (found, scale) = matched_arrivals(s, &stays, program, sampling, params);
+    CameraStays {
+        camera: s.camera,
+        found,
+        scale,
+    }
+}
+
+/// Candidate stays: runs of samples (one frame in `stride`) whose blobs stay
+/// within `eps` of the run's first sample. `None` for a stream without slots.
+fn sampled_stays(s: &Stream, sampling: &Sampling<'_>) -> Option<Vec<Stay>> {
+    let (stride, eps) = (sampling.stride, sampling.eps);
+    let (lo, hi) = match (s.by_slot.keys().next(), s.by_slot.keys().next_back()) {
+        (Some(&a), Some(&b)) => (a, b),
+        _ => return None,
+    };
+    let samples: Vec<i64> = (0..)
+        .map(|k| lo + k * stride)
+        .take_while(|&slot| slot <= hi)
+        .filter_map(|slot| s.by_slot.range(slot..slot + stride).next().map(|(k, _)| *k))
+        .collect();
+    let spots: Vec<Option<Vec<Spot>>> = samples
+        .par_iter()
+        .map(|&slot| s.file(slot).and_then(|f| sampling.cache.get(f).ok()))
+        .collect();
+    let mut stays: Vec<Stay> = Vec::new();
+    let mut run: Option<(usize, usize)> = None;
+    let close = |run: Option<(usize, usize)>, stays: &mut Vec<Stay>| {
+        if let Some((a, b)) = run
+            && b > a
+            && let Some(anchor) = spots[a].clone()
+        {
+            stays.push(Stay {
+                first_sample: samples[a],
+                before: a.checked_sub(1).map(|p| samples[p]),
+                anchor,
+            });
+        }
+    };
+    for k in 0..samples.len() {
+        match (&run, &spots[k]) {
+            (Some((a, _)), Some(sp))
+                if spots[*a].as_ref().is_some_and(|an| distance(an, sp) <= eps) =>
             {
-                *votes.entry(a.slot - b.slot).or_default() += 1;
-                total += 1;
+                run = run.map(|(a, _)| (a, k));
+            }
+            (_, Some(_)) => {
+                close(run, &mut stays);
+                run = Some((k, k));
+            }
+            (_, None) => {
+                close(run, &mut stays);
+                run = None;
             }
         }
-        let (&d, &n) = votes
-            .iter()
-            .max_by_key(|(d, n)| (**n, std::cmp::Reverse(**d)))?;
-        (n >= 3 && 2 * n > total).then_some(d)
-    };
-    for s in &streams {
+    }
+    close(run, &mut stays);
+    Some(stays)
+}
+
+/// The stays aligned with the program's dwells (ambiguous ones left out),
+/// each with its arrival refined; and the alignment's scale.
+fn matched_arrivals(
+    s: &Stream,
+    stays: &[Stay],
+    program: &[f64],
+    sampling: &Sampling<'_>,
+    params: &AlignParams,
+) -> (Found, f64) {
+    let captures = sampling.captures;
+    let events: Vec<Event> = stays
+        .iter()
+        .filter_map(|st| {
+            Some(Event {
+                time_s: s.time_s(st.first_sample)?,
+                size: captures as usize,
+                irregular: false,
+            })
+        })
+        .collect();
+    let a = align(&events, program, captures as usize, params);
+    let ambiguous: BTreeSet<usize> = a.ambiguous.iter().map(|x| x.event).collect();
+    let mut found = BTreeMap::new();
+    for (e, st) in stays.iter().enumerate() {
+        let Some(j) = a.dwell_of[e] else { continue };
+        if ambiguous.contains(&e) {
+            continue;
+        }
+        let arrival = refine(s, st, sampling.stride, sampling.eps, &sampling.cache);
+        found.insert(j, (arrival, st.clone()));
+    }
+    (found, a.scale)
+}
+
+/// The most frequent difference of the arrival slots of cameras `c` and `r`
+/// at the same dwells (sharp arrivals only, or all), when it has at least 3
+/// votes and a majority.
+fn voted_offset(found: &BTreeMap<u8, &Found>, c: u8, r: u8, sharp_only: bool) -> Option<i64> {
+    let (fc, fr) = (found.get(&c)?, found.get(&r)?);
+    let mut votes: BTreeMap<i64, usize> = BTreeMap::new();
+    let mut total = 0;
+    for (j, (a, _)) in fc.iter() {
+        if let Some((b, _)) = fr.get(j)
+            && (!sharp_only || (a.sharp && b.sharp))
+        {
+            *votes.entry(a.slot - b.slot).or_default() += 1;
+            total += 1;
+        }
+    }
+    let (&d, &n) = votes
+        .iter()
+        .max_by_key(|(d, n)| (**n, std::cmp::Reverse(**d)))?;
+    (n >= 3 && 2 * n > total).then_some(d)
+}
+
+/// Each camera's slot offset from the reference camera (the one with the
+/// most sharp arrivals): directly, else through the third camera; a camera
+/// with none has its frames as faults. `None` when there is no camera.
+fn slot_offsets(
+    per_camera: &[CameraStays],
+    found: &BTreeMap<u8, &Found>,
+    streams: &[Stream],
+    placed: &mut Placed,
+) -> Option<BTreeMap<u8, i64>> {
+    let reference = per_camera
+        .iter()
+        .max_by_key(|c| {
+            (
+                c.found.values().filter(|(a, _)| a.sharp).count(),
+                std::cmp::Reverse(c.camera),
+            )
+        })
+        .map(|c| c.camera)?;
+    let mut offsets: BTreeMap<u8, i64> = BTreeMap::new();
+    offsets.insert(reference, 0);
+    let pair =
+        |c: u8, r: u8| voted_offset(found, c, r, true).or_else(|| voted_offset(found, c, r, false));
+    for s in streams {
         let c = s.camera;
         if c == reference {
             continue;
         }
-        let direct = pair(c, reference, true).or_else(|| pair(c, reference, false));
+        let direct = pair(c, reference);
         let via = || {
             streams
                 .iter()
                 .map(|k| k.camera)
                 .filter(|&k| k != c && k != reference)
                 .find_map(|k| {
-                    let a = pair(c, k, true).or_else(|| pair(c, k, false))?;
-                    let b = pair(k, reference, true).or_else(|| pair(k, reference, false))?;
+                    let a = pair(c, k)?;
+                    let b = pair(k, reference)?;
                     Some(a + b)
                 })
         };
@@ -390,31 +519,22 @@ pub fn place_continuous(
                     None,
                     &format!(
                         "camera {c}'s frames cannot be put on camera {reference}'s frame \
-                             clock: too few of the dwells found in both line up"
+                         clock: too few of the dwells found in both line up"
                     ),
                 );
             }
         }
     }
+    Some(offsets)
+}
 
-    // Arrivals on the reference clock; the instants; the check that the table stays still.
-    for (j, d) in dwells.iter().enumerate() {
-        let candidates: Vec<(u8, Arrival, &Stay)> = found
-            .iter()
-            .filter(|(c, _)| offsets.contains_key(c))
-            .filter_map(|(c, f)| f.get(&j).map(|(a, st)| (*c, *a, st)))
-            .collect();
-        let sharp: Vec<&(u8, Arrival, &Stay)> =
-            candidates.iter().filter(|(_, a, _)| a.sharp).collect();
-        let chosen: Vec<&(u8, Arrival, &Stay)> = if sharp.is_empty() {
-            candidates.iter().collect()
-        } else {
-            sharp
-        };
-        let Some(&&(judge, _, stay)) = chosen
-            .iter()
-            .max_by_key(|(c, a, _)| (a.slot - offsets[c], std::cmp::Reverse(*c)))
-        else {
+impl OnReference<'_> {
+    /// Dwell `j`'s instant: its arrival on the reference clock, the check
+    /// that the table is still through the last capture, each camera's
+    /// frames at the captures; or the fault that prevents it.
+    fn place_instant(&self, j: usize, d: &Dwell, sampling: &Sampling<'_>, placed: &mut Placed) {
+        let captures = sampling.captures;
+        let Some((judge, stay, arrival)) = self.arrival(j) else {
             placed.faults.push(Fault {
                 file: None,
                 camera: None,
@@ -427,21 +547,12 @@ pub fn place_continuous(
                 ),
                 related: Vec::new(),
             });
-            continue;
+            return;
         };
-        let arrival = chosen
-            .iter()
-            .map(|(c, a, _)| a.slot - offsets[c])
-            .max()
-            .unwrap_or(0);
-        let first = arrival + settle_frames;
+        let first = arrival + sampling.settle_frames;
         let last = first + i64::from(captures) - 1;
         // The table must still be at rest at the last capture (in the judging camera).
-        let judge_stream = streams.iter().find(|s| s.camera == judge);
-        let at_rest = judge_stream
-            .and_then(|s| s.file(last + offsets[&judge]))
-            .map(|f| cache.get(f).map(|sp| distance(&stay.anchor, &sp) <= eps));
-        if let Some(Ok(false)) = at_rest {
+        if self.moved_again(judge, stay, last, sampling) {
             placed.faults.push(Fault {
                 file: None,
                 camera: Some(judge),
@@ -451,14 +562,63 @@ pub fn place_continuous(
                     "dwell {}: the spheres move again before the last capture, {} frames after \
                      the arrival (settle_s and the captures do not fit in the stay)",
                     describe(d),
-                    settle_frames + i64::from(captures) - 1
+                    sampling.settle_frames + i64::from(captures) - 1
                 ),
                 related: Vec::new(),
             });
-            continue;
+            return;
         }
-        for s in &streams {
-            let Some(o) = offsets.get(&s.camera) else {
+        self.take_captures(j, d, first, captures, placed);
+    }
+
+    /// Dwell `j`'s arrival slot on the reference clock: the latest of the
+    /// cameras' sharp arrivals (of all, when none is sharp), with the camera
+    /// that judges it and its stay.
+    fn arrival(&self, j: usize) -> Option<(u8, &Stay, i64)> {
+        let candidates: Vec<(u8, Arrival, &Stay)> = self
+            .found
+            .iter()
+            .filter(|(c, _)| self.offsets.contains_key(c))
+            .filter_map(|(c, f)| f.get(&j).map(|(a, st)| (*c, *a, st)))
+            .collect();
+        let sharp: Vec<&(u8, Arrival, &Stay)> =
+            candidates.iter().filter(|(_, a, _)| a.sharp).collect();
+        let chosen: Vec<&(u8, Arrival, &Stay)> = if sharp.is_empty() {
+            candidates.iter().collect()
+        } else {
+            sharp
+        };
+        let &&(judge, _, stay) = chosen
+            .iter()
+            .max_by_key(|(c, a, _)| (a.slot - self.offsets[c], std::cmp::Reverse(*c)))?;
+        let arrival = chosen
+            .iter()
+            .map(|(c, a, _)| a.slot - self.offsets[c])
+            .max()
+            .unwrap_or(0);
+        Some((judge, stay, arrival))
+    }
+
+    /// Whether the camera `judge` sees the spheres away from its stay's rest
+    /// at slot `last` of the reference clock (unknown frames: not moved).
+    fn moved_again(&self, judge: u8, stay: &Stay, last: i64, sampling: &Sampling<'_>) -> bool {
+        let judge_stream = self.streams.iter().find(|s| s.camera == judge);
+        let at_rest = judge_stream
+            .and_then(|s| s.file(last + self.offsets[&judge]))
+            .map(|f| {
+                sampling
+                    .cache
+                    .get(f)
+                    .map(|sp| distance(&stay.anchor, &sp) <= sampling.eps)
+            });
+        matches!(at_rest, Some(Ok(false)))
+    }
+
+    /// Each camera's frames at the `captures` slots from `first` (reference
+    /// clock); a missing one is a dropped frame.
+    fn take_captures(&self, j: usize, d: &Dwell, first: i64, captures: u32, placed: &mut Placed) {
+        for s in self.streams {
+            let Some(o) = self.offsets.get(&s.camera) else {
                 continue;
             };
             for k in 0..captures {
@@ -488,6 +648,10 @@ pub fn place_continuous(
             }
         }
     }
+}
+
+/// The frames whose blobs could not be read, as faults of their cameras.
+fn unreadable_frames(streams: &[Stream], cache: &Cache<'_>, placed: &mut Placed) {
     for (file, why) in cache.failed() {
         let camera = streams
             .iter()
@@ -502,13 +666,6 @@ pub fn place_continuous(
             related: Vec::new(),
         });
     }
-    placed.decoded = cache.decoded();
-    let bad: BTreeSet<usize> = placed.faults.iter().filter_map(|f| f.file).collect();
-    placed.placements.retain(|p| !bad.contains(&p.file));
-    placed
-        .placements
-        .sort_by_key(|p| (p.dwell, p.capture, p.camera));
-    placed
 }
 
 /// The first still slot of a stay, by bisection between the moving sample

@@ -36,7 +36,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
 
 use extract::{Backend, CpuBackend, ExtractParams, FrameReader};
-use formats::{ManifestProblemRow, ManifestRow, ProcedureConfig};
+use formats::{Dwell, ManifestProblemRow, ManifestRow, ProcedureConfig};
 
 pub use align::AlignParams;
 pub use continuous::{ContinuousParams, Signatures, Spot};
@@ -217,187 +217,24 @@ impl Signatures for ImageSignatures<'_> {
 
 /// Build the manifest of the frames under `inputs.dirs`.
 pub fn build(inputs: &Inputs<'_>, options: &Options) -> Result<Built> {
-    check_cameras(inputs.cameras)?;
-    if inputs.dirs.is_empty() {
-        return Err(IngestError::NoFolder);
-    }
-    let program = inputs.program;
-    program.validate().map_err(|e| IngestError::Program {
-        path: PathBuf::from("program"),
-        message: format!("{}: {}", e.key, e.message),
-    })?;
-    let dwells = program.dwells();
-    let folder = inputs
-        .manifest
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let base = std::fs::canonicalize(folder).map_err(|e| IngestError::io(folder, e))?;
-
+    let dwells = checked_dwells(inputs)?;
+    let base = manifest_folder(inputs.manifest)?;
+    // The frames and what cannot be used.
     let found = scan::scan(inputs.dirs, inputs.cameras)?;
-    let rel = |p: &Path| -> String {
-        std::fs::canonicalize(p)
-            .ok()
-            .and_then(|a| relative(&base, &a))
-            .unwrap_or_else(|| p.to_string_lossy().into_owned())
-    };
-    let serial_of = |c: u8| {
-        inputs
-            .cameras
-            .iter()
-            .find(|(_, id)| *id == c)
-            .map(|(s, _)| s.clone())
-    };
     let frames = &found.frames;
-    let rels: Vec<String> = frames.iter().map(|f| rel(&f.path)).collect();
-    let mut problems: Vec<Problem> = found
-        .unusable
-        .iter()
-        .map(|u| Problem {
-            image: Some(rel(&u.path)),
-            serial: u.serial.clone(),
-            camera: u.camera,
-            time: u.time.clone(),
-            axis: None,
-            direction: None,
-            run: None,
-            target: None,
-            capture: None,
-            reason: u.reason.clone(),
-        })
-        .collect();
-
-    // Frames per camera in time order (ties: natural path order, the scan's order).
-    let mut cameras: Vec<CameraFrames> = inputs
-        .cameras
-        .iter()
-        .map(|(_, c)| CameraFrames {
-            camera: *c,
-            frames: Vec::new(),
-        })
-        .collect();
-    cameras.sort_by_key(|c| c.camera);
-    for (i, f) in frames.iter().enumerate() {
-        if let Some(c) = cameras.iter_mut().find(|c| c.camera == f.camera) {
-            c.frames.push(TimedFrame {
-                file: i,
-                ns: f.time.ns,
-                resolution_ns: f.time.resolution_ns,
-            });
-        }
-    }
-    for c in &mut cameras {
-        c.frames.sort_by_key(|f| (f.ns, f.file));
-    }
-
-    let placed = match options.capture {
-        Capture::Triggered => triggered::place_triggered(
-            &cameras,
-            &dwells,
-            program.captures,
-            program.fps,
-            &options.align,
-        )?,
-        Capture::Continuous => {
-            let paths: Vec<PathBuf> = frames.iter().map(|f| f.path.clone()).collect();
-            let source = ImageSignatures {
-                paths: &paths,
-                params: &options.extract,
-            };
-            continuous::place_continuous(
-                &cameras,
-                &dwells,
-                program.captures,
-                program.settle_s,
-                program.fps,
-                &source,
-                &ContinuousParams {
-                    still_px: options.still_px,
-                    align: options.align,
-                },
-            )
-        }
-    };
-
+    let names = Names::new(base, inputs.cameras, frames);
+    let mut problems = unusable_problems(&found.unusable, &names);
+    // The frames at their instants, and the faults.
+    let cameras = camera_frames(inputs.cameras, frames);
+    let placed = place(&cameras, &dwells, frames, inputs.program, options)?;
     let mut placements = placed.placements;
     if options.complete_only {
-        let mapped: BTreeSet<u8> = inputs.cameras.iter().map(|(_, c)| *c).collect();
-        let mut at: BTreeMap<(usize, u32), BTreeSet<u8>> = BTreeMap::new();
-        for p in &placements {
-            at.entry((p.dwell, p.capture)).or_default().insert(p.camera);
-        }
-        let (keep, out): (Vec<Placement>, Vec<Placement>) = placements
-            .into_iter()
-            .partition(|p| at[&(p.dwell, p.capture)] == mapped);
-        for p in &out {
-            let f = &frames[p.file];
-            let d = &dwells[p.dwell];
-            problems.push(Problem {
-                image: Some(rels[p.file].clone()),
-                serial: serial_of(p.camera),
-                camera: Some(p.camera),
-                time: Some(f.time.text.clone()),
-                axis: Some(d.axis),
-                direction: Some(d.direction),
-                run: Some(d.run),
-                target: Some(d.target),
-                capture: Some(p.capture),
-                reason: "left out: its instant lacks a camera (--complete-instants)".into(),
-            });
-        }
-        placements = keep;
+        placements = complete_instants(placements, &dwells, frames, &names, &mut problems);
     }
-
-    for fault in &placed.faults {
-        let f = fault.file.and_then(|i| frames.get(i));
-        let d = fault.dwell.and_then(|j| dwells.get(j));
-        let camera = fault.camera.or(f.map(|f| f.camera));
-        problems.push(Problem {
-            image: fault.file.and_then(|i| rels.get(i).cloned()),
-            serial: camera.and_then(serial_of),
-            camera,
-            time: f.map(|f| f.time.text.clone()),
-            axis: d.map(|d| d.axis),
-            direction: d.map(|d| d.direction),
-            run: d.map(|d| d.run),
-            target: d.map(|d| d.target),
-            capture: fault.capture,
-            reason: if fault.related.is_empty() {
-                fault.reason.clone()
-            } else {
-                let names: Vec<&str> = fault
-                    .related
-                    .iter()
-                    .filter_map(|&i| rels.get(i).map(String::as_str))
-                    .collect();
-                format!("{} [{}]", fault.reason, names.join(", "))
-            },
-        });
-    }
-
-    let mut rows = Vec::with_capacity(placements.len());
-    let mut per_instant: BTreeMap<(usize, u32), usize> = BTreeMap::new();
-    for p in &placements {
-        let d = &dwells[p.dwell];
-        *per_instant.entry((p.dwell, p.capture)).or_default() += 1;
-        rows.push(ManifestRow {
-            image: rels[p.file].clone(),
-            camera: p.camera,
-            axis: d.axis,
-            direction: d.direction,
-            run: d.run,
-            target: d.target,
-            capture: p.capture,
-            nominal_x: d.nominal[0],
-            nominal_y: d.nominal[1],
-            nominal_z: d.nominal[2],
-        });
-    }
-    let placed_files: BTreeSet<usize> = placements.iter().map(|p| p.file).collect();
-    let listed: BTreeSet<&str> = problems.iter().filter_map(|p| p.image.as_deref()).collect();
-    let not_at_instants = (0..frames.len())
-        .filter(|i| !placed_files.contains(i) && !listed.contains(rels[*i].as_str()))
-        .count();
+    fault_problems(&placed.faults, &dwells, frames, &names, &mut problems);
+    // The rows and the counts.
+    let (rows, per_instant) = manifest_rows(&placements, &dwells, &names);
+    let not_at_instants = not_at_instants(&placements, &problems, &names);
     let summary = Summary {
         files: frames.len() + found.unusable.len(),
         other_files: found.other_files,
@@ -417,6 +254,261 @@ pub fn build(inputs: &Inputs<'_>, options: &Options) -> Result<Built> {
         problems,
         summary,
     })
+}
+
+/// The program's dwells, once the camera map, the folders and the program are checked.
+fn checked_dwells(inputs: &Inputs<'_>) -> Result<Vec<Dwell>> {
+    check_cameras(inputs.cameras)?;
+    if inputs.dirs.is_empty() {
+        return Err(IngestError::NoFolder);
+    }
+    let program = inputs.program;
+    program.validate().map_err(|e| IngestError::Program {
+        path: PathBuf::from("program"),
+        message: format!("{}: {}", e.key, e.message),
+    })?;
+    Ok(program.dwells())
+}
+
+/// The manifest's folder, absolute: image paths are relative to it.
+fn manifest_folder(manifest: &Path) -> Result<PathBuf> {
+    let folder = manifest
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::canonicalize(folder).map_err(|e| IngestError::io(folder, e))
+}
+
+/// How rows and problems name files and cameras.
+struct Names<'a> {
+    /// The manifest's folder, absolute.
+    base: PathBuf,
+    /// Camera serial → camera number.
+    cameras: &'a [(String, u8)],
+    /// Each scanned frame's path relative to `base`.
+    rels: Vec<String>,
+}
+
+impl<'a> Names<'a> {
+    /// The names of `frames`, relative to the folder `base`.
+    fn new(base: PathBuf, cameras: &'a [(String, u8)], frames: &[scan::Frame]) -> Self {
+        let mut names = Self {
+            base,
+            cameras,
+            rels: Vec::new(),
+        };
+        names.rels = frames.iter().map(|f| names.rel(&f.path)).collect();
+        names
+    }
+
+    /// `p` relative to the manifest's folder, else as given.
+    fn rel(&self, p: &Path) -> String {
+        std::fs::canonicalize(p)
+            .ok()
+            .and_then(|a| relative(&self.base, &a))
+            .unwrap_or_else(|| p.to_string_lossy().into_owned())
+    }
+
+    /// The serial of camera `c`.
+    fn serial_of(&self, c: u8) -> Option<String> {
+        self.cameras
+            .iter()
+            .find(|(_, id)| *id == c)
+            .map(|(s, _)| s.clone())
+    }
+}
+
+/// The files the scan could not use, as problems.
+fn unusable_problems(unusable: &[scan::Unusable], names: &Names<'_>) -> Vec<Problem> {
+    unusable
+        .iter()
+        .map(|u| Problem {
+            image: Some(names.rel(&u.path)),
+            serial: u.serial.clone(),
+            camera: u.camera,
+            time: u.time.clone(),
+            axis: None,
+            direction: None,
+            run: None,
+            target: None,
+            capture: None,
+            reason: u.reason.clone(),
+        })
+        .collect()
+}
+
+/// Frames per camera in time order (ties: natural path order, the scan's order).
+fn camera_frames(cameras: &[(String, u8)], frames: &[scan::Frame]) -> Vec<CameraFrames> {
+    let mut cameras: Vec<CameraFrames> = cameras
+        .iter()
+        .map(|(_, c)| CameraFrames {
+            camera: *c,
+            frames: Vec::new(),
+        })
+        .collect();
+    cameras.sort_by_key(|c| c.camera);
+    for (i, f) in frames.iter().enumerate() {
+        if let Some(c) = cameras.iter_mut().find(|c| c.camera == f.camera) {
+            c.frames.push(TimedFrame {
+                file: i,
+                ns: f.time.ns,
+                resolution_ns: f.time.resolution_ns,
+            });
+        }
+    }
+    for c in &mut cameras {
+        c.frames.sort_by_key(|f| (f.ns, f.file));
+    }
+    cameras
+}
+
+/// The frames placed at instants, triggered or continuous.
+fn place(
+    cameras: &[CameraFrames],
+    dwells: &[Dwell],
+    frames: &[scan::Frame],
+    program: &ProcedureConfig,
+    options: &Options,
+) -> Result<Placed> {
+    Ok(match options.capture {
+        Capture::Triggered => triggered::place_triggered(
+            cameras,
+            dwells,
+            program.captures,
+            program.fps,
+            &options.align,
+        )?,
+        Capture::Continuous => {
+            let paths: Vec<PathBuf> = frames.iter().map(|f| f.path.clone()).collect();
+            let source = ImageSignatures {
+                paths: &paths,
+                params: &options.extract,
+            };
+            continuous::place_continuous(
+                cameras,
+                dwells,
+                program.captures,
+                program.settle_s,
+                program.fps,
+                &source,
+                &ContinuousParams {
+                    still_px: options.still_px,
+                    align: options.align,
+                },
+            )
+        }
+    })
+}
+
+/// The placements at instants with a frame of every mapped camera; the
+/// others' frames become problems (`--complete-instants`).
+fn complete_instants(
+    placements: Vec<Placement>,
+    dwells: &[Dwell],
+    frames: &[scan::Frame],
+    names: &Names<'_>,
+    problems: &mut Vec<Problem>,
+) -> Vec<Placement> {
+    let mapped: BTreeSet<u8> = names.cameras.iter().map(|(_, c)| *c).collect();
+    let mut at: BTreeMap<(usize, u32), BTreeSet<u8>> = BTreeMap::new();
+    for p in &placements {
+        at.entry((p.dwell, p.capture)).or_default().insert(p.camera);
+    }
+    let (keep, out): (Vec<Placement>, Vec<Placement>) = placements
+        .into_iter()
+        .partition(|p| at[&(p.dwell, p.capture)] == mapped);
+    for p in &out {
+        let f = &frames[p.file];
+        let d = &dwells[p.dwell];
+        problems.push(Problem {
+            image: Some(names.rels[p.file].clone()),
+            serial: names.serial_of(p.camera),
+            camera: Some(p.camera),
+            time: Some(f.time.text.clone()),
+            axis: Some(d.axis),
+            direction: Some(d.direction),
+            run: Some(d.run),
+            target: Some(d.target),
+            capture: Some(p.capture),
+            reason: "left out: its instant lacks a camera (--complete-instants)".into(),
+        });
+    }
+    keep
+}
+
+/// The placement's faults as problems: what is known of the frame, camera
+/// and dwell, and the related files' names after the reason.
+fn fault_problems(
+    faults: &[Fault],
+    dwells: &[Dwell],
+    frames: &[scan::Frame],
+    names: &Names<'_>,
+    problems: &mut Vec<Problem>,
+) {
+    let rels = &names.rels;
+    for fault in faults {
+        let f = fault.file.and_then(|i| frames.get(i));
+        let d = fault.dwell.and_then(|j| dwells.get(j));
+        let camera = fault.camera.or(f.map(|f| f.camera));
+        problems.push(Problem {
+            image: fault.file.and_then(|i| rels.get(i).cloned()),
+            serial: camera.and_then(|c| names.serial_of(c)),
+            camera,
+            time: f.map(|f| f.time.text.clone()),
+            axis: d.map(|d| d.axis),
+            direction: d.map(|d| d.direction),
+            run: d.map(|d| d.run),
+            target: d.map(|d| d.target),
+            capture: fault.capture,
+            reason: if fault.related.is_empty() {
+                fault.reason.clone()
+            } else {
+                let names: Vec<&str> = fault
+                    .related
+                    .iter()
+                    .filter_map(|&i| rels.get(i).map(String::as_str))
+                    .collect();
+                format!("{} [{}]", fault.reason, names.join(", "))
+            },
+        });
+    }
+}
+
+/// The manifest rows of the placements (commanded positions from the
+/// program), and the count of frames at each instant.
+fn manifest_rows(
+    placements: &[Placement],
+    dwells: &[Dwell],
+    names: &Names<'_>,
+) -> (Vec<ManifestRow>, BTreeMap<(usize, u32), usize>) {
+    let mut rows = Vec::with_capacity(placements.len());
+    let mut per_instant: BTreeMap<(usize, u32), usize> = BTreeMap::new();
+    for p in placements {
+        let d = &dwells[p.dwell];
+        *per_instant.entry((p.dwell, p.capture)).or_default() += 1;
+        rows.push(ManifestRow {
+            image: names.rels[p.file].clone(),
+            camera: p.camera,
+            axis: d.axis,
+            direction: d.direction,
+            run: d.run,
+            target: d.target,
+            capture: p.capture,
+            nominal_x: d.nominal[0],
+            nominal_y: d.nominal[1],
+            nominal_z: d.nominal[2],
+        });
+    }
+    (rows, per_instant)
+}
+
+/// Frames neither placed nor listed in a problem: in motion, or still but not taken.
+fn not_at_instants(placements: &[Placement], problems: &[Problem], names: &Names<'_>) -> usize {
+    let placed_files: BTreeSet<usize> = placements.iter().map(|p| p.file).collect();
+    let listed: BTreeSet<&str> = problems.iter().filter_map(|p| p.image.as_deref()).collect();
+    (0..names.rels.len())
+        .filter(|i| !placed_files.contains(i) && !listed.contains(names.rels[*i].as_str()))
+        .count()
 }
 
 #[cfg(test)]

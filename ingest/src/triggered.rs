@@ -16,7 +16,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use formats::Dwell;
 
-use crate::align::{AlignParams, Event, align};
+use crate::align::{AlignParams, Alignment, Event, align};
 use crate::{IngestError, Result};
 
 /// A frame on its camera's clock.
@@ -198,30 +198,13 @@ pub fn place_triggered(
     // (camera, dwell) → its burst.
     let mut bursts: BTreeMap<(u8, usize), Burst> = BTreeMap::new();
     for cam in cameras {
-        let c = cam.camera;
         let Some(first) = cam.frames.first() else {
             continue;
         };
-        let resolution = cam
-            .frames
-            .iter()
-            .map(|f| f.resolution_ns)
-            .max()
-            .unwrap_or(0);
-        if resolution as f64 / NS > 0.5 * timing.cut_s {
-            placed.fault_frames(
-                &cam.frames,
-                c,
-                None,
-                &format!(
-                    "camera {c}'s time stamps resolve only {} s: bursts {:.4} s apart \
-                         cannot be told apart",
-                    resolution as f64 / NS,
-                    timing.cut_s
-                ),
-            );
+        if stamps_too_coarse(cam, timing.cut_s, &mut placed) {
             continue;
         }
+        // The camera's bursts aligned with the program's dwells.
         let ranges = cut_bursts(&cam.frames, cut_ns);
         let events: Vec<Event> = ranges
             .iter()
@@ -232,69 +215,8 @@ pub fn place_triggered(
             })
             .collect();
         let a = align(&events, &program, captures as usize, params);
-        placed.scales.push((c, a.scale));
-        let ambiguous: BTreeMap<usize, _> = a.ambiguous.iter().map(|x| (x.event, *x)).collect();
-        for (e, r) in ranges.iter().enumerate() {
-            let frames = &cam.frames[r.clone()];
-            if let Some(x) = ambiguous.get(&e) {
-                let name = |d: Option<usize>| {
-                    d.map_or("no dwell (a stray)".to_string(), |j| {
-                        format!("dwell {}", describe(&dwells[j]))
-                    })
-                };
-                placed.fault_frames(
-                    frames,
-                    c,
-                    x.chosen,
-                    &format!(
-                        "burst of {} frame(s) cannot be matched to the program unambiguously: \
-                             {} or {} (costs differ by {:.1})",
-                        frames.len(),
-                        name(x.chosen),
-                        name(x.alternative),
-                        x.margin
-                    ),
-                );
-                continue;
-            }
-            match a.dwell_of[e] {
-                Some(j) => {
-                    bursts.insert(
-                        (c, j),
-                        Burst {
-                            frames: frames.to_vec(),
-                        },
-                    );
-                }
-                None => {
-                    let before = (0..e).rev().find_map(|k| a.dwell_of[k]);
-                    let after = (e + 1..ranges.len()).find_map(|k| a.dwell_of[k]);
-                    let place = match (before, after) {
-                        (Some(b), Some(n)) => format!(
-                            "between the captures of {} and {}",
-                            describe(&dwells[b]),
-                            describe(&dwells[n])
-                        ),
-                        (Some(b), None) => {
-                            format!("after the captures of {}", describe(&dwells[b]))
-                        }
-                        (None, Some(n)) => {
-                            format!("before the captures of {}", describe(&dwells[n]))
-                        }
-                        (None, None) => "with no burst of this camera matched".into(),
-                    };
-                    placed.fault_frames(
-                        frames,
-                        c,
-                        None,
-                        &format!(
-                            "frame in no dwell (a stray trigger?): a burst of {} frame(s) {place}",
-                            frames.len()
-                        ),
-                    );
-                }
-            }
-        }
+        placed.scales.push((cam.camera, a.scale));
+        match_bursts(cam, &ranges, &a, dwells, &mut bursts, &mut placed);
     }
     assign_captures(&bursts, dwells, captures, period, &mut placed);
     report_missing(cameras, &bursts, dwells, captures, &mut placed);
@@ -302,6 +224,108 @@ pub fn place_triggered(
         .placements
         .sort_by_key(|p| (p.dwell, p.capture, p.camera));
     Ok(placed)
+}
+
+/// Whether the camera's time stamps resolve more coarsely than half the gap
+/// that tells bursts apart (its frames then faults).
+fn stamps_too_coarse(cam: &CameraFrames, cut_s: f64, placed: &mut Placed) -> bool {
+    let c = cam.camera;
+    let resolution = cam
+        .frames
+        .iter()
+        .map(|f| f.resolution_ns)
+        .max()
+        .unwrap_or(0);
+    if resolution as f64 / NS > 0.5 * cut_s {
+        placed.fault_frames(
+            &cam.frames,
+            c,
+            None,
+            &format!(
+                "camera {c}'s time stamps resolve only {} s: bursts {:.4} s apart \
+                 cannot be told apart",
+                resolution as f64 / NS,
+                cut_s
+            ),
+        );
+        return true;
+    }
+    false
+}
+
+/// Each burst of the camera (`ranges` of its frames) at the dwell the
+/// alignment `a` matched it to; an ambiguous or unmatched burst's frames are faults.
+fn match_bursts(
+    cam: &CameraFrames,
+    ranges: &[std::ops::Range<usize>],
+    a: &Alignment,
+    dwells: &[Dwell],
+    bursts: &mut BTreeMap<(u8, usize), Burst>,
+    placed: &mut Placed,
+) {
+    let c = cam.camera;
+    let ambiguous: BTreeMap<usize, _> = a.ambiguous.iter().map(|x| (x.event, *x)).collect();
+    for (e, r) in ranges.iter().enumerate() {
+        let frames = &cam.frames[r.clone()];
+        if let Some(x) = ambiguous.get(&e) {
+            let name = |d: Option<usize>| {
+                d.map_or("no dwell (a stray)".to_string(), |j| {
+                    format!("dwell {}", describe(&dwells[j]))
+                })
+            };
+            placed.fault_frames(
+                frames,
+                c,
+                x.chosen,
+                &format!(
+                    "burst of {} frame(s) cannot be matched to the program unambiguously: \
+                     {} or {} (costs differ by {:.1})",
+                    frames.len(),
+                    name(x.chosen),
+                    name(x.alternative),
+                    x.margin
+                ),
+            );
+            continue;
+        }
+        match a.dwell_of[e] {
+            Some(j) => {
+                bursts.insert(
+                    (c, j),
+                    Burst {
+                        frames: frames.to_vec(),
+                    },
+                );
+            }
+            None => {
+                let before = (0..e).rev().find_map(|k| a.dwell_of[k]);
+                let after = (e + 1..ranges.len()).find_map(|k| a.dwell_of[k]);
+                let place = match (before, after) {
+                    (Some(b), Some(n)) => format!(
+                        "between the captures of {} and {}",
+                        describe(&dwells[b]),
+                        describe(&dwells[n])
+                    ),
+                    (Some(b), None) => {
+                        format!("after the captures of {}", describe(&dwells[b]))
+                    }
+                    (None, Some(n)) => {
+                        format!("before the captures of {}", describe(&dwells[n]))
+                    }
+                    (None, None) => "with no burst of this camera matched".into(),
+                };
+                placed.fault_frames(
+                    frames,
+                    c,
+                    None,
+                    &format!(
+                        "frame in no dwell (a stray trigger?): a burst of {} frame(s) {place}",
+                        frames.len()
+                    ),
+                );
+            }
+        }
+    }
 }
 
 /// Whether frames lie on a `1/fps` grid: every gap a whole number (≥ 1) of
@@ -360,6 +384,54 @@ fn local_offset(starts: &BTreeMap<(u8, usize), i64>, c: u8, r: u8, j: usize) -> 
     median_i64(common.iter().take(8).map(|(_, o)| *o).collect())
 }
 
+/// Whether a burst's time stamps resolve more coarsely than a quarter period.
+fn coarse(b: &Burst, period: f64) -> bool {
+    b.frames.iter().map(|f| f.resolution_ns).max().unwrap_or(0) as f64 / NS > 0.25 * period
+}
+
+/// What the capture numbers of the bursts are found from.
+struct Grids<'a> {
+    dwells: &'a [Dwell],
+    captures: u32,
+    period: f64,
+    /// (camera, dwell) → the first capture's time of its complete, regular,
+    /// finely stamped burst.
+    starts: BTreeMap<(u8, usize), i64>,
+    /// The cameras with bursts.
+    cams: BTreeSet<u8>,
+}
+
+/// A burst of camera `camera` matched to dwell `dwell`.
+struct BurstAt<'a> {
+    camera: u8,
+    dwell: usize,
+    burst: &'a Burst,
+    /// The burst in words, for its faults.
+    what: String,
+}
+
+impl BurstAt<'_> {
+    /// A fault of this burst (of frame `f`, capture `capture` when known).
+    fn fault(
+        &self,
+        placed: &mut Placed,
+        f: Option<&TimedFrame>,
+        capture: Option<u32>,
+        reason: String,
+    ) {
+        placed.faults.push(Fault {
+            file: f.map(|f| f.file),
+            camera: Some(self.camera),
+            dwell: Some(self.dwell),
+            capture,
+            reason,
+            related: Vec::new(),
+        });
+    }
+}
+
+/// Capture numbers of the matched bursts' frames, from each frame's place on
+/// its burst's `1/fps` grid; the frames that have none are faults.
 fn assign_captures(
     bursts: &BTreeMap<(u8, usize), Burst>,
     dwells: &[Dwell],
@@ -367,61 +439,83 @@ fn assign_captures(
     period: f64,
     placed: &mut Placed,
 ) {
-    let coarse = |b: &Burst| {
-        b.frames.iter().map(|f| f.resolution_ns).max().unwrap_or(0) as f64 / NS > 0.25 * period
-    };
     let starts: BTreeMap<(u8, usize), i64> = bursts
         .iter()
-        .filter(|(_, b)| !coarse(b))
+        .filter(|(_, b)| !coarse(b, period))
         .filter_map(|(k, b)| regular_start(b, captures, period).map(|t| (*k, t)))
         .collect();
     let cams: BTreeSet<u8> = bursts.keys().map(|(c, _)| *c).collect();
+    let grids = Grids {
+        dwells,
+        captures,
+        period,
+        starts,
+        cams,
+    };
     for (&(c, j), b) in bursts {
-        let fault = |placed: &mut Placed, f: Option<&TimedFrame>, capture, reason: String| {
-            placed.faults.push(Fault {
-                file: f.map(|f| f.file),
-                camera: Some(c),
-                dwell: Some(j),
-                capture,
-                reason,
-                related: Vec::new(),
-            });
+        let at = BurstAt {
+            camera: c,
+            dwell: j,
+            burst: b,
+            what: format!(
+                "burst of {} frame(s) at {} (program: {captures} captures)",
+                b.frames.len(),
+                describe(&dwells[j])
+            ),
         };
-        let what = format!(
-            "burst of {} frame(s) at {} (program: {captures} captures)",
-            b.frames.len(),
-            describe(&dwells[j])
-        );
-        if coarse(b) {
-            if b.frames.len() == captures as usize {
-                for (k, f) in b.frames.iter().enumerate() {
-                    placed.placements.push(Placement {
-                        file: f.file,
-                        camera: c,
-                        dwell: j,
-                        capture: k as u32 + 1,
-                    });
-                }
-            } else {
-                for f in &b.frames {
-                    let reason = format!(
-                        "{what}: which captures these are cannot be told with time stamps \
-                         resolving {} s",
-                        f.resolution_ns as f64 / NS
-                    );
-                    placed.fault_frames([f], c, Some(j), &reason);
-                }
-            }
+        if coarse(b, period) {
+            grids.place_coarse(&at, placed);
             continue;
         }
-        // The grid of this burst: from another camera's complete burst where there is one.
-        let from_other = cams.iter().filter(|&&r| r != c).find_map(|&r| {
-            let t = starts.get(&(r, j))?;
-            Some((r, t + local_offset(&starts, c, r, j)?))
-        });
-        let own = starts.get(&(c, j)).copied();
         let tol = tolerance_ns(period, &b.frames);
-        let start = match (own, from_other) {
+        let Some(start) = grids.start(&at, tol, placed) else {
+            continue;
+        };
+        grids.place_on_grid(&at, start, tol, placed);
+    }
+}
+
+impl Grids<'_> {
+    /// A coarsely stamped burst: its frames in order when it is complete,
+    /// else all faults (which captures they are cannot be told).
+    fn place_coarse(&self, at: &BurstAt<'_>, placed: &mut Placed) {
+        let (c, j, b) = (at.camera, at.dwell, at.burst);
+        if b.frames.len() == self.captures as usize {
+            for (k, f) in b.frames.iter().enumerate() {
+                placed.placements.push(Placement {
+                    file: f.file,
+                    camera: c,
+                    dwell: j,
+                    capture: k as u32 + 1,
+                });
+            }
+        } else {
+            for f in &b.frames {
+                let reason = format!(
+                    "{}: which captures these are cannot be told with time stamps \
+                     resolving {} s",
+                    at.what,
+                    f.resolution_ns as f64 / NS
+                );
+                placed.fault_frames([f], c, Some(j), &reason);
+            }
+        }
+    }
+
+    /// The first capture's time of the burst's grid: its own (complete and
+    /// regular), else another camera's complete burst at the same dwell
+    /// through the local clock offset, else its own span when that is the
+    /// full one. `None`, its frames faults, when they disagree or none is had.
+    fn start(&self, at: &BurstAt<'_>, tol: i64, placed: &mut Placed) -> Option<i64> {
+        let (c, j, b, what) = (at.camera, at.dwell, at.burst, &at.what);
+        let (captures, period) = (self.captures, self.period);
+        // The grid of this burst: from another camera's complete burst where there is one.
+        let from_other = self.cams.iter().filter(|&&r| r != c).find_map(|&r| {
+            let t = self.starts.get(&(r, j))?;
+            Some((r, t + local_offset(&self.starts, c, r, j)?))
+        });
+        let own = self.starts.get(&(c, j)).copied();
+        match (own, from_other) {
             (Some(o), Some((r, t))) if (o - t).abs() > tol => {
                 placed.fault_frames(
                     &b.frames,
@@ -429,19 +523,19 @@ fn assign_captures(
                     Some(j),
                     &format!(
                         "{what}: its first frame is {:.4} s off camera {r}'s at the same \
-                             dwell (clock offset taken from the nearest dwells)",
+                         dwell (clock offset taken from the nearest dwells)",
                         (o - t) as f64 / NS
                     ),
                 );
-                continue;
+                None
             }
-            (Some(o), _) => o,
-            (None, Some((_, t))) => t,
+            (Some(o), _) => Some(o),
+            (None, Some((_, t))) => Some(t),
             (None, None) => {
                 let span = b.frames.last().map_or(0, |l| l.ns) - b.frames[0].ns;
                 let full = (f64::from(captures.saturating_sub(1)) * period * NS) as i64;
                 if (span - full).abs() <= tol {
-                    b.frames[0].ns
+                    Some(b.frames[0].ns)
                 } else {
                     placed.fault_frames(
                         &b.frames,
@@ -449,20 +543,27 @@ fn assign_captures(
                         Some(j),
                         &format!(
                             "{what}: which captures these are cannot be told (no other camera \
-                                 has a complete burst at this dwell)"
+                             has a complete burst at this dwell)"
                         ),
                     );
-                    continue;
+                    None
                 }
             }
-        };
+        }
+    }
+
+    /// Each frame at its capture on the grid from `start`; a frame off the
+    /// grid, or two at one capture, are faults.
+    fn place_on_grid(&self, at: &BurstAt<'_>, start: i64, tol: i64, placed: &mut Placed) {
+        let (c, j, b) = (at.camera, at.dwell, at.burst);
+        let (captures, period, dwells) = (self.captures, self.period, self.dwells);
         let mut by_capture: BTreeMap<u32, Vec<&TimedFrame>> = BTreeMap::new();
         for f in &b.frames {
             let x = (f.ns - start) as f64 / NS / period;
             let k = x.round();
             let off = ((x - k) * period * NS).abs() as i64;
             if off > tol || k < 0.0 || k >= f64::from(captures) {
-                fault(
+                at.fault(
                     placed,
                     Some(f),
                     None,
@@ -488,7 +589,7 @@ fn assign_captures(
                 });
             } else {
                 for f in fs {
-                    fault(
+                    at.fault(
                         placed,
                         Some(f),
                         Some(k),
