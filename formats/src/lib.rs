@@ -115,7 +115,7 @@ pub use rig::{
     CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalOptics, NominalRig, Rig,
     RigCamera, read_nominal, read_rig,
 };
-pub use rig_record::{ASSUMED_ILLUMINATION, CalibrationRecord, Matching};
+pub use rig_record::{CalibrationRecord, Matching};
 pub use table::{Invalid, Record, Row, finite, read_csv, read_csv_from, write_csv, write_records};
 pub use target::{CorrespondenceRow, ResidualRow, TargetRow, read_correspondences, read_target};
 pub use truth::{Truth, TruthCamera, TruthInstant};

@@ -14,7 +14,7 @@ use crate::IlluminationJson;
 use crate::commissioning::FlatFieldFit;
 
 /// The note of a camera whose relative illumination was assumed.
-pub const ASSUMED_ILLUMINATION: &str = "assumed: no flat field was given (cos⁴θ natural vignetting, \
+const ASSUMED_ILLUMINATION: &str = "assumed: no flat field was given (cos⁴θ natural vignetting, \
      energy-conserving under distortion)";
 
 /// How a camera's image points were found (`matching`).
@@ -72,7 +72,7 @@ pub struct CalibrationRecord {
 
 impl CalibrationRecord {
     /// The record as the further keys of a `rig.json` camera.
-    pub fn to_keys(&self) -> Map<String, Value> {
+    pub fn to_keys(&self) -> serde_json::Result<Map<String, Value>> {
         as_keys(self)
     }
 }
@@ -85,11 +85,11 @@ impl IlluminationJson {
         fit: Option<&FlatFieldFit>,
         flat_field: Option<&Path>,
         dark_frame: Option<&Path>,
-    ) {
+    ) -> serde_json::Result<()> {
         let extra = self.extra_mut();
         match fit {
             Some(f) => {
-                extra.extend(as_keys(f));
+                extra.extend(as_keys(f)?);
                 for (key, file) in [("flat_field", flat_field), ("dark_frame", dark_frame)] {
                     if let Some(p) = file {
                         extra.insert(key.into(), Value::from(p.display().to_string()));
@@ -100,13 +100,17 @@ impl IlluminationJson {
                 extra.insert("note".into(), Value::from(ASSUMED_ILLUMINATION));
             }
         }
+        Ok(())
     }
 }
 
-/// The keys of a record that serialises as a JSON object (every record here).
-fn as_keys(record: &impl Serialize) -> Map<String, Value> {
-    match serde_json::to_value(record) {
-        Ok(Value::Object(m)) => m,
-        _ => Map::new(),
+/// The keys of a record that serialises as a JSON object (every record here
+/// is a struct, so anything else is a serialisation error).
+fn as_keys(record: &impl Serialize) -> serde_json::Result<Map<String, Value>> {
+    match serde_json::to_value(record)? {
+        Value::Object(m) => Ok(m),
+        other => Err(serde::ser::Error::custom(format!(
+            "expected a JSON object, got {other}"
+        ))),
     }
 }

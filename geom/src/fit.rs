@@ -37,7 +37,7 @@ use crate::{Degeneracy, GeomError, Result};
 pub(crate) const RANK_TOLERANCE: f64 = 1e-12;
 
 /// Iteration limit of the SVD (nalgebra counts sweeps; 0 would mean unlimited).
-const SVD_MAX_ITERATIONS: usize = 1000;
+pub(crate) const SVD_MAX_ITERATIONS: usize = 1000;
 
 /// Largest coordinate magnitude a fit accepts: products and sums of squares
 /// of a billion such values stay far from `f64::MAX` (≈ 1.8e308).

@@ -163,7 +163,13 @@ pub fn covariance(jacobian: &DMatrix<f64>, ssr: f64, m: usize, n: usize) -> Opti
     if m <= n || jacobian.ncols() != n {
         return None;
     }
-    let svd = nalgebra::SVD::try_new(jacobian.clone(), false, true, f64::EPSILON, 1000)?;
+    let svd = nalgebra::SVD::try_new(
+        jacobian.clone(),
+        false,
+        true,
+        f64::EPSILON,
+        crate::fit::SVD_MAX_ITERATIONS,
+    )?;
     let v_t = svd.v_t?;
     let sigma = &svd.singular_values;
     let largest = sigma.max();

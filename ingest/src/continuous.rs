@@ -294,7 +294,7 @@ pub fn place_continuous(
 
     // Offsets of the cameras' slots from the reference camera's.
     let found: BTreeMap<u8, &Found> = per_camera.iter().map(|c| (c.camera, &c.found)).collect();
-    let Some(offsets) = slot_offsets(&per_camera, &found, &streams, &mut placed) else {
+    let Some(offsets) = slot_offsets(&found, &streams, &mut placed) else {
         return placed;
     };
     let on_reference = OnReference {
@@ -442,7 +442,7 @@ fn matched_arrivals(
         if ambiguous.contains(&e) {
             continue;
         }
-        let arrival = refine(s, st, sampling.stride, sampling.eps, &sampling.cache);
+        let arrival = refine(s, st, sampling);
         found.insert(j, (arrival, st.clone()));
     }
     (found, a.scale)
@@ -473,20 +473,19 @@ fn voted_offset(found: &BTreeMap<u8, &Found>, c: u8, r: u8, sharp_only: bool) ->
 /// most sharp arrivals): directly, else through the third camera; a camera
 /// with none has its frames as faults. `None` when there is no camera.
 fn slot_offsets(
-    per_camera: &[CameraStays],
     found: &BTreeMap<u8, &Found>,
     streams: &[Stream],
     placed: &mut Placed,
 ) -> Option<BTreeMap<u8, i64>> {
-    let reference = per_camera
+    let reference = found
         .iter()
-        .max_by_key(|c| {
+        .max_by_key(|(c, f)| {
             (
-                c.found.values().filter(|(a, _)| a.sharp).count(),
-                std::cmp::Reverse(c.camera),
+                f.values().filter(|(a, _)| a.sharp).count(),
+                std::cmp::Reverse(**c),
             )
         })
-        .map(|c| c.camera)?;
+        .map(|(c, _)| *c)?;
     let mut offsets: BTreeMap<u8, i64> = BTreeMap::new();
     offsets.insert(reference, 0);
     let pair =
@@ -588,15 +587,10 @@ impl OnReference<'_> {
         } else {
             sharp
         };
-        let &&(judge, _, stay) = chosen
+        let &&(judge, a, stay) = chosen
             .iter()
             .max_by_key(|(c, a, _)| (a.slot - self.offsets[c], std::cmp::Reverse(*c)))?;
-        let arrival = chosen
-            .iter()
-            .map(|(c, a, _)| a.slot - self.offsets[c])
-            .max()
-            .unwrap_or(0);
-        Some((judge, stay, arrival))
+        Some((judge, stay, a.slot - self.offsets[&judge]))
     }
 
     /// Whether the camera `judge` sees the spheres away from its stay's rest
@@ -670,7 +664,8 @@ fn unreadable_frames(streams: &[Stream], cache: &Cache<'_>, placed: &mut Placed)
 
 /// The first still slot of a stay, by bisection between the moving sample
 /// before it and its first still sample.
-fn refine(s: &Stream, st: &Stay, stride: i64, eps: f64, cache: &Cache<'_>) -> Arrival {
+fn refine(s: &Stream, st: &Stay, sampling: &Sampling<'_>) -> Arrival {
+    let (stride, eps, cache) = (sampling.stride, sampling.eps, &sampling.cache);
     let lo = st.before.unwrap_or(st.first_sample - stride);
     let between: Vec<i64> = s
         .by_slot

@@ -411,16 +411,10 @@ struct BurstAt<'a> {
 }
 
 impl BurstAt<'_> {
-    /// A fault of this burst (of frame `f`, capture `capture` when known).
-    fn fault(
-        &self,
-        placed: &mut Placed,
-        f: Option<&TimedFrame>,
-        capture: Option<u32>,
-        reason: String,
-    ) {
+    /// A fault of frame `f` of this burst (at capture `capture` when known).
+    fn fault(&self, placed: &mut Placed, f: &TimedFrame, capture: Option<u32>, reason: String) {
         placed.faults.push(Fault {
-            file: f.map(|f| f.file),
+            file: Some(f.file),
             camera: Some(self.camera),
             dwell: Some(self.dwell),
             capture,
@@ -565,7 +559,7 @@ impl Grids<'_> {
             if off > tol || k < 0.0 || k >= f64::from(captures) {
                 at.fault(
                     placed,
-                    Some(f),
+                    f,
                     None,
                     format!(
                         "frame off the captures of {} (a stray trigger?): {:+.4} s from the \
@@ -591,7 +585,7 @@ impl Grids<'_> {
                 for f in fs {
                     at.fault(
                         placed,
-                        Some(f),
+                        f,
                         Some(k),
                         format!(
                             "two or more frames of camera {c} for capture {k} of {}",

@@ -463,8 +463,9 @@ pub enum VolumetricFault {
     },
     /// Too few points for `--order auto` to cross-validate any order.
     #[error(
-        "{fit}: {points} points leave no {} order to cross-validate (order 1 needs 6)",
-        .series.name()
+        "{fit}: {points} points leave no {} order to cross-validate (order 1 needs {})",
+        .series.name(),
+        crate::volumetric::POINTS_PER_COEFFICIENT * 3
     )]
     NothingToCrossValidate {
         /// The fit.

@@ -487,8 +487,8 @@ fn calibrate_camera(
         })
         .collect();
     let mut entry = RigCamera::new(id, &cal.camera, cal.rms_px, cal.points_used());
-    entry.relative_illumination = illumination_json(&illumination, flat_fit.as_ref(), args, k);
-    entry.extra = record(&cal, input, setup.spheres, matching).to_keys();
+    entry.relative_illumination = illumination_json(&illumination, flat_fit.as_ref(), args, k)?;
+    entry.extra = record(&cal, input, setup.spheres, matching).to_keys()?;
     let yaml = (
         beside(&args.out, &format!(".cam{id}.opencv.yml")),
         calib::opencv_yaml(id, &cal.camera, cal.rms_px, None),
@@ -656,14 +656,14 @@ fn illumination_json(
     fit: Option<&FlatFieldFit>,
     args: &Args,
     k: usize,
-) -> IlluminationJson {
+) -> Result<IlluminationJson> {
     let mut j = IlluminationJson::from_model(model);
     j.record_source(
         fit,
         args.flat_fields.get(k).map(PathBuf::as_path),
         args.dark_frames.get(k).map(PathBuf::as_path),
-    );
-    j
+    )?;
+    Ok(j)
 }
 
 /// How camera `cal` was calibrated, as recorded in `rig.json`.

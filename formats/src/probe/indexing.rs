@@ -8,6 +8,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::row_error;
 use crate::table::{Invalid, Record, Row, finite, read_csv};
 use crate::{FormatError, Result};
 
@@ -87,16 +88,16 @@ pub fn read_centres(path: &Path) -> Result<Vec<Row<CentreRow>>> {
             .zip(d)
             .max_by(|p, q| p.1.abs().total_cmp(&q.1.abs()))
             .map_or("x", |p| p.0);
-        return Err(FormatError::Row {
-            path: path.to_path_buf(),
-            line: far.line,
-            column: Some(column.into()),
-            message: format!(
+        return Err(row_error(
+            path,
+            far.line,
+            column,
+            format!(
                 "this centre is {:.0} mm from the mean of all centres, but a probe head's \
                  stylus is shorter than {MAX_SPREAD_MM} mm: are the centres in µm? the file wants mm",
                 distance(&far.record)
             ),
-        });
+        ));
     }
     Ok(rows)
 }

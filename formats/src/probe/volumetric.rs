@@ -14,6 +14,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::row_error;
 use crate::campaign::Axis;
 use crate::table::{Invalid, Record, Row, finite, read_csv};
 use crate::{FormatError, Result};
@@ -141,17 +142,12 @@ pub fn read_errors(path: &Path) -> Result<Vec<Row<ErrorRow>>> {
     if rows.is_empty() {
         return Err(FormatError::file(path, "no error curves (only a header)"));
     }
-    let row_error = |line: u64, column: &str, message: String| FormatError::Row {
-        path: path.to_path_buf(),
-        line,
-        column: Some(column.to_string()),
-        message,
-    };
     let mut last: BTreeMap<Axis, (f64, u64)> = BTreeMap::new();
     for r in &rows {
         if let Some(&(p, line)) = last.get(&r.record.axis()) {
             if r.record.position == p {
                 return Err(row_error(
+                    path,
                     r.line,
                     "position",
                     format!(
@@ -162,6 +158,7 @@ pub fn read_errors(path: &Path) -> Result<Vec<Row<ErrorRow>>> {
             }
             if r.record.position < p {
                 return Err(row_error(
+                    path,
                     r.line,
                     "position",
                     format!(
@@ -187,6 +184,7 @@ pub fn read_errors(path: &Path) -> Result<Vec<Row<ErrorRow>>> {
             if given > 0 && given < of_axis.len() {
                 let missing = of_axis.iter().find(|r| get(&r.record).is_none());
                 return Err(row_error(
+                    path,
                     missing.map_or(1, |r| r.line),
                     column,
                     format!(

@@ -20,7 +20,7 @@ const UM_PER_MM: f64 = 1e3;
 const URAD_PER_RAD: f64 = 1e6;
 
 /// The six errors in report units (µm, µrad) from mm and rad.
-pub fn six(v: &SixErrors) -> Six {
+fn six(v: &SixErrors) -> Six {
     Six {
         exc_um: v[0] * UM_PER_MM,
         eyc_um: v[1] * UM_PER_MM,
@@ -32,7 +32,7 @@ pub fn six(v: &SixErrors) -> Six {
 }
 
 /// Standard uncertainties in report units (µm, µrad) from mm and rad.
-pub fn u_six(v: &SixErrors) -> USix {
+fn u_six(v: &SixErrors) -> USix {
     let s = six(v);
     USix {
         exc_um: s.exc_um,

@@ -93,7 +93,8 @@ fn axis_of(name: &str) -> Option<Axis> {
     formats::probe::volumetric::axis_named(name)
 }
 
-fn input(source: &str, fault: CampaignFault) -> ProbeError {
+/// A fault of the evaluate report `source`.
+fn campaign_error(source: &str, fault: CampaignFault) -> ProbeError {
     ProbeError::Campaign {
         report: source.to_string(),
         fault,
@@ -122,11 +123,11 @@ fn targets(
     let angular = line
         .angular
         .as_ref()
-        .ok_or_else(|| input(source, CampaignFault::NoAngular { axis }))?;
+        .ok_or_else(|| campaign_error(source, CampaignFault::NoAngular { axis }))?;
     let flatness = report
         .flatness
         .as_ref()
-        .ok_or_else(|| input(source, CampaignFault::NoFlatness))?;
+        .ok_or_else(|| campaign_error(source, CampaignFault::NoFlatness))?;
     let straight: Vec<BTreeMap<u32, f64>> = others
         .iter()
         .map(|o| {
@@ -138,7 +139,9 @@ fn targets(
                         .map(|t| (t.target, t.deviation_um))
                         .collect()
                 })
-                .ok_or_else(|| input(source, CampaignFault::NoStraightness { axis, across: *o }))
+                .ok_or_else(|| {
+                    campaign_error(source, CampaignFault::NoStraightness { axis, across: *o })
+                })
         })
         .collect::<Result<_>>()?;
     let rotations: BTreeMap<u32, Vector3<f64>> = angular
@@ -161,7 +164,7 @@ fn targets(
     for t in &line.positioning.targets {
         let k = t.target;
         let missing = |table: &'static str| {
-            input(
+            campaign_error(
                 source,
                 CampaignFault::NoValue {
                     axis,
@@ -174,7 +177,7 @@ fn targets(
             .mean_um
             .or(t.mean_up_um)
             .or(t.mean_down_um)
-            .ok_or_else(|| input(source, CampaignFault::NoMean { axis, target: k }))?;
+            .ok_or_else(|| campaign_error(source, CampaignFault::NoMean { axis, target: k }))?;
         out.push(Target {
             nominal: t.nominal,
             positioning: positioning * UM,
@@ -192,7 +195,7 @@ fn targets(
     }
     out.sort_by(|a, b| a.nominal.total_cmp(&b.nominal));
     if let Some(w) = out.windows(2).find(|w| w[1].nominal <= w[0].nominal) {
-        return Err(input(
+        return Err(campaign_error(
             source,
             CampaignFault::TwoTargets {
                 axis,
@@ -201,7 +204,7 @@ fn targets(
         ));
     }
     if out.len() < 2 {
-        return Err(input(
+        return Err(campaign_error(
             source,
             CampaignFault::TooFewTargets {
                 axis,
@@ -272,7 +275,10 @@ pub fn from_evaluate(
         let fitted = if fitted.norm() > 0.0 {
             fitted.normalize()
         } else {
-            return Err(input(source, CampaignFault::ZeroDirection { axis }));
+            return Err(campaign_error(
+                source,
+                CampaignFault::ZeroDirection { axis },
+            ));
         };
         let direction = carriage_direction(fitted, others, &nominal, &delta)?;
         directions.insert(axis, direction);
@@ -325,8 +331,9 @@ fn swept_lines<'r>(
 ) -> Result<Vec<(Axis, &'r EvaluateLine)>> {
     let mut lines: Vec<(Axis, &EvaluateLine)> = Vec::new();
     for (name, line) in &report.axes {
-        let axis = axis_of(name)
-            .ok_or_else(|| input(source, CampaignFault::NotAnAxis { name: name.clone() }))?;
+        let axis = axis_of(name).ok_or_else(|| {
+            campaign_error(source, CampaignFault::NotAnAxis { name: name.clone() })
+        })?;
         if chain.side(axis) != Some(Side::Workpiece) {
             return Err(ProbeError::Chain {
                 text: chain.text.clone(),
@@ -340,7 +347,7 @@ fn swept_lines<'r>(
     }
     lines.sort_by_key(|(a, _)| *a);
     if lines.is_empty() {
-        return Err(input(source, CampaignFault::NoAxis));
+        return Err(campaign_error(source, CampaignFault::NoAxis));
     }
     Ok(lines)
 }

@@ -7,7 +7,7 @@ use report::{Page, escape};
 
 use super::curves::Motion;
 use super::plot;
-use super::report::{Analysis, unit};
+use super::report::{Analysis, Report, unit};
 use super::series::Series;
 use crate::Result;
 
@@ -23,20 +23,19 @@ pub fn render(a: &Analysis) -> Result<String> {
         "trinocular — 21-error volumetric model",
         "21-error volumetric model",
     );
-    setup_section(&mut h, a);
+    setup_section(&mut h, &a.report);
     circle_section(&mut h, a)?;
-    fit_table(&mut h, a);
+    fit_table(&mut h, &a.report);
     axis_sections(&mut h, a)?;
-    volumetric_section(&mut h, a);
-    compensation_section(&mut h, a);
-    campaign_section(&mut h, a);
+    volumetric_section(&mut h, &a.report);
+    compensation_section(&mut h, &a.report);
+    campaign_section(&mut h, &a.report);
     h.notes("Conventions", &a.report.conventions, false);
     Ok(h.finish())
 }
 
 /// Source, chain, tool, model and squareness.
-fn setup_section(h: &mut Page, a: &Analysis) {
-    let r = &a.report;
+fn setup_section(h: &mut Page, r: &Report) {
     h.meta(&format!(
         "Source: {} · chain <b>{}</b> · tool offset ({}, {}, {}) mm · predictions with the <b>{}</b> curves · \
          series order {}",
@@ -110,8 +109,7 @@ fn circle_section(h: &mut Page, a: &Analysis) -> Result<()> {
 }
 
 /// Both series of every curve, the better RMSE marked.
-fn fit_table(h: &mut Page, a: &Analysis) {
-    let r = &a.report;
+fn fit_table(h: &mut Page, r: &Report) {
     h.h2("fits", "Fit table");
     h.paragraph(
         "Both series of every curve over its measured travel: Fourier of order N against the polynomial of \
@@ -229,8 +227,7 @@ fn axis_sections(h: &mut Page, a: &Analysis) -> Result<()> {
 }
 
 /// The volumetric errors (with `--at`), the first rows.
-fn volumetric_section(h: &mut Page, a: &Analysis) {
-    let r = &a.report;
+fn volumetric_section(h: &mut Page, r: &Report) {
     if let Some(v) = &r.volumetric {
         h.h2("volumetric", "Volumetric errors");
         h.paragraph(&format!(
@@ -259,8 +256,7 @@ fn volumetric_section(h: &mut Page, a: &Analysis) {
 }
 
 /// The LinuxCNC compensation files.
-fn compensation_section(h: &mut Page, a: &Analysis) {
-    let r = &a.report;
+fn compensation_section(h: &mut Page, r: &Report) {
     h.h2("compensation", "Pitch compensation tables (LinuxCNC)");
     h.paragraph(
         "comp_<axis>.txt per axis: COMP_FILE_TYPE = 0, each line the nominal position, the actual position \
@@ -287,8 +283,7 @@ fn compensation_section(h: &mut Page, a: &Analysis) {
 }
 
 /// How a vision campaign's sweeps became curves (with `--from-report`).
-fn campaign_section(h: &mut Page, a: &Analysis) {
-    let r = &a.report;
+fn campaign_section(h: &mut Page, r: &Report) {
     if let Some(c) = &r.campaign {
         h.h2("campaign", "Curves from a vision campaign");
         let rows: Vec<Vec<String>> = c

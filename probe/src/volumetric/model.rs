@@ -120,9 +120,10 @@ impl AxisModel {
                 }))
         };
         Ok(match how {
-            Evaluation::Model(Model::Raw) => raw()?,
-            Evaluation::Model(Model::Fourier) => series(Series::Fourier)?,
-            Evaluation::Model(Model::Polynomial) => series(Series::Polynomial)?,
+            Evaluation::Model(m) => match m.series() {
+                None => raw()?,
+                Some(s) => series(s)?,
+            },
             Evaluation::Residual(s) => raw()? - series(s)?,
         })
     }

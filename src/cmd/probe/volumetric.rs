@@ -141,7 +141,7 @@ fn curves_from_file(path: &Path) -> Result<Vec<(MeasuredAxis, (u64, u64))>> {
 struct Curves {
     /// Per axis, in the order given.
     axes: Vec<MeasuredAxis>,
-    /// The files read (never overwritten by an output).
+    /// The files the command reads (never overwritten by an output).
     inputs: Vec<PathBuf>,
     /// How the report names each source.
     sources: Vec<String>,
@@ -160,7 +160,8 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(path) = &args.errors {
         curves_from_errors(path, args.order, &mut curves)?;
     }
-    let setup = setup(args, chain, &mut curves)?;
+    curves.inputs.extend(args.at.clone());
+    let setup = setup(args, chain, &curves)?;
     let analysis = analyse(curves.axes, &setup, curves.campaign.as_ref())
         .with_context(|| format!("volumetric model from {}", setup.source))?;
     let page = html(&analysis)?;
@@ -223,7 +224,7 @@ fn curves_from_errors(path: &Path, order: Order, curves: &mut Curves) -> Result<
 /// The model's set-up from the options: squareness (given, else the
 /// campaign's, else 0), tool, model, order, the positions of `--at` (read
 /// here, named by file line) and the circle.
-fn setup(args: &Args, chain: Chain, curves: &mut Curves) -> Result<Setup> {
+fn setup(args: &Args, chain: Chain, curves: &Curves) -> Result<Setup> {
     let measured_square = curves.campaign.as_ref().map(|c| c.squareness);
     let squareness = match (args.squareness, measured_square) {
         (Some(s), _) => Squareness {
@@ -239,10 +240,7 @@ fn setup(args: &Args, chain: Chain, curves: &mut Curves) -> Result<Setup> {
         (None, None) => Squareness::default(),
     };
     let at_rows = match &args.at {
-        Some(p) => {
-            curves.inputs.push(p.clone());
-            files::read_at(p)?
-        }
+        Some(p) => files::read_at(p)?,
         None => Vec::new(),
     };
     let at_label = |line: u64| {
