@@ -6,9 +6,11 @@
 
 /// Handle SIGINT and SIGTERM on a thread of their own (signal-hook's
 /// iterator: the handler itself only wakes that thread, so the clean-up runs
-/// outside signal context and may lock and remove files).
+/// outside signal context and may lock and remove files). `rerun` is what
+/// the message says a rerun of the command does, where it does more than
+/// start again (`measure` resumes).
 #[cfg(unix)]
-pub fn install() {
+pub fn install(rerun: Option<&'static str>) {
     use signal_hook::consts::{SIGINT, SIGTERM};
     use signal_hook::iterator::Signals;
 
@@ -30,8 +32,9 @@ pub fn install() {
             };
             formats::interrupt::clean_up_then(|removed| {
                 eprintln!(
-                    "trinocular: interrupted by {name}; {removed} temporary file{} removed",
-                    if removed == 1 { "" } else { "s" }
+                    "trinocular: interrupted by {name}; {removed} temporary file{} removed{}",
+                    if removed == 1 { "" } else { "s" },
+                    rerun.map(|r| format!("; {r}")).unwrap_or_default()
                 );
                 std::process::exit(128 + signal)
             });
@@ -41,4 +44,4 @@ pub fn install() {
 
 /// Signals are not handled on this platform.
 #[cfg(not(unix))]
-pub fn install() {}
+pub fn install(_rerun: Option<&'static str>) {}

@@ -66,6 +66,32 @@ fn parse() -> Result<Cli, clap::Error> {
     Cli::from_arg_matches(&matches).map_err(|e| e.format(&mut command))
 }
 
+/// The subcommand the command line names, as its help is asked for
+/// (`trinocular probe volumetric`): the leading arguments that name
+/// subcommands, each of the one before; `trinocular` when none does.
+fn subcommand_named() -> String {
+    use clap::CommandFactory;
+    let mut command = Cli::command();
+    let mut path = vec!["trinocular".to_string()];
+    for arg in std::env::args_os().skip(1) {
+        let Some(sub) = command.find_subcommand(&arg).cloned() else {
+            break;
+        };
+        path.push(sub.get_name().to_string());
+        command = sub;
+    }
+    path.join(" ")
+}
+
+/// A usage error on stderr, one line, pointing to the subcommand's help.
+fn usage_error(reason: &str) -> ExitCode {
+    eprintln!(
+        "trinocular: error: {reason} (see '{} --help')",
+        subcommand_named()
+    );
+    ExitCode::from(USAGE_ERROR)
+}
+
 fn main() -> ExitCode {
     let cli = match parse() {
         Ok(cli) => cli,
@@ -82,14 +108,13 @@ fn main() -> ExitCode {
                 .take_while(|l| !l.trim().is_empty())
                 .map(str::trim)
                 .collect();
-            eprintln!(
-                "trinocular: error: {} (see 'trinocular --help')",
-                reason.join(" ").trim_start_matches("error: ")
-            );
-            return ExitCode::from(USAGE_ERROR);
+            return usage_error(reason.join(" ").trim_start_matches("error: "));
         }
     };
-    interrupt::install();
+    interrupt::install(match cli.command {
+        Command::Measure(_) => Some(cmd::measure::RERUN),
+        _ => None,
+    });
     let result = match cli.command {
         Command::Bench(args) => cmd::bench::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),
@@ -108,13 +133,7 @@ fn main() -> ExitCode {
             eprintln!("trinocular: finished with problems: {err}");
             ExitCode::from(cmd::Finished::EXIT_STATUS)
         }
-        Err(err) if cmd::Usage::is(&err) => {
-            eprintln!(
-                "trinocular: error: {} (see 'trinocular --help')",
-                one_line(&err)
-            );
-            ExitCode::from(USAGE_ERROR)
-        }
+        Err(err) if cmd::Usage::is(&err) => usage_error(&one_line(&err)),
         Err(err) => {
             eprintln!("trinocular: error: {}", one_line(&err));
             ExitCode::FAILURE

@@ -270,3 +270,52 @@ fn full_resolution_demo() {
     assert!(f.flatness_um <= 2.0 * 0.03, "{f:?}");
     assert!(f.angular_urad <= 2.0 * 3.3, "{f:?}");
 }
+
+/// The table the README prints is the default demo's own output: the
+/// figures measured from the rendered images beside the true ones, and the
+/// sphere-A line. `TRINOCULAR_BLESS=1 cargo test --test demo readme` writes
+/// the demo's table into the README when the demo changes on purpose.
+#[test]
+fn readme_shows_the_default_demos_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
+        .args(["demo", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let table = demo_table(&stdout).unwrap_or_else(|| panic!("no table in {stdout}"));
+
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    let readme = std::fs::read_to_string(&path).unwrap();
+    let start = readme
+        .find("```\nfigure (µm, µrad)")
+        .expect("the README's demo table")
+        + "```\n".len();
+    let end = start + readme[start..].find("```").expect("the table's end");
+    if std::env::var_os("TRINOCULAR_BLESS").is_some() {
+        let blessed = format!("{}{table}{}", &readme[..start], &readme[end..]);
+        std::fs::write(&path, blessed).unwrap();
+    } else {
+        assert_eq!(
+            readme[start..end],
+            table,
+            "the README's demo table differs from the demo's output; \
+             TRINOCULAR_BLESS=1 cargo test --test demo readme rewrites it"
+        );
+    }
+}
+
+/// The demo's table in its stdout: from its header to the sphere-A line.
+fn demo_table(stdout: &str) -> Option<String> {
+    let start = stdout.find("figure (µm, µrad)")?;
+    let rest = &stdout[start..];
+    let end = rest.find("sphere A displacement")?;
+    let line_end = end + rest[end..].find('\n')? + 1;
+    Some(rest[..line_end].to_string())
+}

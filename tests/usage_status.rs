@@ -261,3 +261,103 @@ fn usage_errors_exit_2_with_one_line_and_write_nothing() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Command lines clap refuses while parsing, and what the message must name.
+const PARSE_CASES: &[(&[&str], &[&str])] = &[
+    (&["measure", "--bogus"], &["'--bogus'"]),
+    // Without input, both ways of giving the curves are named.
+    (
+        &["probe", "volumetric", "--out", "{out}"],
+        &["--errors", "--from-report"],
+    ),
+    (&["synth", "probe", "rotary"], &["--out", "--print-config"]),
+    (
+        &["synth", "probe", "indexing"],
+        &["--out", "--print-config"],
+    ),
+];
+
+/// The subcommand a command line names: its leading words.
+fn subcommand(args: &[String]) -> String {
+    let words: Vec<&str> = args
+        .iter()
+        .take_while(|a| !a.starts_with('-'))
+        .map(String::as_str)
+        .collect();
+    format!("trinocular {}", words.join(" "))
+}
+
+#[test]
+fn usage_errors_point_to_the_subcommands_help() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = CASES
+        .iter()
+        .map(|(args, fragment)| (*args, vec![*fragment]))
+        .chain(
+            PARSE_CASES
+                .iter()
+                .map(|(args, fragments)| (*args, fragments.to_vec())),
+        );
+    let mut failures = Vec::new();
+    for (i, (args, fragments)) in cases.enumerate() {
+        let out = dir.path().join(format!("case{i}"));
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| a.replace("{out}", out.to_str().unwrap()))
+            .collect();
+        let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
+            .args(&args)
+            .current_dir(dir.path())
+            .env("TRINOCULAR_NO_GPU", "1")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&run.stderr);
+        let last = err.trim_end().lines().last().unwrap_or("").to_string();
+        let help = format!("(see '{} --help')", subcommand(&args));
+        if run.status.code() != Some(2)
+            || !last.ends_with(&help)
+            || fragments.iter().any(|f| !last.contains(f))
+        {
+            failures.push(format!(
+                "{}: want {help} and {fragments:?}, got {err:?}",
+                args.join(" ")
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// An option that a command cannot run without shows as required in its
+/// `--help` (clap's usage line lists it outside `[OPTIONS]`).
+#[test]
+fn help_shows_the_required_options() {
+    for (args, required) in [
+        (
+            &["synth", "probe", "rotary"][..],
+            "<--out <OUT>|--print-config>",
+        ),
+        (
+            &["synth", "probe", "indexing"],
+            "<--out <DIR>|--print-config>",
+        ),
+        (&["synth", "probe", "tracer"], "--out <DIR>"),
+        (&["synth", "probe", "volumetric"], "--out <OUT>"),
+        (
+            &["probe", "volumetric"],
+            "<--errors <E.csv>|--from-report <DIR>>",
+        ),
+        (&["measure"], "--out <OUT>"),
+    ] {
+        let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
+            .args(args)
+            .arg("--help")
+            .output()
+            .unwrap();
+        let help = String::from_utf8_lossy(&run.stdout);
+        let usage = help
+            .lines()
+            .find(|l| l.starts_with("Usage:"))
+            .unwrap_or_default();
+        assert!(usage.contains(required), "{args:?}: {usage}");
+    }
+}

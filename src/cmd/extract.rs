@@ -264,7 +264,8 @@ impl Tally {
         if failed_frames == images {
             // Nothing usable is a failure, not a batch with a few bad items.
             bail!(
-                "none of the {images} images could be used; listed in {}",
+                "{}; listed in {}",
+                crate::cmd::none_could(images, "image", "be used"),
                 problems_file.display()
             );
         }

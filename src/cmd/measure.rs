@@ -12,6 +12,9 @@ use fuse::{Fusion, Inputs, MeasureOptions, measure};
 use crate::cmd::extract::{ExtractOptions, print_notes};
 use crate::cmd::{Finished, progress};
 
+/// What the interrupt message says of a rerun: it resumes.
+pub const RERUN: &str = "run the same command again to resume from the instants already measured";
+
 /// Fusion method.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum FusionArg {
@@ -139,8 +142,8 @@ pub fn run(args: &Args) -> Result<()> {
     if summary.measured == 0 {
         // Nothing measured is a failure, not a batch with a few bad items.
         anyhow::bail!(
-            "none of the {} instants could be measured{refused}; listed in {}",
-            summary.instants,
+            "{}{refused}; listed in {}",
+            crate::cmd::none_could(summary.instants, "instant", "be measured"),
             problems.display()
         );
     }

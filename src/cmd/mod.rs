@@ -40,6 +40,16 @@ impl std::fmt::Display for Finished {
 
 impl std::error::Error for Finished {}
 
+/// "none of the 3 images could be used", or with one item "the only image
+/// could not be used".
+pub fn none_could(count: usize, noun: &str, verb: &str) -> String {
+    if count == 1 {
+        format!("the only {noun} could not {verb}")
+    } else {
+        format!("none of the {count} {noun}s could {verb}")
+    }
+}
+
 /// A command-line usage error found after parsing — an option's value out of
 /// its domain, options that do not fit together or do not fit the inputs
 /// they describe (three images for a two-camera rig): reported like clap's

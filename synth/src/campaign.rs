@@ -225,19 +225,29 @@ const CAMPAIGN_FILES: [&str; 5] = [
 ];
 
 /// Plan the calibration files under `out` ([`crate::target::target_files`]),
-/// then lock `out` and check the plan.
+/// then lock `out`, refuse (without `--force`) a rendering that an earlier run
+/// left incomplete, and check the plan. `last` is the file the rendering
+/// writes last and `first` the one it writes first: `first` without `last` is
+/// the rest of a run that stopped.
 fn plan_target(
     config: &Config,
     rig: &SynthRig,
     out: &Path,
     output: &mut OutputPlan,
     command: &str,
+    [first, last]: [&str; 2],
 ) -> Result<()> {
     output.folder(out).folder(out.join("calib"));
     for f in crate::target::target_files(config, rig) {
         output.file(out.join(f));
     }
     output.lock(out, command)?;
+    if !output.force() && out.join(first).exists() && !out.join(last).exists() {
+        return Err(SynthError::Incomplete {
+            folder: out.to_path_buf(),
+            last: out.join(last),
+        });
+    }
     output.check()?;
     Ok(())
 }
@@ -291,7 +301,19 @@ pub fn write_campaign(
         }
         Some(jobs)
     };
-    plan_target(config, &rig, out, output, "synth campaign")?;
+    let last = if frame_jobs.is_some() {
+        "truth_manifest.csv"
+    } else {
+        "manifest.csv"
+    };
+    plan_target(
+        config,
+        &rig,
+        out,
+        output,
+        "synth campaign",
+        ["config.toml", last],
+    )?;
 
     progress.begin("checking scenes", 1);
     let scene = check_plan(&rig, &plan)?;
@@ -413,7 +435,14 @@ pub fn write_target_scene(
     output
         .file(out.join("nominal.json"))
         .file(out.join("truth.json"));
-    plan_target(config, &rig, out, output, "synth target")?;
+    plan_target(
+        config,
+        &rig,
+        out,
+        output,
+        "synth target",
+        ["target.csv", "truth.json"],
+    )?;
     progress.begin("calibration images", rig.cameras.len() as u64);
     let images = crate::target::write_target_files(config, &rig, out, start, output)?;
     progress.advance(rig.cameras.len() as u64);

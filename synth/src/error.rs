@@ -68,6 +68,20 @@ pub enum SynthError {
         /// The underlying error.
         source: geom::GeomError,
     },
+    /// An earlier run into the output folder stopped before its last file:
+    /// the folder holds part of a rendering.
+    #[error(
+        "{} holds an incomplete rendering ({} is missing: an earlier run was interrupted or \
+         failed); render it again with --force, which replaces what is there",
+        folder.display(),
+        last.display()
+    )]
+    Incomplete {
+        /// The output folder.
+        folder: PathBuf,
+        /// The file a complete rendering writes last.
+        last: PathBuf,
+    },
     /// A file of the contract could not be written.
     #[error(transparent)]
     Format(#[from] formats::FormatError),

@@ -36,9 +36,10 @@ pub struct Args {
 
 /// Arguments of `trinocular synth probe indexing`.
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("what").required(true).multiple(true).args(["out", "print_config"])))]
 pub struct SynthArgs {
     /// Output directory (created if missing): centres.csv, truth.json.
-    #[arg(long, value_name = "DIR", required_unless_present = "print_config")]
+    #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Configuration (TOML; see --print-config). Default: a PH10 with a 117 mm stylus, 720 positions.
     #[arg(long, value_name = "FILE")]

@@ -48,9 +48,10 @@ pub struct Args {
 
 /// Arguments of `trinocular synth probe rotary`.
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("what").required(true).multiple(true).args(["out", "print_config"])))]
 pub struct SynthArgs {
     /// Output directory (created if missing).
-    #[arg(long, required_unless_present = "print_config")]
+    #[arg(long)]
     out: Option<PathBuf>,
     /// Configuration (TOML; see --print-config). Default: a C axis with offset, tilt, wobble,
     /// run-out and angular errors, three balls, 30° steps, 0.3 µm noise.

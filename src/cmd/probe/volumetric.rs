@@ -24,10 +24,11 @@ use crate::cmd::OrUsage;
 
 /// Arguments of `trinocular probe volumetric`.
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("curves").required(true).multiple(true).args(["errors", "from_report"])))]
 pub struct Args {
     /// Error curves `axis,position,ex,ey,ez,ea,eb,ec` (mm, rad; optional
     /// `positioning_up,positioning_down` for the compensation tables).
-    #[arg(long, value_name = "E.csv", required_unless_present = "from_report")]
+    #[arg(long, value_name = "E.csv")]
     errors: Option<PathBuf>,
     /// Take the curves of the swept axes from `trinocular evaluate`'s output
     /// folder (report.json); `--errors` may add the other axes (e.g. Z).
