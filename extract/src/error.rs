@@ -115,7 +115,7 @@ pub enum ParameterProblem {
         max_area: u64,
     },
     /// The Gaussian denoising sigma is not finite and positive.
-    #[error("Gaussian sigma {0} must be positive")]
+    #[error("denoising: the Gaussian σ {0} px must be finite and positive")]
     GaussianSigma(f32),
     /// The frame is larger than the limits allow.
     #[error("{0}")]
