@@ -5,7 +5,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::process::Command;
+use std::path::Path;
+use std::process::{Command, Output};
 
 /// (command line, fragment of the one-line message).
 const CASES: &[(&[&str], &str)] = &[
@@ -223,22 +224,29 @@ const CASES: &[(&[&str], &str)] = &[
     ),
 ];
 
+/// Run a case's command line in `dir`, `{out}` replaced by `out`: the
+/// arguments as run and what the run gave.
+fn run_case(dir: &Path, out: &Path, args: &[&str]) -> (Vec<String>, Output) {
+    let args: Vec<String> = args
+        .iter()
+        .map(|a| a.replace("{out}", out.to_str().unwrap()))
+        .collect();
+    let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
+        .args(&args)
+        .current_dir(dir)
+        .env("TRINOCULAR_NO_GPU", "1")
+        .output()
+        .unwrap();
+    (args, run)
+}
+
 #[test]
 fn usage_errors_exit_2_with_one_line_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let mut failures = Vec::new();
     for (i, (args, fragment)) in CASES.iter().enumerate() {
         let out = dir.path().join(format!("case{i}"));
-        let args: Vec<String> = args
-            .iter()
-            .map(|a| a.replace("{out}", out.to_str().unwrap()))
-            .collect();
-        let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
-            .args(&args)
-            .current_dir(dir.path())
-            .env("TRINOCULAR_NO_GPU", "1")
-            .output()
-            .unwrap();
+        let (args, run) = run_case(dir.path(), &out, args);
         let err = String::from_utf8_lossy(&run.stderr);
         let lines: Vec<&str> = err.trim_end().lines().collect();
         // The demo prints each step before running it; the others say one line.
@@ -301,16 +309,7 @@ fn usage_errors_point_to_the_subcommands_help() {
     let mut failures = Vec::new();
     for (i, (args, fragments)) in cases.enumerate() {
         let out = dir.path().join(format!("case{i}"));
-        let args: Vec<String> = args
-            .iter()
-            .map(|a| a.replace("{out}", out.to_str().unwrap()))
-            .collect();
-        let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
-            .args(&args)
-            .current_dir(dir.path())
-            .env("TRINOCULAR_NO_GPU", "1")
-            .output()
-            .unwrap();
+        let (args, run) = run_case(dir.path(), &out, args);
         let err = String::from_utf8_lossy(&run.stderr);
         let last = err.trim_end().lines().last().unwrap_or("").to_string();
         let help = format!("(see '{} --help')", subcommand(&args));
