@@ -490,6 +490,12 @@ mod interrupted {
                 "{}",
                 stderr(&ended)
             );
+            // The message says what a rerun does.
+            assert!(
+                stderr(&ended).contains("run the same command again to resume"),
+                "{}",
+                stderr(&ended)
+            );
             assert!(left.is_empty(), "{left:?}");
         }
 
@@ -635,5 +641,55 @@ mod interrupted {
     #[test]
     fn extract_after_kill_9_cleans_up_and_gives_the_same_bytes() {
         interrupt_extract("KILL", None);
+    }
+    /// A `synth campaign` interrupted while it renders frames: run again, it
+    /// says the folder holds an incomplete rendering and how to go on
+    /// (`--force`), and with `--force` it writes the whole campaign.
+    #[test]
+    fn an_interrupted_synth_campaign_says_so_when_run_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = dir.path().join("c");
+        let args: Vec<String> = [
+            "synth",
+            "campaign",
+            "--out",
+            s(&c),
+            "--width",
+            "512",
+            "--height",
+            "384",
+            "--targets",
+            "5",
+            "--runs",
+            "3",
+            "--captures",
+            "2",
+        ]
+        .map(str::to_string)
+        .to_vec();
+        let mut child = spawn(&args);
+        // The calibration images are written before the frames.
+        stop_when(&mut child, "the calibration images", || {
+            c.join("calib/points_cam3.csv").exists()
+        });
+        signal(&child, "INT");
+        signal(&child, "CONT");
+        let ended = child.wait_with_output().unwrap();
+        assert_eq!(ended.status.code(), Some(130), "{}", stderr(&ended));
+        assert!(!c.join("manifest.csv").exists());
+
+        refused(
+            &bin().args(&args).output().unwrap(),
+            &[s(&c), "incomplete rendering", "--force"],
+        );
+        let mut forced = args.clone();
+        forced.push("--force".into());
+        ok(&bin().args(&forced).output().unwrap());
+        assert!(c.join("manifest.csv").exists() && c.join("truth.json").exists());
+        assert!(
+            leftovers(dir.path()).is_empty(),
+            "{:?}",
+            leftovers(dir.path())
+        );
     }
 }
