@@ -8,7 +8,6 @@ use std::fmt;
 use formats::{Axis, Direction, PointRow, Record};
 use thiserror::Error;
 
-use crate::iso230_2::MIN_RUNS;
 use crate::points::{MAX_COORDINATE_MM, UNIT_FACTOR, measured_column};
 
 /// Why an evaluation could not be made or its outputs not written.
@@ -18,8 +17,8 @@ pub enum EvaluateError {
     /// (parse errors, missing columns, NaN: file, line and column are named).
     #[error(transparent)]
     Format(#[from] formats::FormatError),
-    /// A row is well formed but does not fit the campaign (one run at a
-    /// target, mixed units, inconsistent nominal positions, duplicates).
+    /// A row is well formed but does not fit the campaign (mixed units,
+    /// inconsistent nominal positions, duplicates).
     #[error("{source_name}: line {line}, column '{column}': {problem}")]
     Row {
         /// The points file (or `points` for rows given in memory).
@@ -248,38 +247,6 @@ pub enum RowProblem {
         first: f64,
         /// Line of its first row.
         first_line: u64,
-    },
-    /// A target without approaches in a direction the other targets have.
-    #[error(
-        "target {target} of {line} has no '{direction}' approaches of sphere {sphere}, while \
-         other targets of the line have"
-    )]
-    MissingDirection {
-        /// The target.
-        target: u32,
-        /// The line.
-        line: LineName,
-        /// The direction missing.
-        direction: Direction,
-        /// The sphere.
-        sphere: String,
-    },
-    /// A target with a single run in a direction.
-    #[error(
-        "target {target} of {line} has a single '{direction}' run (run {run}) of sphere {sphere}: \
-         ISO 230-2 needs at least {MIN_RUNS} runs per direction"
-    )]
-    SingleRun {
-        /// The target.
-        target: u32,
-        /// The line.
-        line: LineName,
-        /// The direction.
-        direction: Direction,
-        /// The run.
-        run: u32,
-        /// The sphere.
-        sphere: String,
     },
 }
 

@@ -62,7 +62,7 @@ fn summary(h: &mut Page, report: &Report) {
         ("R↑", |l| l.positioning.r_up_um),
         ("R↓", |l| l.positioning.r_down_um),
         ("B — reversal value", |l| l.positioning.b_um),
-        ("seed 3σ figure", |l| Some(l.positioning.seed_3sigma_um)),
+        ("seed 3σ figure", |l| l.positioning.seed_3sigma_um),
         ("roll range", |l| l.angular.as_ref().map(|a| a.roll_urad)),
         ("pitch range", |l| l.angular.as_ref().map(|a| a.pitch_urad)),
         ("yaw range", |l| l.angular.as_ref().map(|a| a.yaw_urad)),
@@ -71,6 +71,17 @@ fn summary(h: &mut Page, report: &Report) {
         let _ = write!(h, "<tr><td class=\"l\">{}</td>", escape(label));
         for (_, a) in &axes {
             let _ = write!(h, "<td>{}</td>", num(get(&a.main)));
+        }
+        h.raw("</tr>\n");
+    }
+    if axes
+        .iter()
+        .any(|(_, a)| a.main.positioning.left_out.is_some())
+    {
+        h.raw("<tr><td class=\"l\">positioning left out</td>");
+        for (_, a) in &axes {
+            let reason = a.main.positioning.left_out.as_deref().unwrap_or("");
+            let _ = write!(h, "<td class=\"l warn\">{}</td>", escape(reason));
         }
         h.raw("</tr>\n");
     }
@@ -127,13 +138,18 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
         l.direction[2]
     );
     h.raw("<h3>Positioning (ISO 230-2)</h3>\n");
-    let title = format!("{name} axis — positional deviation");
-    h.figure(
-        &format!("plot-{name}-positioning"),
-        &plot::positioning(&title, &l.positioning)?,
-        "Dots: the deviation of every run (captures averaged); solid: mean per direction; dashed: mean ± 2s.",
-    );
-    positioning_tables(h, &l.positioning);
+    if let Some(reason) = &l.positioning.left_out {
+        let _ = writeln!(h, "<p class=\"warn\">{}</p>", escape(reason));
+    }
+    if has_iso(&l.positioning) {
+        let title = format!("{name} axis — positional deviation");
+        h.figure(
+            &format!("plot-{name}-positioning"),
+            &plot::positioning(&title, &l.positioning)?,
+            "Dots: the deviation of every run (captures averaged); solid: mean per direction; dashed: mean ± 2s.",
+        );
+        positioning_tables(h, &l.positioning);
+    }
 
     h.raw("<h3>Straightness</h3>\n");
     for (dir, s) in &l.straightness {
@@ -178,21 +194,41 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
             let _ = write!(h, "<th>straightness {d} LSQ / MZ</th>");
         }
         h.raw("</tr>\n");
+        let mut partial = Vec::new();
         for line in &a.lines {
             let p = &line.positioning;
             let _ = write!(
                 h,
-                "<tr><td class=\"l\">{}{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+                "<tr><td class=\"l\">{}{}</td><td class=\"l\">{}</td><td>{}</td>",
                 line.line,
                 if line.line == l.line { " (main)" } else { "" },
                 escape(&off_axis(line)),
                 p.runs_up + p.runs_down,
-                num(p.a_um.or(p.a_up_um).or(p.a_down_um)),
-                num(p.e_um.or(p.e_up_um).or(p.e_down_um)),
-                num(p.m_um),
-                num(p.r_um.or(p.r_up_um).or(p.r_down_um)),
-                num(p.b_um),
             );
+            match &p.left_out {
+                // Where the figures would be, the reason they are not.
+                Some(reason) if !has_iso(p) => {
+                    let _ = write!(
+                        h,
+                        "<td colspan=\"5\" class=\"l warn\">{}</td>",
+                        escape(reason)
+                    );
+                }
+                _ => {
+                    let _ = write!(
+                        h,
+                        "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+                        num(p.a_um.or(p.a_up_um).or(p.a_down_um)),
+                        num(p.e_um.or(p.e_up_um).or(p.e_down_um)),
+                        num(p.m_um),
+                        num(p.r_um.or(p.r_up_um).or(p.r_down_um)),
+                        num(p.b_um),
+                    );
+                    if let Some(reason) = &p.left_out {
+                        partial.push(format!("line {}: {reason}", line.line));
+                    }
+                }
+            }
             for d in &dirs {
                 match line.straightness.get(*d) {
                     Some(s) => {
@@ -206,8 +242,20 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
             h.raw("</tr>\n");
         }
         h.raw("</table>\n");
+        if !partial.is_empty() {
+            h.raw("<ul class=\"notes warn\">\n");
+            for note in &partial {
+                let _ = writeln!(h, "<li>{}</li>", escape(note));
+            }
+            h.raw("</ul>\n");
+        }
     }
     Ok(())
+}
+
+/// The line has ISO 230-2 figures of at least one direction.
+fn has_iso(p: &PositioningReport) -> bool {
+    p.a_up_um.is_some() || p.a_down_um.is_some()
 }
 
 fn positioning_tables(h: &mut Page, p: &PositioningReport) {
@@ -243,10 +291,10 @@ fn positioning_tables(h: &mut Page, p: &PositioningReport) {
     let _ = writeln!(
         h,
         "<tr><td class=\"l\">B — reversal value (B̄ mean)</td><td>{} ({})</td><td></td><td></td></tr>\n\
-         <tr><td class=\"l\">seed figure max(x̄+3s) − min(x̄−3s)</td><td>{:.3}</td><td></td><td></td></tr>\n</table>",
+         <tr><td class=\"l\">seed figure max(x̄+3s) − min(x̄−3s)</td><td>{}</td><td></td><td></td></tr>\n</table>",
         num(p.b_um),
         num(p.b_mean_um),
-        p.seed_3sigma_um
+        num(p.seed_3sigma_um)
     );
     if let Some(v) = &p.vdi3441 {
         let _ = writeln!(

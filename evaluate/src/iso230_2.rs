@@ -43,7 +43,7 @@ impl DirectionStats {
 }
 
 /// The per-target figures.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct TargetFigures {
     /// ↑ statistics, when ↑ was measured.
     pub up: Option<DirectionStats>,

@@ -26,7 +26,10 @@
 //!   vertical deviations from `z = aX + bY + c`, and the minimum zone.
 //! - Angular: see [`ANGULAR_CONVENTION`].
 //! - A figure whose axis or direction is absent is `None` and left out of the
-//!   JSON, never zero.
+//!   JSON, never zero. A line short of ISO 230-2's runs ([`MIN_RUNS`] per
+//!   direction at every target) keeps its straightness, angular errors and
+//!   flatness points; its `positioning.left_out` and a warning say which
+//!   figures are left out and why.
 //!
 //! # Example
 //! An X axis measured at three targets, two runs each way, with a reversal
@@ -203,8 +206,15 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
             })
             .unwrap_or(0);
         let mut line_reports = Vec::with_capacity(results.len());
-        for (_, r) in results {
+        for (index, (_, r)) in results.into_iter().enumerate() {
             report.warnings.extend(r.warnings);
+            if let Some(reason) = &r.report.positioning.left_out {
+                report.warnings.push(positioning_warning(
+                    of_axis[index].name(),
+                    index == main,
+                    reason,
+                ));
+            }
             line_reports.push(r.report);
         }
         *report.axes.slot(axis) = Some(AxisReport {
@@ -214,6 +224,17 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
     }
     report.flatness = flatness_report(&flat_points, &mut report.warnings)?;
     Ok(report)
+}
+
+/// The warning for a line whose positioning is (partly) left out; the main
+/// line of the axis, whose figures `axes.X` shows, is named as such.
+fn positioning_warning(line: LineName, main: bool, reason: &str) -> String {
+    let role = if main {
+        " (the main line of the axis: the most runs)"
+    } else {
+        ""
+    };
+    format!("{line}{role}: {reason}")
 }
 
 /// Flatness of the X and Y lines' per-target mean points; `None` (with a

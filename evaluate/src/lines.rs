@@ -8,7 +8,7 @@ use formats::{Axis, Direction};
 use geom::{Point2, Point3, Vector3};
 
 use crate::axis_frame::AxisFrame;
-use crate::iso230_2::TargetDeviations;
+use crate::iso230_2::{TargetDeviations, TargetFigures};
 use crate::points::{Located, measured_column, nominal_column, row_error};
 use crate::{
     EvaluateError, Fitted, LineName, Result, RowProblem, angular, iso230_2, straightness, vdi3441,
@@ -162,7 +162,6 @@ pub(crate) fn evaluate_line(
             },
         ));
     };
-    check_runs(main, &nominal, what, sphere, source)?;
     if main.len() < 2 {
         return Err(row_error(
             source,
@@ -289,27 +288,43 @@ impl Sweep<'_> {
     }
 
     /// Per target: the deviation of each approach (its captures averaged) by
-    /// direction, and the seed's mean and sample deviation over every capture (µm).
-    fn deviations(&self) -> Result<(Vec<TargetDeviations>, Vec<SeedStats>)> {
-        let mut deviations = Vec::with_capacity(self.targets.len());
-        let mut seed = Vec::with_capacity(self.targets.len());
-        for (k, runs) in self.main.values().enumerate() {
-            let mut dev = TargetDeviations::default();
-            let mut all = Vec::new();
-            for ((direction, _), captures) in runs {
-                let value = self.deviation(k, &mean_point(captures.iter().map(|(_, p)| p)));
-                match direction {
-                    Direction::Up => dev.up.push(value),
-                    Direction::Down => dev.down.push(value),
+    /// direction (µm).
+    fn deviations(&self) -> Vec<TargetDeviations> {
+        self.main
+            .values()
+            .enumerate()
+            .map(|(k, runs)| {
+                let mut dev = TargetDeviations::default();
+                for ((direction, _), captures) in runs {
+                    let value = self.deviation(k, &mean_point(captures.iter().map(|(_, p)| p)));
+                    match direction {
+                        Direction::Up => dev.up.push(value),
+                        Direction::Down => dev.down.push(value),
+                    }
                 }
-                all.extend(captures.iter().map(|(_, p)| self.deviation(k, p)));
-            }
-            let m = geom::stats::mean(&all).map_err(|e| positioning_error(self.what, e))?;
-            let s = geom::stats::sample_std(&all).map_err(|e| positioning_error(self.what, e))?;
-            seed.push((m, s));
-            deviations.push(dev);
-        }
-        Ok((deviations, seed))
+                dev
+            })
+            .collect()
+    }
+
+    /// Per target: the seed's mean and sample deviation over every capture
+    /// of every run and direction (µm).
+    fn seed(&self) -> Result<Vec<SeedStats>> {
+        self.main
+            .values()
+            .enumerate()
+            .map(|(k, runs)| {
+                let all: Vec<f64> = runs
+                    .values()
+                    .flatten()
+                    .map(|(_, p)| self.deviation(k, p))
+                    .collect();
+                let m = geom::stats::mean(&all).map_err(|e| positioning_error(self.what, e))?;
+                let s =
+                    geom::stats::sample_std(&all).map_err(|e| positioning_error(self.what, e))?;
+                Ok((m, s))
+            })
+            .collect()
     }
 
     /// Distinct runs in direction `d`.
@@ -323,31 +338,87 @@ impl Sweep<'_> {
             .len()
     }
 
-    /// ISO 230-2, the seed's 3σ and (when `vdi`) VDI/DGQ 3441.
+    /// Whether direction `d` has the [`iso230_2::MIN_RUNS`] runs ISO 230-2
+    /// needs at every target; else the first target short of them.
+    fn coverage(&self, d: Direction) -> Coverage {
+        if self.runs_in(d) == 0 {
+            return Coverage::Absent;
+        }
+        for (&target, runs) in self.main {
+            let here: Vec<u32> = runs
+                .keys()
+                .filter(|(dir, _)| *dir == d)
+                .map(|(_, run)| *run)
+                .collect();
+            if here.len() < iso230_2::MIN_RUNS {
+                return Coverage::Short(Shortfall {
+                    target,
+                    direction: d,
+                    runs: here,
+                });
+            }
+        }
+        Coverage::Enough
+    }
+
+    /// ISO 230-2 from the directions with enough runs, the seed's 3σ and
+    /// (when `vdi`) VDI/DGQ 3441; what is left out, and why, in `left_out`.
     fn positioning(&self, vdi: bool) -> Result<PositioningReport> {
-        let (deviations, seed) = self.deviations()?;
-        let iso = iso230_2::iso230_2(&deviations)?;
-        let seed_3sigma = seed
+        let deviations = self.deviations();
+        let [up, down] = [Direction::Up, Direction::Down].map(|d| self.coverage(d));
+        let usable: Vec<TargetDeviations> = deviations
             .iter()
-            .map(|(m, s)| m + 3.0 * s)
-            .fold(f64::NEG_INFINITY, f64::max)
-            - seed
-                .iter()
-                .map(|(m, s)| m - 3.0 * s)
-                .fold(f64::INFINITY, f64::min);
+            .map(|t| TargetDeviations {
+                up: if up.enough() {
+                    t.up.clone()
+                } else {
+                    Vec::new()
+                },
+                down: if down.enough() {
+                    t.down.clone()
+                } else {
+                    Vec::new()
+                },
+            })
+            .collect();
+        let iso = if up.enough() || down.enough() {
+            Some(iso230_2::iso230_2(&usable)?)
+        } else {
+            None
+        };
+        let seed = iso.as_ref().map(|_| self.seed()).transpose()?;
+        let seed_3sigma = seed.as_ref().map(|seed| {
+            seed.iter()
+                .map(|(m, s)| m + 3.0 * s)
+                .fold(f64::NEG_INFINITY, f64::max)
+                - seed
+                    .iter()
+                    .map(|(m, s)| m - 3.0 * s)
+                    .fold(f64::INFINITY, f64::min)
+        });
+        let figures: Vec<TargetFigures> = match &iso {
+            Some(i) => i.targets.clone(),
+            None => vec![TargetFigures::default(); self.targets.len()],
+        };
+        let bi = iso.as_ref().and_then(|i| i.bidirectional);
+        let (iso_up, iso_down) = (
+            iso.as_ref().and_then(|i| i.up),
+            iso.as_ref().and_then(|i| i.down),
+        );
         Ok(PositioningReport {
-            a_um: iso.bidirectional.map(|b| b.a),
-            a_up_um: iso.up.map(|u| u.a),
-            a_down_um: iso.down.map(|u| u.a),
-            e_um: iso.bidirectional.map(|b| b.e),
-            e_up_um: iso.up.map(|u| u.e),
-            e_down_um: iso.down.map(|u| u.e),
-            m_um: iso.bidirectional.map(|b| b.m),
-            r_um: iso.bidirectional.map(|b| b.r),
-            r_up_um: iso.up.map(|u| u.r),
-            r_down_um: iso.down.map(|u| u.r),
-            b_um: iso.bidirectional.map(|b| b.b),
-            b_mean_um: iso.bidirectional.map(|b| b.b_mean),
+            left_out: left_out(&up, &down, vdi),
+            a_um: bi.map(|b| b.a),
+            a_up_um: iso_up.map(|u| u.a),
+            a_down_um: iso_down.map(|u| u.a),
+            e_um: bi.map(|b| b.e),
+            e_up_um: iso_up.map(|u| u.e),
+            e_down_um: iso_down.map(|u| u.e),
+            m_um: bi.map(|b| b.m),
+            r_um: bi.map(|b| b.r),
+            r_up_um: iso_up.map(|u| u.r),
+            r_down_um: iso_down.map(|u| u.r),
+            b_um: bi.map(|b| b.b),
+            b_mean_um: bi.map(|b| b.b_mean),
             seed_3sigma_um: seed_3sigma,
             runs_up: self.runs_in(Direction::Up),
             runs_down: self.runs_in(Direction::Down),
@@ -355,11 +426,12 @@ impl Sweep<'_> {
                 .targets
                 .iter()
                 .zip(self.commanded)
-                .zip(&iso.targets)
+                .zip(&figures)
                 .zip(&deviations)
-                .zip(&seed)
-                .map(
-                    |((((&t, &nominal), f), dev), &(seed_mean, seed_s))| PositioningTarget {
+                .enumerate()
+                .map(|(k, (((&t, &nominal), f), dev))| {
+                    let seed_at = seed.as_ref().map(|s| s[k]);
+                    PositioningTarget {
                         target: t,
                         nominal,
                         mean_up_um: f.up.map(|u| u.mean),
@@ -373,19 +445,21 @@ impl Sweep<'_> {
                         r_um: f.bidirectional.map(|b| b.repeatability),
                         runs_up_um: dev.up.clone(),
                         runs_down_um: dev.down.clone(),
-                        seed_mean_um: seed_mean,
-                        seed_s_um: seed_s,
-                    },
-                )
+                        seed_mean_um: seed_at.map(|s| s.0),
+                        seed_s_um: seed_at.map(|s| s.1),
+                    }
+                })
                 .collect(),
             vdi3441: if vdi {
-                vdi3441::vdi3441(&iso).map(|v| Vdi3441Report {
-                    p_um: v.p,
-                    ps_um: v.ps,
-                    u_um: v.u,
-                    u_mean_um: v.u_mean,
-                    pa_um: v.pa,
-                })
+                iso.as_ref()
+                    .and_then(vdi3441::vdi3441)
+                    .map(|v| Vdi3441Report {
+                        p_um: v.p,
+                        ps_um: v.ps,
+                        u_um: v.u,
+                        u_mean_um: v.u_mean,
+                        pa_um: v.pa,
+                    })
             } else {
                 None
             },
@@ -492,71 +566,110 @@ fn angular_errors(
     }
 }
 
+/// How far one direction of a line goes for ISO 230-2 (at least
+/// [`iso230_2::MIN_RUNS`] runs at every target).
+#[derive(Debug, Clone, PartialEq)]
+enum Coverage {
+    /// No approach in the direction.
+    Absent,
+    /// Enough runs at every target.
+    Enough,
+    /// A target short of runs.
+    Short(Shortfall),
+}
+
+impl Coverage {
+    /// ISO 230-2 can use the direction.
+    fn enough(&self) -> bool {
+        *self == Coverage::Enough
+    }
+}
+
+/// The first target of a line short of runs in a direction.
+#[derive(Debug, Clone, PartialEq)]
+struct Shortfall {
+    /// The target.
+    target: u32,
+    /// The direction.
+    direction: Direction,
+    /// Its runs in the direction (fewer than [`iso230_2::MIN_RUNS`]).
+    runs: Vec<u32>,
+}
+
+impl std::fmt::Display for Shortfall {
+    /// `target 0 has 1 ↑ run (run 51)`, `target 2 has no ↓ run`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (target, arrow) = (self.target, arrow(self.direction));
+        let plural = if self.runs.len() == 1 { "" } else { "s" };
+        let list: Vec<String> = self.runs.iter().map(u32::to_string).collect();
+        match self.runs.len() {
+            0 => write!(f, "target {target} has no {arrow} run"),
+            n => write!(
+                f,
+                "target {target} has {n} {arrow} run{plural} (run{plural} {})",
+                list.join(", ")
+            ),
+        }
+    }
+}
+
+/// `↑` or `↓`, as ISO 230-2 writes the directions.
+fn arrow(d: Direction) -> &'static str {
+    match d {
+        Direction::Up => "↑",
+        Direction::Down => "↓",
+    }
+}
+
+/// What of ISO 230-2 a line's coverage leaves out and why; `None` when both
+/// directions have the runs. The bidirectional figures (A, E, M, R, B, B̄ and
+/// VDI/DGQ 3441 when `vdi`) need both directions; a direction's own figures
+/// (A↑, E↑, R↑) only its runs.
+fn left_out(up: &Coverage, down: &Coverage, vdi: bool) -> Option<String> {
+    let both = if vdi {
+        "A, E, M, R, B, B̄ and VDI/DGQ 3441"
+    } else {
+        "A, E, M, R, B and B̄"
+    };
+    let needs = format!(
+        "ISO 230-2 needs at least {} runs per direction at every target",
+        iso230_2::MIN_RUNS
+    );
+    let one_way = |d: &str| {
+        format!(
+            "{both} left out: measured in {d} only, and they need both directions (ISO 230-2); the {d} figures are given"
+        )
+    };
+    match (up, down) {
+        (Coverage::Enough, Coverage::Enough) => None,
+        (Coverage::Enough, Coverage::Absent) => Some(one_way("↑")),
+        (Coverage::Absent, Coverage::Enough) => Some(one_way("↓")),
+        (Coverage::Enough, Coverage::Short(short)) => {
+            Some(format!("↓ figures and {both} left out: {needs}; {short}"))
+        }
+        (Coverage::Short(short), Coverage::Enough) => {
+            Some(format!("↑ figures and {both} left out: {needs}; {short}"))
+        }
+        (up, down) => {
+            let why = |c: &Coverage, d: &str| match c {
+                Coverage::Short(short) => short.to_string(),
+                _ => format!("no {d} run"),
+            };
+            Some(format!(
+                "positioning left out: {needs}; {} and {}",
+                why(up, "↑"),
+                why(down, "↓")
+            ))
+        }
+    }
+}
+
 /// A failed statistic of a line's positioning.
 fn positioning_error(line: LineName, e: geom::GeomError) -> EvaluateError {
     EvaluateError::Geom {
         what: Fitted::Positioning(line),
         source: e,
     }
-}
-
-/// Every target of the line has every direction the line has, each with at
-/// least [`iso230_2::MIN_RUNS`] runs; errors name the row and column.
-fn check_runs(
-    main: &SphereData,
-    nominal: &BTreeMap<u32, (f64, u64)>,
-    what: LineName,
-    sphere: &str,
-    source: &str,
-) -> Result<()> {
-    let directions: std::collections::BTreeSet<Direction> = main
-        .values()
-        .flat_map(|runs| runs.keys().map(|k| k.0))
-        .collect();
-    for (&target, runs) in main {
-        for &d in &directions {
-            let here: Vec<(&(Direction, u32), &Approach)> =
-                runs.iter().filter(|(k, _)| k.0 == d).collect();
-            match here.as_slice() {
-                [] => {
-                    let line = runs
-                        .values()
-                        .flat_map(|c| c.iter().map(|(l, _)| *l))
-                        .min()
-                        .or_else(|| nominal.get(&target).map(|n| n.1))
-                        .unwrap_or(2);
-                    return Err(row_error(
-                        source,
-                        line,
-                        "direction",
-                        RowProblem::MissingDirection {
-                            target,
-                            line: what,
-                            direction: d,
-                            sphere: sphere.to_string(),
-                        },
-                    ));
-                }
-                [((_, run), captures)] => {
-                    let line = captures.iter().map(|(l, _)| *l).min().unwrap_or(2);
-                    return Err(row_error(
-                        source,
-                        line,
-                        "run",
-                        RowProblem::SingleRun {
-                            target,
-                            line: what,
-                            direction: d,
-                            run: *run,
-                            sphere: sphere.to_string(),
-                        },
-                    ));
-                }
-                _ => {}
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Per target, the mean position of each of `spheres` (in that order) over
@@ -647,4 +760,37 @@ fn angular_report(
         convention: ANGULAR_CONVENTION.to_string(),
         targets: rows,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn short(target: u32, direction: Direction, runs: &[u32]) -> Coverage {
+        Coverage::Short(Shortfall {
+            target,
+            direction,
+            runs: runs.to_vec(),
+        })
+    }
+
+    #[test]
+    fn left_out_names_the_figures_and_the_shortfall() {
+        assert_eq!(left_out(&Coverage::Enough, &Coverage::Enough, true), None);
+        assert_eq!(
+            left_out(&short(0, Direction::Up, &[7]), &Coverage::Absent, false).unwrap(),
+            "positioning left out: ISO 230-2 needs at least 2 runs per direction at every \
+             target; target 0 has 1 ↑ run (run 7) and no ↓ run"
+        );
+        assert_eq!(
+            left_out(&Coverage::Enough, &short(3, Direction::Down, &[]), true).unwrap(),
+            "↓ figures and A, E, M, R, B, B̄ and VDI/DGQ 3441 left out: ISO 230-2 needs at \
+             least 2 runs per direction at every target; target 3 has no ↓ run"
+        );
+        assert_eq!(
+            left_out(&Coverage::Enough, &Coverage::Absent, false).unwrap(),
+            "A, E, M, R, B and B̄ left out: measured in ↑ only, and they need both directions \
+             (ISO 230-2); the ↑ figures are given"
+        );
+    }
 }

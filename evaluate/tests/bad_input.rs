@@ -1,7 +1,8 @@
 //! Bad input is an error naming the row (file line, the header is line 1)
 //! and the column: empty file, header only, missing columns, NaN, text in a
-//! number, a target with one run, a direction missing at a target, mixed
-//! units, duplicates, a target commanded at two positions.
+//! number, mixed units, duplicates, a target commanded at two positions. A
+//! target with one run, or without a direction, is no error: the line's
+//! positioning leaves that direction out and says why.
 
 #![allow(clippy::unwrap_used)]
 
@@ -40,7 +41,7 @@ fn names(e: &str, path: &Path, line: u64, column: &str) {
     assert!(e.contains(&want), "expected «{want}» in «{e}»");
 }
 
-/// Lines of the text, and the index (0-based, header 0) of the first row matching `pred`.
+/// The index (0-based, header 0) of the first of `lines` matching `pred`.
 fn find(lines: &[String], pred: impl Fn(&[&str]) -> bool) -> usize {
     lines
         .iter()
@@ -104,9 +105,34 @@ fn nan_and_text_in_numbers() {
     names(&e, &path, 8, "x");
 }
 
+/// Evaluate `text` as a points.csv: the report.
+fn report_of(text: &str) -> evaluate::Report {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("points.csv");
+    std::fs::write(&path, text).unwrap();
+    evaluate_file(&path, &Options::default()).unwrap()
+}
+
+/// The one line's positioning and its reason for leaving figures out.
+fn positioning_of(report: &evaluate::Report) -> (&evaluate::PositioningReport, &str) {
+    let p = &report.axes.x.as_ref().unwrap().main.positioning;
+    let reason = p
+        .left_out
+        .as_deref()
+        .unwrap_or_else(|| panic!("no reason: {p:?}"));
+    assert!(
+        report.warnings.iter().any(|w| w.contains(reason)),
+        "{:?}",
+        report.warnings
+    );
+    (p, reason)
+}
+
 #[test]
 fn a_target_with_one_run() {
     // Drop run 2 of target 3 in the − direction: run 1 is left alone there.
+    // Was refused; now the ↓ figures (and those needing both directions) are
+    // left out, with the reason, and the ↑ figures given.
     let all = lines(&good_text());
     let kept: Vec<String> = all
         .iter()
@@ -114,25 +140,30 @@ fn a_target_with_one_run() {
         .cloned()
         .collect();
     assert!(kept.len() < all.len());
-    let line = find(&kept, |f| f[1] == "-" && f[2] == "1" && f[3] == "3") as u64 + 1;
-    let (e, path, _d) = error_of(&join(&kept));
-    names(&e, &path, line, "run");
-    assert!(e.contains("target 3") && e.contains("at least 2"), "{e}");
+    let report = report_of(&join(&kept));
+    let (p, reason) = positioning_of(&report);
+    assert!(
+        reason.contains("target 3") && reason.contains("at least 2") && reason.contains("run 1"),
+        "{reason}"
+    );
+    assert!(p.a_up_um.is_some() && p.a_down_um.is_none() && p.a_um.is_none());
+    assert_eq!(p.targets[3].runs_down_um.len(), 1);
 }
 
 #[test]
 fn a_direction_missing_at_a_target() {
+    // Target 2 loses its ↑ approaches: was refused; now the ↑ figures are
+    // left out, with the reason, and the ↓ figures given.
     let all = lines(&good_text());
-    // Target 2 loses its ↑ approaches (rows "X,+,1,2,…" and "X,+,2,2,…").
     let kept: Vec<String> = all
         .iter()
         .filter(|l| !(l.starts_with("X,+,1,2,") || l.starts_with("X,+,2,2,")))
         .cloned()
         .collect();
-    let line = find(&kept, |f| f[3] == "2") as u64 + 1;
-    let (e, path, _d) = error_of(&join(&kept));
-    names(&e, &path, line, "direction");
-    assert!(e.contains("target 2"), "{e}");
+    let report = report_of(&join(&kept));
+    let (p, reason) = positioning_of(&report);
+    assert!(reason.contains("target 2 has no ↑ run"), "{reason}");
+    assert!(p.a_down_um.is_some() && p.a_up_um.is_none() && p.b_um.is_none());
 }
 
 #[test]

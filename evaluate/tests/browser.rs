@@ -30,38 +30,29 @@ fn colours_of(id: &str) -> Vec<[u8; 3]> {
     }
 }
 
-#[test]
-fn report_html_renders_in_chromium() {
-    let Some(chromium) = browser::browser_or_skip("evaluate report.html in Chromium").unwrap()
-    else {
-        return;
-    };
-    let dir = tempfile::tempdir().unwrap();
-    let rows = common::rows(&common::campaign());
-    let report = evaluate::evaluate(
-        &rows,
-        &evaluate::Options {
-            vdi3441: true,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let out = dir.path().join("report");
-    evaluate::write_outputs(&report, &out, &mut formats::OutputPlan::new(false)).unwrap();
-    let shown = browser::render(&chromium, &out.join("report.html")).unwrap();
+/// Write `report`'s files into `dir` and show report.html in `chromium`:
+/// the page's markup and what the browser drew.
+fn shown(
+    chromium: &std::path::Path,
+    report: &evaluate::Report,
+    dir: &std::path::Path,
+) -> (String, browser::Rendered) {
+    let out = dir.join("report");
+    evaluate::write_outputs(report, &out, &mut formats::OutputPlan::new(false)).unwrap();
+    let page = out.join("report.html");
+    let shown = browser::render(chromium, &page).unwrap();
+    (std::fs::read_to_string(page).unwrap(), shown)
+}
+
+/// No console errors, the plots `expected` in order, the page within the
+/// window, every plot laid out at its full size and drawn in its colours.
+fn check_page(shown: &browser::Rendered, expected: &[String]) {
     assert!(
         shown.errors.is_empty(),
         "console errors: {:#?}",
         shown.errors
     );
     let ids: Vec<&str> = shown.plots.iter().map(|p| p.id.as_str()).collect();
-    let mut expected = Vec::new();
-    for (axis, perp) in [("X", ["Y", "Z"]), ("Y", ["X", "Z"])] {
-        expected.push(format!("plot-{axis}-positioning"));
-        expected.extend(perp.map(|d| format!("plot-{axis}-straightness-{d}")));
-        expected.push(format!("plot-{axis}-angular"));
-    }
-    expected.push("plot-flatness".into());
     assert_eq!(ids, expected, "plots on the page");
     assert!(
         shown.width <= PAGE_WIDTH,
@@ -84,8 +75,86 @@ fn report_html_renders_in_chromium() {
         );
         check_region(&shown.screenshot, p, &colours_of(&p.id)).unwrap();
     }
+}
+
+/// The plots of an axis: positioning (when it has figures), straightness in
+/// each perpendicular direction, angular errors.
+fn axis_plots(axis: &str, perp: [&str; 2], positioning: bool) -> Vec<String> {
+    let mut ids = Vec::new();
+    if positioning {
+        ids.push(format!("plot-{axis}-positioning"));
+    }
+    ids.extend(perp.map(|d| format!("plot-{axis}-straightness-{d}")));
+    ids.push(format!("plot-{axis}-angular"));
+    ids
+}
+
+#[test]
+fn report_html_renders_in_chromium() {
+    let Some(chromium) = browser::browser_or_skip("evaluate report.html in Chromium").unwrap()
+    else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let rows = common::rows(&common::campaign());
+    let report = evaluate::evaluate(
+        &rows,
+        &evaluate::Options {
+            vdi3441: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (_, shown) = shown(&chromium, &report, dir.path());
+    let mut expected = Vec::new();
+    for (axis, perp) in [("X", ["Y", "Z"]), ("Y", ["X", "Z"])] {
+        expected.extend(axis_plots(axis, perp, true));
+    }
+    expected.push("plot-flatness".into());
+    check_page(&shown, &expected);
     if let Ok(keep) = std::env::var("TRINOCULAR_KEEP_SCREENSHOT") {
         shown.screenshot.save(&keep).unwrap();
         eprintln!("screenshot saved to {keep}");
     }
+}
+
+/// Every X line measured once each way: the X section says why its
+/// positioning is left out where the plot would be, and draws the rest.
+#[test]
+fn report_html_without_positioning_renders_in_chromium() {
+    let Some(chromium) =
+        browser::browser_or_skip("evaluate report.html without positioning in Chromium").unwrap()
+    else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut lines = common::campaign();
+    for l in &mut lines[..3] {
+        l.runs = 1;
+    }
+    let report = evaluate::evaluate(&common::rows(&lines), &Default::default()).unwrap();
+    let reason = report
+        .axes
+        .x
+        .as_ref()
+        .unwrap()
+        .main
+        .positioning
+        .left_out
+        .clone()
+        .unwrap();
+    let (html, shown) = shown(&chromium, &report, dir.path());
+    let mut expected = axis_plots("X", ["Y", "Z"], false);
+    expected.extend(axis_plots("Y", ["X", "Z"], true));
+    expected.push("plot-flatness".into());
+    check_page(&shown, &expected);
+    // In the X section, the summary and the table of the X lines (colspan).
+    let escaped = report::escape(&reason);
+    let section = &html[html.find("id=\"axis-X\"").unwrap()..html.find("id=\"axis-Y\"").unwrap()];
+    assert!(
+        section.contains(&format!("<p class=\"warn\">{escaped}</p>")),
+        "{section}"
+    );
+    assert_eq!(section.matches("colspan=\"5\"").count(), 3, "{section}");
+    assert!(html.contains(&format!("<td class=\"l warn\">{escaped}</td>")));
 }

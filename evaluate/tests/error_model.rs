@@ -194,7 +194,12 @@ fn check_line(what: &str, l: &LineModel, r: &LineReport) {
         let got = got.unwrap_or_else(|| panic!("{what}: {name} missing"));
         close(&format!("{what} {name}"), got, want, UM);
     }
-    close(&format!("{what} seed 3σ"), p.seed_3sigma_um, t.seed, UM);
+    close(
+        &format!("{what} seed 3σ"),
+        p.seed_3sigma_um.unwrap(),
+        t.seed,
+        UM,
+    );
     assert_eq!((p.runs_up, p.runs_down), (l.runs, l.runs));
     for (i, row) in p.targets.iter().enumerate() {
         close(
@@ -224,6 +229,11 @@ fn check_line(what: &str, l: &LineModel, r: &LineReport) {
         assert_eq!(row.nominal, l.c[i]);
     }
 
+    check_geometry(what, l, r);
+}
+
+/// The straightness and angular errors of a line: the model's.
+fn check_geometry(what: &str, l: &LineModel, r: &LineReport) {
     // Straightness: the model's deviations have a zero least-squares line, so
     // the least-squares figure is their range.
     let perp = l.perpendicular();
@@ -314,6 +324,31 @@ fn lsq_flatness(pts: &[geom::Point3<f64>]) -> f64 {
     max(r.iter().copied()) - min(r.iter().copied())
 }
 
+/// The flatness of every per-target mean of sphere A on the X and Y lines:
+/// least squares as [`lsq_flatness`], minimum zone as [`chebyshev_lp`].
+fn check_flatness<'r>(report: &'r Report, lines: &[LineModel]) -> &'r evaluate::FlatnessReport {
+    let pts: Vec<geom::Point3<f64>> = lines
+        .iter()
+        .flat_map(|l| (0..l.c.len()).map(|k| l.mean_a(k)))
+        .collect();
+    let f = report.flatness.as_ref().unwrap();
+    assert_eq!(f.points.len(), pts.len());
+    close("flatness LSQ", f.lsq_um, lsq_flatness(&pts) * 1e3, UM);
+    assert!(f.min_zone_um <= f.lsq_um + 1e-9);
+    let (xs, ys, zs): (Vec<f64>, Vec<f64>, Vec<f64>) = (
+        pts.iter().map(|p| p.x).collect(),
+        pts.iter().map(|p| p.y).collect(),
+        pts.iter().map(|p| p.z * 1e3).collect(),
+    );
+    close(
+        "flatness min zone vs LP",
+        f.min_zone_um,
+        chebyshev_lp(&xs, Some(&ys), &zs),
+        UM,
+    );
+    f
+}
+
 fn evaluated(lines: &[LineModel], options: &Options) -> Report {
     evaluate(&rows(lines), options).unwrap()
 }
@@ -351,26 +386,7 @@ fn campaign_gives_back_the_model() {
     check_line("Y line", &lines[3], &y.main);
     assert!(report.axes.z.is_none());
 
-    // Flatness: every per-target mean of sphere A on the X and Y lines.
-    let pts: Vec<geom::Point3<f64>> = lines
-        .iter()
-        .flat_map(|l| (0..l.c.len()).map(|k| l.mean_a(k)))
-        .collect();
-    let f = report.flatness.as_ref().unwrap();
-    assert_eq!(f.points.len(), pts.len());
-    close("flatness LSQ", f.lsq_um, lsq_flatness(&pts) * 1e3, UM);
-    assert!(f.min_zone_um <= f.lsq_um + 1e-9);
-    let (xs, ys, zs): (Vec<f64>, Vec<f64>, Vec<f64>) = (
-        pts.iter().map(|p| p.x).collect(),
-        pts.iter().map(|p| p.y).collect(),
-        pts.iter().map(|p| p.z * 1e3).collect(),
-    );
-    close(
-        "flatness min zone vs LP",
-        f.min_zone_um,
-        chebyshev_lp(&xs, Some(&ys), &zs),
-        UM,
-    );
+    let f = check_flatness(&report, &lines);
     assert!(
         f.min_zone_um < f.lsq_um - 0.01,
         "the model's min zone should be visibly below LSQ"
@@ -464,27 +480,30 @@ fn one_direction_gives_unidirectional_figures_and_omits_the_rest() {
     assert!(report.warnings.iter().any(|w| w.contains("flatness")));
 }
 
+/// Every positioning key of report.json a line can have.
+const POSITIONING_FIGURES: [&str; 13] = [
+    "A_um",
+    "A_up_um",
+    "A_down_um",
+    "E_um",
+    "E_up_um",
+    "E_down_um",
+    "M_um",
+    "R_um",
+    "R_up_um",
+    "R_down_um",
+    "B_um",
+    "B_mean_um",
+    "seed_3sigma_um",
+];
+
 #[test]
 fn report_json_has_the_contract_shape() {
     let lines = campaign();
     let json = serde_json::to_value(evaluated(&lines, &Options::default())).unwrap();
     for axis in ["X", "Y"] {
         let a = &json["axes"][axis];
-        for key in [
-            "A_um",
-            "A_up_um",
-            "A_down_um",
-            "E_um",
-            "E_up_um",
-            "E_down_um",
-            "M_um",
-            "R_um",
-            "R_up_um",
-            "R_down_um",
-            "B_um",
-            "B_mean_um",
-            "seed_3sigma_um",
-        ] {
+        for key in POSITIONING_FIGURES {
             assert!(
                 a["positioning"][key].is_f64(),
                 "axes.{axis}.positioning.{key}"
@@ -521,13 +540,19 @@ fn report_json_has_the_contract_shape() {
     assert!(json["flatness"]["lsq_um"].is_f64() && json["flatness"]["min_zone_um"].is_f64());
 }
 
-#[test]
-fn equal_runs_pick_the_line_nearest_the_origin() {
+/// The campaign's three X lines, each with `runs` runs.
+fn x_lines(runs: usize) -> Vec<LineModel> {
     let mut lines = campaign();
     lines.truncate(3);
     for l in &mut lines {
-        l.runs = 3;
+        l.runs = runs;
     }
+    lines
+}
+
+#[test]
+fn equal_runs_pick_the_line_nearest_the_origin() {
+    let lines = x_lines(3);
     let report = evaluated(&lines, &Options::default());
     assert_eq!(report.axes.x.as_ref().unwrap().main.off_axis["y"], 0.0);
     // With the middle line gone, the tie between y = ±20 goes to the first.
@@ -655,4 +680,155 @@ fn instants_lacking_a_sphere_are_evaluated_from_the_others() {
             .main
             .positioning
     );
+}
+
+/// A flatness grid as it is measured in practice: the main X line with 5
+/// runs, the off-axis X lines (y = ∓20 mm) with a single run each way, the Y
+/// line with 4. The lines with runs keep the figures they have alone; the
+/// single-run lines give the model's straightness and angular errors, their
+/// run deviations and their place in the flatness, and say why their
+/// positioning is left out.
+#[test]
+fn single_run_lines_are_evaluated_without_positioning() {
+    let mut lines = campaign();
+    for i in [0, 2] {
+        lines[i].runs = 1;
+    }
+    let report = evaluated(&lines, &Options::default());
+    let alone = |l: &LineModel| evaluated(std::slice::from_ref(l), &Options::default());
+    let x = report.axes.x.as_ref().unwrap();
+    assert_eq!(
+        x.main, x.lines[1],
+        "the line with the most runs is the main one"
+    );
+    let main_alone = alone(&lines[1]).axes.x.unwrap().main;
+    assert_eq!(
+        x.lines[1],
+        LineReport {
+            line: 1,
+            ..main_alone
+        }
+    );
+    check_line("X main line beside single-run lines", &lines[1], &x.main);
+    let y = &report.axes.y.as_ref().unwrap().main;
+    assert_eq!(*y, alone(&lines[3]).axes.y.unwrap().main);
+
+    let json = serde_json::to_value(&report).unwrap();
+    for i in [0, 2] {
+        let what = format!("single-run X line {i}");
+        check_geometry(&what, &lines[i], &x.lines[i]);
+        let t = truth(&lines[i]);
+        for (k, row) in x.lines[i].positioning.targets.iter().enumerate() {
+            assert_eq!((row.runs_up_um.len(), row.runs_down_um.len()), (1, 1));
+            close(
+                &format!("{what} x↑ at {k}"),
+                row.runs_up_um[0],
+                t.mean_up[k],
+                UM,
+            );
+            close(
+                &format!("{what} x↓ at {k}"),
+                row.runs_down_um[0],
+                t.mean_down[k],
+                UM,
+            );
+            assert!(row.mean_up_um.is_none() && row.s_down_um.is_none() && row.b_um.is_none());
+        }
+        let pos = &json["axes"]["X"]["lines"][i]["positioning"];
+        for key in POSITIONING_FIGURES {
+            assert!(
+                pos.get(key).is_none(),
+                "{what}: {key} should be left out: {pos}"
+            );
+        }
+        let reason = pos["left_out"].as_str().unwrap_or_else(|| panic!("{pos}"));
+        assert!(
+            reason.contains("at least 2") && reason.contains("run 1"),
+            "{reason}"
+        );
+        let name = format!("axis X at y = {}, z = 0 mm", lines[i].off[0]);
+        assert!(
+            report
+                .warnings
+                .iter()
+                .any(|w| w.contains(&name) && w.contains(reason)),
+            "{what}: {:?}",
+            report.warnings
+        );
+    }
+    assert_eq!(report.warnings.len(), 2, "{:?}", report.warnings);
+
+    // Flatness: the single-run lines' points too.
+    check_flatness(&report, &lines);
+}
+
+/// Every X line measured once each way: the main line is still the one
+/// nearest the origin, and the report says it has no positioning.
+#[test]
+fn a_main_line_without_positioning_is_named() {
+    let lines = x_lines(1);
+    let report = evaluated(&lines, &Options::default());
+    let x = report.axes.x.as_ref().unwrap();
+    assert_eq!(x.main, x.lines[1]);
+    for (i, l) in lines.iter().enumerate() {
+        check_geometry(&format!("X line {i}"), l, &x.lines[i]);
+    }
+    let json = serde_json::to_value(&report).unwrap();
+    let reason = json["axes"]["X"]["positioning"]["left_out"]
+        .as_str()
+        .unwrap();
+    assert!(
+        report
+            .warnings
+            .iter()
+            .any(|w| w.contains("main line") && w.contains("axis X at y = 0, z = 0 mm")),
+        "{:?}",
+        report.warnings
+    );
+    assert!(reason.contains("at least 2"), "{reason}");
+    assert!(report.flatness.is_some());
+}
+
+/// A line measured in one direction gives that direction's figures and says
+/// that the ones needing both are left out; with a single run in the other
+/// direction, the same, and why.
+#[test]
+fn one_direction_says_what_is_left_out() {
+    let full = campaign().swap_remove(1);
+    let t = truth(&full);
+    let reason_of = |json: &serde_json::Value| {
+        let p = &json["axes"]["X"]["positioning"];
+        p["left_out"]
+            .as_str()
+            .unwrap_or_else(|| panic!("no left_out: {}", p["A_um"]))
+            .to_string()
+    };
+
+    let mut down = full.clone();
+    down.directions = vec![Direction::Down];
+    let report = evaluated(std::slice::from_ref(&down), &Options::default());
+    let reason = reason_of(&serde_json::to_value(&report).unwrap());
+    assert!(
+        reason.contains("↓ only") && reason.contains("A, E, M, R, B"),
+        "{reason}"
+    );
+    assert!(report.warnings.iter().any(|w| w.contains(&reason)));
+
+    // ↓ runs 2–5 lost: ↓ has one run left, ↑ all five.
+    let rows: Vec<formats::PointRow> = rows(std::slice::from_ref(&full))
+        .into_iter()
+        .filter(|r| r.direction == Direction::Up || r.run == 1)
+        .collect();
+    let report = evaluate(&rows, &Options::default()).unwrap();
+    let p = &report.axes.x.as_ref().unwrap().main.positioning;
+    close("E↑", p.e_up_um.unwrap(), t.e_up, UM);
+    close("A↑", p.a_up_um.unwrap(), t.a_up, UM);
+    close("R↑", p.r_up_um.unwrap(), t.r_up, UM);
+    assert!(p.a_um.is_none() && p.e_down_um.is_none() && p.b_um.is_none() && p.m_um.is_none());
+    let reason = reason_of(&serde_json::to_value(&report).unwrap());
+    assert!(
+        reason.contains("↓") && reason.contains("at least 2"),
+        "{reason}"
+    );
+    assert!(report.warnings.iter().any(|w| w.contains(&reason)));
 }

@@ -114,6 +114,11 @@ pub struct LineReport {
 /// Positioning figures of a line (µm), ISO 230-2 names.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PositioningReport {
+    /// What of ISO 230-2 is left out of this line and why (fewer than 2 runs
+    /// of a direction at a target, or one direction only); absent when every
+    /// figure is given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub left_out: Option<String>,
     /// Bidirectional accuracy A = max(x̄ + 2s) − min(x̄ − 2s) over both directions.
     #[serde(rename = "A_um", skip_serializing_if = "Option::is_none")]
     pub a_um: Option<f64>,
@@ -150,8 +155,10 @@ pub struct PositioningReport {
     /// Mean reversal value B̄ = mean Bᵢ.
     #[serde(rename = "B_mean_um", skip_serializing_if = "Option::is_none")]
     pub b_mean_um: Option<f64>,
-    /// The seed's figure: max(x̄ₖ + 3sₖ) − min(x̄ₖ − 3sₖ) over all measurements per target.
-    pub seed_3sigma_um: f64,
+    /// The seed's figure: max(x̄ₖ + 3sₖ) − min(x̄ₖ − 3sₖ) over all measurements
+    /// per target; given with ISO 230-2 figures of at least one direction.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed_3sigma_um: Option<f64>,
     /// Runs in the ↑ direction (0 when absent).
     pub runs_up: usize,
     /// Runs in the ↓ direction (0 when absent).
@@ -203,10 +210,14 @@ pub struct PositioningTarget {
     /// Deviation xᵢⱼ↓ of each ↓ run, in run order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub runs_down_um: Vec<f64>,
-    /// Mean of every measurement at the target (all runs, directions, captures).
-    pub seed_mean_um: f64,
-    /// Sample standard deviation of every measurement at the target.
-    pub seed_s_um: f64,
+    /// Mean of every measurement at the target (all runs, directions,
+    /// captures); given with the line's seed figure.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed_mean_um: Option<f64>,
+    /// Sample standard deviation of every measurement at the target; given
+    /// with the line's seed figure.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed_s_um: Option<f64>,
 }
 
 /// VDI/DGQ 3441 (1977) figures (µm).

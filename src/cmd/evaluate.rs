@@ -50,13 +50,13 @@ pub fn run(args: &Args) -> Result<()> {
         let p = &a.main.positioning;
         let fig = |v: Option<f64>| v.map_or_else(|| "—".to_string(), |v| format!("{v:.3}"));
         println!(
-            "{axis}: A {} µm, E {} µm, M {} µm, R {} µm, B {} µm, seed 3σ {:.3} µm",
+            "{axis}: A {} µm, E {} µm, M {} µm, R {} µm, B {} µm, seed 3σ {} µm",
             fig(p.a_um.or(p.a_up_um).or(p.a_down_um)),
             fig(p.e_um.or(p.e_up_um).or(p.e_down_um)),
             fig(p.m_um),
             fig(p.r_um.or(p.r_up_um).or(p.r_down_um)),
             fig(p.b_um),
-            p.seed_3sigma_um
+            fig(p.seed_3sigma_um)
         );
         for (dir, s) in &a.main.straightness {
             println!(

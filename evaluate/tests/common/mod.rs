@@ -87,8 +87,12 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Run pattern: mean 0, sample standard deviation 1, n ≥ 2 values.
+/// Run pattern: mean 0, sample standard deviation 1, n ≥ 2 values; `[0]`
+/// for a single run.
 pub fn run_pattern(n: usize) -> Vec<f64> {
+    if n == 1 {
+        return vec![0.0];
+    }
     let mid = (n as f64 - 1.0) / 2.0;
     let raw: Vec<f64> = (0..n).map(|j| j as f64 - mid).collect();
     let s = (dot(&raw, &raw) / (n as f64 - 1.0)).sqrt();

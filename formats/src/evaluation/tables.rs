@@ -31,8 +31,8 @@ struct PositioningRow {
     r_um: Option<f64>,
     runs_up: usize,
     runs_down: usize,
-    seed_mean_um: f64,
-    seed_s_um: f64,
+    seed_mean_um: Option<f64>,
+    seed_s_um: Option<f64>,
 }
 
 /// One row of `straightness_<axis>.csv`: one target of one direction's profile.
