@@ -199,8 +199,9 @@ pub(crate) fn campaign_truth(
     extra.insert("seed".into(), json!(config.seed));
     extra.insert("start_time".into(), json!(config.procedure.start_time));
     extra.insert("errors".into(), injected_errors(config));
-    // A procedure the standards cannot evaluate (one run, one target) still
-    // gets its images and truth; the reason replaces the figures.
+    // A procedure evaluate cannot evaluate at all (one target per line) still
+    // gets its images and truth; the reason replaces the figures. One run is
+    // evaluated: its figures say what ISO 230-2 leaves out (`left_out`).
     match figures(points) {
         Ok(f) => extra.insert("figures".into(), f),
         Err(e) => extra.insert("figures_error".into(), json!(e.to_string())),
