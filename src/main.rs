@@ -102,6 +102,12 @@ fn main() -> ExitCode {
         Command::Probe(args) => cmd::probe::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),
     };
+    if result
+        .as_ref()
+        .is_err_and(|e| e.downcast_ref::<cmd::Finished>().is_none())
+    {
+        discard_created();
+    }
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) if err.downcast_ref::<cmd::Finished>().is_some() => {
@@ -119,6 +125,17 @@ fn main() -> ExitCode {
             eprintln!("trinocular: error: {}", one_line(&err));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// A failed run leaves the output location as it was: remove what it
+/// created (`formats::created`); say what could not be removed.
+fn discard_created() {
+    for (path, e) in formats::created::discard() {
+        eprintln!(
+            "trinocular: warning: {}: written by this failed run, but not removed: {e}",
+            path.display()
+        );
     }
 }
 
