@@ -31,9 +31,9 @@ enum Command {
     Extract(cmd::extract::Args),
     /// Fit a geometric element (least squares and minimum zone) to a point file.
     Fit(cmd::fit::Args),
-    /// manifest.csv from captured camera folders and the motion program (problems.csv beside it).
+    /// manifest.csv from captured camera folders and the motion program (<stem>.problems.csv beside it).
     Manifest(cmd::manifest::Args),
-    /// Sphere centres of every instant of a campaign into points.csv (problems.csv, poses.csv beside it).
+    /// Sphere centres of every instant of a campaign into points.csv (<stem>.problems.csv, <stem>.poses.csv beside it).
     Measure(cmd::measure::Args),
     /// Probe-based methods: rotary table, probe-head indexing, laser-tracer multilateration, volumetric model.
     Probe(cmd::probe::Args),

@@ -534,6 +534,21 @@ fn a_failed_run_leaves_the_output_location_as_it_was() {
         s(&rotary),
     ]));
 
+    // manifest: a camera folder that names nothing.
+    fails_leaving_as_it_was(
+        &w,
+        &[
+            "manifest",
+            "--program",
+            s(&c.join("config.toml")),
+            "--camera",
+            "TRN-SYN-0001=1",
+            "--out",
+            s(&w.join("built").join("manifest.csv")),
+            s(&d.join("nope")),
+        ],
+    );
+
     // demo: a step that fails removes what the earlier ones made, its folder too.
     fails_leaving_as_it_was(&w, &["demo", "--out", s(&w.join("demo")), "--width", "4"]);
     assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));

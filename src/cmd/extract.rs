@@ -420,7 +420,7 @@ pub fn run(args: &Args) -> Result<()> {
     drop(csv);
     out.commit()?;
     if tally.problems.is_empty() {
-        // A stale problems.csv from an earlier run (replaced with --force) would mislead.
+        // A stale problems file from an earlier run (replaced with --force) would mislead.
         plan.remove(&problems_file)?;
         return Ok(());
     }

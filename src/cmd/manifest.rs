@@ -82,6 +82,7 @@ fn threshold_arg(text: &str) -> std::result::Result<Threshold, String> {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
+    let program = ingest::read_program(&args.program)?;
     let problems_path = problems_path(&args.out);
     let mut plan = OutputPlan::new(args.force);
     plan.input(&args.program)
@@ -91,7 +92,6 @@ pub fn run(args: &Args) -> Result<()> {
     plan.lock(formats::folder_of(&args.out), "manifest")?;
     print_notes(&plan);
     plan.check()?;
-    let program = ingest::read_program(&args.program)?;
     let options = Options {
         capture: if args.continuous {
             Capture::Continuous
@@ -119,7 +119,7 @@ pub fn run(args: &Args) -> Result<()> {
     let elapsed = start.elapsed();
     plan.write_csv(&args.out, &built.rows)?;
     if built.problems.is_empty() {
-        // A stale problems.csv from an earlier run (replaced with --force) would mislead.
+        // A stale problems file from an earlier run (replaced with --force) would mislead.
         plan.remove(&problems_path)?;
     } else {
         plan.write_records(&problems_path, &built.problems)?;
