@@ -266,7 +266,7 @@ impl Tally {
         let first = self
             .problems
             .first()
-            .map(|p| format!(" ({})", p.reason))
+            .map(|p| format!("; the first: {}", p.reason))
             .unwrap_or_default();
         bail!("none of the {images} images could be used{first}");
     }
