@@ -11,6 +11,8 @@
 /// start again (`measure` resumes).
 #[cfg(unix)]
 pub fn install(rerun: Option<&'static str>) {
+    use std::io::Write;
+
     use signal_hook::consts::{SIGINT, SIGTERM};
     use signal_hook::iterator::Signals;
 
@@ -31,7 +33,10 @@ pub fn install(rerun: Option<&'static str>) {
                 "SIGTERM"
             };
             formats::interrupt::clean_up_then(|removed| {
-                eprintln!(
+                // Written, not eprintln!: a closed stderr (a pipe whose reader
+                // left) must not stop the exit below with a panic.
+                let _ = writeln!(
+                    std::io::stderr(),
                     "trinocular: interrupted by {name}; {removed} temporary file{} removed{}",
                     if removed == 1 { "" } else { "s" },
                     rerun.map(|r| format!("; {r}")).unwrap_or_default()

@@ -31,9 +31,9 @@ enum Command {
     Extract(cmd::extract::Args),
     /// Fit a geometric element (least squares and minimum zone) to a point file.
     Fit(cmd::fit::Args),
-    /// manifest.csv from captured camera folders and the motion program (problems.csv beside it).
+    /// manifest.csv from captured camera folders and the motion program (<stem>.problems.csv beside it).
     Manifest(cmd::manifest::Args),
-    /// Sphere centres of every instant of a campaign into points.csv (problems.csv, poses.csv beside it).
+    /// Sphere centres of every instant of a campaign into points.csv (<stem>.problems.csv, <stem>.poses.csv beside it).
     Measure(cmd::measure::Args),
     /// Probe-based methods: rotary table, probe-head indexing, laser-tracer multilateration, volumetric model.
     Probe(cmd::probe::Args),
@@ -127,6 +127,12 @@ fn main() -> ExitCode {
         Command::Probe(args) => cmd::probe::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),
     };
+    if result
+        .as_ref()
+        .is_err_and(|e| e.downcast_ref::<cmd::Finished>().is_none())
+    {
+        discard_created();
+    }
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) if err.downcast_ref::<cmd::Finished>().is_some() => {
@@ -138,6 +144,17 @@ fn main() -> ExitCode {
             eprintln!("trinocular: error: {}", one_line(&err));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// A failed run leaves the output location as it was: remove what it
+/// created (`formats::created`); say what could not be removed.
+fn discard_created() {
+    for (path, e) in formats::created::discard() {
+        eprintln!(
+            "trinocular: warning: {}: written by this failed run, but not removed: {e}",
+            path.display()
+        );
     }
 }
 

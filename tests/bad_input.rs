@@ -1,7 +1,8 @@
 //! The bad-input corpus (`testdata/bad/`, format in its README): every case
 //! runs the binary on its small input files and must end with the expected
 //! exit status, a message that names the file and the fault, the outputs it
-//! lists, no panic, no abort, and its own folder untouched.
+//! lists, no panic, no abort, its own folder untouched and, when it fails,
+//! its output folder as it was.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -70,16 +71,17 @@ fn corpus() -> PathBuf {
 }
 
 /// Every file below `dir` with its bytes (the case folder must not change).
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Option<Vec<u8>>> {
     let mut out = BTreeMap::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {
         for entry in std::fs::read_dir(&d).unwrap() {
             let path = entry.unwrap().path();
             if path.is_dir() {
-                stack.push(path);
+                stack.push(path.clone());
+                out.insert(path, None);
             } else {
-                out.insert(path.clone(), std::fs::read(&path).unwrap());
+                out.insert(path.clone(), Some(std::fs::read(&path).unwrap()));
             }
         }
     }
@@ -113,6 +115,10 @@ fn run(dir: &Path) -> Result<(), String> {
             let to = out
                 .path()
                 .join(path.strip_prefix(&earlier).map_err(|e| e.to_string())?);
+            let Some(bytes) = bytes else {
+                std::fs::create_dir_all(&to).map_err(|e| e.to_string())?;
+                continue;
+            };
             if let Some(parent) = to.parent() {
                 std::fs::create_dir_all(parent).map_err(|e| e.to_string())?;
             }
@@ -120,6 +126,7 @@ fn run(dir: &Path) -> Result<(), String> {
         }
     }
     let before = snapshot(dir);
+    let out_before = snapshot(out.path());
     // The limit is set by the shell that then becomes the binary.
     let mut child = Command::new("sh")
         .arg("-c")
@@ -214,6 +221,9 @@ fn run(dir: &Path) -> Result<(), String> {
     }
     if snapshot(dir) != before {
         faults.push("the run changed the case folder (it must write into {out} only)".into());
+    }
+    if case.status != 3 && snapshot(out.path()) != out_before {
+        faults.push("a failed run left {out} changed (it must leave it as it was)".into());
     }
     if faults.is_empty() {
         Ok(())

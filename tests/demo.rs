@@ -70,7 +70,7 @@ fn demo_measures_the_injected_errors() {
     for f in [
         "rig.json",
         "points.csv",
-        "poses.csv",
+        "points.poses.csv",
         "report/report.json",
         "report/report.html",
         "campaign/truth.json",
@@ -78,7 +78,7 @@ fn demo_measures_the_injected_errors() {
         assert!(out.join(f).exists(), "{f} missing");
     }
     assert!(
-        !out.join("problems.csv").exists(),
+        !out.join("points.problems.csv").exists(),
         "some instants could not be measured"
     );
     // The lenses' relative illumination was measured from the flat fields,
@@ -94,7 +94,7 @@ fn demo_measures_the_injected_errors() {
                 .ends_with(&format!("flat_cam{}.tif", c["id"]))
         );
     }
-    let commissioning = std::fs::read_to_string(out.join("commissioning.txt")).unwrap();
+    let commissioning = std::fs::read_to_string(out.join("rig.commissioning.txt")).unwrap();
     assert!(
         commissioning.contains("relative illumination measured from the flat field")
             && commissioning.contains("Capture per"),
@@ -178,7 +178,7 @@ fn judge(out: &Path) -> Figures {
 
     // Roll, pitch, yaw per target against the truth; the scatter of the
     // instants' poses at a target (σ of one instant) is printed beside.
-    let poses: Vec<PoseRow> = rows(&out.join("poses.csv"));
+    let poses: Vec<PoseRow> = rows(&out.join("points.poses.csv"));
     let mut angular = 0.0_f64;
     for axis in ["X", "Y"] {
         let main = report

@@ -2,7 +2,7 @@
 //! (`synth campaign --as-captured`), its manifest built from the camera
 //! folders, and `measure` on that manifest giving the same `points.csv`,
 //! byte for byte, as `measure` on the renderer's own manifest. Exit status 3
-//! with the faults in `problems.csv`; no manifest replaced without `--force`.
+//! with the faults in `manifest.problems.csv`; no manifest replaced without `--force`.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -62,8 +62,8 @@ fn captured_folders_to_the_same_points() {
     let out = trinocular(&args);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(3), "{err}");
-    assert!(err.contains("problems.csv"), "{err}");
-    let problems = std::fs::read_to_string(built.join("problems.csv")).unwrap();
+    assert!(err.contains("manifest.problems.csv"), "{err}");
+    let problems = std::fs::read_to_string(built.join("manifest.problems.csv")).unwrap();
     assert_eq!(problems.lines().count(), 3, "{problems}");
     assert!(problems.contains("stray"), "{problems}");
     assert!(problems.contains("has no frame of camera 1"), "{problems}");

@@ -1,6 +1,6 @@
 //! `trinocular measure`'s exit status tells the truth: 0 when every instant
-//! was measured, 3 when some were not (each in problems.csv), 1 when none
-//! was, 2 for a usage error. The campaign is tiny (384×288 px, 3 targets,
+//! was measured, 3 when some were not (each in points.problems.csv), 1 when
+//! none was (a failure: nothing is left), 2 for a usage error. The campaign is tiny (384×288 px, 3 targets,
 //! 2 runs) and the rig is the renderer's true one.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -70,7 +70,7 @@ fn exit_status_counts_the_instants_measured() {
     let instants = campaign(d);
     let spheres = d.join("c/spheres.csv");
 
-    // All measured: 0, no problems.csv.
+    // All measured: 0, no problems file.
     let (status, last) = measure(d, "all", &spheres, &[]);
     assert_eq!(status, 0, "{last}");
     assert_eq!(
@@ -80,7 +80,7 @@ fn exit_status_counts_the_instants_measured() {
             d.join("all/points.csv").display()
         )
     );
-    assert!(!d.join("all/problems.csv").exists());
+    assert!(!d.join("all/points.problems.csv").exists());
     assert_eq!(
         records::<PointRow>(&d.join("all/points.csv")).len(),
         3 * instants
@@ -95,13 +95,13 @@ fn exit_status_counts_the_instants_measured() {
     );
     assert!(!d.join("usage/points.csv").exists());
 
-    // One frame unreadable: 3, the instant in problems.csv, the rest measured.
+    // One frame unreadable: 3, the instant in the problems file, the rest measured.
     let manifest: Vec<ManifestRow> = records(&d.join("c/manifest.csv"));
     let broken = d.join("c").join(&manifest[4].image);
     std::fs::write(&broken, b"II*\0not a tiff").unwrap();
     let (status, last) = measure(d, "some", &spheres, &[]);
     assert_eq!(status, 3, "{last}");
-    let problems_csv = d.join("some/problems.csv");
+    let problems_csv = d.join("some/points.problems.csv");
     assert_eq!(
         last,
         format!(
@@ -120,21 +120,18 @@ fn exit_status_counts_the_instants_measured() {
     );
 
     // Spheres three times the size of those in the images: nothing matches,
-    // none measured: 1, with every instant in problems.csv.
+    // none measured: 1, a failure, so nothing is left in the output folder
+    // (issue 23; it kept an empty points.csv and the problems before), and
+    // the message gives the first problem.
     let big = d.join("big_spheres.csv");
     std::fs::write(&big, "name,diameter\nA,60\nB,45\nC,30\n").unwrap();
     let (status, last) = measure(d, "none", &big, &[]);
     assert_eq!(status, 1, "{last}");
-    let problems_csv = d.join("none/problems.csv");
-    assert_eq!(
-        last,
-        format!(
-            "trinocular: error: none of the {instants} instants could be measured; listed in {}",
-            problems_csv.display()
-        )
+    assert!(
+        last.starts_with(&format!(
+            "trinocular: error: none of the {instants} instants could be measured; the first: "
+        )) && last.contains("spheres A, B, C not found"),
+        "{last}"
     );
-    let problems: Vec<InstantProblemRow> = records(&problems_csv);
-    assert_eq!(problems.len(), instants);
-    assert!(problems.iter().all(|p| p.missing == Missing::Instant));
-    assert!(records::<PointRow>(&d.join("none/points.csv")).is_empty());
+    assert_eq!(std::fs::read_dir(d.join("none")).unwrap().count(), 0);
 }

@@ -3,13 +3,18 @@
 //! inputs (also through links), `evaluate` replaces its report as one set,
 //! two `measure` runs on one folder cannot interleave, and an interrupted
 //! run (SIGINT, SIGTERM, kill −9) leaves no temporary file and, run again,
-//! gives the same bytes as a run that was never interrupted.
+//! gives the same bytes as a run that was never interrupted. A failed run
+//! leaves the output location as it was; sidecars are named after the
+//! output, so runs of different outputs never collide; missing output
+//! folders are made.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod common;
 
-use common::{bin, leftovers, ok, read, refused, render_campaign, s, stderr, trinocular};
+use common::{
+    bin, leftovers, ok, read, refused, render_campaign, s, stderr, testdata, tree, trinocular,
+};
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -19,20 +24,9 @@ use std::process::{Child, Command, Output, Stdio};
 fn campaign(dir: &Path, width: u32, targets: u32, runs: u32, captures: u32) -> PathBuf {
     let c = dir.join("c");
     render_campaign(&c, (width, width * 3 / 4), [targets, runs, captures], &[]);
-    let cal = |n: u8| c.join(format!("calib/points_cam{n}.csv"));
-    ok(&trinocular(&[
-        "calibrate",
-        "--target",
-        s(&c.join("target.csv")),
-        "--nominal",
-        s(&c.join("nominal.json")),
-        "--points",
-        s(&cal(1)),
-        s(&cal(2)),
-        s(&cal(3)),
-        "--out",
-        s(&dir.join("rig.json")),
-    ]));
+    let cam3 = c.join("calib/points_cam3.csv");
+    let calibrate = calibrate_args(&c, &cam3, &dir.join("rig.json"));
+    ok(&bin().args(calibrate).output().unwrap());
     c
 }
 
@@ -145,21 +139,16 @@ fn extract_keeps_its_outputs_unless_forced() {
     ok(&run(&out, &["--force"]));
     assert_eq!(read(&out), first, "same input, same bytes");
 
-    // The problems.csv beside the output is an output too.
-    std::fs::write(d.join("problems.csv"), "item,reason\nmine,kept\n").unwrap();
+    // The problems file beside the output is an output too.
+    std::fs::write(d.join("other.problems.csv"), "item,reason\nmine,kept\n").unwrap();
     refused(
         &run(&d.join("other.csv"), &[]),
-        &["problems.csv: already exists"],
+        &["other.problems.csv: already exists"],
     );
     assert!(!d.join("other.csv").exists());
-    // With --force a stale problems.csv goes (this run had no problems).
+    // With --force a stale problems file goes (this run had no problems).
     ok(&run(&d.join("other.csv"), &["--force"]));
-    assert!(!d.join("problems.csv").exists());
-    // A missing output folder is named, before any work.
-    refused(
-        &run(&d.join("nope").join("b.csv"), &[]),
-        &["output folder", "nope", "does not exist"],
-    );
+    assert!(!d.join("other.problems.csv").exists());
     assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
 }
 
@@ -195,15 +184,16 @@ fn calibrate_keeps_the_rig_and_its_sidecars_unless_forced() {
         "rig.cam1.opencv.yml",
         "rig.cam3.opencv.yml",
         "rig.residuals.csv",
-        "commissioning.txt",
-        "commissioning.json",
+        "rig.commissioning.txt",
+        "rig.commissioning.json",
     ];
     let before: Vec<Vec<u8>> = files.iter().map(|f| read(&d.join("out").join(f))).collect();
     refused(&run(&rig, &[]), &["rig.json: already exists", "--force"]);
-    // Another rig in the same folder would replace the commissioning report.
+    // A sidecar of the rig is an output too.
+    std::fs::write(d.join("out").join("other.commissioning.txt"), "mine").unwrap();
     refused(
         &run(&d.join("out").join("other.json"), &[]),
-        &["commissioning.txt: already exists"],
+        &["other.commissioning.txt: already exists"],
     );
     assert!(!d.join("out").join("other.json").exists());
     ok(&run(&rig, &["--force"]));
@@ -361,20 +351,21 @@ fn measure_keeps_its_outputs_and_sidecars_unless_forced() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (c, a) = measured(d, "a.csv");
-    let (points, poses) = (read(&a), read(&d.join("poses.csv")));
+    let (points, poses) = (read(&a), read(&d.join("a.poses.csv")));
     refused(
         &measure(d, &c, &a, &[]),
         &["a.csv: already exists", "--force"],
     );
-    // Another output in the same folder would replace poses.csv.
+    // The poses beside an output are an output too.
+    std::fs::write(d.join("b.poses.csv"), "mine").unwrap();
     refused(
         &measure(d, &c, &d.join("b.csv"), &[]),
-        &["poses.csv: already exists"],
+        &["b.poses.csv: already exists"],
     );
     assert!(!d.join("b.csv").exists());
     ok(&measure(d, &c, &a, &["--force"]));
     assert_eq!(read(&a), points);
-    assert_eq!(read(&d.join("poses.csv")), poses);
+    assert_eq!(read(&d.join("a.poses.csv")), poses);
     // Never over an input.
     refused(
         &measure(d, &c, &d.join("rig.json"), &["--force"]),
@@ -389,6 +380,293 @@ fn measure_keeps_its_outputs_and_sidecars_unless_forced() {
         ),
         &["would overwrite an input"],
     );
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+/// Run `args`, which must fail (not a batch that finished with problems),
+/// and find `w` exactly as it was: no file or folder added, none changed.
+/// Returns the failure's stderr.
+fn fails_leaving_as_it_was<A: AsRef<std::ffi::OsStr> + std::fmt::Debug>(
+    w: &Path,
+    args: &[A],
+) -> String {
+    let before = tree(w);
+    let out = bin().args(args).output().unwrap();
+    let err = stderr(&out);
+    assert!(
+        !out.status.success() && out.status.code() != Some(3),
+        "{args:?} did not fail: {err}"
+    );
+    assert_eq!(tree(w), before, "{args:?} left files behind: {err}");
+    err
+}
+
+/// `calibrate` from the campaign `c`'s correspondences, the third camera's
+/// from `cam3`, into `out`.
+fn calibrate_args(c: &Path, cam3: &Path, out: &Path) -> Vec<String> {
+    let cal = |n: u8| c.join(format!("calib/points_cam{n}.csv"));
+    [
+        "calibrate",
+        "--target",
+        s(&c.join("target.csv")),
+        "--nominal",
+        s(&c.join("nominal.json")),
+        "--points",
+        s(&cal(1)),
+        s(&cal(2)),
+        s(cam3),
+        "--out",
+        s(out),
+    ]
+    .map(str::to_string)
+    .to_vec()
+}
+
+/// Issue 23, defect 2: whatever fails — an input that names nothing, found
+/// before the plan, or a bad input found only after it — the output location
+/// is left as it was (no empty output, no problems file, no partial, no lock,
+/// no folder made), and the corrected run then succeeds without `--force`.
+#[test]
+fn a_failed_run_leaves_the_output_location_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = campaign(d, 256, 3, 2, 1);
+    let w = d.join("w");
+    std::fs::create_dir(&w).unwrap();
+    std::fs::write(w.join("earlier.txt"), "not this run's").unwrap();
+    let bad = d.join("bad.tif");
+    std::fs::write(&bad, b"II*\0not a tiff").unwrap();
+
+    // extract: the issue's case, an input that names nothing ...
+    let blobs = w.join("blobs.csv");
+    let extract = |out: &Path, input: &Path| -> Vec<String> {
+        ["extract", "--backend", "cpu", "--out", s(out), s(input)]
+            .map(str::to_string)
+            .to_vec()
+    };
+    let err = fails_leaving_as_it_was(&w, &extract(&blobs, Path::new("/nope/dir")));
+    assert!(err.contains("/nope/dir: no such file or folder"), "{err}");
+    // ... and images found unusable only when read, after the plan;
+    let err = fails_leaving_as_it_was(&w, &extract(&blobs, &bad));
+    assert!(
+        err.contains("none of the 1 images could be used") && err.contains("bad.tif"),
+        "{err}"
+    );
+    // into folders that do not exist yet, the same.
+    let deeper = w.join("new").join("deeper").join("blobs.csv");
+    fails_leaving_as_it_was(&w, &extract(&deeper, &bad));
+    ok(&bin()
+        .args(extract(&blobs, &c.join("calib")))
+        .output()
+        .unwrap());
+
+    // measure: spheres that match nothing in the images, found while
+    // measuring (after the partial output and its fingerprint were written).
+    let points = w.join("points.csv");
+    let big = d.join("big_spheres.csv");
+    std::fs::write(&big, "name,diameter\nA,60\nB,45\nC,30\n").unwrap();
+    let mut args = measure_args(d, &c, &points);
+    let spheres = args.iter().position(|a| a == "--spheres").unwrap() + 1;
+    args[spheres] = s(&big).to_string();
+    let err = fails_leaving_as_it_was(&w, &args);
+    assert!(
+        err.contains("instants could be measured; the first: "),
+        "{err}"
+    );
+    // A manifest that names nothing.
+    let mut args = measure_args(d, &c, &w.join("m").join("points.csv"));
+    let manifest = args.iter().position(|a| a == "--manifest").unwrap() + 1;
+    args[manifest] = s(&d.join("nope.csv")).to_string();
+    fails_leaving_as_it_was(&w, &args);
+    ok(&measure(d, &c, &points, &[]));
+
+    // calibrate: camera 3's correspondences too few to calibrate it, found
+    // after the outputs were planned; and a correspondence file that names nothing.
+    let rig = w.join("cal").join("rig.json");
+    let few = d.join("few.csv");
+    std::fs::write(&few, "id,u,v\n1,10.5,20.5\n2,30.5,40.5\n").unwrap();
+    fails_leaving_as_it_was(&w, &calibrate_args(&c, &few, &rig));
+    fails_leaving_as_it_was(&w, &calibrate_args(&c, &d.join("nope.csv"), &rig));
+    let cam3 = c.join("calib/points_cam3.csv");
+    ok(&bin()
+        .args(calibrate_args(&c, &cam3, &rig))
+        .output()
+        .unwrap());
+
+    // evaluate and a probe method: inputs that name nothing.
+    let report = w.join("reports").join("first");
+    fails_leaving_as_it_was(
+        &w,
+        &[
+            "evaluate",
+            "--points",
+            s(&d.join("nope.csv")),
+            "--out",
+            s(&report),
+        ],
+    );
+    ok(&trinocular(&[
+        "evaluate",
+        "--points",
+        s(&points),
+        "--out",
+        s(&report),
+    ]));
+    let rotary = w.join("probe").join("rotary");
+    fails_leaving_as_it_was(
+        &w,
+        &[
+            "probe",
+            "rotary",
+            "--centres",
+            s(&d.join("nope.csv")),
+            "--out",
+            s(&rotary),
+        ],
+    );
+    let centres = testdata("probe/rotary/centres.csv");
+    ok(&trinocular(&[
+        "probe",
+        "rotary",
+        "--centres",
+        s(&centres),
+        "--out",
+        s(&rotary),
+    ]));
+
+    // manifest: a camera folder that names nothing.
+    fails_leaving_as_it_was(
+        &w,
+        &[
+            "manifest",
+            "--program",
+            s(&c.join("config.toml")),
+            "--camera",
+            "TRN-SYN-0001=1",
+            "--out",
+            s(&w.join("built").join("manifest.csv")),
+            s(&d.join("nope")),
+        ],
+    );
+
+    // demo: a step that fails removes what the earlier ones made, its folder too.
+    fails_leaving_as_it_was(&w, &["demo", "--out", s(&w.join("demo")), "--width", "4"]);
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+/// Issue 23, defect 3: sidecars are named after the output's stem, so two
+/// runs with different `--out` in one folder never collide.
+#[test]
+fn sidecars_follow_the_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = campaign(d, 256, 3, 2, 1);
+    let w = d.join("w");
+    let cam3 = c.join("calib/points_cam3.csv");
+    for stem in ["rig", "rig2"] {
+        let out = w.join(format!("{stem}.json"));
+        ok(&bin()
+            .args(calibrate_args(&c, &cam3, &out))
+            .output()
+            .unwrap());
+        for sidecar in [
+            "cam1.opencv.yml",
+            "cam3.opencv.yml",
+            "residuals.csv",
+            "commissioning.txt",
+            "commissioning.json",
+        ] {
+            assert!(
+                w.join(format!("{stem}.{sidecar}")).is_file(),
+                "{stem}.{sidecar}"
+            );
+        }
+    }
+    assert_eq!(
+        read(&w.join("rig.commissioning.json")),
+        read(&w.join("rig2.commissioning.json")),
+        "the same calibration, the same report"
+    );
+    for stem in ["a", "b"] {
+        ok(&measure(d, &c, &w.join(format!("{stem}.csv")), &[]));
+    }
+    assert_eq!(read(&w.join("a.poses.csv")), read(&w.join("b.poses.csv")));
+    // Problems too: an unreadable image beside a good one, two outputs.
+    let bad = d.join("bad.tif");
+    std::fs::write(&bad, b"II*\0not a tiff").unwrap();
+    let good = c.join("calib/cam1.tif");
+    for stem in ["blobs", "other"] {
+        let out = w.join(format!("{stem}.csv"));
+        let run = trinocular(&[
+            "extract",
+            "--backend",
+            "cpu",
+            "--out",
+            s(&out),
+            s(&bad),
+            s(&good),
+        ]);
+        assert_eq!(run.status.code(), Some(3), "{}", stderr(&run));
+        let problems = w.join(format!("{stem}.problems.csv"));
+        assert!(stderr(&run).contains(s(&problems)), "{}", stderr(&run));
+        assert!(
+            String::from_utf8(read(&problems))
+                .unwrap()
+                .contains("bad.tif")
+        );
+    }
+    for old in [
+        "commissioning.txt",
+        "commissioning.json",
+        "poses.csv",
+        "problems.csv",
+    ] {
+        assert!(!w.join(old).exists(), "{old}");
+    }
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+/// Issue 23, defect 4: one rule for every command, the missing output
+/// folders are made (extract and measure refused them).
+#[test]
+fn missing_output_folders_are_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = campaign(d, 256, 3, 2, 1);
+    let blobs = d.join("x").join("y").join("blobs.csv");
+    ok(&trinocular(&[
+        "extract",
+        "--backend",
+        "cpu",
+        "--out",
+        s(&blobs),
+        s(&c.join("calib")),
+    ]));
+    assert!(blobs.is_file());
+    let points = d.join("m").join("n").join("points.csv");
+    ok(&measure(d, &c, &points, &[]));
+    assert!(points.is_file() && d.join("m/n/points.poses.csv").is_file());
+    let report = d.join("r").join("s").join("report");
+    ok(&trinocular(&[
+        "evaluate",
+        "--points",
+        s(&points),
+        "--out",
+        s(&report),
+    ]));
+    assert!(report.join("report.json").is_file());
+    // A file where a folder is needed is named, and nothing is written.
+    std::fs::write(d.join("f"), "mine").unwrap();
+    let run = trinocular(&[
+        "extract",
+        "--backend",
+        "cpu",
+        "--out",
+        s(&d.join("f").join("blobs.csv")),
+        s(&c.join("calib")),
+    ]);
+    refused(&run, &["f: is a file, not a folder"]);
+    assert_eq!(read(&d.join("f")), b"mine");
     assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
 }
 
@@ -449,12 +727,15 @@ mod interrupted {
         campaign(d, 512, 5, 3, 2)
     }
 
-    /// An uninterrupted run's points.csv and poses.csv.
+    /// An uninterrupted run's points.csv and its poses.
     fn reference(d: &Path, c: &Path) -> (Vec<u8>, Vec<u8>) {
         let r = d.join("reference");
         std::fs::create_dir(&r).unwrap();
         ok(&measure(d, c, &r.join("points.csv"), &[]));
-        (read(&r.join("points.csv")), read(&r.join("poses.csv")))
+        (
+            read(&r.join("points.csv")),
+            read(&r.join("points.poses.csv")),
+        )
     }
 
     /// Interrupt a measure run after its first chunk with `how`; then run it
@@ -509,9 +790,9 @@ mod interrupted {
         }
         assert_eq!(read(&out), points, "points.csv as uninterrupted");
         assert_eq!(
-            read(&run.join("poses.csv")),
+            read(&run.join("points.poses.csv")),
             poses,
-            "poses.csv as uninterrupted"
+            "points.poses.csv as uninterrupted"
         );
         assert!(!partial.exists() && !run.join("points.csv.resume.json").exists());
         assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
@@ -555,7 +836,7 @@ mod interrupted {
         let done = first.wait_with_output().unwrap();
         assert!(done.status.success(), "{}", stderr(&done));
         assert_eq!(read(&out), points, "the first run's output is complete");
-        assert_eq!(read(&d.join("poses.csv")), poses);
+        assert_eq!(read(&d.join("points.poses.csv")), poses);
         assert!(!d.join("other.csv").exists());
         assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
     }

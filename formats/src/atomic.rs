@@ -3,7 +3,8 @@
 //! place and sync the folder, so a reader never sees a half-written file and
 //! a crash never truncates an existing one. The temporary file is removed
 //! when the writer is dropped without commit and, through
-//! [`crate::interrupt`], when the process is interrupted.
+//! [`crate::interrupt`], when the process is interrupted; a file put in place
+//! where none was is recorded as the run's ([`crate::created`]).
 
 use std::fs::{File, Permissions};
 use std::io::{BufWriter, ErrorKind, Seek, SeekFrom, Write};
@@ -61,7 +62,8 @@ pub fn folder_of(path: &Path) -> &Path {
 
 /// A file next to `path` named `<stem><suffix>`, the stem being `path`'s
 /// file name without its extension (`rig.json`, `.residuals.csv` →
-/// `rig.residuals.csv`); `default_stem` when `path` has no file name.
+/// `rig.residuals.csv`); `default_stem` when `path` has no file name. The
+/// rule that names every sidecar of an output (docs/formats.md, Sidecars).
 pub fn beside(path: &Path, default_stem: &str, suffix: &str) -> PathBuf {
     let stem = path
         .file_stem()
@@ -164,13 +166,19 @@ impl AtomicFile {
         temp.as_file()
             .sync_all()
             .map_err(|e| FormatError::io(&self.target, e))?;
+        let existed = self.target.symlink_metadata().is_ok();
         let persisted = if self.replace {
             temp.persist(&self.target)
         } else {
             temp.persist_noclobber(&self.target)
         };
         match persisted {
-            Ok(_) => sync_folder(folder_of(&self.target)),
+            Ok(_) => {
+                if !existed {
+                    crate::created::file(&self.target);
+                }
+                sync_folder(folder_of(&self.target))
+            }
             Err(e) if e.error.kind() == ErrorKind::AlreadyExists => Err(FormatError::Exists {
                 path: self.target.clone(),
             }),

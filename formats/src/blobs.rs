@@ -74,7 +74,8 @@ impl Record for BlobRow {
     }
 }
 
-/// One row of `problems.csv`: an input that could not be used, and why.
+/// One row of `<stem>.problems.csv` beside `extract`'s output: an input that
+/// could not be used, and why.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ProblemRow {
     /// The file (or instant) at fault.

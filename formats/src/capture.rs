@@ -2,7 +2,7 @@
 //! `[procedure]` table shared by the renderer's configuration and a user's
 //! `program.toml` (one record, same keys and meaning), the ISO 230-2 linear
 //! cycle it describes as a sequence of dwells with their programmed times,
-//! and the rows of the `problems.csv` written beside a built manifest.
+//! and the rows of the `<stem>.problems.csv` written beside a built manifest.
 //!
 //! The cycle (ISO 230-2 §4.3, linear test cycle): per axis, per line, per
 //! run, go to the first target minus the overshoot and approach every target
@@ -321,7 +321,7 @@ impl ProcedureConfig {
     }
 }
 
-/// One row of the `problems.csv` that `trinocular manifest` writes beside the
+/// One row of the `<stem>.problems.csv` that `trinocular manifest` writes beside the
 /// manifest: a frame (or a camera, or an instant) it could not place, and
 /// why. Columns that do not apply are empty.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

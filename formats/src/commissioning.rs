@@ -1,4 +1,4 @@
-//! `commissioning.json` and `commissioning.txt` of `trinocular calibrate`
+//! `<stem>.commissioning.json` and `<stem>.commissioning.txt` of `trinocular calibrate`
 //! (docs/formats.md): the rig commissioning report's types and its plain-text
 //! rendering, filled by the `calib` crate (its `commission` and flat-field
 //! fit). Lengths mm, angles degrees, scale costs ppm.
@@ -136,7 +136,7 @@ pub struct TravelReport {
     pub cameras: Vec<TravelCamera>,
 }
 
-/// The commissioning report (`commissioning.json`; [`Report::text`] for `commissioning.txt`).
+/// The commissioning report (`<stem>.commissioning.json`; [`Report::text`] for `<stem>.commissioning.txt`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
     /// Working point (mm).
@@ -207,7 +207,7 @@ fn illumination_text(s: &mut String, r: &IlluminationReport) {
 }
 
 impl Report {
-    /// Plain-text rendering for `commissioning.txt`.
+    /// Plain-text rendering for `<stem>.commissioning.txt`.
     pub fn text(&self) -> String {
         use std::fmt::Write;
         let mut s = String::new();

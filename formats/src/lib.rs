@@ -12,11 +12,15 @@
 //! against its inputs and the files that exist before anything is written;
 //! existing outputs replaced only with `--force`), writes through it
 //! atomically ([`AtomicFile`]), locks its output folder when it is a long
-//! batch ([`OutputLock`]), and lists its temporary files for removal on
-//! interruption ([`interrupt`]).
+//! batch ([`OutputLock`]), lists its temporary files for removal on
+//! interruption ([`interrupt`]) and records what it created, which a failed
+//! run removes ([`created`]). The files a command writes beside an output
+//! file (its sidecars) are named after that output's stem ([`beside`]:
+//! `--out P.csv` → `P.problems.csv`), so runs of different outputs never
+//! share one.
 
 /// Declares the row of a file keyed by instant (`manifest.csv`, `points.csv`,
-/// `poses.csv`, `problems.csv`): its leading fields, then the columns that
+/// `<stem>.poses.csv`, `<stem>.problems.csv`): its leading fields, then the columns that
 /// name the instant — axis, direction, run, target, capture, nominal_x,
 /// nominal_y, nominal_z, declared here once — then its own fields; with
 /// `instant()` and `nominal()`. A macro because the CSV rows are flat: the
@@ -77,6 +81,7 @@ mod blobs;
 mod campaign;
 mod capture;
 pub mod commissioning;
+pub mod created;
 pub mod evaluation;
 mod figures;
 mod fit;

@@ -3,8 +3,8 @@
 //! system's advisory file lock (`File::try_lock`). A second run is refused
 //! with the holder's pid; a lock file whose process died (killed, machine
 //! crash) is not locked by anyone, so the next run takes it over and says so.
-//! Outputs of different names in one folder share their sidecars
-//! (`problems.csv`, `poses.csv`), which is why the whole folder is locked.
+//! One lock per folder, not per output: a second run into a folder in use is
+//! refused whatever its `--out`, and one lock file says who writes there.
 
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Seek, SeekFrom, Write};

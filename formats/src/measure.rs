@@ -1,6 +1,6 @@
 //! Files written by `trinocular measure` beside `points.csv`: what could not
-//! be measured and why (`problems.csv`) and the table pose per instant
-//! (`poses.csv`).
+//! be measured and why (`points.problems.csv`) and the table pose per instant
+//! (`points.poses.csv`), named after the output's stem.
 
 use serde::{Deserialize, Serialize};
 

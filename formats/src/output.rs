@@ -11,8 +11,12 @@
 //!   that left it, when resuming); without it the run stops before writing,
 //!   and a file that appears while the run works is not replaced either
 //!   (no-clobber rename at commit);
-//! - an output folder given as `--out DIR` is created if missing; the folder
-//!   of an output file must exist;
+//! - missing output folders are created — the `--out DIR` of a command that
+//!   writes a folder, the folder of an output file — when the first file is
+//!   written into them;
+//! - a run that fails removes what it created ([`crate::created`]): the
+//!   folders it made, the files and sets it put in place where none was, its
+//!   lock; never a file or folder that existed before it;
 //! - long batch writers hold the lock of their output folder
 //!   ([`crate::OutputLock`]); taking over a dead run's lock removes the temporary
 //!   files that run left beside the planned outputs;
@@ -58,15 +62,9 @@ struct Identity {
 
 impl Identity {
     fn of(path: &Path) -> Self {
-        let canonical = std::fs::canonicalize(path).ok().or_else(|| {
-            let name = path.file_name()?;
-            std::fs::canonicalize(folder_of(path))
-                .ok()
-                .map(|f| f.join(name))
-        });
         Self {
             path: path.to_path_buf(),
-            canonical,
+            canonical: std::fs::canonicalize(path).ok().or_else(|| to_be(path)),
             file: file_id(path),
         }
     }
@@ -75,6 +73,29 @@ impl Identity {
         (self.canonical.is_some() && self.canonical == other.canonical)
             || (self.file.is_some() && self.file == other.file)
     }
+}
+
+/// The canonical path a missing `path` will have once its missing folders
+/// are made: its longest existing head, canonical, then the rest of its
+/// components (`..` taken lexically, as it is in folders without links).
+fn to_be(path: &Path) -> Option<PathBuf> {
+    use std::path::Component;
+    let parts: Vec<Component> = path.components().collect();
+    (0..parts.len()).rev().find_map(|split| {
+        let head: PathBuf = parts[..split].iter().collect();
+        let head = if split == 0 { PathBuf::from(".") } else { head };
+        let mut base = std::fs::canonicalize(head).ok()?;
+        for part in &parts[split..] {
+            match part {
+                Component::ParentDir => {
+                    base.pop();
+                }
+                Component::Normal(name) => base.push(name),
+                _ => {}
+            }
+        }
+        Some(base)
+    })
 }
 
 #[cfg(unix)]
@@ -160,7 +181,8 @@ impl OutputPlan {
         self
     }
 
-    /// An output folder (`--out DIR`), created if missing when its first file is written.
+    /// An output folder (`--out DIR`): a folder, never a file; created if
+    /// missing when its first file is written.
     pub fn folder(&mut self, path: impl AsRef<Path>) -> &mut Self {
         self.folders.insert(path.as_ref().to_path_buf());
         self
@@ -210,16 +232,14 @@ impl OutputPlan {
         &self.notes
     }
 
-    /// Lock `folder` for `command` ([`crate::OutputLock`]); it must exist unless it
-    /// is a planned output folder, which is then created. A lock left by a
+    /// Lock the output folder `folder` for `command` ([`crate::OutputLock`]),
+    /// making it first if missing. A lock left by a
     /// dead run is taken over (a note says so) and the temporary files that
     /// run left beside the planned outputs are removed: declare the outputs
     /// first. Held until the plan is dropped.
     pub fn lock(&mut self, folder: impl AsRef<Path>, command: &str) -> Result<()> {
         let folder = folder.as_ref();
-        if self.folders.contains(folder) && !folder.exists() {
-            std::fs::create_dir_all(folder).map_err(|e| FormatError::io(folder, e))?;
-        }
+        crate::created::make_folders(folder)?;
         let Acquired { lock, stale } = OutputLock::acquire(folder, command)?;
         self.lock = Some(lock);
         if let Some(holder) = stale {
@@ -276,8 +296,8 @@ impl OutputPlan {
     }
 
     /// Check every planned output against the inputs and the files that
-    /// exist; the first fault found is the error. Nothing is written (the
-    /// planned folders are created when their first file is).
+    /// exist; the first fault found is the error. Nothing is written (missing
+    /// folders are made when their first file is written).
     pub fn check(&mut self) -> Result<()> {
         let inputs: Vec<Identity> = self.inputs.iter().map(|p| Identity::of(p)).collect();
         let replace = self.force || self.resuming;
@@ -288,12 +308,7 @@ impl OutputPlan {
             ));
         }
         for folder in &self.folders {
-            if folder.exists() && !folder.is_dir() {
-                return Err(FormatError::file(
-                    folder,
-                    "is a file, not a folder; choose another --out",
-                ));
-            }
+            crate::created::missing_folders(folder)?;
         }
         for path in &self.order {
             let role = self.files.get(path).copied().unwrap_or(Role::Result);
@@ -313,24 +328,14 @@ impl OutputPlan {
             if role == Role::Result && !replace && path.symlink_metadata().is_ok() {
                 return Err(FormatError::Exists { path: path.clone() });
             }
-            let folder = folder_of(path);
-            if !folder.is_dir() && !self.creates(folder) {
-                return Err(FormatError::file(
-                    path,
-                    format!("output folder {} does not exist", folder.display()),
-                ));
-            }
+            crate::created::missing_folders(folder_of(path))?;
         }
         for set in &self.sets {
+            crate::created::missing_folders(&set.folder)?;
             self.check_set(set, &inputs)?;
         }
         self.checked = true;
         Ok(())
-    }
-
-    /// Whether `folder` is created by the plan (a planned folder or inside one).
-    fn creates(&self, folder: &Path) -> bool {
-        self.folders.iter().any(|f| folder.starts_with(f))
     }
 
     fn check_set(&self, set: &Set, inputs: &[Identity]) -> Result<()> {
@@ -386,10 +391,7 @@ impl OutputPlan {
     /// Start writing a planned output file.
     pub fn create(&self, path: &Path) -> Result<AtomicFile> {
         let role = self.planned(path)?;
-        let folder = folder_of(path);
-        if self.creates(folder) && !folder.is_dir() {
-            std::fs::create_dir_all(folder).map_err(|e| FormatError::io(folder, e))?;
-        }
+        crate::created::make_folders(folder_of(path))?;
         if role == Role::State || self.force || self.resuming {
             AtomicFile::create(path)
         } else {
@@ -461,7 +463,7 @@ impl OutputPlan {
         }
         let prefix = temp_prefix(folder)?;
         let parent = folder_of(folder);
-        std::fs::create_dir_all(parent).map_err(|e| FormatError::io(parent, e))?;
+        crate::created::make_folders(parent)?;
         let (temp, listed) = create_listed(Kind::Folder, || {
             let temp = crate::atomic::temp_builder(&prefix, true).tempdir_in(parent)?;
             let path = temp.path().to_path_buf();
@@ -492,7 +494,8 @@ impl Stage {
     }
 
     /// Put the set in place of the old one (if any) in one exchange, then
-    /// remove the old set.
+    /// remove the old set; a set where none was is recorded as the run's
+    /// ([`crate::created`]).
     pub fn commit(self) -> Result<()> {
         let staged = self.temp.path();
         sync_folder(staged)?;
@@ -507,6 +510,7 @@ impl Stage {
         } else {
             // Nothing left at the staging path to remove.
             let _ = self.temp.keep();
+            crate::created::set(&self.target);
             Ok(())
         }
     }
@@ -610,25 +614,36 @@ mod tests {
     }
 
     #[test]
-    fn a_missing_output_folder_is_refused_unless_planned() {
+    fn missing_output_folders_are_made_with_their_first_file() {
         let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().join("nope").join("b.csv");
+        let out = dir.path().join("nope").join("deeper").join("b.csv");
         let mut plan = OutputPlan::new(false);
         plan.file(&out);
-        let e = plan.check().unwrap_err().to_string();
-        assert!(
-            e.contains("output folder") && e.contains("does not exist"),
-            "{e}"
-        );
-        let mut plan = OutputPlan::new(false);
-        plan.folder(dir.path().join("nope")).file(&out);
         plan.check().unwrap();
         assert!(
             !dir.path().join("nope").exists(),
-            "created with its first file"
+            "made with its first file"
         );
         plan.write_bytes(&out, b"x").unwrap();
         assert!(out.is_file());
+        // A file where a folder is needed is named.
+        std::fs::write(dir.path().join("f"), "mine").unwrap();
+        let mut plan = OutputPlan::new(true);
+        plan.file(dir.path().join("f").join("b.csv"));
+        let e = plan.check().unwrap_err().to_string();
+        assert!(e.contains("is a file, not a folder"), "{e}");
+    }
+
+    #[test]
+    fn an_output_through_a_missing_folder_is_still_not_an_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let image = dir.path().join("z.tif");
+        std::fs::write(&image, "pixels").unwrap();
+        let mut plan = OutputPlan::new(true);
+        plan.input(&image)
+            .file(dir.path().join("nope").join("..").join("z.tif"));
+        let e = plan.check().unwrap_err();
+        assert!(matches!(e, FormatError::OverwritesInput { .. }), "{e}");
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! The `measure` batch: every instant of a campaign → sphere centres in
-//! `points.csv`, what could not be measured → `problems.csv`, table poses →
-//! `poses.csv`.
+//! `points.csv`, what could not be measured → `points.problems.csv`, table
+//! poses → `points.poses.csv` (sidecars named after the output's stem).
 //!
 //! The manifest is checked in full before work starts ([`crate::plan`]).
 //! Instants are measured in parallel, a chunk at a time, and their rows are
@@ -15,9 +15,9 @@
 //! atomically; the partial files are removed.
 //!
 //! An instant's outcome is one of: every sphere in `points.csv` and its pose
-//! in `poses.csv`; some spheres in `points.csv` (a sphere clipped by the
-//! image border or out of a camera's view), a `problems.csv` row per missing
-//! sphere and camera, no pose; or no rows and one `problems.csv` row (a frame
+//! in the poses; some spheres in `points.csv` (a sphere clipped by the
+//! image border or out of a camera's view), a problems row per missing
+//! sphere and camera, no pose; or no rows and one problems row (a frame
 //! that cannot be read, no sphere seen by every camera, an implausible
 //! residual).
 
@@ -111,22 +111,19 @@ pub struct Summary {
     pub implausible: usize,
     /// The residual limit the instants were held to; `None` when none was measured.
     pub gate: Option<ResidualGate>,
-    /// Rows of `problems.csv`.
+    /// Rows of the problems file.
     pub problems: usize,
+    /// The first problem in manifest order (its image and reason), when there were problems.
+    pub first_problem: Option<String>,
     /// `points.csv`.
     pub points: PathBuf,
-    /// `problems.csv`, when there were problems.
+    /// `<stem>.problems.csv`, when there were problems.
     pub problems_file: Option<PathBuf>,
-    /// `poses.csv`.
+    /// `<stem>.poses.csv`.
     pub poses: PathBuf,
     /// Cameras whose relative illumination is the assumed ideal lens (no
     /// flat-field model in `rig.json`).
     pub assumed_ideal_lens: Vec<u8>,
-}
-
-/// Paths of the outputs beside `points.csv`.
-fn beside(out: &Path, name: &str) -> PathBuf {
-    out.with_file_name(name)
 }
 
 fn with_suffix(out: &Path, suffix: &str) -> PathBuf {
@@ -739,8 +736,8 @@ fn implausible(
     refused
 }
 
-/// Measure a campaign into `out` (`points.csv`), with `poses.csv` and
-/// `problems.csv` beside it, through `output`: the caller has declared its
+/// Measure a campaign into `out` (`points.csv`), with `<stem>.poses.csv` and
+/// `<stem>.problems.csv` beside it, through `output`: the caller has declared its
 /// inputs there and whether existing outputs may be replaced (`--force`,
 /// which also discards a partial output); this adds the campaign's manifest
 /// and images as inputs and the outputs, locks the output folder for the
@@ -800,8 +797,7 @@ pub fn measure(
     problems.extend(refused.into_iter().map(|(key, p)| (index_of[&key], p)));
 
     // Final outputs, in manifest order, atomically.
-    let (without_pose, problem_count, problems_file) =
-        write_outputs(&mut rows, problems, &index_of, inputs, out, &paths, output)?;
+    let written = write_outputs(&mut rows, problems, &index_of, inputs, out, &paths, output)?;
     let mut per_instant: HashMap<InstantKey, usize> = HashMap::new();
     for r in &rows {
         *per_instant.entry(r.instant()).or_default() += 1;
@@ -813,22 +809,34 @@ pub fn measure(
             .values()
             .filter(|&&n| n < inputs.spheres.len())
             .count(),
-        without_pose,
+        without_pose: written.without_pose,
         resumed,
         implausible: implausible_count,
         gate,
-        problems: problem_count,
+        problems: written.problems,
+        first_problem: written.first_problem,
         points: out.to_path_buf(),
-        problems_file,
+        problems_file: written.problems_file,
         poses: paths.poses,
         assumed_ideal_lens: assumed_ideal,
     })
 }
 
-/// Write `points.csv` (the rows sorted into manifest order), `poses.csv`
-/// and `problems.csv` (with the instants whose pose failed), and remove the
-/// partial files: the count of instants without a pose, of problems, and
-/// the problems file when written.
+/// What [`write_outputs`] wrote besides the points.
+struct Written {
+    /// Instants without a pose.
+    without_pose: usize,
+    /// Problems.
+    problems: usize,
+    /// The first problem, described.
+    first_problem: Option<String>,
+    /// The problems file, when written.
+    problems_file: Option<PathBuf>,
+}
+
+/// Write `points.csv` (the rows sorted into manifest order), the poses
+/// and the problems (with the instants whose pose failed), and remove the
+/// partial files.
 fn write_outputs(
     rows: &mut [PointRow],
     mut problems: Vec<(usize, InstantProblemRow)>,
@@ -837,7 +845,7 @@ fn write_outputs(
     out: &Path,
     paths: &Paths,
     output: &mut OutputPlan,
-) -> Result<(usize, usize, Option<PathBuf>)> {
+) -> Result<Written> {
     sort_rows(rows, index_of, inputs.spheres);
     output.write_records(out, &*rows)?;
     let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
@@ -851,11 +859,16 @@ fn write_outputs(
         )
     }));
     let problem_count = problems.len();
-    let problems_file = write_problems(problems, &paths.problems, output)?;
+    let (problems_file, first_problem) = write_problems(problems, &paths.problems, output)?;
     for f in [&paths.partial, &paths.sidecar] {
         std::fs::remove_file(f).map_err(|e| formats::FormatError::io(f, e))?;
     }
-    Ok((without_pose, problem_count, problems_file))
+    Ok(Written {
+        without_pose,
+        problems: problem_count,
+        first_problem,
+        problems_file,
+    })
 }
 
 /// The files of a measure run beside its `points.csv`.
@@ -864,9 +877,9 @@ struct Paths {
     partial: PathBuf,
     /// Fingerprint of the inputs and options (`points.csv.resume.json`).
     sidecar: PathBuf,
-    /// `poses.csv`.
+    /// `<stem>.poses.csv`.
     poses: PathBuf,
-    /// `problems.csv`.
+    /// `<stem>.problems.csv`.
     problems: PathBuf,
 }
 
@@ -875,8 +888,8 @@ impl Paths {
         Self {
             partial: with_suffix(out, ".partial"),
             sidecar: with_suffix(out, ".resume.json"),
-            poses: beside(out, "poses.csv"),
-            problems: beside(out, "problems.csv"),
+            poses: formats::beside(out, "points", ".poses.csv"),
+            problems: formats::beside(out, "points", ".problems.csv"),
         }
     }
 }
@@ -997,22 +1010,26 @@ fn sort_rows(rows: &mut [PointRow], index_of: &HashMap<InstantKey, usize>, spher
     rows.sort_by_key(rank);
 }
 
-/// Write `problems.csv` in manifest order (within an instant, as found), or
-/// remove one left by an interrupted run or replaced with `--force` when
-/// there is none; its path when written.
+/// Write the problems in manifest order (within an instant, as found), or
+/// remove a file of them left by an interrupted run or replaced with
+/// `--force` when there is none; its path when written, and the first
+/// problem described.
 fn write_problems(
     mut problems: Vec<(usize, InstantProblemRow)>,
     path: &Path,
     output: &mut OutputPlan,
-) -> Result<Option<PathBuf>> {
+) -> Result<(Option<PathBuf>, Option<String>)> {
     // A stable sort.
     problems.sort_by_key(|(i, _)| *i);
-    if problems.is_empty() {
+    let Some((_, first)) = problems.first() else {
         output.remove(path)?;
-        Ok(None)
-    } else {
-        let list: Vec<InstantProblemRow> = problems.into_iter().map(|(_, p)| p).collect();
-        output.write_records(path, &list)?;
-        Ok(Some(path.to_path_buf()))
-    }
+        return Ok((None, None));
+    };
+    let first = match &first.image {
+        Some(image) => format!("{image}: {}", first.reason),
+        None => first.reason.clone(),
+    };
+    let list: Vec<InstantProblemRow> = problems.into_iter().map(|(_, p)| p).collect();
+    output.write_records(path, &list)?;
+    Ok((Some(path.to_path_buf()), Some(first)))
 }

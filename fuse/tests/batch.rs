@@ -54,7 +54,7 @@ fn points(path: &Path) -> Vec<PointRow> {
 }
 
 fn problems(dir: &Path) -> Vec<InstantProblemRow> {
-    read_csv(&dir.join("problems.csv"))
+    read_csv(&dir.join("points.problems.csv"))
         .unwrap()
         .into_iter()
         .map(|r| r.record)
@@ -212,7 +212,7 @@ fn damaged_frames_are_reported_and_the_rest_measured() {
             vec!["A".to_string(), "C".into()]
         )
     );
-    let poses: Vec<PoseRow> = read_csv(&d.join("poses.csv"))
+    let poses: Vec<PoseRow> = read_csv(&d.join("points.poses.csv"))
         .unwrap()
         .into_iter()
         .map(|r| r.record)
@@ -269,7 +269,7 @@ fn an_interrupted_run_resumes_without_loss_or_duplicates() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     campaign(d);
-    // Each run in its own folder: runs in one folder share poses.csv and problems.csv.
+    // Each run in its own folder, its outputs of the same names.
     let reference = run(d, "reference/points.csv", &|_, _| {}).unwrap();
     assert_eq!(reference.problems, 0);
     // The same bytes on one thread as on many.

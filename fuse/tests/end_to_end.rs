@@ -55,7 +55,10 @@ fn run(dir: &Path, options: &MeasureOptions, name: &str) -> Vec<PointRow> {
         summary.problems,
         0,
         "problems: {:?}",
-        std::fs::read_to_string(dir.join("problems.csv")).ok()
+        summary
+            .problems_file
+            .as_ref()
+            .and_then(|p| std::fs::read_to_string(p).ok())
     );
     read_csv(&out)
         .unwrap()

@@ -1,7 +1,7 @@
 //! Partial instants: a sphere whose image is clipped by a frame's border (it
 //! leaves a camera's view at one end of a sweep) is missing from that
 //! instant, the spheres that are whole are measured, the pose is missing,
-//! and `problems.csv` names the sphere, camera and image — decided against
+//! and `points.problems.csv` names the sphere, camera and image — decided against
 //! the renderer's truth: the true camera's image of the true sphere.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -119,8 +119,8 @@ fn a_sphere_leaving_a_camera_s_view_leaves_the_others_measured() {
     assert_eq!(summary.partial, partial.len());
     assert_eq!((summary.implausible, summary.without_pose), (0, 0));
 
-    // problems.csv: one row per missing sphere and camera, naming the image.
-    let problems: Vec<InstantProblemRow> = common::records(&d.join("problems.csv"));
+    // points.problems.csv: one row per missing sphere and camera, naming the image.
+    let problems: Vec<InstantProblemRow> = common::records(&d.join("points.problems.csv"));
     let got: BTreeSet<(InstantKey, u8, String)> = problems
         .iter()
         .map(|p| (p.instant(), p.camera.unwrap(), p.sphere.clone().unwrap()))
@@ -167,8 +167,8 @@ fn a_sphere_leaving_a_camera_s_view_leaves_the_others_measured() {
     }
     eprintln!("largest distance of a measured centre from the truth: {worst:.4} mm");
 
-    // poses.csv: every instant but the partial ones.
-    let poses: Vec<PoseRow> = common::records(&d.join("poses.csv"));
+    // points.poses.csv: every instant but the partial ones.
+    let poses: Vec<PoseRow> = common::records(&d.join("points.poses.csv"));
     assert_eq!(poses.len(), instants - partial.len());
     assert!(poses.iter().all(|p| {
         let k = InstantKey {

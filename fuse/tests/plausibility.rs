@@ -99,7 +99,8 @@ fn check_refused(
     assert_eq!(summary.implausible, damaged.len(), "{summary:?}");
     assert_eq!(summary.measured, 36 - damaged.len());
     let out = dir.join(out);
-    let problems: Vec<InstantProblemRow> = common::records(&out.with_file_name("problems.csv"));
+    let problems: Vec<InstantProblemRow> =
+        common::records(&formats::beside(&out, "points", ".problems.csv"));
     let refused: BTreeSet<InstantKey> = problems.iter().map(InstantProblemRow::instant).collect();
     assert_eq!(&refused, damaged);
     let gate = summary.gate.unwrap();
@@ -208,7 +209,7 @@ fn a_resumed_run_refuses_and_keeps_the_same_instants() {
         ),
         (whole.measured, whole.partial, whole.implausible, whole.gate)
     );
-    for f in ["points.csv", "problems.csv", "poses.csv"] {
+    for f in ["points.csv", "points.problems.csv", "points.poses.csv"] {
         assert_eq!(
             std::fs::read(d.join("resumed").join(f)).unwrap(),
             std::fs::read(d.join("whole").join(f)).unwrap(),

@@ -1,6 +1,6 @@
 //! A frame whose header claims a huge image, inside a measure batch (issue
 //! 12, item 1): the frame is refused before anything is allocated for it,
-//! its instant goes to problems.csv naming the file and the size, and every
+//! its instant goes to points.problems.csv naming the file and the size, and every
 //! other instant is measured exactly as without it — also when the run is
 //! repeated.
 
@@ -58,8 +58,8 @@ fn a_huge_header_frame_is_one_problem_and_the_batch_finishes() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     common::campaign(d, 640, 3, 2, 7);
-    // The reference in a folder of its own: its sidecars (poses.csv) are not
-    // the later runs' to replace.
+    // The reference in a folder of its own: its outputs are not the later
+    // runs' to replace.
     std::fs::create_dir(d.join("reference")).unwrap();
     let reference = run(d, "reference/points.csv", false);
     assert_eq!(reference.problems, 0);
@@ -87,7 +87,7 @@ fn a_huge_header_frame_is_one_problem_and_the_batch_finishes() {
         assert_eq!(summary.instants, instants.len());
         assert_eq!(summary.problems, 1);
         assert_eq!(summary.measured, instants.len() - 1);
-        let problems: Vec<InstantProblemRow> = rows(&d.join("problems.csv"));
+        let problems: Vec<InstantProblemRow> = rows(&d.join("points.problems.csv"));
         assert_eq!(problems.len(), 1);
         let p = &problems[0];
         assert_eq!(p.camera, Some(2));

@@ -14,7 +14,8 @@
 //!   standard deviations, outliers and DLT figures under extra keys;
 //! - `<stem>.cam<ID>.opencv.yml` beside it: OpenCV `FileStorage` YAML;
 //! - `<stem>.residuals.csv`: per-point residuals of every camera;
-//! - `commissioning.txt` and `commissioning.json`: the rig commissioning report.
+//! - `<stem>.commissioning.txt` and `<stem>.commissioning.json`: the rig
+//!   commissioning report.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -418,11 +419,10 @@ fn plan_outputs(args: &Args, cameras: &[CameraSpec]) -> Result<OutputPlan> {
         .inputs(&args.flat_fields)
         .inputs(&args.dark_frames)
         .inputs(&args.spheres)
-        .folder(formats::folder_of(&args.out))
         .file(&args.out)
         .file(beside(&args.out, ".residuals.csv"))
-        .file(args.out.with_file_name("commissioning.txt"))
-        .file(args.out.with_file_name("commissioning.json"));
+        .file(beside(&args.out, ".commissioning.txt"))
+        .file(beside(&args.out, ".commissioning.json"));
     for c in cameras {
         output.file(beside(&args.out, &format!(".cam{}.opencv.yml", c.id)));
     }
@@ -628,10 +628,10 @@ fn write_outputs(
         },
     );
     output.write_bytes(
-        &args.out.with_file_name("commissioning.txt"),
+        &beside(&args.out, ".commissioning.txt"),
         report.text().as_bytes(),
     )?;
-    output.write_json(&args.out.with_file_name("commissioning.json"), &report)?;
+    output.write_json(&beside(&args.out, ".commissioning.json"), &report)?;
     for c in &report.cameras {
         println!(
             "camera {}: {:.6} mm/px at {:.1} mm, optical axis {:.3}° from {}",

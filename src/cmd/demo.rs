@@ -170,8 +170,8 @@ fn compare(report: &ReportFigures, truth: &ReportFigures) {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
+    // Made by the first step's plan, so that a failed demo removes it again.
     let out = args.out.clone().unwrap_or_else(fresh_folder);
-    std::fs::create_dir_all(&out).with_context(|| path(&out))?;
     let campaign = out.join("campaign");
     let height = args.width * 3 / 4;
     let start = Instant::now();

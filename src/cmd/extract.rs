@@ -1,5 +1,6 @@
 //! `trinocular extract`: blobs of every image into `blobs.csv`; unusable
-//! images go to `problems.csv` beside it and the run carries on.
+//! images go to `blobs.problems.csv` beside it (named after the output) and
+//! the run carries on.
 
 use std::path::{Path, PathBuf};
 
@@ -136,10 +137,10 @@ pub struct Args {
     /// Require this bit depth (8 or 16); other frames are reported as problems.
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["8", "16"]))]
     bit_depth: Option<String>,
-    /// Output CSV (one row per blob); problems go to problems.csv beside it.
+    /// Output CSV (one row per blob); problems go to <stem>.problems.csv beside it.
     #[arg(long)]
     out: PathBuf,
-    /// Replace existing outputs (the CSV and problems.csv beside it).
+    /// Replace existing outputs (the CSV and <stem>.problems.csv beside it).
     #[arg(long)]
     force: bool,
     /// Flat-field frame of the camera (a uniform radiance source filling the
@@ -155,10 +156,14 @@ pub struct Args {
     images: Vec<PathBuf>,
 }
 
-/// Image files of a folder (TIFF and PNG, sorted by name), or the path itself.
+/// Image files of a folder (TIFF and PNG, sorted by name), or the path
+/// itself; a path that names nothing is an error, before anything is written.
 pub fn expand_images(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for input in inputs {
+        if input.symlink_metadata().is_err() {
+            bail!("{}: no such file or folder", input.display());
+        }
         if input.is_dir() {
             let mut found: Vec<PathBuf> = std::fs::read_dir(input)
                 .with_context(|| format!("{}", input.display()))?
@@ -182,9 +187,9 @@ pub fn expand_images(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-/// `problems.csv` beside `out`.
+/// `<stem>.problems.csv` beside the output `out` of a batch.
 pub fn problems_path(out: &Path) -> PathBuf {
-    out.with_file_name("problems.csv")
+    formats::beside(out, "out", ".problems.csv")
 }
 
 /// The lens's relative illumination from a flat field and a dark frame,
@@ -252,8 +257,25 @@ struct Tally {
 }
 
 impl Tally {
-    /// The batch's outcome once its problems are written: an error when no
-    /// image could be used, else a finished batch that names what it left out.
+    /// An error when no image could be used: nothing usable is a failure,
+    /// not a batch with a few bad items, and its outputs are not written.
+    fn nothing_usable(&self, images: usize) -> Result<()> {
+        if self.failed_frames < images {
+            return Ok(());
+        }
+        let first = self
+            .problems
+            .first()
+            .map(|p| format!("; the first: {}", p.reason))
+            .unwrap_or_default();
+        bail!(
+            "{}{first}",
+            crate::cmd::none_could(images, "image", "be used")
+        );
+    }
+
+    /// The batch's outcome once its problems are written: a finished batch
+    /// that names what it left out.
     fn outcome(&self, images: usize, problems_file: &Path) -> Result<()> {
         let Tally {
             failed_frames,
@@ -261,14 +283,6 @@ impl Tally {
             uncorrected,
             ..
         } = *self;
-        if failed_frames == images {
-            // Nothing usable is a failure, not a batch with a few bad items.
-            bail!(
-                "{}; listed in {}",
-                crate::cmd::none_could(images, "image", "be used"),
-                problems_file.display()
-            );
-        }
         let mut what = Vec::new();
         if failed_frames > 0 {
             what.push(format!(
@@ -403,12 +417,13 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(e) = write_error {
         return Err(e.context(format!("{}", args.out.display())));
     }
+    tally.nothing_usable(files.len())?;
     csv.flush()
         .with_context(|| format!("{}", args.out.display()))?;
     drop(csv);
     out.commit()?;
     if tally.problems.is_empty() {
-        // A stale problems.csv from an earlier run (replaced with --force) would mislead.
+        // A stale problems file from an earlier run (replaced with --force) would mislead.
         plan.remove(&problems_file)?;
         return Ok(());
     }

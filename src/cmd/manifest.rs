@@ -1,6 +1,6 @@
 //! `trinocular manifest`: `manifest.csv` from captured camera folders and the
 //! motion program (the `ingest` crate); frames it cannot place go to
-//! `problems.csv` beside it with the reason (exit status 3). And `trinocular
+//! `<stem>.problems.csv` beside it with the reason (exit status 3). And `trinocular
 //! bench manifest`: the metadata-only throughput on thousands of full-size
 //! frames per camera.
 
@@ -14,7 +14,7 @@ use formats::{ManifestRow, OutputPlan};
 use ingest::{Capture, Inputs, Options};
 
 use crate::cmd::Finished;
-use crate::cmd::extract::print_notes;
+use crate::cmd::extract::{print_notes, problems_path};
 
 /// `SERIAL=ID`.
 fn parse_camera(s: &str) -> std::result::Result<(String, u8), String> {
@@ -42,7 +42,7 @@ pub struct Args {
     /// along X, 2 along Y, 3 along Z); once per camera.
     #[arg(long = "camera", value_name = "SERIAL=ID", required = true, value_parser = parse_camera)]
     cameras: Vec<(String, u8)>,
-    /// Output manifest.csv (image paths relative to it; problems.csv beside it).
+    /// Output manifest.csv (image paths relative to it; <stem>.problems.csv beside it).
     #[arg(long)]
     out: PathBuf,
     /// Folders (or files) holding the frames, searched recursively for TIFF and PNG.
@@ -51,7 +51,7 @@ pub struct Args {
     /// The cameras ran free through the campaign: dwells are found in the images.
     #[arg(long)]
     continuous: bool,
-    /// Leave out every instant that lacks a camera (its frames go to problems.csv).
+    /// Leave out every instant that lacks a camera (its frames go to <stem>.problems.csv).
     #[arg(long)]
     complete_instants: bool,
     /// Continuous: blobs within this many pixels of rest (centre and diameter) are still.
@@ -82,7 +82,8 @@ fn threshold_arg(text: &str) -> std::result::Result<Threshold, String> {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
-    let problems_path = args.out.with_file_name("problems.csv");
+    let program = ingest::read_program(&args.program)?;
+    let problems_path = problems_path(&args.out);
     let mut plan = OutputPlan::new(args.force);
     plan.input(&args.program)
         .inputs(&args.dirs)
@@ -91,7 +92,6 @@ pub fn run(args: &Args) -> Result<()> {
     plan.lock(formats::folder_of(&args.out), "manifest")?;
     print_notes(&plan);
     plan.check()?;
-    let program = ingest::read_program(&args.program)?;
     let options = Options {
         capture: if args.continuous {
             Capture::Continuous
@@ -119,7 +119,7 @@ pub fn run(args: &Args) -> Result<()> {
     let elapsed = start.elapsed();
     plan.write_csv(&args.out, &built.rows)?;
     if built.problems.is_empty() {
-        // A stale problems.csv from an earlier run (replaced with --force) would mislead.
+        // A stale problems file from an earlier run (replaced with --force) would mislead.
         plan.remove(&problems_path)?;
     } else {
         plan.write_records(&problems_path, &built.problems)?;

@@ -1,6 +1,7 @@
 //! `trinocular measure`: sphere centres of every instant of a campaign into
-//! `points.csv`; bad instants into `problems.csv` and table poses into
-//! `poses.csv` beside it. An interrupted run, started again, resumes.
+//! `points.csv`; bad instants into `points.problems.csv` and table poses into
+//! `points.poses.csv` beside it (named after the output). An interrupted run,
+//! started again, resumes.
 
 use std::path::PathBuf;
 
@@ -36,7 +37,7 @@ pub struct Args {
     /// Sphere set (spheres.csv: name,diameter).
     #[arg(long)]
     spheres: PathBuf,
-    /// Output points.csv (problems.csv and poses.csv are written beside it).
+    /// Output points.csv (<stem>.problems.csv and <stem>.poses.csv are written beside it).
     #[arg(long)]
     out: PathBuf,
     /// How cameras are fused.
@@ -48,7 +49,7 @@ pub struct Args {
     /// Do not remove the perspective bias of the spheres' images (diagnostics only).
     #[arg(long)]
     no_bias_correction: bool,
-    /// Replace existing outputs (points.csv, poses.csv, problems.csv) and discard a partial one.
+    /// Replace existing outputs (points.csv and its poses and problems) and discard a partial one.
     #[arg(long)]
     force: bool,
     #[command(flatten)]
@@ -140,11 +141,15 @@ pub fn run(args: &Args) -> Result<()> {
         String::new()
     };
     if summary.measured == 0 {
-        // Nothing measured is a failure, not a batch with a few bad items.
+        // Nothing measured is a failure, not a batch with a few bad items:
+        // the run's outputs go (the failure's cleanup, src/main.rs).
         anyhow::bail!(
-            "{}{refused}; listed in {}",
+            "{}{refused}; the first: {}",
             crate::cmd::none_could(summary.instants, "instant", "be measured"),
-            problems.display()
+            summary
+                .first_problem
+                .as_deref()
+                .unwrap_or("no reason given")
         );
     }
     let mut what = Vec::new();

@@ -174,3 +174,19 @@ pub fn kept_unless_forced(args: &[&str], written: &Path) -> String {
     assert_eq!(read(written), before, "same input, same output");
     err
 }
+
+/// Every file and folder under `dir`, with each file's bytes (`None` for a
+/// folder): what a failed run must leave exactly as it was.
+pub fn tree(dir: &Path) -> std::collections::BTreeMap<PathBuf, Option<Vec<u8>>> {
+    let mut found = std::collections::BTreeMap::new();
+    for entry in std::fs::read_dir(dir).unwrap().flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            found.extend(tree(&path));
+            found.insert(path, None);
+        } else {
+            found.insert(path.clone(), Some(read(&path)));
+        }
+    }
+    found
+}
