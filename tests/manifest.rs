@@ -122,23 +122,26 @@ fn captured_folders_to_the_same_points() {
 /// pixel from rest (128×96 px at 20 fps; as 512×384 px at 80 fps): `synth`
 /// states the frames and bytes it will write before it renders, and the
 /// manifest built from the stream places every dwell, each at the renderer's
-/// own frames (issue 23: a still bound of 0.1 px found no arrival sharp).
+/// own frames (issue 23: a still bound of 0.1 px found no arrival sharp, and
+/// the rest before a short first move made the first dwell ambiguous).
 #[test]
 fn continuous_stream_of_a_small_image_places_every_dwell() {
     let tmp = tempfile::tempdir().unwrap();
     let c = tmp.path().join("c");
     let config = tmp.path().join("short.toml");
-    // X and Y over 20 mm, one line each: 3 targets × 2 directions × 2 axes = 12 dwells.
+    // X and Y over 40 mm, one line each: 3 targets × 2 directions × 2 axes = 12 dwells.
+    // The 1-mm overshoot makes the first move short against the 20-mm steps: the
+    // rest before it, recorded from the first frame, must not be taken for the first dwell.
     let axis = |a: &str| {
         format!(
-            "[[procedure.axes]]\naxis = \"{a}\"\nstart_mm = -10.0\nlength_mm = 20.0\n\
+            "[[procedure.axes]]\naxis = \"{a}\"\nstart_mm = -20.0\nlength_mm = 40.0\n\
              segments = 2\nlines_mm = [0.0]\n"
         )
     };
     std::fs::write(
         &config,
         format!(
-            "[procedure]\novershoot_mm = 5.0\n{}{}",
+            "[procedure]\novershoot_mm = 1.0\n{}{}",
             axis("X"),
             axis("Y")
         ),

@@ -10,7 +10,10 @@
 //! captures); runs of samples whose blobs stay within the camera's still
 //! bound `ε` of the run's first sample are candidate stays, aligned with the
 //! program's dwells by [`crate::align`] (pauses at reversals and before the
-//! first move are strays there). `ε` is measured, not assumed: per blob
+//! first move are strays there; a stay from the first frame on, whose
+//! arrival was not recorded, is irregular: matched only at half a stray's
+//! cost more, so the rest before a short first move is not taken for the
+//! first dwell). `ε` is measured, not assumed: per blob
 //! measure (centre u, v and diameter of each blob), [`STILL_SIGMAS`] times
 //! the spread of its difference between still samples of the camera's own
 //! frames ([`StillBound::measured`]), so it follows the image size, the
@@ -123,13 +126,14 @@ enum StillBound {
 }
 
 impl StillBound {
-    /// The bound measured on a camera's samples (in time order): `δ` is the
-    /// `n`-th smallest of the largest [`differences`] of consecutive samples, `n` the program's
-    /// dwells; each dwell's stay holds at least three samples (the stride is
-    /// a third of the shortest stay), so at least `2n` of the distances are
-    /// between still frames and `δ` is at most their median. The pairs within
-    /// [`STILL_PAIR_DELTAS`]·`δ` are still; each measure's spread is
-    /// `median |Δ| / 0.6745` over them (the σ of the difference of two
+    /// The bound measured on a camera's samples (in time order). A pair of
+    /// consecutive samples is as far apart as the largest of its
+    /// [`differences`]; `δ` is the `n`-th smallest of these distances, `n` the
+    /// program's dwells. Each dwell's stay holds at least three samples (the
+    /// stride is a third of the shortest stay), so at least `2n` of the pairs
+    /// are still and `δ` is at most their median. The pairs within
+    /// [`STILL_PAIR_DELTAS`]·`δ` are taken for still; each measure's spread
+    /// is `median |Δ| / 0.6745` over them (the σ of the difference of two
     /// frames). No pixel size, frame rate or noise level is assumed.
     fn measured(spots: &[Option<Vec<Spot>>], dwells: usize) -> Self {
         let pairs: Vec<Vec<f64>> = spots
@@ -564,7 +568,9 @@ fn matched_arrivals(
             Some(Event {
                 time_s: s.time_s(st.first_sample)?,
                 size: captures as usize,
-                irregular: false,
+                // Still from the first frame on: its arrival was not recorded (the
+                // rest before the first move), and its time is not one.
+                irregular: st.before.is_none(),
             })
         })
         .collect();
