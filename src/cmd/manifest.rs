@@ -55,7 +55,7 @@ pub struct Args {
     #[arg(long)]
     complete_instants: bool,
     /// Continuous: blobs within this many pixels of rest (centre and diameter) are still.
-    /// Default: per camera, 3× the distance between its still frames (their noise).
+    /// Default: measured per camera and blob measure, 6σ of its still frames' noise.
     #[arg(long, value_parser = crate::cmd::values::positive)]
     still_px: Option<f64>,
     /// Continuous: extraction threshold in DN, or `auto` (background + k·σ).
