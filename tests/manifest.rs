@@ -8,9 +8,33 @@
 
 mod common;
 
-use common::{render_campaign, s, trinocular, write_true_rig};
+use common::{ok, render_campaign, s, trinocular, write_true_rig};
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The seed rig's camera folders of the campaign `c` (a folder per serial).
+fn camera_folders(c: &Path) -> [PathBuf; 3] {
+    ["TRN-SYN-0001", "TRN-SYN-0002", "TRN-SYN-0003"].map(|k| c.join(k))
+}
+
+/// `trinocular manifest` of the seed rig's three cameras' folders.
+fn manifest_args<'a>(program: &'a Path, out: &'a Path, cams: &'a [PathBuf; 3]) -> Vec<&'a str> {
+    let mut args = vec![
+        "manifest",
+        "--program",
+        s(program),
+        "--camera",
+        "TRN-SYN-0001=1",
+        "--camera",
+        "TRN-SYN-0002=2",
+        "--camera",
+        "TRN-SYN-0003=3",
+        "--out",
+        s(out),
+    ];
+    args.extend(cams.iter().map(|d| s(d)));
+    args
+}
 
 #[test]
 fn captured_folders_to_the_same_points() {
@@ -38,27 +62,8 @@ fn captured_folders_to_the_same_points() {
     std::fs::create_dir(&built).unwrap();
     let manifest = built.join("manifest.csv");
     let program = c.join("program.toml");
-    let (cam1, cam2, cam3) = (
-        c.join("TRN-SYN-0001"),
-        c.join("TRN-SYN-0002"),
-        c.join("TRN-SYN-0003"),
-    );
-    let args = [
-        "manifest",
-        "--program",
-        s(&program),
-        "--camera",
-        "TRN-SYN-0001=1",
-        "--camera",
-        "TRN-SYN-0002=2",
-        "--camera",
-        "TRN-SYN-0003=3",
-        "--out",
-        s(&manifest),
-        s(&cam1),
-        s(&cam2),
-        s(&cam3),
-    ];
+    let cams = camera_folders(&c);
+    let args = manifest_args(&program, &manifest, &cams);
     let out = trinocular(&args);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(3), "{err}");
@@ -111,6 +116,78 @@ fn captured_folders_to_the_same_points() {
     assert_eq!(String::from_utf8_lossy(&a.1).lines().count(), 1 + 72 * 3);
     assert_eq!(a.0, b.0);
     assert!(a.1 == b.1, "points.csv differ");
+}
+
+/// Free-running cameras where the last frame in motion is a quarter of a
+/// pixel from rest (128×96 px at 20 fps; as 512×384 px at 80 fps): `synth`
+/// states the frames and bytes it will write before it renders, and the
+/// manifest built from the stream places every dwell, each at the renderer's
+/// own frames (issue 23: a still bound of 0.1 px found no arrival sharp, and
+/// the rest before a short first move made the first dwell ambiguous).
+#[test]
+fn continuous_stream_of_a_small_image_places_every_dwell() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = tmp.path().join("c");
+    let config = tmp.path().join("short.toml");
+    // X and Y over 40 mm, one line each: 3 targets × 2 directions × 2 axes = 12 dwells.
+    // The 1-mm overshoot makes the first move short against the 20-mm steps: the
+    // rest before it, recorded from the first frame, must not be taken for the first dwell.
+    let axis = |a: &str| {
+        format!(
+            "[[procedure.axes]]\naxis = \"{a}\"\nstart_mm = -20.0\nlength_mm = 40.0\n\
+             segments = 2\nlines_mm = [0.0]\n"
+        )
+    };
+    std::fs::write(
+        &config,
+        format!(
+            "[procedure]\novershoot_mm = 1.0\n{}{}",
+            axis("X"),
+            axis("Y")
+        ),
+    )
+    .unwrap();
+    let err = ok(&trinocular(&[
+        "synth",
+        "campaign",
+        "--config",
+        s(&config),
+        "--continuous",
+        "--fps",
+        "20",
+        "--width",
+        "128",
+        "--height",
+        "96",
+        "--targets",
+        "3",
+        "--runs",
+        "1",
+        "--captures",
+        "2",
+        "--out",
+        s(&c),
+    ]));
+    let cams = camera_folders(&c);
+    let files: usize = cams
+        .iter()
+        .map(|d| std::fs::read_dir(d).unwrap().count())
+        .sum();
+    let stated = format!(
+        "{files} frames of 128×96 px to write ({:.2} GB of 16-bit pixels); 3 cameras recording",
+        (files * 128 * 96 * 2) as f64 / 1e9
+    );
+    assert!(err.lines().next().unwrap().starts_with(&stated), "{err}");
+    assert!(err.contains("at 20 fps"), "{err}");
+
+    let (manifest, program) = (c.join("manifest.csv"), c.join("program.toml"));
+    let mut args = manifest_args(&program, &manifest, &cams);
+    args.insert(1, "--continuous");
+    ok(&trinocular(&args));
+    let truth = std::fs::read_to_string(c.join("truth_manifest.csv")).unwrap();
+    // 12 dwells × 2 captures × 3 cameras.
+    assert_eq!(truth.lines().count(), 1 + 12 * 2 * 3);
+    assert_eq!(std::fs::read_to_string(&manifest).unwrap(), truth);
 }
 
 #[test]

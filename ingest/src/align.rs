@@ -14,7 +14,8 @@
 //! is shorter (nothing makes a machine faster than its program by much).
 //! A match costs `size_cost` per frame the event has more or fewer than the
 //! program's captures (capped at half a stray's cost), and half a stray's
-//! cost more when its frames are not on the `1/fps` grid. `s` starts as the
+//! cost more when it is unlike a dwell's event (frames off the `1/fps`
+//! grid; a stay whose arrival was not recorded). `s` starts as the
 //! ratio of the median gaps and is refined from the matched single steps.
 //!
 //! Ambiguity is measured, not guessed: forward and backward passes give, for
@@ -34,8 +35,9 @@ pub struct Event {
     pub time_s: f64,
     /// Frames in it.
     pub size: usize,
-    /// Its frames are not on a `1/fps` grid (two closer than that, or a gap
-    /// off a whole number of periods): unlike a burst of captures.
+    /// Unlike a dwell's event: a burst whose frames are not on a `1/fps`
+    /// grid (two closer than that, or a gap off a whole number of periods),
+    /// or a stay that began before the recording (its time is not an arrival).
     pub irregular: bool,
 }
 
@@ -105,7 +107,8 @@ pub struct Alignment {
     pub cost: f64,
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
+/// The median of the finite values; `None` when there is none.
+pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
     v.retain(|x| x.is_finite());
     if v.is_empty() {
         return None;

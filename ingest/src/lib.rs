@@ -81,8 +81,9 @@ pub struct Options {
     pub complete_only: bool,
     /// Alignment of bursts or stays with the program's dwells.
     pub align: AlignParams,
-    /// Continuous: blobs within this of rest (px) are still.
-    pub still_px: f64,
+    /// Continuous: blobs within this of rest (px) are still; `None`: each
+    /// camera's bound measured from the noise of its still frames.
+    pub still_px: Option<f64>,
     /// Continuous: blob extraction.
     pub extract: ExtractParams,
 }
@@ -120,6 +121,9 @@ pub struct Summary {
     pub scales: Vec<(u8, f64)>,
     /// Frames whose pixels were decoded (continuous capture only).
     pub decoded: usize,
+    /// Continuous: per camera, the largest still bound of a blob measure (px),
+    /// measured from the spread of its still frames unless `still_px` fixes it.
+    pub still_px: Vec<(u8, f64)>,
 }
 
 /// The manifest, the problems and the counts.
@@ -248,6 +252,7 @@ pub fn build(inputs: &Inputs<'_>, options: &Options) -> Result<Built> {
         not_at_instants,
         scales: placed.scales,
         decoded: placed.decoded,
+        still_px: placed.still_px,
     };
     Ok(Built {
         rows,

@@ -80,6 +80,8 @@ pub struct Placed {
     pub scales: Vec<(u8, f64)>,
     /// Frames whose pixels were decoded (continuous capture).
     pub decoded: usize,
+    /// Continuous: per camera, the largest still bound of a blob measure (px).
+    pub still_px: Vec<(u8, f64)>,
 }
 
 /// A dwell in words: `X line 1 run 2 + target 3`.

@@ -55,8 +55,9 @@ pub struct Args {
     #[arg(long)]
     complete_instants: bool,
     /// Continuous: blobs within this many pixels of rest (centre and diameter) are still.
-    #[arg(long, default_value_t = 0.1, value_parser = crate::cmd::values::positive)]
-    still_px: f64,
+    /// Default: measured per camera and blob measure, 6σ of its still frames' noise.
+    #[arg(long, value_parser = crate::cmd::values::positive)]
+    still_px: Option<f64>,
     /// Continuous: extraction threshold in DN, or `auto` (background + k·σ).
     #[arg(long, default_value = "auto", value_parser = threshold_arg)]
     threshold: Threshold,
@@ -158,6 +159,12 @@ pub fn run(args: &Args) -> Result<()> {
             "{} frames at no instant (in motion, or at rest but not taken); {} frames decoded",
             s.not_at_instants, s.decoded
         );
+        let still: Vec<String> = s
+            .still_px
+            .iter()
+            .map(|(c, e)| format!("camera {c} {e:.3} px"))
+            .collect();
+        eprintln!("at rest within: {}", still.join(", "));
     }
     if built.problems.is_empty() {
         Ok(())

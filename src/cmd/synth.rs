@@ -77,6 +77,11 @@ struct CampaignArgs {
     /// Write the continuous stream of free-running cameras (frames during moves too).
     #[arg(long)]
     continuous: bool,
+    /// Frame rate (fps): of a burst of captures, and of free-running cameras, which write
+    /// fps × the campaign's duration frames each. Default: the configuration's
+    /// procedure.fps (180, the rig's cameras).
+    #[arg(long, value_parser = crate::cmd::values::positive)]
+    fps: Option<f64>,
 }
 
 /// Arguments of `trinocular synth target`.
@@ -156,7 +161,11 @@ fn campaign(args: &CampaignArgs) -> Result<()> {
     } else if args.as_captured && config.capture.is_manifest() {
         config.capture.mode = synth::config::CaptureMode::Triggered;
     }
+    if let Some(fps) = args.fps {
+        config.procedure.fps = fps;
+    }
     config.validate()?;
+    print_size(&config)?;
     let bars = Bars(Mutex::new(None));
     let mut output = output_plan(&args.config);
     let written = synth::write_campaign(&config, &args.out, &mut output, &bars);
@@ -187,6 +196,27 @@ fn campaign(args: &CampaignArgs) -> Result<()> {
             s.scene.worst_separation
         );
     }
+    Ok(())
+}
+
+/// The frames and bytes the campaign will write, on stderr before the first frame.
+fn print_size(config: &Config) -> Result<()> {
+    let size = synth::campaign_size(config)?;
+    let recording = size.recording_s.map_or(String::new(), |s| {
+        format!(
+            "; {} cameras recording {s:.1} s at {} fps (--fps)",
+            config.rig.cameras.len(),
+            config.procedure.fps
+        )
+    });
+    eprintln!(
+        "{} frames of {}×{} px to write ({:.2} GB of {}-bit pixels){recording}",
+        size.frames,
+        config.sensor.width,
+        config.sensor.height,
+        size.pixel_bytes as f64 / 1e9,
+        config.sensor.bits
+    );
     Ok(())
 }
 

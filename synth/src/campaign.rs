@@ -130,6 +130,40 @@ pub struct CampaignSummary {
     pub scene: SceneCheck,
 }
 
+/// What a campaign will write, known before its first frame is rendered.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CampaignSize {
+    /// Image files of the campaign (as [`CampaignSummary::frames`]).
+    pub frames: usize,
+    /// Their pixels (bytes, before any compression): frames × width × height
+    /// × bytes per sample.
+    pub pixel_bytes: u64,
+    /// Continuous capture: how long the cameras record (s); each records
+    /// `fps` frames a second of it.
+    pub recording_s: Option<f64>,
+}
+
+/// The size of the campaign `config` describes, from its plan alone
+/// (nothing is rendered or written): for continuous capture, `fps` × the
+/// recording's length per camera.
+pub fn campaign_size(config: &Config) -> Result<CampaignSize> {
+    let rig = SynthRig::from_config(config)?;
+    let plan = Plan::new(config)?;
+    let (frames, recording_s) = if config.capture.is_manifest() {
+        (plan.instants.len() * rig.cameras.len(), None)
+    } else {
+        let jobs = crate::capture::plan_frames(config, &rig, &plan)?;
+        (jobs.len(), jobs.recording_s())
+    };
+    let s = &config.sensor;
+    let pixel = u64::from(s.width) * u64::from(s.height) * u64::from(s.bits.div_ceil(8));
+    Ok(CampaignSize {
+        frames,
+        pixel_bytes: frames as u64 * pixel,
+        recording_s,
+    })
+}
+
 fn file_len(path: &Path) -> Result<u64> {
     Ok(std::fs::metadata(path)
         .map_err(|e| SynthError::io(path, e))?

@@ -285,12 +285,25 @@ pub(crate) struct FrameJobs {
     jobs: Vec<Job>,
     /// Frames taken while the table moved (continuous capture).
     moving: usize,
+    /// Continuous capture: how long the cameras record (s).
+    recording_s: Option<f64>,
 }
 
 impl FrameJobs {
     /// The files, relative to the campaign root (`{serial}/{prefix}{number}.{ext}`).
     pub(crate) fn paths(&self) -> impl Iterator<Item = &str> {
         self.jobs.iter().map(|j| j.path.as_str())
+    }
+
+    /// Image files planned.
+    pub(crate) fn len(&self) -> usize {
+        self.jobs.len()
+    }
+
+    /// Continuous capture: how long the cameras record (s), from `lead_s`
+    /// before the first move to `lead_s` after the last dwell.
+    pub(crate) fn recording_s(&self) -> Option<f64> {
+        self.recording_s
     }
 }
 
@@ -327,6 +340,7 @@ pub(crate) fn plan_frames(config: &Config, rig: &SynthRig, plan: &Plan) -> Resul
 
     let mut jobs: Vec<Job> = Vec::new();
     let mut moving = 0usize;
+    let mut recording_s = None;
     let real = match c.mode {
         CaptureMode::Continuous => continuous_timeline(&dwells, config),
         _ => triggered_timeline(&dwells, config),
@@ -337,6 +351,7 @@ pub(crate) fn plan_frames(config: &Config, rig: &SynthRig, plan: &Plan) -> Resul
             let lead = (c.lead_s * p.fps).ceil() as i64;
             let end = real.last().map_or(0.0, |r| r.depart_s);
             let (k0, k1) = (-lead, (end / period).ceil() as i64 + lead);
+            recording_s = Some((k1 - k0 + 1) as f64 * period);
             let mut instant_of_slot = std::collections::BTreeMap::new();
             for (j, r) in real.iter().enumerate() {
                 for k in 0..captures {
@@ -427,7 +442,11 @@ pub(crate) fn plan_frames(config: &Config, rig: &SynthRig, plan: &Plan) -> Resul
         count[usize::from(cam)] += 1;
         jobs[j].path = format!("{serial}/{}{number:06}.{ext}", c.file_prefix);
     }
-    Ok(FrameJobs { jobs, moving })
+    Ok(FrameJobs {
+        jobs,
+        moving,
+        recording_s,
+    })
 }
 
 /// Render and write the planned frames under `out` through `output`, one
@@ -445,7 +464,7 @@ pub(crate) fn write_frames(
 ) -> Result<CapturedFrames> {
     let c = &config.capture;
     let ext = config.output.format.extension();
-    let FrameJobs { jobs, moving } = frames;
+    let FrameJobs { jobs, moving, .. } = frames;
     progress.begin("rendering frames", jobs.len() as u64);
     let batch = 2 * rayon::current_num_threads().max(1);
     for chunk in jobs.chunks(batch) {

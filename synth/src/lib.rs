@@ -6,7 +6,8 @@
 //! - Configuration: [`Config`] (TOML, [`config::DEFAULT_TOML`]; the tables'
 //!   types in [`config`]) and the command line's [`Overrides`].
 //! - Campaigns: [`write_campaign`] (frames, `manifest.csv` or the cameras'
-//!   own folders, truth files, reference figures), [`write_target_scene`]
+//!   own folders, truth files, reference figures) and its size beforehand
+//!   ([`campaign_size`]), [`write_target_scene`]
 //!   (the calibration target's images), [`check_plan`]; long jobs report
 //!   through [`Progress`] ([`NoProgress`] when nobody listens).
 //! - The scene and its frames: [`SynthRig`] / [`SynthCamera`] (nominal and
@@ -64,7 +65,8 @@ mod target;
 pub mod truth;
 
 pub use campaign::{
-    CampaignSummary, SceneCheck, TargetSummary, check_plan, write_campaign, write_target_scene,
+    CampaignSize, CampaignSummary, SceneCheck, TargetSummary, campaign_size, check_plan,
+    write_campaign, write_target_scene,
 };
 pub use config::{Config, IlluminationModel, Overrides};
 pub use coverage::{Coverage, PixelRect, coverage};
