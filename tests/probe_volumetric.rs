@@ -681,9 +681,33 @@ fn from_report_on_exact_positions_follows_the_conventions() {
 
 #[test]
 fn from_report_on_a_demo_campaign_agrees_within_its_accuracy() {
+    // The README's example of `--from-report`, run as written in a fresh
+    // folder: `trinocular demo` (into ./trinocular-demo), then
+    // `trinocular probe volumetric --from-report trinocular-demo/report --out vol`.
     let dir = tempfile::tempdir().unwrap();
-    let demo = dir.path().join("demo");
-    ok_stdout(&trinocular(&["demo", "--out", s(&demo)]));
+    let in_dir = |args: &[&str]| {
+        common::bin()
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    ok_stdout(&in_dir(&["demo"]));
+    let demo = dir.path().join("trinocular-demo");
+    let readme = in_dir(&[
+        "probe",
+        "volumetric",
+        "--from-report",
+        "trinocular-demo/report",
+        "--out",
+        "vol",
+    ]);
+    let note = common::ok(&readme);
+    assert!(note.contains("note: chain WXYFT"), "{note}");
+    assert_eq!(
+        read_json(&dir.path().join("vol/report.json"))["chain"],
+        "WXYFT"
+    );
     let truth = read_json(&demo.join("campaign/truth.json"));
     let (rows, out) = from_report(
         &demo.join("report"),
@@ -713,4 +737,129 @@ fn from_report_on_a_demo_campaign_agrees_within_its_accuracy() {
     let allowance = 4.0 + 20.0 * lever * 1e-3;
     assert!(rms <= 4.0, "{rms} µm RMS");
     assert!(worst <= allowance, "{worst} µm > {allowance} µm");
+}
+
+/// `points.csv` of a campaign that swept X (at y = 0) and Y (at x = 0), 2
+/// runs each way, with known error motions: sphere set A (0, 0, 30),
+/// B (20, 20, 50), C (−15, −15, 45) mm translated by a positioning error
+/// 2 µm·sin(q/30 mm) and a straightness 1 µm·(q/50 mm)² across, turned by a
+/// yaw 5 µrad·q/50 mm about the sphere set's origin.
+fn xy_campaign_points() -> String {
+    let spheres = [
+        ("A", Vector3::new(0.0, 0.0, 30.0)),
+        ("B", Vector3::new(20.0, 20.0, 50.0)),
+        ("C", Vector3::new(-15.0, -15.0, 45.0)),
+    ];
+    let mut text = String::from(
+        "axis,direction,run,target,capture,nominal_x,nominal_y,nominal_z,sphere,x,y,z,cameras,residual_px\n",
+    );
+    for (axis, targets) in [("X", 11), ("Y", 9)] {
+        let along = if axis == "X" { 0 } else { 1 };
+        for (direction, runs) in [("+", [1, 2]), ("-", [1, 2])] {
+            for run in runs {
+                for k in 0..targets {
+                    let q = -50.0 + 10.0 * k as f64;
+                    let mut nominal = Vector3::zeros();
+                    nominal[along] = q;
+                    let mut error = Vector3::zeros();
+                    error[along] = 2e-3 * (q / 30.0).sin();
+                    error[1 - along] = 1e-3 * (q / 50.0).powi(2);
+                    let yaw = 5e-6 * q / 50.0;
+                    for (name, s) in &spheres {
+                        let turned = Vector3::new(-yaw * s.y, yaw * s.x, 0.0);
+                        let p = nominal + s + error + turned;
+                        text.push_str(&format!(
+                            "{axis},{direction},{run},{k},1,{},{},0,{name},{},{},{},truth,0\n",
+                            nominal.x, nominal.y, p.x, p.y, p.z
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    text
+}
+
+#[test]
+fn from_report_of_an_xy_campaign_takes_the_chain_of_its_axes() {
+    // Issue 23, defect 6: the default chain WXYFZT asked for Z curves a vision
+    // campaign of X and Y does not have. Without --chain the chain keeps the
+    // axes with curves, WXYFT, says so on stderr and in the report, and the
+    // model equals the one of `--chain WXYFT`.
+    let dir = tempfile::tempdir().unwrap();
+    let points = dir.path().join("points.csv");
+    std::fs::write(&points, xy_campaign_points()).unwrap();
+    let eval = dir.path().join("report");
+    ok_stdout(&trinocular(&[
+        "evaluate",
+        "--points",
+        s(&points),
+        "--out",
+        s(&eval),
+    ]));
+    let run = |out: &Path, extra: &[&str]| {
+        let mut a = vec![
+            "probe",
+            "volumetric",
+            "--from-report",
+            s(&eval),
+            "--circle",
+            "0,0,0,30",
+            "--out",
+            s(out),
+        ];
+        a.extend_from_slice(extra);
+        trinocular(&a)
+    };
+    let default = dir.path().join("default");
+    let out = run(&default, &[]);
+    let err = common::ok(&out);
+    assert!(
+        err.contains("chain WXYFT") && err.contains("without Z"),
+        "stderr: {err}"
+    );
+    let report = read_json(&default.join("report.json"));
+    assert_eq!(report["chain"], "WXYFT");
+    let axes: Vec<&str> = report["axes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["axis"].as_str().unwrap())
+        .collect();
+    assert_eq!(axes, ["X", "Y"]);
+    let notes = report["campaign"]["notes"].as_array().unwrap();
+    assert!(
+        notes.iter().any(|n| n
+            .as_str()
+            .unwrap()
+            .starts_with("chain WXYFT: the default WXYFZT without Z")),
+        "{notes:?}"
+    );
+    assert!(
+        std::fs::read_to_string(default.join("report.html"))
+            .unwrap()
+            .contains("chain WXYFT: the default WXYFZT without Z")
+    );
+    // The same model as the explicit chain; only the note differs.
+    let explicit = dir.path().join("explicit");
+    assert!(common::ok(&run(&explicit, &["--chain", "WXYFT"])).is_empty());
+    let mut with_chain = read_json(&explicit.join("report.json"));
+    let mut without = report.clone();
+    without["campaign"]["notes"] = Value::Null;
+    with_chain["campaign"]["notes"] = Value::Null;
+    assert_eq!(without, with_chain);
+    for name in ["fits.csv", "circle.csv", "comp_X.txt", "comp_Y.txt"] {
+        assert_eq!(
+            common::read(&default.join(name)),
+            common::read(&explicit.join(name)),
+            "{name}"
+        );
+    }
+    // A chain that names an axis without curves is still refused, clearly.
+    let (code, err) = failure(&run(&dir.path().join("z"), &["--chain", "WXYFZT"]));
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("axis Z") && err.contains("in the chain WXYFZT but without error curves"),
+        "{err}"
+    );
 }

@@ -63,6 +63,7 @@ mod lattice;
 mod normal;
 mod report;
 mod start;
+mod view;
 
 use geom::nalgebra::{Point3, Vector3};
 

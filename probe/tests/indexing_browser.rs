@@ -12,11 +12,11 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod browser_common;
+mod pages;
+mod tracer_common;
 
-use probe::indexing::{Options, Position, html, report, solve};
 use report::browser::{self, rgb};
 use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, UP, diverging};
-use synth::probe::indexing::{IndexingConfig, generate};
 
 #[test]
 fn indexing_report_renders_in_chromium() {
@@ -25,25 +25,9 @@ fn indexing_report_renders_in_chromium() {
     else {
         return;
     };
-    let generated = generate(&IndexingConfig::default()).unwrap();
-    let positions: Vec<Position> = generated
-        .centres
-        .iter()
-        .map(|r| Position::new(r.a_deg, r.b_deg, [r.x, r.y, r.z]))
-        .collect();
-    let solved = solve(&positions).unwrap();
-    let r = report(
-        &solved,
-        &Options {
-            nominal_radius_mm: Some(117.0),
-            tolerance_arcsec: Some(2.5),
-            source: "centres.csv".into(),
-        },
-    )
-    .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("report.html");
-    std::fs::write(&page, html(&r, &solved.angles).unwrap()).unwrap();
+    std::fs::write(&page, pages::indexing(&pages::indexing_positions())).unwrap();
     browser_common::check_page(
         &chromium,
         &page,

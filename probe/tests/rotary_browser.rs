@@ -12,12 +12,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod browser_common;
+mod pages;
+mod tracer_common;
 
-use std::path::PathBuf;
-
-use formats::probe::rotary::read_points;
-use probe::rotary::report::report as rotary_report;
-use probe::rotary::{Measurement, html, solve};
 use report::browser::{self, rgb};
 use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, SIX, ZONE};
 
@@ -38,13 +35,7 @@ fn rotary_report_html_renders_in_chromium() {
     let Some(chromium) = browser::browser_or_skip("rotary report.html in Chromium").unwrap() else {
         return;
     };
-    let path =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/probe/rotary/points.csv");
-    let input = read_points(&path).unwrap();
-    let m = Measurement::from_points(input.angles_deg.clone(), input.points()).unwrap();
-    let s = solve(&m).unwrap();
-    let at = [s.at(15.0).unwrap(), s.at(345.0).unwrap()];
-    let page = html(&rotary_report(&s, "points.csv", &at)).unwrap();
+    let page = pages::rotary();
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("report.html");
     std::fs::write(&file, &page).unwrap();

@@ -11,21 +11,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod browser_common;
+mod pages;
+mod tracer_common;
 
-use std::path::Path;
-
-use formats::probe::volumetric::{SetupJson, read_errors};
-use probe::volumetric::{
-    Chain, CircleSpec, Model, Motion, Order, Setup, analyse, html, measured_axes,
-};
+use probe::volumetric::Motion;
 use report::browser::{self, rgb};
 use report::plot::{DOWN, HEIGHT, MAP_HEIGHT, MEAN, UP, ZONE};
-
-fn data(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../testdata/probe/volumetric")
-        .join(name)
-}
 
 #[test]
 fn report_html_renders_in_chromium() {
@@ -33,30 +24,9 @@ fn report_html_renders_in_chromium() {
     else {
         return;
     };
-    let rows: Vec<_> = read_errors(&data("errors.csv"))
-        .unwrap()
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
-    let curves = measured_axes(&rows);
-    let s: SetupJson = formats::read_json(&data("setup.json")).unwrap();
-    let setup = Setup {
-        chain: Chain::parse(&s.chain).unwrap(),
-        squareness: s.squareness_rad,
-        tool: s.tool_mm,
-        model: Model::Raw,
-        order: Order::Fixed(3),
-        at: vec![("at".into(), [300.0, 200.0, 150.0])],
-        circle: Some(CircleSpec {
-            centre: s.circle.centre_mm,
-            radius: s.circle.radius_mm,
-        }),
-        source: "check data".into(),
-    };
-    let analysis = analyse(curves, &setup, None).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("report.html");
-    std::fs::write(&page, html(&analysis).unwrap()).unwrap();
+    std::fs::write(&page, pages::volumetric()).unwrap();
     let mut expected = vec![
         "plot-circle-polar".to_string(),
         "plot-circle-radial".to_string(),

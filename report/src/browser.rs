@@ -4,7 +4,8 @@
 //! takes a screenshot and collects console errors, exceptions and failed
 //! loads (`Runtime.consoleAPICalled`, `Runtime.exceptionThrown`,
 //! `Log.entryAdded` at level error). [`check_region`] then tells a drawn
-//! plot from a blank one.
+//! plot from a blank one and a readable one from one with text under
+//! [`MIN_TEXT_PX`].
 //!
 //! [`browser_or_skip`] finds the browser: `TRINOCULAR_CHROMIUM`, else
 //! `chromium` or `chromium-browser` on the PATH. Without one the test prints
@@ -29,6 +30,7 @@ use base64::engine::general_purpose::STANDARD;
 use image::RgbaImage;
 use serde_json::{Value, json};
 
+use crate::plot::MIN_TEXT_PX;
 use crate::{BrowserFault, ReportError, Result};
 
 /// Longest wait for one browser answer.
@@ -340,7 +342,7 @@ impl Drop for Browser {
 }
 
 /// A plot's box on the page (CSS px = screenshot px).
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct PlotBox {
     /// The `id` of its `figure.plot`.
     pub id: String,
@@ -352,6 +354,9 @@ pub struct PlotBox {
     pub w: u32,
     /// Height of the SVG.
     pub h: u32,
+    /// The smallest computed font size of its texts with content (px;
+    /// infinite without any).
+    pub smallest_text_px: f64,
 }
 
 /// A page as the browser showed it.
@@ -371,7 +376,10 @@ const LAYOUT: &str = "JSON.stringify({height: document.documentElement.scrollHei
     width: document.documentElement.scrollWidth, \
     plots: Array.from(document.querySelectorAll('figure.plot')).map(f => { \
       const s = f.querySelector('svg'); const r = s ? s.getBoundingClientRect() : {left:0,top:0,width:0,height:0}; \
-      return {id: f.id, x: r.left + window.scrollX, y: r.top + window.scrollY, w: r.width, h: r.height}; })})";
+      const sizes = s ? Array.from(s.querySelectorAll('text')).filter(t => t.textContent.trim() !== '') \
+        .map(t => parseFloat(getComputedStyle(t).fontSize)) : []; \
+      return {id: f.id, x: r.left + window.scrollX, y: r.top + window.scrollY, w: r.width, h: r.height, \
+        text: sizes.length ? Math.min(...sizes) : null}; })})";
 
 fn layout(b: &mut Browser) -> Result<Value> {
     let text = b.eval(LAYOUT)?;
@@ -405,6 +413,7 @@ pub fn render(browser: &Path, page: &Path) -> Result<Rendered> {
                     y: px(&p["y"]),
                     w: px(&p["w"]),
                     h: px(&p["h"]),
+                    smallest_text_px: p["text"].as_f64().unwrap_or(f64::INFINITY),
                 })
                 .collect()
         })
@@ -422,14 +431,21 @@ fn near(p: &image::Rgba<u8>, c: [u8; 3], tol: i32) -> bool {
     (0..3).all(|i| (i32::from(p[i]) - i32::from(c[i])).abs() <= tol)
 }
 
-/// The region of `img` under `b` is a drawn plot: ≥ 3 % of its pixels differ
-/// from white, ≥ 12 distinct colours (quantised), and each of `colours`
-/// covers ≥ 40 pixels. The error says which test failed.
+/// The region of `img` under `b` is a drawn, readable plot: its texts are
+/// at least [`MIN_TEXT_PX`], ≥ 3 % of its pixels differ from white, ≥ 12
+/// distinct colours (quantised), and each of `colours` covers ≥ 40 pixels.
+/// The error says which test failed.
 pub fn check_region(
     img: &RgbaImage,
     b: &PlotBox,
     colours: &[[u8; 3]],
 ) -> std::result::Result<(), String> {
+    if b.smallest_text_px < MIN_TEXT_PX {
+        return Err(format!(
+            "{}: text of {:.2} px, under the {MIN_TEXT_PX} px readable at 100 % zoom",
+            b.id, b.smallest_text_px
+        ));
+    }
     if b.x + b.w > img.width() || b.y + b.h > img.height() || b.w < 100 || b.h < 100 {
         return Err(format!(
             "{}: box {b:?} outside a {}×{} screenshot",
@@ -516,5 +532,40 @@ mod tests {
             check_region(&shown.screenshot, &shown.plots[0], &[]).is_err(),
             "a blank plot passed"
         );
+    }
+
+    /// A plot whose smallest text is under 11 px is caught, one of 11 px is not.
+    #[test]
+    fn catches_text_too_small_to_read() {
+        let browser = match browser_or_skip("report::browser text size test") {
+            Ok(Some(b)) => b,
+            Ok(None) => return,
+            Err(e) => panic!("{e}"),
+        };
+        let dir = tempfile::tempdir().expect("temp dir");
+        let page = dir.path().join("small.html");
+        let figure = |id: &str, px: f64| {
+            format!(
+                "<figure class=\"plot\" id=\"{id}\"><svg width=\"400\" height=\"300\">\
+                 <text x=\"10\" y=\"20\" font-size=\"{px}\">label</text>\
+                 <text x=\"10\" y=\"60\" font-size=\"6\"> </text></svg></figure>"
+            )
+        };
+        std::fs::write(
+            &page,
+            format!(
+                "<!DOCTYPE html><html><body>{}{}</body></html>",
+                figure("small", 9.68),
+                figure("readable", 11.0)
+            ),
+        )
+        .expect("write page");
+        let shown = render(&browser, &page).expect("render");
+        assert!((shown.plots[0].smallest_text_px - 9.68).abs() < 0.01);
+        let err = check_region(&shown.screenshot, &shown.plots[0], &[]).unwrap_err();
+        assert!(err.contains("9.68 px"), "{err}");
+        assert_eq!(shown.plots[1].smallest_text_px, 11.0);
+        let err = check_region(&shown.screenshot, &shown.plots[1], &[]).unwrap_err();
+        assert!(err.contains("blank"), "{err}");
     }
 }

@@ -32,7 +32,7 @@ h3{font-size:17px;margin:22px 0 8px}p.meta{color:#555;margin:0 0 12px}
 table{border-collapse:collapse;margin:8px 0 14px;background:#fff;font-size:13.5px}
 th,td{border:1px solid #d0d5dd;padding:3px 8px;text-align:right}th{background:#eef1f5}
 td.l,th.l{text-align:left}
-figure.plot{margin:10px 0 16px;background:#fff;border:1px solid #d0d5dd;padding:6px;width:max-content}
+figure.plot{margin:10px 0 16px;background:#fff;border:1px solid #d0d5dd;padding:6px;width:min-content}
 figure.plot svg{display:block}figcaption{font-size:13px;color:#444;padding:4px 2px 0}
 ul.notes{font-size:13px;color:#444}.warn{color:#8a4b00}
 ";
@@ -128,7 +128,7 @@ impl Page {
     pub fn figure(&mut self, id: &str, svg: &str, caption: &str) -> &mut Self {
         let _ = write!(
             self.html,
-            "<figure class=\"plot\" id=\"{}\">\n{svg}\n<figcaption>{}</figcaption>\n</figure>\n",
+            "{FIGURE}{}\">\n{svg}\n<figcaption>{}</figcaption>\n</figure>\n",
             escape(id),
             escape(caption)
         );
@@ -160,6 +160,23 @@ impl Page {
     }
 }
 
+/// How [`Page::figure`] opens a figure, up to its id.
+const FIGURE: &str = "<figure class=\"plot\" id=\"";
+
+/// The plots of a page written by [`Page::figure`]: each figure's id (as
+/// escaped) and its `<svg>…</svg>`, in page order (for checks of the plots
+/// as a reader sees them).
+pub fn figures(html: &str) -> Vec<(String, String)> {
+    html.split(FIGURE)
+        .skip(1)
+        .filter_map(|f| {
+            let id = &f[..f.find('"')?];
+            let svg = &f[f.find("<svg")?..f.find("</svg>")? + "</svg>".len()];
+            Some((id.to_string(), svg.to_string()))
+        })
+        .collect()
+}
+
 /// `write!` appends markup as it is (like [`Page::raw`]).
 impl Write for Page {
     fn write_str(&mut self, s: &str) -> std::fmt::Result {
@@ -186,5 +203,23 @@ mod tests {
         assert!(html.contains("<title>t&lt;</title>") && html.contains("<h1>H&amp;</h1>"));
         assert!(html.contains("<td class=\"l\">&lt;1&gt;</td><td>2</td>"));
         assert!(html.trim_end().ends_with("</html>"));
+    }
+
+    #[test]
+    fn figures_are_read_back() {
+        let mut p = Page::new("t", "h");
+        p.figure("plot-a", "<svg width=\"1\"><text>1</text></svg>", "a")
+            .figure("plot-b", "<svg/></svg>", "b");
+        let f = figures(&p.finish());
+        assert_eq!(
+            f,
+            vec![
+                (
+                    "plot-a".into(),
+                    "<svg width=\"1\"><text>1</text></svg>".into()
+                ),
+                ("plot-b".into(), "<svg/></svg>".into())
+            ]
+        );
     }
 }

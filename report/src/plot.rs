@@ -1,9 +1,16 @@
 //! SVG plots in memory (plotters' SVG backend): the chart set-up every line
-//! plot shares, its legend, padded ranges, the report's colours and a
-//! diverging colour scale for maps.
+//! plot shares, its legend, padded ranges, the report's colours and text
+//! sizes, a diverging colour scale for maps with a scale robust to outliers,
+//! and the texts of a drawn SVG as a reader sees them (for checks).
+//!
+//! Text sizes: plotters' SVG backend writes a font of size `s` as
+//! `s / 1.24` px, so every size here is at least 13.64 — every text of
+//! every plot is at least [`MIN_TEXT_PX`] = 11 px, readable at 100 % zoom.
 
+use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
+use plotters::element::ComposedElement;
 use plotters::prelude::*;
 
 /// The colour type of the plot constants.
@@ -37,6 +44,24 @@ pub const SIX: [RGBColor; 6] = [UP, DOWN, ZONE, RPY[0], RPY[1], RPY[2]];
 
 /// Font family of every plot.
 pub const FONT: &str = "sans-serif";
+/// The smallest text any plot draws (px): readable at 100 % zoom.
+pub const MIN_TEXT_PX: f64 = 11.0;
+/// plotters' SVG backend draws a font of size `s` at `s / SVG_FONT_DIVISOR` px.
+const SVG_FONT_DIVISOR: f64 = 1.24;
+/// Size of tick labels, legends, colour-bar labels and notes (12.1 px).
+pub const TEXT_SIZE: f64 = 15.0;
+/// Size of axis titles (12.9 px).
+pub const AXIS_TITLE_SIZE: f64 = 16.0;
+/// Size of a plot's caption (16.1 px).
+pub const CAPTION_SIZE: f64 = 20.0;
+/// A colour-scale value beyond this many times the 90th percentile of the
+/// absolute values is an outlier ([`robust_limit`]): normally distributed
+/// values stay inside (the 90th percentile of |v| is 1.64σ, the fence
+/// 6.6σ), as does the tail of noise amplified where a method is weakly
+/// determined (the indexing ΔθB at small A reaches 3.5 × it).
+pub const OUTLIER_FENCE: f64 = 4.0;
+/// Fill of the marks of values beyond a colour scale ([`outlier_mark`]).
+pub const OUTLIER: RGBColor = RGBColor(0, 0, 0);
 
 /// The drawing area a plot draws on.
 pub type Area<'b> = DrawingArea<SVGBackend<'b>, Shift>;
@@ -70,6 +95,44 @@ pub fn with_legend_room((lo, hi): (f64, f64)) -> (f64, f64) {
     (lo, hi + 0.35 * (hi - lo))
 }
 
+/// The px size of a text drawn at plotters' size `size` in the SVG.
+pub fn text_px(size: f64) -> f64 {
+    size / SVG_FONT_DIVISOR
+}
+
+/// The style of labels and notes drawn outside a chart's mesh (black,
+/// [`TEXT_SIZE`]).
+pub fn text_style() -> TextStyle<'static> {
+    (FONT, TEXT_SIZE).into_font().color(&BLACK)
+}
+
+/// A line chart's chart on `root` with the report's caption and room for
+/// the tick labels and axis titles.
+pub fn chart_builder<'a, 'b>(
+    root: &'a Area<'b>,
+    title: &str,
+) -> ChartBuilder<'a, 'b, SVGBackend<'b>> {
+    let mut builder = ChartBuilder::on(root);
+    builder
+        .caption(title, (FONT, CAPTION_SIZE))
+        .margin(12)
+        .x_label_area_size(50)
+        .y_label_area_size(76);
+    builder
+}
+
+/// The mesh of a line chart with the report's text sizes and light grid;
+/// the caller adds its axis titles and draws it.
+pub fn mesh<'a, 'm, 'b>(
+    chart: &'m mut LineChart<'a, 'b>,
+) -> MeshStyle<'a, 'm, RangedCoordf64, RangedCoordf64, SVGBackend<'b>> {
+    let mut mesh = chart.configure_mesh();
+    mesh.label_style((FONT, TEXT_SIZE))
+        .axis_desc_style((FONT, AXIS_TITLE_SIZE))
+        .light_line_style(RGBColor(240, 240, 240));
+    mesh
+}
+
 /// Build a line plot's chart on `root`: caption `title`, ranges, axis labels,
 /// light grid.
 pub fn line_chart<'a, 'b>(
@@ -80,18 +143,12 @@ pub fn line_chart<'a, 'b>(
     x_desc: &str,
     y_desc: &str,
 ) -> std::result::Result<LineChart<'a, 'b>, String> {
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, (FONT, 20))
-        .margin(12)
-        .x_label_area_size(44)
-        .y_label_area_size(64)
+    let mut chart = chart_builder(root, title)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(|e| e.to_string())?;
-    chart
-        .configure_mesh()
+    mesh(&mut chart)
         .x_desc(x_desc)
         .y_desc(y_desc)
-        .light_line_style(RGBColor(240, 240, 240))
         .max_light_lines(2)
         .draw()
         .map_err(|e| e.to_string())?;
@@ -105,7 +162,7 @@ pub fn legend<'a, 'b: 'a>(chart: &mut LineChart<'a, 'b>) -> std::result::Result<
         .position(SeriesLabelPosition::UpperLeft)
         .background_style(WHITE.mix(0.85))
         .border_style(RGBColor(180, 180, 180))
-        .label_font((FONT, 13))
+        .label_font((FONT, TEXT_SIZE))
         .draw()
         .map_err(|e| e.to_string())
 }
@@ -177,7 +234,7 @@ pub fn colour_bar(
         RGBColor(90, 90, 90).stroke_width(1),
     ))
     .map_err(|e| e.to_string())?;
-    let style = (FONT, 13).into_font().color(&BLACK);
+    let style = text_style();
     for (text, y) in [
         (format!("{limit:+.2} {unit}"), top),
         ("0".to_string(), top + height / 2),
@@ -187,10 +244,199 @@ pub fn colour_bar(
             .map_err(|e| e.to_string())?;
     }
     for (k, line) in caption.iter().enumerate() {
-        bar.draw_text(line, &style, (6, top - 40 + 16 * k as i32))
+        bar.draw_text(line, &style, (6, top - 42 + 18 * k as i32))
             .map_err(|e| e.to_string())?;
     }
     Ok(())
+}
+
+/// Percentile `q` (0…1) of ascending `sorted` values, by linear
+/// interpolation between order statistics; 0 when there is none.
+pub fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let x = q.clamp(0.0, 1.0) * (sorted.len() - 1) as f64;
+    let (i, f) = (x.floor() as usize, x.fract());
+    let j = (i + 1).min(sorted.len() - 1);
+    sorted[i] * (1.0 - f) + sorted[j] * f
+}
+
+/// The half-range L of a diverging colour scale ±L over `values`, robust
+/// to outliers: the largest |v| within [`OUTLIER_FENCE`] × the 90th
+/// [`percentile`] of |v|. A few extreme values leave the 90th percentile,
+/// and so the scale of the others, as it is; they are drawn at the scale's
+/// end and marked ([`outlier_mark`], [`outlier_key`]). Without outliers L
+/// is max |v|; 0 without finite values.
+pub fn robust_limit(values: impl Iterator<Item = f64>) -> f64 {
+    let mut magnitudes: Vec<f64> = values.filter(|v| v.is_finite()).map(f64::abs).collect();
+    magnitudes.sort_by(f64::total_cmp);
+    let fence = OUTLIER_FENCE * percentile(&magnitudes, 0.9);
+    magnitudes
+        .iter()
+        .rev()
+        .find(|v| **v <= fence)
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// A triangle of half-size `r` (px offsets around its place) pointing up
+/// or down.
+fn triangle(up: bool, r: i32) -> Vec<(i32, i32)> {
+    let s = if up { 1 } else { -1 };
+    vec![(0, -s * r), (r, s * r), (-r, s * r)]
+}
+
+/// A triangle drawn at pixel offsets from its place.
+type Triangle = Polygon<(i32, i32)>;
+
+/// A mark of a value beyond a colour scale (a triangle in a halo) at a `C`.
+pub type OutlierMark<'b, C> = ComposedElement<C, SVGBackend<'b>, Triangle, Triangle>;
+
+/// The mark of a value beyond a colour scale, at `at`: a black triangle in
+/// a white halo pointing up (above +L) or down (below −L).
+pub fn outlier_mark<'b, C>(at: C, above: bool) -> OutlierMark<'b, C> {
+    EmptyElement::at(at)
+        + Polygon::new(triangle(above, 8), WHITE.filled())
+        + Polygon::new(triangle(above, 5), OUTLIER.filled())
+}
+
+/// The key of the outlier marks under a [`colour_bar`] of `height`: a mark
+/// and how many values lie beyond the scale, for each side that has any.
+pub fn outlier_key(
+    bar: &Area<'_>,
+    height: u32,
+    limit: f64,
+    unit: &str,
+    (above, below): (usize, usize),
+) -> std::result::Result<(), String> {
+    let style = text_style();
+    let mut y = height as i32 - 66;
+    for (count, is_above, sign) in [(above, true, '+'), (below, false, '−')] {
+        if count == 0 {
+            continue;
+        }
+        bar.draw(&outlier_mark((14, y + 7), is_above))
+            .map_err(|e| e.to_string())?;
+        bar.draw_text(&format!("{count} beyond"), &style, (26, y))
+            .map_err(|e| e.to_string())?;
+        bar.draw_text(&format!("{sign}{limit:.2} {unit}"), &style, (26, y + 16))
+            .map_err(|e| e.to_string())?;
+        y += 34;
+    }
+    Ok(())
+}
+
+/// A text of a drawn SVG as a reader sees it: its content, size and the box
+/// it covers (for checks that text is readable and does not overlap).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SvgText {
+    /// The text, entities decoded.
+    pub text: String,
+    /// Font size (px).
+    pub size_px: f64,
+    /// `[left, top, right, bottom]` (px); the width by [`text_width`].
+    pub bounds: [f64; 4],
+}
+
+impl SvgText {
+    /// Whether the boxes of two texts overlap.
+    pub fn overlaps(&self, other: &SvgText) -> bool {
+        let (a, b) = (self.bounds, other.bounds);
+        a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
+    }
+}
+
+/// Every text under [`MIN_TEXT_PX`] in the plots of a report `page` (as
+/// `plot id: "text" at N px`), after the number of plots it has.
+pub fn small_texts(page: &str) -> (usize, Vec<String>) {
+    let plots = crate::figures(page);
+    let small = plots
+        .iter()
+        .flat_map(|(id, svg)| {
+            svg_texts(svg)
+                .into_iter()
+                .filter(|t| t.size_px < MIN_TEXT_PX)
+                .map(move |t| format!("{id}: {:?} at {:.2} px", t.text, t.size_px))
+        })
+        .collect();
+    (plots.len(), small)
+}
+
+/// The width (px) a sans-serif `text` of `px` takes, estimated generously
+/// (0.62 em a character: DejaVu Sans digits are 0.64 em, most letters
+/// narrower).
+pub fn text_width(text: &str, px: f64) -> f64 {
+    0.62 * px * text.chars().count() as f64
+}
+
+/// The value of attribute `name` in an element's opening tag.
+fn attribute<'t>(tag: &'t str, name: &str) -> Option<&'t str> {
+    let key = format!(" {name}=\"");
+    let start = tag.find(&key)? + key.len();
+    let len = tag[start..].find('"')?;
+    Some(&tag[start..start + len])
+}
+
+/// The non-empty `<text>` elements of an SVG written by plotters' SVG
+/// backend: anchored at x by `text-anchor`, at y by `dy` (`0.76em`: top,
+/// `0.5ex`: middle, none: baseline), rotated ones upright in their box.
+pub fn svg_texts(svg: &str) -> Vec<SvgText> {
+    let mut out = Vec::new();
+    let mut rest = svg;
+    while let Some(open) = rest.find("<text") {
+        rest = &rest[open..];
+        let (Some(tag_end), Some(close)) = (rest.find('>'), rest.find("</text>")) else {
+            break;
+        };
+        let tag = &rest[..tag_end];
+        let text = rest[tag_end + 1..close]
+            .trim()
+            .replace("&lt;", "<")
+            .replace("&gt;", ">")
+            .replace("&quot;", "\"")
+            .replace("&#39;", "'")
+            .replace("&amp;", "&");
+        rest = &rest[close..];
+        let number = |name: &str| attribute(tag, name).and_then(|v| v.parse::<f64>().ok());
+        let (Some(x), Some(y), Some(size_px)) = (number("x"), number("y"), number("font-size"))
+        else {
+            continue;
+        };
+        if text.is_empty() {
+            continue;
+        }
+        let width = text_width(&text, size_px);
+        let left = match attribute(tag, "text-anchor") {
+            Some("middle") => x - width / 2.0,
+            Some("end") => x - width,
+            _ => x,
+        };
+        let top = match attribute(tag, "dy") {
+            Some("0.76em") => y,
+            Some("0.5ex") => y - size_px / 2.0,
+            _ => y - 0.8 * size_px,
+        };
+        let bounds = if attribute(tag, "transform").is_some_and(|t| t.starts_with("rotate")) {
+            let (cx, cy) = (left + width / 2.0 - x, top + size_px / 2.0 - y);
+            // Turned by ±90° about (x, y): the box's centre turns, its sides swap.
+            let (cx, cy) = (x - cy, y + cx);
+            [
+                cx - size_px / 2.0,
+                cy - width / 2.0,
+                cx + size_px / 2.0,
+                cy + width / 2.0,
+            ]
+        } else {
+            [left, top, left + width, top + size_px]
+        };
+        out.push(SvgText {
+            text,
+            size_px,
+            bounds,
+        });
+    }
+    out
 }
 
 #[cfg(test)]
@@ -210,6 +456,76 @@ mod tests {
         let (lo, hi) = padded([0.0, 10.0].into_iter(), 0.5);
         assert!(lo < 0.0 && hi > 10.0);
         assert_eq!(padded(std::iter::empty(), 1.0), (-1.0, 1.0));
+    }
+
+    #[test]
+    fn texts_are_read_with_their_boxes() {
+        let svg = "<svg><text x=\"100\" y=\"20\" dy=\"0.76em\" text-anchor=\"middle\" \
+                   font-family=\"sans-serif\" font-size=\"10\" fill=\"#000\">\nab&lt;c\n</text>\
+                   <text x=\"5\" y=\"50\" font-size=\"12\">\n\n</text></svg>";
+        let t = svg_texts(svg);
+        assert_eq!(t.len(), 1, "the empty text is left out");
+        assert_eq!(t[0].text, "ab<c");
+        assert_eq!(t[0].size_px, 10.0);
+        let w = text_width("ab<c", 10.0);
+        let want = [100.0 - w / 2.0, 20.0, 100.0 + w / 2.0, 30.0];
+        assert!(
+            t[0].bounds
+                .iter()
+                .zip(want)
+                .all(|(a, b)| (a - b).abs() < 1e-9),
+            "{:?}",
+            t[0].bounds
+        );
+    }
+
+    /// Every text of a line plot with a legend and of a colour bar with an
+    /// outlier key is at least 11 px.
+    #[test]
+    fn every_text_is_readable() {
+        let out = svg("t", (WIDTH, MAP_HEIGHT), |root| {
+            let (plot, bar) = root.split_horizontally(WIDTH - 130);
+            let mut c = line_chart(&plot, "title", (0.0, 1.0), (0.0, 1.0), "x (mm)", "y (µm)")?;
+            c.draw_series(LineSeries::new([(0.0, 0.0), (1.0, 1.0)], UP))
+                .map_err(|e| e.to_string())?
+                .label("series")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], UP));
+            legend(&mut c)?;
+            colour_bar(&bar, MAP_HEIGHT, 2.0, "µm", ["deviation", "(µm)"])?;
+            outlier_key(&bar, MAP_HEIGHT, 2.0, "µm", (1, 2))
+        })
+        .unwrap_or_default();
+        let texts = svg_texts(&out);
+        for needed in [
+            "title",
+            "x (mm)",
+            "y (µm)",
+            "series",
+            "deviation",
+            "2 beyond",
+            "0.0",
+        ] {
+            assert!(texts.iter().any(|t| t.text == needed), "{needed} missing");
+        }
+        for t in &texts {
+            assert!(t.size_px >= MIN_TEXT_PX, "{:?}: {} px", t.text, t.size_px);
+        }
+    }
+
+    #[test]
+    fn one_outlier_leaves_the_scale_of_the_others() {
+        let rest: Vec<f64> = (0..40).map(|k| (f64::from(k) * 0.7).sin() * 1.5).collect();
+        let max = rest.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        assert_eq!(robust_limit(rest.iter().copied()), max);
+        for outlier in [1e3, -50.0, 10.0 * max] {
+            let with: Vec<f64> = rest.iter().copied().chain([outlier]).collect();
+            assert_eq!(robust_limit(with.into_iter()), max, "{outlier}");
+        }
+        // A value inside the fence is no outlier: the scale reaches it.
+        let near = 2.0 * max;
+        assert_eq!(robust_limit(rest.iter().copied().chain([near])), near);
+        assert_eq!(robust_limit(std::iter::empty()), 0.0);
+        assert_eq!(percentile(&[1.0, 2.0, 3.0, 4.0], 0.5), 2.5);
     }
 
     #[test]

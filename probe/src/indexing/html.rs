@@ -160,7 +160,7 @@ fn maps(h: &mut Page, r: &Report, angles: &[Angles]) -> Result<()> {
             tolerance,
             ["ΔθA", "(arc-seconds)"],
         )?,
-        &format!("One cell per position, scale ±max |ΔθA|; at A = 0° the stylus's tilt from the B axis.{outlined}"),
+        &format!("One cell per position, scale ±L, L the largest |ΔθA| within 4 × its 90th percentile; ▲ ▼: beyond ±L (counted under the bar); at A = 0° the stylus's tilt from the B axis.{outlined}"),
     );
     h.figure(
         "plot-map-dB",
@@ -172,7 +172,7 @@ fn maps(h: &mut Page, r: &Report, angles: &[Angles]) -> Result<()> {
             tolerance,
             ["ΔθB", "(arc-seconds)"],
         )?,
-        &format!("One cell per position, scale ±max |ΔθB|; grey: undefined at A = 0°; noisier at small A.{outlined}"),
+        &format!("One cell per position, scale ±L, L the largest |ΔθB| within 4 × its 90th percentile; ▲ ▼: beyond ±L (counted under the bar); grey: undefined at A = 0°; noisier at small A.{outlined}"),
     );
     Ok(())
 }

@@ -1,10 +1,11 @@
 //! SVG plots of the indexing report: ΔθA and ΔθB as maps over (B, A) on the
-//! diverging scale, and as curves against A and B with the per-detent means.
+//! diverging scale (robust to outliers, which are marked), and as curves
+//! against A and B with the per-detent means.
 
 use plotters::prelude::*;
 use report::plot::{
     DOWN, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, UP, WIDTH, colour_bar, diverging, legend, line_chart,
-    padded, svg, with_legend_room,
+    outlier_key, outlier_mark, padded, robust_limit, svg, with_legend_room,
 };
 
 use super::Angles;
@@ -50,8 +51,11 @@ fn nearest(levels: &[f64], v: f64) -> usize {
 }
 
 /// A map of `value` over commanded B (x) and A (y): one cell per position
-/// coloured on the diverging scale (±max |value|), grey where undefined,
-/// outlined where |value| exceeds `tolerance`.
+/// coloured on the diverging scale ±L, L from [`robust_limit`] (the largest
+/// |value| within 4 × the 90th percentile of |value|), so that one extreme
+/// value does not wash out the others; a value beyond ±L is drawn at the
+/// scale's end with a triangle (▲ above, ▼ below), counted under the colour
+/// bar. Grey where undefined, outlined where |value| exceeds `tolerance`.
 pub(crate) fn map(
     title: &str,
     angles: &[Angles],
@@ -70,11 +74,12 @@ pub(crate) fn map(
     };
     let (x0, x1) = span(&b_edges);
     let (y0, y1) = span(&a_edges);
-    let limit = angles
+    let limit = robust_limit(angles.iter().filter_map(&value)).max(1e-3);
+    let beyond: Vec<(&Angles, bool)> = angles
         .iter()
-        .filter_map(&value)
-        .fold(0.0_f64, |m, v| m.max(v.abs()))
-        .max(1e-3);
+        .filter_map(|p| value(p).filter(|v| v.abs() > limit).map(|v| (p, v > 0.0)))
+        .collect();
+    let above = beyond.iter().filter(|(_, up)| *up).count();
     Ok(svg(title, (WIDTH, MAP_HEIGHT), |root| {
         let (plot, bar) = root.split_horizontally(WIDTH - BAR_WIDTH);
         let mut chart = line_chart(
@@ -106,7 +111,14 @@ pub(crate) fn map(
                 )
                 .map_err(|e| e.to_string())?;
         }
-        colour_bar(&bar, MAP_HEIGHT, limit, "″", caption)
+        chart
+            .draw_series(beyond.iter().map(|(p, up)| {
+                let [(b0, a0), (b1, a1)] = cell(p);
+                outlier_mark(((b0 + b1) / 2.0, (a0 + a1) / 2.0), *up)
+            }))
+            .map_err(|e| e.to_string())?;
+        colour_bar(&bar, MAP_HEIGHT, limit, "″", caption)?;
+        outlier_key(&bar, MAP_HEIGHT, limit, "″", (above, beyond.len() - above))
     })?)
 }
 

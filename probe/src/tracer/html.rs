@@ -7,10 +7,11 @@
 use plotters::prelude::*;
 use report::Page;
 use report::plot::{
-    DOWN, FONT, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, SIX, UP, WIDTH, ZONE, colour_bar, diverging,
-    padded, svg, with_legend_room,
+    DOWN, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, SIX, UP, WIDTH, ZONE, chart_builder, colour_bar,
+    diverging, mesh, padded, percentile, svg, with_legend_room,
 };
 
+use super::view::{arrows, grid_chart};
 use super::{Network, Solution, TracerReport};
 use crate::Result;
 
@@ -25,17 +26,6 @@ const TABLE_ROWS: usize = 20;
 /// The colour of station `j` (the six series colours, repeated).
 pub(crate) fn station_colour(j: usize) -> RGBColor {
     SIX[j % SIX.len()]
-}
-
-/// Percentile `q` (0…1) of sorted values, by linear interpolation.
-fn percentile(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return 0.0;
-    }
-    let x = q * (sorted.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x.fract());
-    let j = (i + 1).min(sorted.len() - 1);
-    sorted[i] * (1.0 - f) + sorted[j] * f
 }
 
 /// Residuals per station: the box holds the middle half, the bar the
@@ -67,11 +57,7 @@ fn residuals_plot(net: &Network, s: &Solution) -> Result<String> {
     let title = "Residuals per station";
     let names = net.station_names.clone();
     Ok(svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 20))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
+        let mut chart = chart_builder(root, title)
             .build_cartesian_2d(0.4..m as f64 + 0.6, y0..y1)
             .map_err(|e| e.to_string())?;
         let label = |x: &f64| {
@@ -82,14 +68,12 @@ fn residuals_plot(net: &Network, s: &Solution) -> Result<String> {
                 String::new()
             }
         };
-        chart
-            .configure_mesh()
+        mesh(&mut chart)
             .x_desc("station")
             .y_desc("residual (µm)")
             .x_labels(m + 2)
             .x_label_formatter(&label)
             .disable_x_mesh()
-            .light_line_style(RGBColor(240, 240, 240))
             .max_light_lines(2)
             .draw()
             .map_err(|e| e.to_string())?;
@@ -153,32 +137,6 @@ fn ranges(net: &Network) -> [(f64, f64); 3] {
     [0, 1, 2].map(|a| padded(net.points.iter().map(|p| p[a]), 1.0))
 }
 
-/// A 3-D chart of the grid: machine x, z (up), y (depth) as plotters' x, y, z.
-macro_rules! grid_chart {
-    ($area:expr, $title:expr, $r:expr) => {{
-        let [(x0, x1), (y0, y1), (z0, z1)] = $r;
-        let mut chart = ChartBuilder::on($area)
-            .caption($title, (FONT, 20))
-            .margin(16)
-            .build_cartesian_3d(x0..x1, z0..z1, y0..y1)
-            .map_err(|e| e.to_string())?;
-        chart.with_projection(|mut pb| {
-            pb.yaw = 0.6;
-            pb.pitch = 0.35;
-            pb.scale = 0.95;
-            pb.into_matrix()
-        });
-        chart
-            .configure_axes()
-            .light_grid_style(RGBColor(225, 225, 225))
-            .max_light_lines(3)
-            .label_style((FONT, 12))
-            .draw()
-            .map_err(|e| e.to_string())?;
-        chart
-    }};
-}
-
 /// Correction vectors on the grid: each nominal point (dot) with an arrow
 /// along its correction, magnified so that the longest is a fixed share of
 /// the grid.
@@ -200,12 +158,12 @@ fn corrections_plot(net: &Network, s: &Solution) -> Result<String> {
         longest * UM
     );
     Ok(svg(&title, (WIDTH, MAP_HEIGHT), |root| {
-        let mut chart = grid_chart!(root, title.as_str(), r);
-        let arrows = net.points.iter().zip(&s.corrections).map(|(p, c)| {
+        let mut chart = grid_chart(root, &title, r)?;
+        let ends = net.points.iter().zip(&s.corrections).map(|(p, c)| {
             let q = p + c.vector * gain;
-            PathElement::new(vec![(p.x, p.z, p.y), (q.x, q.z, q.y)], UP.stroke_width(2))
+            ([p.x, p.y, p.z], [q.x, q.y, q.z])
         });
-        chart.draw_series(arrows).map_err(|e| e.to_string())?;
+        arrows(&mut chart, root, ends, UP)?;
         chart
             .draw_series(
                 net.points
@@ -235,7 +193,7 @@ fn uncertainty_plot(net: &Network, s: &Solution) -> Result<String> {
     let radius = if u.len() > DENSE_GRID { 3 } else { 5 };
     Ok(svg(&title, (WIDTH, MAP_HEIGHT), |root| {
         let (plot, bar) = root.split_horizontally(WIDTH - 130);
-        let mut chart = grid_chart!(&plot, title.as_str(), r);
+        let mut chart = grid_chart(&plot, &title, r)?;
         chart
             .draw_series(net.points.iter().zip(&u).map(|(p, v)| {
                 EmptyElement::at((p.x, p.z, p.y))

@@ -43,7 +43,7 @@ pub use formats::probe::volumetric::report::SweepInfo;
 use formats::probe::volumetric::{EvaluateLine, EvaluateReport};
 use geom::Vector3;
 
-use super::chain::{Chain, Side};
+use super::chain::{Chain, DEFAULT_CHAIN, Side};
 use super::curves::MeasuredAxis;
 use crate::{CampaignFault, ChainFault, ProbeError, Result};
 
@@ -322,6 +322,28 @@ pub fn from_evaluate(
     })
 }
 
+/// The main line of every swept axis of `report` (read from `source`), in
+/// axis order; at least one.
+fn main_lines<'r>(
+    report: &'r EvaluateReport,
+    source: &str,
+) -> Result<Vec<(Axis, &'r EvaluateLine)>> {
+    let mut lines = report
+        .axes
+        .iter()
+        .map(|(name, line)| {
+            axis_of(name).map(|axis| (axis, line)).ok_or_else(|| {
+                campaign_error(source, CampaignFault::NotAnAxis { name: name.clone() })
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    lines.sort_by_key(|(a, _)| *a);
+    if lines.is_empty() {
+        return Err(campaign_error(source, CampaignFault::NoAxis));
+    }
+    Ok(lines)
+}
+
 /// The main line of every swept axis, in axis order; each axis must be on
 /// the workpiece side of the chain.
 fn swept_lines<'r>(
@@ -329,27 +351,63 @@ fn swept_lines<'r>(
     chain: &Chain,
     source: &str,
 ) -> Result<Vec<(Axis, &'r EvaluateLine)>> {
-    let mut lines: Vec<(Axis, &EvaluateLine)> = Vec::new();
-    for (name, line) in &report.axes {
-        let axis = axis_of(name).ok_or_else(|| {
-            campaign_error(source, CampaignFault::NotAnAxis { name: name.clone() })
-        })?;
-        if chain.side(axis) != Some(Side::Workpiece) {
-            return Err(ProbeError::Chain {
-                text: chain.text.clone(),
-                fault: ChainFault::SweptOnToolSide {
-                    axis,
-                    report: source.to_string(),
-                },
-            });
-        }
-        lines.push((axis, line));
-    }
-    lines.sort_by_key(|(a, _)| *a);
-    if lines.is_empty() {
-        return Err(campaign_error(source, CampaignFault::NoAxis));
+    let lines = main_lines(report, source)?;
+    if let Some(&(axis, _)) = lines
+        .iter()
+        .find(|(a, _)| chain.side(*a) != Some(Side::Workpiece))
+    {
+        return Err(ProbeError::Chain {
+            text: chain.text.clone(),
+            fault: ChainFault::SweptOnToolSide {
+                axis,
+                report: source.to_string(),
+            },
+        });
     }
     Ok(lines)
+}
+
+/// The chain when none is given with a campaign: [`DEFAULT_CHAIN`] keeping
+/// only the axes that have error curves — those `report` (read from
+/// `source`) swept and `others` (curves from elsewhere, e.g. `--errors`) —
+/// with the note that says so when it leaves an axis out (an X and Y
+/// campaign alone gives `WXYFT`).
+pub fn default_chain(
+    report: &EvaluateReport,
+    others: &[Axis],
+    source: &str,
+) -> Result<(Chain, Option<String>)> {
+    let swept: Vec<Axis> = main_lines(report, source)?
+        .into_iter()
+        .map(|(a, _)| a)
+        .collect();
+    let with_curves: Vec<Axis> = swept.iter().chain(others).copied().collect();
+    let default = Chain::parse(DEFAULT_CHAIN)?;
+    let chain = default.keeping(&with_curves);
+    let left_out: Vec<Axis> = default
+        .axes()
+        .filter(|a| !with_curves.contains(a))
+        .collect();
+    let note = (!left_out.is_empty()).then(|| {
+        format!(
+            "chain {}: the default {DEFAULT_CHAIN} without {}, which {} no error curves (the campaign \
+             swept {}); --chain chooses another",
+            chain.text,
+            names(&left_out),
+            if left_out.len() == 1 { "has" } else { "have" },
+            names(&swept)
+        )
+    });
+    Ok((chain, note))
+}
+
+/// `X`, `X and Y`, `X, Y and Z`.
+fn names(axes: &[Axis]) -> String {
+    let n: Vec<&str> = axes.iter().map(|a| a.name()).collect();
+    match n.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        _ => n.join(""),
+    }
 }
 
 /// The reference position of `axis` (mm): where another sweep's main line

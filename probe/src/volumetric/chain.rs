@@ -98,17 +98,10 @@ impl Chain {
             return Err(chain_error(text, ChainFault::NoEndT));
         }
         let f = letters.iter().position(|&c| c == 'F').unwrap_or(0);
-        let axis = |c: &char| match c {
-            'X' => Some(Axis::X),
-            'Y' => Some(Axis::Y),
-            'Z' => Some(Axis::Z),
-            _ => None,
-        };
-        let workpiece: Vec<Axis> = letters[1..f].iter().filter_map(axis).collect();
-        let tool: Vec<Axis> = letters[f + 1..letters.len() - 1]
-            .iter()
-            .filter_map(axis)
-            .collect();
+        let axes =
+            |l: &[char]| -> Vec<Axis> { l.iter().copied().filter_map(axis_letter).collect() };
+        let workpiece = axes(&letters[1..f]);
+        let tool = axes(&letters[f + 1..letters.len() - 1]);
         for a in [Axis::X, Axis::Y, Axis::Z] {
             let count = workpiece.iter().chain(&tool).filter(|&&b| b == a).count();
             if count > 1 {
@@ -139,6 +132,31 @@ impl Chain {
     /// The axes of the chain, workpiece side first.
     pub fn axes(&self) -> impl Iterator<Item = Axis> + '_ {
         self.workpiece.iter().chain(&self.tool).copied()
+    }
+
+    /// The same chain with every axis outside `keep` left out, the order of
+    /// the others unchanged (`WXYFZT` keeping X and Y is `WXYFT`).
+    pub fn keeping(&self, keep: &[Axis]) -> Chain {
+        let kept = |a: &Axis| keep.contains(a);
+        Chain {
+            text: self
+                .text
+                .chars()
+                .filter(|c| axis_letter(*c).is_none_or(|a| kept(&a)))
+                .collect(),
+            workpiece: self.workpiece.iter().copied().filter(kept).collect(),
+            tool: self.tool.iter().copied().filter(kept).collect(),
+        }
+    }
+}
+
+/// The axis a chain letter names (`X`, `Y`, `Z`), if it names one.
+fn axis_letter(c: char) -> Option<Axis> {
+    match c {
+        'X' => Some(Axis::X),
+        'Y' => Some(Axis::Y),
+        'Z' => Some(Axis::Z),
+        _ => None,
     }
 }
 
@@ -337,6 +355,16 @@ mod tests {
             let e = Chain::parse(bad).unwrap_err().to_string();
             assert!(e.contains("--chain") && e.contains(says), "{bad}: {e}");
         }
+    }
+
+    #[test]
+    fn keeping_leaves_out_the_other_axes_in_order() {
+        let c = Chain::parse("WXYFZT").unwrap();
+        let kept = c.keeping(&[Axis::Y, Axis::X]);
+        assert_eq!(kept, Chain::parse("WXYFT").unwrap());
+        let kept = Chain::parse("WYFXZT").unwrap().keeping(&[Axis::Z, Axis::Y]);
+        assert_eq!(kept, Chain::parse("WYFZT").unwrap());
+        assert_eq!(c.keeping(&[Axis::X, Axis::Y, Axis::Z]), c);
     }
 
     #[test]

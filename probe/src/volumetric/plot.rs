@@ -4,8 +4,8 @@
 
 use plotters::prelude::*;
 use report::plot::{
-    DOWN, FONT, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, ZONE, legend, line_chart, padded, svg,
-    with_legend_room,
+    CAPTION_SIZE, DOWN, FONT, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, ZONE, legend, line_chart, mesh,
+    padded, svg, text_style, with_legend_room,
 };
 
 use super::circle::CirclePrediction;
@@ -139,15 +139,13 @@ pub(crate) fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
     let svg_text = svg(title, (WIDTH, MAP_HEIGHT), |root| {
         let (plot, side) = root.split_horizontally(MAP_HEIGHT);
         let mut chart = ChartBuilder::on(&plot)
-            .caption(title, (FONT, 20))
+            .caption(title, (FONT, CAPTION_SIZE))
             .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(44)
+            .x_label_area_size(50)
+            .y_label_area_size(50)
             .build_cartesian_2d(-reach..reach, -reach..reach)
             .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .light_line_style(RGBColor(240, 240, 240))
+        mesh(&mut chart)
             .max_light_lines(1)
             .x_labels(5)
             .y_labels(5)
@@ -178,7 +176,7 @@ pub(crate) fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
                 .draw_series(LineSeries::new(path, colour.stroke_width(2)))
                 .map_err(|e| e.to_string())?;
         }
-        let style = (FONT, 15).into_font().color(&BLACK);
+        let style = text_style();
         let lines = [
             format!("circle R = {r} mm"),
             format!("deviation magnified × {m}"),
@@ -198,17 +196,17 @@ pub(crate) fn polar(title: &str, c: &Circles) -> Result<(String, f64)> {
             .map_err(|e| e.to_string())?;
             side.draw_text(name, &style, (42, y))
                 .map_err(|e| e.to_string())?;
-            side.draw_text(
-                &format!(
-                    "circular deviation {:.2} µm, radial range {:.2} µm",
-                    p.circular_deviation * 1e3,
-                    p.radial_range * 1e3
-                ),
-                &(FONT, 13).into_font().color(&BLACK),
-                (42, y + 20),
-            )
-            .map_err(|e| e.to_string())?;
-            y += 52;
+            for (k, line) in [
+                format!("circular deviation {:.2} µm,", p.circular_deviation * 1e3),
+                format!("radial range {:.2} µm", p.radial_range * 1e3),
+            ]
+            .iter()
+            .enumerate()
+            {
+                side.draw_text(line, &style, (42, y + 20 + 17 * k as i32))
+                    .map_err(|e| e.to_string())?;
+            }
+            y += 68;
         }
         side.draw(&PathElement::new(
             vec![(10, y + 8), (34, y + 8)],

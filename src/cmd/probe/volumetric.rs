@@ -42,9 +42,11 @@ pub struct Args {
     #[arg(long, value_name = "EC0Y,EB0Z,EA0Z", allow_hyphen_values = true, value_parser = three_numbers)]
     squareness: Option<[f64; 3]>,
     /// Kinematic chain `W a1 … ak F b1 … bl T`: the workpiece rides on a1, …,
-    /// ak on the frame; the tool rides on bl, …, b1 on the frame.
-    #[arg(long, default_value = probe::volumetric::DEFAULT_CHAIN)]
-    chain: String,
+    /// ak on the frame; the tool rides on bl, …, b1 on the frame. Default
+    /// WXYFZT; with --from-report, WXYFZT keeping the axes that have curves
+    /// (WXYFT for a campaign of X and Y).
+    #[arg(long, value_name = "CHAIN")]
+    chain: Option<String>,
     /// Tool offset t (mm) in the tool frame.
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = three_numbers, default_value = "0,0,0")]
     tool: [f64; 3],
@@ -153,13 +155,40 @@ struct Curves {
 /// Run the method: gather the curves, set up the model, analyse, write the
 /// outputs (refusing before anything is written), print the summary.
 pub fn run(args: &Args) -> Result<()> {
-    let chain = Chain::parse(&args.chain).or_usage()?;
-    let mut curves = Curves::default();
-    if let Some(dir) = &args.from_report {
-        curves_from_report(dir, &chain, &mut curves)?;
+    let given = args
+        .chain
+        .as_deref()
+        .map(Chain::parse)
+        .transpose()
+        .or_usage()?;
+    let report = match &args.from_report {
+        Some(dir) => Some((dir, files::read_evaluate_report(dir)?)),
+        None => None,
+    };
+    let errors = match &args.errors {
+        Some(path) => Some((path, curves_from_file(path)?)),
+        None => None,
+    };
+    let (chain, note) = match (given, &report) {
+        (Some(chain), _) => (chain, None),
+        (None, Some((dir, report))) => {
+            let others: Vec<Axis> = errors
+                .iter()
+                .flat_map(|(_, e)| e.iter().map(|(m, _)| m.axis))
+                .collect();
+            campaign::default_chain(report, &others, &report_source(dir))?
+        }
+        (None, None) => (Chain::parse(probe::volumetric::DEFAULT_CHAIN)?, None),
+    };
+    if let Some(n) = &note {
+        eprintln!("trinocular: note: {n}");
     }
-    if let Some(path) = &args.errors {
-        curves_from_errors(path, args.order, &mut curves)?;
+    let mut curves = Curves::default();
+    if let Some((dir, report)) = &report {
+        curves_from_report(dir, report, &chain, note, &mut curves)?;
+    }
+    if let Some((path, errors)) = errors {
+        curves_from_errors(path, errors, args.order, &mut curves)?;
     }
     curves.inputs.extend(args.at.clone());
     let setup = setup(args, chain, &curves)?;
@@ -172,11 +201,22 @@ pub fn run(args: &Args) -> Result<()> {
     Ok(())
 }
 
-/// The swept axes' curves of a vision campaign (`--from-report DIR`).
-fn curves_from_report(dir: &Path, chain: &Chain, curves: &mut Curves) -> Result<()> {
-    let report = files::read_evaluate_report(dir)?;
-    let source = dir.join("report.json").display().to_string();
-    let c = campaign::from_evaluate(&report, chain, &source)?;
+/// How errors name the report of `--from-report DIR`.
+fn report_source(dir: &Path) -> String {
+    dir.join("report.json").display().to_string()
+}
+
+/// The swept axes' curves of a vision campaign (`--from-report DIR`), with
+/// the note on how the chain was chosen first among its notes.
+fn curves_from_report(
+    dir: &Path,
+    report: &files::EvaluateReport,
+    chain: &Chain,
+    chain_note: Option<String>,
+    curves: &mut Curves,
+) -> Result<()> {
+    let mut c = campaign::from_evaluate(report, chain, &report_source(dir))?;
+    c.notes.splice(0..0, chain_note);
     curves.inputs.push(dir.join("report.json"));
     curves.axes.extend(c.axes.iter().cloned());
     curves
@@ -188,12 +228,17 @@ fn curves_from_report(dir: &Path, chain: &Chain, curves: &mut Curves) -> Result<
 
 /// The curves of `E.csv`: each axis once over both sources, and with at
 /// least as many points as the series of `--order` has coefficients.
-fn curves_from_errors(path: &Path, order: Order, curves: &mut Curves) -> Result<()> {
+fn curves_from_errors(
+    path: &Path,
+    errors: Vec<(MeasuredAxis, (u64, u64))>,
+    order: Order,
+    curves: &mut Curves,
+) -> Result<()> {
     let order_n = match order {
         Order::Fixed(n) => Some(n),
         Order::Auto => None,
     };
-    for (m, (first, last)) in curves_from_file(path)? {
+    for (m, (first, last)) in errors {
         if curves.axes.iter().any(|c| c.axis == m.axis) {
             bail!(
                 "{}: lines {first}–{last}, column 'axis': axis {} comes from --from-report too; give each axis once",
