@@ -449,7 +449,7 @@ fn a_failed_run_leaves_the_output_location_as_it_was() {
     // ... and images found unusable only when read, after the plan;
     let err = fails_leaving_as_it_was(&w, &extract(&blobs, &bad));
     assert!(
-        err.contains("none of the 1 images could be used") && err.contains("bad.tif"),
+        err.contains("the only image could not be used") && err.contains("bad.tif"),
         "{err}"
     );
     // into folders that do not exist yet, the same.

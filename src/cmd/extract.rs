@@ -263,14 +263,10 @@ impl Tally {
         if self.failed_frames < images {
             return Ok(());
         }
-        let first = self
-            .problems
-            .first()
-            .map(|p| format!("; the first: {}", p.reason))
-            .unwrap_or_default();
+        let first = self.problems.first().map(|p| p.reason.as_str());
         bail!(
-            "{}{first}",
-            crate::cmd::none_could(images, "image", "be used")
+            "{}",
+            crate::cmd::none_could(images, "image", "be used", first)
         );
     }
 

@@ -144,12 +144,13 @@ pub fn run(args: &Args) -> Result<()> {
         // Nothing measured is a failure, not a batch with a few bad items:
         // the run's outputs go (the failure's cleanup, src/main.rs).
         anyhow::bail!(
-            "{}{refused}; the first: {}",
-            crate::cmd::none_could(summary.instants, "instant", "be measured"),
-            summary
-                .first_problem
-                .as_deref()
-                .unwrap_or("no reason given")
+            "{}",
+            crate::cmd::none_could(
+                summary.instants,
+                "instant",
+                &format!("be measured{refused}"),
+                summary.first_problem.as_deref()
+            )
         );
     }
     let mut what = Vec::new();

@@ -40,13 +40,14 @@ impl std::fmt::Display for Finished {
 
 impl std::error::Error for Finished {}
 
-/// "none of the 3 images could be used", or with one item "the only image
-/// could not be used".
-pub fn none_could(count: usize, noun: &str, verb: &str) -> String {
+/// "none of the 3 images could be used; the first: REASON", or with one
+/// item "the only image could not be used: REASON".
+pub fn none_could(count: usize, noun: &str, verb: &str, first: Option<&str>) -> String {
+    let reason = first.unwrap_or("no reason given");
     if count == 1 {
-        format!("the only {noun} could not {verb}")
+        format!("the only {noun} could not {verb}: {reason}")
     } else {
-        format!("none of the {count} {noun}s could {verb}")
+        format!("none of the {count} {noun}s could {verb}; the first: {reason}")
     }
 }
 
