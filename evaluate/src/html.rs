@@ -215,13 +215,14 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
                     );
                 }
                 _ => {
+                    let [a, e, r] = p.shown_a_e_r();
                     let _ = write!(
                         h,
                         "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
-                        num(p.a_um.or(p.a_up_um).or(p.a_down_um)),
-                        num(p.e_um.or(p.e_up_um).or(p.e_down_um)),
+                        num(a),
+                        num(e),
                         num(p.m_um),
-                        num(p.r_um.or(p.r_up_um).or(p.r_down_um)),
+                        num(r),
                         num(p.b_um),
                     );
                     if let Some(reason) = &p.left_out {

@@ -170,6 +170,18 @@ pub struct PositioningReport {
     pub vdi3441: Option<Vdi3441Report>,
 }
 
+impl PositioningReport {
+    /// A, E and R as a summary shows them: the bidirectional figure, else
+    /// that of the one direction ISO 230-2 could evaluate (↑ before ↓).
+    pub fn shown_a_e_r(&self) -> [Option<f64>; 3] {
+        [
+            self.a_um.or(self.a_up_um).or(self.a_down_um),
+            self.e_um.or(self.e_up_um).or(self.e_down_um),
+            self.r_um.or(self.r_up_um).or(self.r_down_um),
+        ]
+    }
+}
+
 /// One target of the positioning table (µm; `nominal` in mm).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PositioningTarget {

@@ -49,12 +49,13 @@ pub fn run(args: &Args) -> Result<()> {
     for (axis, a) in report.axes.iter() {
         let p = &a.main.positioning;
         let fig = |v: Option<f64>| v.map_or_else(|| "—".to_string(), |v| format!("{v:.3}"));
+        let [shown_a, shown_e, shown_r] = p.shown_a_e_r();
         println!(
             "{axis}: A {} µm, E {} µm, M {} µm, R {} µm, B {} µm, seed 3σ {} µm",
-            fig(p.a_um.or(p.a_up_um).or(p.a_down_um)),
-            fig(p.e_um.or(p.e_up_um).or(p.e_down_um)),
+            fig(shown_a),
+            fig(shown_e),
             fig(p.m_um),
-            fig(p.r_um.or(p.r_up_um).or(p.r_down_um)),
+            fig(shown_r),
             fig(p.b_um),
             fig(p.seed_3sigma_um)
         );
