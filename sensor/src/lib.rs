@@ -1,0 +1,31 @@
+//! Per-pixel calibration of an image sensor from stacks of flat-field and
+//! dark frames, after EMVA 1288: robust master frames, the bit depth of the
+//! ADC, photon transfer (system gain, read noise), the fixed patterns
+//! (DSNU, PRNU) as per-pixel maps, defective pixels, and the correction of a
+//! frame with those maps before its blobs are extracted.
+//!
+//! The model of a pixel's value (DN, METHODS §6):
+//! `y = K·η·photons·(1 + g_px) + d_px + K·n`.
+//!
+//! The crate does no file I/O: frames come decoded, maps are encoded to and
+//! decoded from bytes (`maps`), and every check that refuses a frame names
+//! the frame by its index in its stack, for the caller to name the file.
+//!
+//! API (filled in by the implementation; this list is the contract):
+//! - [`Frame`], [`StackKind`]: a decoded frame with its metadata.
+//! - [`check_stack`]: the refusals of METHODS §6 / issue 24 item 8.
+//! - [`AdcDepth`], [`adc_depth`]: a 10/12/14-bit ADC written left-shifted.
+//! - [`Master`], [`master`]: outlier-robust per-pixel mean of a stack, its
+//!   temporal noise (`½·var(A − B)` over consecutive pairs) and mean level.
+//! - [`PhotonTransfer`], [`photon_transfer`]: K (DN/e⁻), σ_d (e⁻) from a
+//!   flat and a dark master (each of ≥ 2 frames).
+//! - [`DefectMap`], [`Defect`], [`DefectKind`], [`Cluster`]: defective pixels.
+//! - [`SensorMaps`]: master dark, gain map, defects; [`SensorMaps::correct`].
+//! - [`calibrate`] with [`Options`] → [`SensorCalibration`]: all of the above
+//!   and the decisions (per-pixel dark and gain used or not, and why).
+//! - `maps::{encode_f32, decode_f32, encode_u8, decode_u8, checksum}`: the
+//!   map files (32-bit float / 8-bit TIFF) and their CRC-32.
+
+mod error;
+
+pub use error::{Result, SensorError};
