@@ -76,6 +76,8 @@ pub struct CameraInput {
     pub illumination: Illumination,
     /// The flat-field fit it came from, when measured.
     pub flat_field: Option<FlatFieldFit>,
+    /// The sensor's calibration from stacks of flats and darks, when given.
+    pub sensor: Option<formats::SensorJson>,
 }
 
 /// Tolerances and the travels to check.
@@ -354,6 +356,7 @@ fn camera_report(
         rms_px: c.rms_px,
         depth_of_field: dof,
         relative_illumination,
+        sensor: c.sensor.clone(),
     }
 }
 
@@ -475,6 +478,7 @@ mod tests {
             }),
             illumination: Illumination::Ideal,
             flat_field: None,
+            sensor: None,
         }
     }
 

@@ -9,6 +9,7 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use geom::RadialIllumination;
+use sensor::SensorMaps;
 
 use crate::Result;
 use crate::backend::{Backend, ExtractParams, Extraction};
@@ -18,6 +19,18 @@ use crate::decode::FrameReader;
 use crate::frame::FrameView;
 use crate::label::Weighting;
 use crate::metadata::FrameMetadata;
+
+/// How a camera's frames are corrected before their centroids are taken:
+/// the sensor's per-pixel maps (master dark, gain map, defective pixels)
+/// applied to the whole frame before extraction, and the lens's relative
+/// illumination applied to each blob's pixels (`crate::correction`).
+#[derive(Debug, Clone, Copy)]
+pub struct Radiometry<'a> {
+    /// The lens's relative illumination.
+    pub illumination: &'a RadialIllumination,
+    /// The sensor's per-pixel maps, when calibrated from stacks.
+    pub sensor: Option<&'a SensorMaps>,
+}
 
 /// Files processed together; results of a chunk are delivered in order.
 const CHUNK_FILES: usize = 32;
@@ -40,6 +53,9 @@ pub struct FrameBlobs {
     /// Blobs whose flat-field correction failed (their centroid is the plain
     /// one), with the reason; empty without a flat field.
     pub uncorrected: Vec<(usize, String)>,
+    /// Per blob, the defective pixels (of the sensor's defect map) inside it,
+    /// replaced by their neighbours before the centroid; empty without maps.
+    pub defect_pixels: Vec<u32>,
     /// Saturated blobs, kept or dropped for want of weight
     /// ([`Extraction::saturation_note`]); `None` when there are none.
     pub saturation: Option<String>,
@@ -53,9 +69,23 @@ pub(crate) fn frame_blobs(
     metadata: FrameMetadata,
     extraction: Extraction,
     weighting: Weighting,
-    flat_field: Option<&RadialIllumination>,
+    radiometry: Option<Radiometry<'_>>,
 ) -> FrameBlobs {
     let mut uncorrected = Vec::new();
+    let flat_field = radiometry.map(|r| r.illumination);
+    let defect_pixels = match radiometry.and_then(|r| r.sensor) {
+        Some(maps) => extraction
+            .blobs
+            .iter()
+            .map(|b| {
+                b.runs
+                    .iter()
+                    .map(|r| (r.x0..=r.x1).filter(|&x| maps.defects.is_defect(x, r.y)).count() as u32)
+                    .sum()
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     let saturation = extraction.saturation_note(frame.max_value());
     let blobs = extraction
         .blobs
@@ -84,32 +114,39 @@ pub(crate) fn frame_blobs(
         threshold: extraction.level.describe(),
         blobs,
         uncorrected,
+        defect_pixels,
         saturation,
     }
 }
 
 /// Decode and extract one file with a reader whose buffers are reused;
-/// centroids flat-field corrected when `flat_field` is given.
+/// with `radiometry`, the frame corrected with the sensor's maps and the
+/// centroids flat-field corrected.
 pub fn extract_file<B: Backend + ?Sized>(
     reader: &mut FrameReader,
     path: &Path,
     backend: &B,
     params: &ExtractParams,
-    flat_field: Option<&RadialIllumination>,
+    radiometry: Option<Radiometry<'_>>,
 ) -> Result<FrameBlobs> {
-    let (frame, metadata) = reader.read(path)?;
+    let (raw, metadata) = reader.read(path)?;
+    let corrected = match radiometry.and_then(|r| r.sensor).filter(|m| !m.is_identity()) {
+        Some(maps) => Some(raw.corrected(maps).map_err(|e| e.in_file(path))?),
+        None => None,
+    };
+    let frame = corrected.as_ref().map_or(raw, |f| f.view());
     let extraction = backend
         .extract(frame, params)
         .map_err(|e| e.in_file(path))?;
     // Corrected centroids are taken over the frame the blobs came from.
-    let denoised = flat_field.and_then(|_| crate::denoise::apply(&frame, params.denoise));
+    let denoised = radiometry.and_then(|_| crate::denoise::apply(&frame, params.denoise));
     let view = denoised.as_ref().map_or(frame, |f| f.view());
     Ok(frame_blobs(
         &view,
         metadata,
         extraction,
         params.weighting,
-        flat_field,
+        radiometry,
     ))
 }
 
@@ -130,15 +167,16 @@ pub fn extract_files<F>(
     backend.extract_batch(paths, params, expected_depth, &mut sink);
 }
 
-/// [`extract_files`] with every centroid flat-field corrected by the lens's
-/// relative illumination `flat_field` (frames decoded and extracted in
-/// parallel, one frame per backend call).
+/// [`extract_files`] with every frame corrected by `radiometry` (the
+/// sensor's maps, then each centroid flat-field corrected by the lens's
+/// relative illumination; frames decoded and extracted in parallel, one
+/// frame per backend call).
 pub fn extract_files_flat<F>(
     paths: &[PathBuf],
     backend: &dyn Backend,
     params: &ExtractParams,
     expected_depth: Option<u8>,
-    flat_field: &RadialIllumination,
+    radiometry: Radiometry<'_>,
     mut sink: F,
 ) where
     F: FnMut(usize, &Path, Result<FrameBlobs>),
@@ -148,7 +186,7 @@ pub fn extract_files_flat<F>(
         backend,
         params,
         expected_depth,
-        Some(flat_field),
+        Some(radiometry),
         &mut sink,
     );
 }
@@ -160,7 +198,7 @@ pub fn extract_parallel<B: Backend + ?Sized>(
     backend: &B,
     params: &ExtractParams,
     expected_depth: Option<u8>,
-    flat_field: Option<&RadialIllumination>,
+    radiometry: Option<Radiometry<'_>>,
     sink: &mut dyn FnMut(usize, &Path, Result<FrameBlobs>),
 ) {
     // A pool, not `map_init`: rayon calls `map_init`'s init once per job split,
@@ -186,7 +224,7 @@ pub fn extract_parallel<B: Backend + ?Sized>(
             .par_iter()
             .map(|path| {
                 let mut reader = take();
-                let result = extract_file(&mut reader, path, backend, params, flat_field);
+                let result = extract_file(&mut reader, path, backend, params, radiometry);
                 give_back(reader);
                 result
             })

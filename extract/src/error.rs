@@ -136,6 +136,9 @@ pub enum ParameterProblem {
     /// A bit depth other than 8 or 16.
     #[error("bit depth {0} is not 8 or 16")]
     BitDepth(u8),
+    /// The sensor's per-pixel maps do not fit the frame.
+    #[error("per-pixel sensor correction: {0}")]
+    Sensor(sensor::SensorError),
 }
 
 /// Result alias for `extract`.

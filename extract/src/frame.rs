@@ -80,6 +80,21 @@ impl<'a> FrameView<'a> {
     pub fn half_diagonal_px(&self) -> f64 {
         f64::from(self.width).hypot(f64::from(self.height)) / 2.0
     }
+
+    /// The frame corrected pixel by pixel with a camera's sensor maps
+    /// (master dark, gain map, defective pixels replaced: `sensor::SensorMaps::correct`),
+    /// before its blobs are extracted. Fails when the maps are of another size.
+    pub fn corrected(&self, maps: &sensor::SensorMaps) -> Result<Frame> {
+        let mut pixels = Vec::new();
+        maps.correct(self.pixels, self.width, self.height, &mut pixels)
+            .map_err(ParameterProblem::Sensor)?;
+        Ok(Frame {
+            width: self.width,
+            height: self.height,
+            bit_depth: self.bit_depth,
+            pixels,
+        })
+    }
 }
 
 /// An owned grayscale frame.

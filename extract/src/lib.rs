@@ -32,7 +32,7 @@ mod threshold;
 
 pub use backend::{Backend, CpuBackend, DEFAULT_MIN_AREA, ExtractParams, Extraction};
 pub use background::MIN_MESH_PX;
-pub use batch::{FrameBlobs, extract_file, extract_files, extract_files_flat};
+pub use batch::{FrameBlobs, Radiometry, extract_file, extract_files, extract_files_flat};
 pub use blob::{Blob, BoundingBox, Moments};
 pub use correction::{
     CameraMap, FlatFieldMap, Mapped, PixelMap, mapped_centroid, observed_centroids,

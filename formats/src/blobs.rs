@@ -52,6 +52,10 @@ pub struct BlobRow {
     /// Exposure time from the image tags (s).
     #[serde(default)]
     pub exposure_s: Option<f64>,
+    /// Defective pixels of the sensor's defect map inside the blob, replaced
+    /// by their neighbours' mean before the centroid; empty without a map.
+    #[serde(default)]
+    pub defect_pixels: Option<u32>,
 }
 
 impl Record for BlobRow {

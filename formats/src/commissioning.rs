@@ -49,6 +49,9 @@ pub struct CameraReport {
     pub depth_of_field: Option<DepthOfField>,
     /// Relative illumination: model, profile and scale costs.
     pub relative_illumination: IlluminationReport,
+    /// The sensor as calibrated from stacks of flats and darks, when given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<crate::SensorJson>,
 }
 
 /// The relative illumination of one camera in the report.
@@ -206,6 +209,54 @@ fn illumination_text(s: &mut String, r: &IlluminationReport) {
     }
 }
 
+/// The sensor lines of one camera in the text report.
+fn sensor_text(s: &mut String, r: &crate::SensorJson) {
+    use std::fmt::Write;
+    let st = &r.stack;
+    let noise = |n: Option<f64>| n.map_or("not measured (one frame)".to_string(), |n| format!("{n:.2} DN per pixel"));
+    let _ = writeln!(
+        s,
+        "  sensor: {}-bit ADC in {}-bit files; stacks of {} flat and {} dark frames (master flat noise {}, master dark noise {})",
+        r.adc_bits,
+        r.container_bits,
+        st.flats,
+        st.darks,
+        noise(st.flat_noise_dn),
+        noise(st.dark_noise_dn)
+    );
+    match (r.gain_dn_per_e, r.read_noise_e) {
+        (Some(k), Some(rn)) => {
+            let _ = writeln!(
+                s,
+                "    photon transfer (EMVA 1288): gain {k:.4} DN/e⁻, read noise {rn:.2} e⁻"
+            );
+        }
+        _ => {
+            let note = r.extra.get("transfer_note").and_then(|v| v.as_str()).unwrap_or("not measured");
+            let _ = writeln!(s, "    photon transfer: {note}");
+        }
+    }
+    let d = &r.defects;
+    let _ = writeln!(
+        s,
+        "    PRNU {:.3} %, DSNU {:.2} DN (columns {:.2} DN), black level {:.1} DN; defects: {} hot, {} dead, {} weak, {} strong ({} clusters)",
+        100.0 * r.prnu,
+        r.dsnu_dn,
+        r.column_dsnu_dn,
+        r.black_level_dn,
+        d.hot,
+        d.dead,
+        d.weak,
+        d.strong,
+        d.clusters
+    );
+    for key in ["dark_note", "gain_note"] {
+        if let Some(note) = r.extra.get(key).and_then(|v| v.as_str()) {
+            let _ = writeln!(s, "    {note}");
+        }
+    }
+}
+
 impl Report {
     /// Plain-text rendering for `<stem>.commissioning.txt`.
     pub fn text(&self) -> String {
@@ -264,6 +315,9 @@ impl Report {
                 }
             }
             illumination_text(&mut s, &c.relative_illumination);
+            if let Some(sensor) = &c.sensor {
+                sensor_text(&mut s, sensor);
+            }
             let _ = writeln!(s);
         }
         let _ = writeln!(s, "Angles between optical axes (the method needs 90°):");

@@ -96,6 +96,7 @@ mod points;
 pub mod probe;
 mod rig;
 mod rig_record;
+mod sensor;
 mod table;
 mod target;
 mod truth;
@@ -121,6 +122,7 @@ pub use rig::{
     RigCamera, read_nominal, read_rig,
 };
 pub use rig_record::{CalibrationRecord, Matching};
+pub use sensor::{DefectCounts, MapFile, SensorJson, SensorMapFiles, StackRecord};
 pub use table::{Invalid, Record, Row, finite, read_csv, read_csv_from, write_csv, write_records};
 pub use target::{CorrespondenceRow, ResidualRow, TargetRow, read_correspondences, read_target};
 pub use truth::{Truth, TruthCamera, TruthInstant};

@@ -440,6 +440,10 @@ pub struct RigCamera {
     /// The lens's relative illumination (absent in older files: the ideal lens).
     #[serde(default)]
     pub relative_illumination: IlluminationJson,
+    /// The sensor's calibration and per-pixel maps (absent: frames are used
+    /// as they are).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<crate::SensorJson>,
     /// Anything else the calibration reports (standard deviations, model, outliers).
     #[serde(flatten)]
     pub extra: serde_json::Map<String, serde_json::Value>,
@@ -479,6 +483,7 @@ impl RigCamera {
             rms_px,
             points,
             relative_illumination: IlluminationJson::default(),
+            sensor: None,
             extra: serde_json::Map::new(),
         }
     }

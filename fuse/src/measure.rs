@@ -92,6 +92,10 @@ pub struct Inputs<'a> {
     pub rig: &'a formats::Rig,
     /// The spheres.
     pub spheres: &'a [SphereRow],
+    /// Per camera id, the sensor's per-pixel maps every frame of that camera
+    /// is corrected with before extraction (`rig.json`'s `sensor`); a camera
+    /// without maps is used as it is.
+    pub sensor: &'a BTreeMap<u8, sensor::SensorMaps>,
 }
 
 /// What a measurement did.
@@ -182,16 +186,18 @@ struct Context<'a> {
     options: MeasureOptions,
     backend: &'a dyn Backend,
     readers: Mutex<Vec<FrameReader>>,
+    sensor: &'a BTreeMap<u8, sensor::SensorMaps>,
 }
 
 impl<'a> Context<'a> {
     fn new(
         rig: RigModel,
         plans: &[InstantPlan],
-        spheres: &'a [SphereRow],
+        inputs: &Inputs<'a>,
         options: &MeasureOptions,
         backend: &'a dyn Backend,
     ) -> Self {
+        let spheres = inputs.spheres;
         Self {
             reach_mm: 0.5 * extent(plans) + SPHERE_LAYOUT_MM,
             rig,
@@ -200,6 +206,7 @@ impl<'a> Context<'a> {
             options: *options,
             backend,
             readers: Mutex::new(Vec::new()),
+            sensor: inputs.sensor,
         }
     }
 }
@@ -293,7 +300,12 @@ impl Context<'_> {
             .and_then(|mut r| r.pop())
             .unwrap_or_else(|| FrameReader::new().limit_pixels(self.options.extract.max_pixels));
         let result = (|| {
-            let (frame, _) = reader.read(path).map_err(|e| fail(e.to_string()))?;
+            let (raw, _) = reader.read(path).map_err(|e| fail(e.to_string()))?;
+            let corrected = match self.sensor.get(&camera).filter(|m| !m.is_identity()) {
+                Some(maps) => Some(raw.corrected(maps).map_err(|e| fail(e.in_file(path).to_string()))?),
+                None => None,
+            };
+            let frame = corrected.as_ref().map_or(raw, extract::Frame::view);
             let extraction = self
                 .backend
                 .extract(frame, &self.options.extract)
@@ -778,7 +790,7 @@ pub fn measure(
     let resumed = done.len();
 
     // Every instant not done, in parallel chunks appended to the partial file.
-    let ctx = Context::new(rig, &plans, inputs.spheres, options, backend);
+    let ctx = Context::new(rig, &plans, inputs, options, backend);
     let todo: Vec<&InstantPlan> = plans.iter().filter(|p| !done.contains(&p.key)).collect();
     let references = if options.fusion == Fusion::Seed {
         seed_references(&ctx, &plans)

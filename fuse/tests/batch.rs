@@ -309,6 +309,7 @@ fn an_interrupted_run_resumes_without_loss_or_duplicates() {
         manifest: &d.join("manifest.csv"),
         rig: &rig,
         spheres: &spheres,
+        sensor: &Default::default(),
     };
     let err = measure(
         &inputs,

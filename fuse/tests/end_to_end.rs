@@ -43,6 +43,7 @@ fn run(dir: &Path, options: &MeasureOptions, name: &str) -> Vec<PointRow> {
             manifest: &dir.join("manifest.csv"),
             rig: &rig,
             spheres: &spheres,
+            sensor: &Default::default(),
         },
         &out,
         options,

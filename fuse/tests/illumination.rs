@@ -70,6 +70,7 @@ fn measure_campaign(dir: &Path, rig: &Rig, name: &str) -> (f64, [f64; 2]) {
             manifest: &dir.join("manifest.csv"),
             rig,
             spheres: &spheres,
+            sensor: &Default::default(),
         },
         &out,
         &MeasureOptions::default(),

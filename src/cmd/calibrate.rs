@@ -35,6 +35,7 @@ use formats::{
 use geom::{Illumination, Point2};
 
 use crate::cmd::extract::ExtractOptions;
+use crate::cmd::sensor::Stack;
 use crate::cmd::{OrUsage, Usage, values};
 
 /// Distortion model (`--model`).
@@ -82,11 +83,13 @@ pub struct Args {
     /// of images (without --nominal: cameras 1, 2, 3 in this order).
     #[arg(long, num_args = 1..)]
     points: Vec<PathBuf>,
-    /// Flat-field frames, one per camera in camera order: a uniform radiance
-    /// source filling the view, same lens settings and exposure as the measurement.
+    /// Flat-field frames, one per camera in camera order, each a file or a
+    /// folder holding a stack of frames: a uniform radiance source filling the
+    /// view, same lens settings and exposure as the measurement (docs/sensor.md).
     #[arg(long, num_args = 1.., requires = "dark_frames", requires = "nominal")]
     flat_fields: Vec<PathBuf>,
-    /// Dark frames (lens capped), one per camera in camera order.
+    /// Dark frames (lens capped), one per camera in camera order, each a file
+    /// or a folder holding a stack of frames.
     #[arg(long, num_args = 1.., requires = "flat_fields")]
     dark_frames: Vec<PathBuf>,
     /// Sphere set `spheres.csv` (`name,diameter`) whose scale errors the
@@ -157,61 +160,69 @@ fn optics(nominal: &NominalCamera) -> Optics {
     }
 }
 
-/// The relative illumination of camera `id` (index `k` in camera order):
-/// fitted from its flat field and dark frame when given (model centre started
-/// at the nominal image centre, ρ scaled by the nominal focal length), the
-/// ideal lens otherwise.
-fn illumination(
+/// What a camera's flat fields and dark frames gave: the lens's relative
+/// illumination (the ideal lens without them), its fit, and the sensor's
+/// per-pixel calibration from the stacks.
+struct Radiometry {
+    illumination: Illumination,
+    flat_fit: Option<FlatFieldFit>,
+    sensor: Option<sensor::SensorCalibration>,
+}
+
+/// The radiometry of camera `id` (index `k` in camera order): from its
+/// stacks of flat fields and dark frames when given (each a file or a
+/// folder): the relative illumination fitted to the first flat and dark
+/// (model centre started at the nominal image centre, ρ scaled by the
+/// nominal focal length), then the sensor's calibration against it.
+fn radiometry(
     args: &Args,
     k: usize,
     nominal: &NominalCamera,
     reader: &mut FrameReader,
-) -> Result<(Illumination, Option<FlatFieldFit>)> {
+) -> Result<Radiometry> {
     let (Some(flat), Some(dark)) = (args.flat_fields.get(k), args.dark_frames.get(k)) else {
-        return Ok((Illumination::Ideal, None));
+        return Ok(Radiometry {
+            illumination: Illumination::Ideal,
+            flat_fit: None,
+            sensor: None,
+        });
     };
-    let read = |reader: &mut FrameReader, path: &Path| -> Result<(Vec<u16>, u32, u32, u16)> {
-        let (f, _) = reader.read(path)?;
-        if (f.width, f.height) != (nominal.width, nominal.height) {
-            bail!(
-                "{}: the image is {}×{} px, but camera {} is {}×{} px",
-                path.display(),
-                f.width,
-                f.height,
-                nominal.id,
-                nominal.width,
-                nominal.height
-            );
-        }
-        Ok((f.pixels.to_vec(), f.width, f.height, f.max_value()))
+    let camera = format!("camera {}", nominal.id);
+    let size = Some((nominal.width, nominal.height));
+    let flats = Stack::read(flat, reader, size, &camera)?;
+    let darks = Stack::read(dark, reader, size, &camera)?;
+    let (Some(f), Some(d)) = (flats.first(), darks.first()) else {
+        bail!("{camera}: an empty stack of flat fields or dark frames");
     };
-    let (f, w, h, max) = read(reader, flat)?;
-    let (d, _, _, _) = read(reader, dark)?;
     let flat_pixels = calib::Pixels {
-        values: &f,
-        width: w,
-        height: h,
-        saturation: max,
+        values: &f.pixels,
+        width: f.width,
+        height: f.height,
+        saturation: f.view().max_value(),
     };
     let dark_pixels = calib::Pixels {
-        values: &d,
+        values: &d.pixels,
         ..flat_pixels
     };
     let start = nominal
         .to_camera()
         .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path(args).display()))?;
-    let k = start.intrinsics;
-    let fit = calib::fit_flat_field(&flat_pixels, &dark_pixels, [k.cx, k.cy], k.fx).with_context(
-        || {
+    let ki = start.intrinsics;
+    let fit = calib::fit_flat_field(&flat_pixels, &dark_pixels, [ki.cx, ki.cy], ki.fx)
+        .with_context(|| {
             format!(
-                "camera {}: flat field {} with dark frame {}",
-                nominal.id,
-                flat.display(),
-                dark.display()
+                "{camera}: flat field {} with dark frame {}",
+                flats.paths[0].display(),
+                darks.paths[0].display()
             )
-        },
-    )?;
-    Ok((Illumination::Radial(fit.model.clone()), Some(fit)))
+        })?;
+    let sensor = super::sensor::calibrate(&flats, &darks, &|u, v| fit.model.at(u, v))
+        .with_context(|| camera.clone())?;
+    Ok(Radiometry {
+        illumination: Illumination::Radial(fit.model.clone()),
+        flat_fit: Some(fit),
+        sensor: Some(sensor),
+    })
 }
 
 /// One camera to calibrate: its id and sensor size, and its nominal
@@ -240,6 +251,8 @@ struct Calibrated {
     residuals: Vec<ResidualRow>,
     commissioning: CameraInput,
     yaml: (PathBuf, String),
+    /// The sensor's per-pixel map files (path, bytes).
+    map_files: Vec<(PathBuf, Vec<u8>)>,
 }
 
 /// Run the command: (1) read and check the inputs, (2) plan the outputs,
@@ -425,6 +438,9 @@ fn plan_outputs(args: &Args, cameras: &[CameraSpec]) -> Result<OutputPlan> {
         .file(beside(&args.out, ".commissioning.json"));
     for c in cameras {
         output.file(beside(&args.out, &format!(".cam{}.opencv.yml", c.id)));
+        if !args.flat_fields.is_empty() {
+            super::sensor::plan_maps(&mut output, &args.out, c.id);
+        }
     }
     output.check()?;
     Ok(output)
@@ -443,10 +459,20 @@ fn calibrate_camera(
     reader: &mut FrameReader,
 ) -> Result<Calibrated> {
     let id = camera.id;
-    let (illumination, flat_fit) = match &camera.nominal {
-        Some(nominal) => illumination(args, k, nominal, reader)?,
-        None => (Illumination::Ideal, None),
+    let radiometry = match &camera.nominal {
+        Some(nominal) => radiometry(args, k, nominal, reader)?,
+        None => Radiometry {
+            illumination: Illumination::Ideal,
+            flat_fit: None,
+            sensor: None,
+        },
     };
+    let Radiometry {
+        illumination,
+        flat_fit,
+        sensor,
+    } = radiometry;
+    let maps = sensor.as_ref().map(|s| &s.maps).filter(|m| !m.is_identity());
     let (observations, cal, matching) = match (extraction, &camera.nominal) {
         (Some((backend, params)), Some(nominal)) => from_image(
             args,
@@ -456,6 +482,7 @@ fn calibrate_camera(
             backend.as_ref(),
             params,
             &illumination,
+            maps,
             reader,
         )?,
         _ => from_points(setup, camera, input)?,
@@ -488,6 +515,12 @@ fn calibrate_camera(
         .collect();
     let mut entry = RigCamera::new(id, &cal.camera, cal.rms_px, cal.points_used());
     entry.relative_illumination = illumination_json(&illumination, flat_fit.as_ref(), args, k)?;
+    let mut map_files = Vec::new();
+    if let Some(cal) = &sensor {
+        let (files, names) = super::sensor::encode_maps(cal, &args.out, id)?;
+        entry.sensor = Some(super::sensor::record(cal, names)?);
+        map_files = files;
+    }
     entry.extra = record(&cal, input, setup.spheres, matching).to_keys()?;
     let yaml = (
         beside(&args.out, &format!(".cam{id}.opencv.yml")),
@@ -503,8 +536,10 @@ fn calibrate_camera(
             optics: camera.nominal.as_ref().map(optics),
             illumination,
             flat_field: flat_fit,
+            sensor: entry.sensor.clone(),
         },
         yaml,
+        map_files,
     })
 }
 
@@ -520,6 +555,7 @@ fn from_image(
     backend: &dyn extract::Backend,
     params: &extract::ExtractParams,
     illumination: &Illumination,
+    maps: Option<&sensor::SensorMaps>,
     reader: &mut FrameReader,
 ) -> Result<(Vec<calib::Observation>, Calibration, Matching)> {
     let id = nominal.id;
@@ -528,7 +564,9 @@ fn from_image(
     let start = nominal
         .to_camera()
         .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path.display()))?;
-    let (frame, _) = reader.read(input).with_context(context)?;
+    let (raw, _) = reader.read(input).with_context(context)?;
+    let corrected = super::sensor::corrected(raw, maps).with_context(context)?;
+    let frame = corrected.as_ref().map_or(raw, extract::Frame::view);
     if frame.width != nominal.width || frame.height != nominal.height {
         bail!(
             "{}: the image is {}×{} px, but {} gives this camera {}×{} px",
@@ -604,6 +642,9 @@ fn write_outputs(
 ) -> Result<()> {
     for c in &calibrated {
         output.write_bytes(&c.yaml.0, c.yaml.1.as_bytes())?;
+        for (path, bytes) in &c.map_files {
+            output.write_bytes(path, bytes)?;
+        }
     }
     let mut rig = Rig {
         cameras: Vec::new(),

@@ -10,6 +10,7 @@ use extract::{Backend, Denoise, ExtractParams, Threshold, Weighting};
 use formats::{BlobRow, OutputPlan, ProblemRow};
 
 use crate::cmd::backend::{BackendChoice, select_backend};
+use crate::cmd::sensor::Stack;
 use crate::cmd::{Finished, OrUsage, progress};
 
 /// Centroid weighting.
@@ -143,12 +144,15 @@ pub struct Args {
     /// Replace existing outputs (the CSV and <stem>.problems.csv beside it).
     #[arg(long)]
     force: bool,
-    /// Flat-field frame of the camera (a uniform radiance source filling the
-    /// view, same settings as the images): centroids are flat-field corrected
-    /// by the lens's relative illumination fitted from it.
+    /// Flat-field frame of the camera, or a folder holding a stack of them (a
+    /// uniform radiance source filling the view, same settings as the
+    /// images): centroids are flat-field corrected by the lens's relative
+    /// illumination fitted from it; a stack also gives the per-pixel gain
+    /// map and defective pixels (docs/sensor.md).
     #[arg(long, requires = "dark_frame")]
     flat_field: Option<PathBuf>,
-    /// Dark frame of the camera (lens capped), with --flat-field.
+    /// Dark frame of the camera (lens capped), or a folder holding a stack of
+    /// them, with --flat-field: a stack gives the per-pixel master dark and hot pixels.
     #[arg(long, requires = "flat_field")]
     dark_frame: Option<PathBuf>,
     /// Images (8/16-bit grayscale TIFF or PNG) or folders of them.
@@ -192,33 +196,40 @@ pub fn problems_path(out: &Path) -> PathBuf {
     formats::beside(out, "out", ".problems.csv")
 }
 
-/// The lens's relative illumination from a flat field and a dark frame,
-/// without a camera model: centre started at the image centre, ρ scaled by
-/// half the image diagonal.
-fn fit_flat_field(flat: &Path, dark: &Path, max_pixels: u64) -> Result<geom::RadialIllumination> {
+/// The lens's relative illumination from a flat field and a dark frame
+/// (the first of each stack), without a camera model: centre started at the
+/// image centre, ρ scaled by half the image diagonal; then the sensor's
+/// per-pixel calibration from the stacks against it.
+fn fit_flat_field(
+    flat: &Path,
+    dark: &Path,
+    max_pixels: u64,
+) -> Result<(geom::RadialIllumination, sensor::SensorCalibration)> {
     let mut reader = extract::FrameReader::new().limit_pixels(max_pixels);
-    let (f, _) = reader.read(flat)?;
-    let (values, width, height, saturation) = (f.pixels.to_vec(), f.width, f.height, f.max_value());
-    let (centre, half_diagonal) = (f.centre_px(), f.half_diagonal_px());
-    let (d, _) = reader.read(dark)?;
+    let flats = Stack::read(flat, &mut reader, None, "the camera")?;
+    let first = flats.first().map(|f| (f.width, f.height));
+    let darks = Stack::read(dark, &mut reader, first, "its flat field")?;
+    let (Some(f), Some(d)) = (flats.first(), darks.first()) else {
+        bail!("an empty stack of flat fields or dark frames");
+    };
+    let view = f.view();
+    let (centre, half_diagonal) = (view.centre_px(), view.half_diagonal_px());
     let flat_px = calib::Pixels {
-        values: &values,
-        width,
-        height,
-        saturation,
+        values: &f.pixels,
+        width: f.width,
+        height: f.height,
+        saturation: view.max_value(),
     };
     let dark_px = calib::Pixels {
-        values: d.pixels,
-        width: d.width,
-        height: d.height,
-        saturation: d.max_value(),
+        values: &d.pixels,
+        ..flat_px
     };
     let fit =
         calib::fit_flat_field(&flat_px, &dark_px, centre, half_diagonal).with_context(|| {
             format!(
                 "flat field {} with dark frame {}",
-                flat.display(),
-                dark.display()
+                flats.paths[0].display(),
+                darks.paths[0].display()
             )
         })?;
     eprintln!(
@@ -234,7 +245,9 @@ fn fit_flat_field(flat: &Path, dark: &Path, max_pixels: u64) -> Result<geom::Rad
     if let Some(w) = &fit.warning {
         eprintln!("trinocular: warning: flat field {}: {w}", flat.display());
     }
-    Ok(fit.model)
+    let sensor = super::sensor::calibrate(&flats, &darks, &|u, v| fit.model.at(u, v))?;
+    eprintln!("trinocular: sensor: {}; {}", sensor.dark_note, sensor.gain_note);
+    Ok((fit.model, sensor))
 }
 
 /// Print the notes of an output plan (a stale lock taken over).
@@ -313,6 +326,7 @@ fn blob_rows<'a>(
 ) -> impl Iterator<Item = BlobRow> + 'a {
     frame.blobs.iter().enumerate().map(move |(i, b)| {
         let e = b.ellipse();
+        let defect_pixels = frame.defect_pixels.get(i).copied();
         BlobRow {
             image: name.to_string(),
             blob: i as u32,
@@ -334,6 +348,7 @@ fn blob_rows<'a>(
             camera_serial: frame.metadata.serial.clone(),
             datetime: frame.metadata.datetime.clone(),
             exposure_s: frame.metadata.exposure_s,
+            defect_pixels,
         }
     })
 }
@@ -364,6 +379,10 @@ pub fn run(args: &Args) -> Result<()> {
         (Some(flat), Some(dark)) => Some(fit_flat_field(flat, dark, params.max_pixels)?),
         _ => None,
     };
+    let radiometry = flat_field.as_ref().map(|(ri, sensor)| extract::Radiometry {
+        illumination: ri,
+        sensor: Some(&sensor.maps),
+    });
     let mut out = plan.create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);
     let mut tally = Tally::default();
@@ -405,8 +424,8 @@ pub fn run(args: &Args) -> Result<()> {
             }
         }
     };
-    match &flat_field {
-        Some(ri) => extract::extract_files_flat(&files, backend.as_ref(), &params, depth, ri, sink),
+    match radiometry {
+        Some(r) => extract::extract_files_flat(&files, backend.as_ref(), &params, depth, r, sink),
         None => extract::extract_files(&files, backend.as_ref(), &params, depth, sink),
     }
     bar.finish_and_clear();

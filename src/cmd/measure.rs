@@ -73,6 +73,7 @@ pub fn run(args: &Args) -> Result<()> {
         extract: args.extract.params()?,
     };
     let backend = args.extract.backend()?;
+    let sensor = super::sensor::rig_maps(&args.rig, &rig)?;
     let mut output = OutputPlan::new(args.force);
     output.input(&args.rig).input(&args.spheres);
     let bar = progress::bar(0, "measure");
@@ -81,6 +82,7 @@ pub fn run(args: &Args) -> Result<()> {
             manifest: &args.manifest,
             rig: &rig,
             spheres: &spheres,
+            sensor: &sensor,
         },
         &args.out,
         &options,

@@ -11,6 +11,7 @@ pub mod manifest;
 pub mod measure;
 pub mod probe;
 pub mod progress;
+pub mod sensor;
 pub mod synth;
 pub mod values;
 

@@ -102,6 +102,7 @@ pub fn measure_with(
             manifest: &dir.join("manifest.csv"),
             rig: &rig,
             spheres: &spheres,
+            sensor: &Default::default(),
         },
         &dir.join(out),
         options,

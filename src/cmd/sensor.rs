@@ -1,0 +1,312 @@
+//! The sensor's per-pixel calibration on the command line (docs/sensor.md):
+//! a stack of flat fields and one of dark frames per camera, each a file or a
+//! folder of frames, calibrated by `sensor::calibrate`; the maps written
+//! beside `rig.json` (`R.cam{k}.dark.tif`, `.gain.tif`, `.defects.tif`) and
+//! recorded in it with their checksums; read back, checked, for `measure`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use extract::{Frame, FrameReader};
+use formats::{MapFile, OutputPlan, SensorJson, SensorMapFiles};
+use sensor::{SensorCalibration, SensorMaps, StackKind};
+
+use super::extract::expand_images;
+
+/// The frames of one stack, in file-name order.
+pub struct Stack {
+    /// What the user named: a file or a folder.
+    pub input: PathBuf,
+    /// The frames' files.
+    pub paths: Vec<PathBuf>,
+    frames: Vec<Frame>,
+    exposures: Vec<Option<f64>>,
+}
+
+impl Stack {
+    /// Read the frames of `input` (a file, or a folder of TIFF and PNG
+    /// frames); each must be `size` px when given (`camera` names it).
+    pub fn read(
+        input: &Path,
+        reader: &mut FrameReader,
+        size: Option<(u32, u32)>,
+        camera: &str,
+    ) -> Result<Self> {
+        let paths = expand_images(std::slice::from_ref(&input.to_path_buf()))?;
+        let mut frames = Vec::with_capacity(paths.len());
+        let mut exposures = Vec::with_capacity(paths.len());
+        for path in &paths {
+            let (view, meta) = reader.read(path)?;
+            if let Some((w, h)) = size
+                && (view.width, view.height) != (w, h)
+            {
+                bail!(
+                    "{}: the image is {}×{} px, but {camera} is {w}×{h} px",
+                    path.display(),
+                    view.width,
+                    view.height
+                );
+            }
+            frames.push(Frame {
+                width: view.width,
+                height: view.height,
+                bit_depth: view.bit_depth,
+                pixels: view.pixels.to_vec(),
+            });
+            exposures.push(meta.exposure_s);
+        }
+        Ok(Self {
+            input: input.to_path_buf(),
+            paths,
+            frames,
+            exposures,
+        })
+    }
+
+    /// The frames as the sensor crate takes them.
+    pub fn frames(&self) -> Vec<sensor::Frame<'_>> {
+        self.frames
+            .iter()
+            .zip(&self.exposures)
+            .map(|(f, &exposure_s)| sensor::Frame {
+                values: &f.pixels,
+                width: f.width,
+                height: f.height,
+                container_bits: f.bit_depth,
+                exposure_s,
+            })
+            .collect()
+    }
+
+    /// The first frame (a stack is never empty).
+    pub fn first(&self) -> Option<&Frame> {
+        self.frames.first()
+    }
+
+    /// How the stack is named in messages: the file, or the folder and its count.
+    fn describe(&self) -> String {
+        match self.paths.as_slice() {
+            [one] if one == &self.input => one.display().to_string(),
+            paths => format!("{} ({} frames)", self.input.display(), paths.len()),
+        }
+    }
+
+    /// An error of the sensor crate about this stack, naming the file of the
+    /// frame it names.
+    fn error(&self, e: sensor::SensorError) -> anyhow::Error {
+        match e.frame().and_then(|i| self.paths.get(i)) {
+            Some(path) => anyhow::anyhow!("{}: {e}", path.display()),
+            None => anyhow::anyhow!("{}: {e}", self.describe()),
+        }
+    }
+}
+
+/// The sensor calibration of one camera from its stacks; `smooth` is the
+/// lens's relative illumination (any scale) the gain map is taken against.
+/// Every refusal names the file (or the stack) and what is wrong.
+pub fn calibrate(
+    flats: &Stack,
+    darks: &Stack,
+    smooth: &dyn Fn(f64, f64) -> f64,
+) -> Result<SensorCalibration> {
+    let (f, d) = (flats.frames(), darks.frames());
+    sensor::check_stack(&f, StackKind::Flat).map_err(|e| flats.error(e))?;
+    sensor::check_stack(&d, StackKind::Dark).map_err(|e| darks.error(e))?;
+    sensor::calibrate(&f, &d, smooth, &sensor::Options::default()).map_err(|e| {
+        match e.stack() {
+            Some(StackKind::Dark) => darks.error(e),
+            Some(StackKind::Flat) => flats.error(e),
+            None => anyhow::anyhow!(
+                "flat fields {} with dark frames {}: {e}",
+                flats.describe(),
+                darks.describe()
+            ),
+        }
+    })
+}
+
+/// `frame` corrected with a camera's sensor maps; `None` without maps (or
+/// with maps that change nothing): the frame is used as it is.
+pub fn corrected(
+    frame: extract::FrameView<'_>,
+    maps: Option<&SensorMaps>,
+) -> Result<Option<Frame>> {
+    match maps.filter(|m| !m.is_identity()) {
+        Some(m) => Ok(Some(frame.corrected(m)?)),
+        None => Ok(None),
+    }
+}
+
+/// The map files of camera `id` beside `out` (`rig.json`), in the order
+/// dark, gain, defects.
+pub fn map_paths(out: &Path, id: u8) -> [PathBuf; 3] {
+    ["dark", "gain", "defects"].map(|m| formats::beside(out, "rig", &format!(".cam{id}.{m}.tif")))
+}
+
+/// Plan the map files of camera `id`.
+pub fn plan_maps(output: &mut OutputPlan, out: &Path, id: u8) {
+    for path in map_paths(out, id) {
+        output.file(path);
+    }
+}
+
+/// The encoded map files of a calibration (only the maps that are applied,
+/// and the defect map), with the record that names them.
+pub fn encode_maps(
+    cal: &SensorCalibration,
+    out: &Path,
+    id: u8,
+) -> Result<(Vec<(PathBuf, Vec<u8>)>, SensorMapFiles)> {
+    let maps = &cal.maps;
+    let [dark_path, gain_path, defects_path] = map_paths(out, id);
+    let mut files = Vec::new();
+    let mut record = SensorMapFiles::default();
+    let mut add = |path: PathBuf, bytes: Vec<u8>| -> MapFile {
+        let entry = MapFile {
+            file: path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            crc32: sensor::maps::checksum(&bytes),
+        };
+        files.push((path, bytes));
+        entry
+    };
+    if let Some(dark) = &maps.dark {
+        record.dark = Some(add(
+            dark_path,
+            sensor::maps::encode_f32(dark, maps.width, maps.height)?,
+        ));
+    }
+    if let Some(gain) = &maps.gain {
+        record.gain = Some(add(
+            gain_path,
+            sensor::maps::encode_f32(gain, maps.width, maps.height)?,
+        ));
+    }
+    record.defects = Some(add(
+        defects_path,
+        sensor::maps::encode_u8(&maps.defects.codes(), maps.width, maps.height)?,
+    ));
+    Ok((files, record))
+}
+
+/// `rig.json`'s `sensor` record of a calibration whose maps are `maps`.
+pub fn record(cal: &SensorCalibration, maps: SensorMapFiles) -> Result<SensorJson> {
+    let d = &cal.maps.defects;
+    let clusters = d.clusters.iter().filter(|c| c.pixels > 1).count();
+    let mut extra = serde_json::Map::new();
+    extra.insert("dark_note".into(), cal.dark_note.clone().into());
+    extra.insert("gain_note".into(), cal.gain_note.clone().into());
+    if let Some(note) = &cal.transfer_note {
+        extra.insert("transfer_note".into(), note.clone().into());
+    }
+    Ok(SensorJson {
+        adc_bits: cal.adc.adc_bits,
+        container_bits: cal.adc.container_bits,
+        gain_dn_per_e: cal.transfer.as_ref().map(|t| t.gain_dn_per_e),
+        read_noise_e: cal.transfer.as_ref().map(|t| t.read_noise_e),
+        prnu: cal.prnu,
+        dsnu_dn: cal.dsnu_dn,
+        column_dsnu_dn: cal.column_dsnu_dn,
+        black_level_dn: f64::from(cal.maps.black_level_dn),
+        saturation_dn: cal.maps.saturation,
+        defects: formats::DefectCounts {
+            hot: d.count(sensor::DefectKind::Hot),
+            dead: d.count(sensor::DefectKind::Dead),
+            weak: d.count(sensor::DefectKind::Weak),
+            strong: d.count(sensor::DefectKind::Strong),
+            clusters,
+        },
+        stack: formats::StackRecord {
+            flats: cal.flats,
+            darks: cal.darks,
+            flat_noise_dn: cal.flat_noise_dn,
+            dark_noise_dn: cal.dark_noise_dn,
+        },
+        maps,
+        extra,
+    })
+}
+
+/// Read one map file named in `rig` (relative to its folder) and check its checksum.
+fn read_map(rig: &Path, map: &MapFile) -> Result<Vec<u8>> {
+    let path = formats::folder_of(rig).join(&map.file);
+    let bytes = std::fs::read(&path)
+        .with_context(|| format!("{}: the map {} named in it", rig.display(), path.display()))?;
+    let crc = sensor::maps::checksum(&bytes);
+    if crc != map.crc32 {
+        bail!(
+            "{}: its checksum is {crc}, but {} records {} (the file was changed or replaced)",
+            path.display(),
+            rig.display(),
+            map.crc32
+        );
+    }
+    Ok(bytes)
+}
+
+/// The per-pixel maps of a camera of `rig.json` (`rig` its path), read and
+/// checked against the record and the camera's size.
+pub fn load_maps(rig: &Path, id: u8, size: (u32, u32), record: &SensorJson) -> Result<SensorMaps> {
+    let in_file = |map: &MapFile| formats::folder_of(rig).join(&map.file);
+    let checked = |map: &MapFile, (w, h): (u32, u32)| -> Result<()> {
+        if (w, h) != size {
+            bail!(
+                "{}: the map is {w}×{h} px, but camera {id} is {}×{} px",
+                in_file(map).display(),
+                size.0,
+                size.1
+            );
+        }
+        Ok(())
+    };
+    let f32_map = |map: &Option<MapFile>| -> Result<Option<Vec<f32>>> {
+        let Some(map) = map else { return Ok(None) };
+        let (values, w, h) = sensor::maps::decode_f32(&read_map(rig, map)?)
+            .with_context(|| in_file(map).display().to_string())?;
+        checked(map, (w, h))?;
+        Ok(Some(values))
+    };
+    let dark = f32_map(&record.maps.dark)?;
+    let gain = f32_map(&record.maps.gain)?;
+    let defects = match &record.maps.defects {
+        Some(map) => {
+            let (codes, w, h) = sensor::maps::decode_u8(&read_map(rig, map)?)
+                .with_context(|| in_file(map).display().to_string())?;
+            checked(map, (w, h))?;
+            sensor::DefectMap::from_codes(w, h, &codes)
+                .with_context(|| in_file(map).display().to_string())?
+        }
+        None => sensor::DefectMap::from_codes(
+            size.0,
+            size.1,
+            &vec![0; size.0 as usize * size.1 as usize],
+        )?,
+    };
+    Ok(SensorMaps {
+        width: size.0,
+        height: size.1,
+        black_level_dn: record.black_level_dn as f32,
+        dark,
+        gain,
+        defects,
+        saturation: record.saturation_dn,
+    })
+}
+
+/// The per-pixel maps of every camera of `rig` (read from `path`) that has
+/// them, by camera id.
+pub fn rig_maps(path: &Path, rig: &formats::Rig) -> Result<BTreeMap<u8, SensorMaps>> {
+    let mut maps = BTreeMap::new();
+    for c in &rig.cameras {
+        if let Some(record) = &c.sensor {
+            let id = c.model.id;
+            let m = load_maps(path, id, (c.model.width, c.model.height), record)
+                .with_context(|| format!("{}: camera {id}", path.display()))?;
+            maps.insert(id, m);
+        }
+    }
+    Ok(maps)
+}
