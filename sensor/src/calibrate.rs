@@ -196,7 +196,7 @@ pub fn calibrate(
     let gain_noise = noise.map(|_| noise_var.sqrt());
 
     let ratio = options.useful_noise_ratio;
-    let (dark_model, dark_note) = dsnu.decide(ratio, dark.frames);
+    let (dark_model, dark_note) = dsnu.decide(ratio, dark.frames, lines.black);
     let signal_dn = flat.level_dn - dark.level_dn;
     let (use_gain, gain_note) =
         decide_gain(ratio, prnu, gain_noise, flat.frames, dark.frames, signal_dn);
@@ -354,40 +354,43 @@ impl DarkPattern {
     }
 
     /// The dark model and why, with the numbers.
-    fn decide(&self, ratio: f64, frames: usize) -> (DarkModel, String) {
+    fn decide(&self, ratio: f64, frames: usize, black_dn: f64) -> (DarkModel, String) {
         let pixel_useful = self.pixel_noise.is_some_and(|n| n <= ratio * self.pixel);
         let lines_useful = self.lines > 0.0 && self.lines_noise <= ratio * self.lines;
+        let verdict = |used: bool| if used { "used" } else { "not used" };
+        let why_not = if lines_useful {
+            String::new()
+        } else {
+            format!(": not ≤ {ratio} × the pattern")
+        };
         let lines_text = format!(
-            "the column/row pattern ({:.2} DN, estimated to {:.2} DN from whole lines)",
-            self.lines, self.lines_noise
+            "column/row pattern {} ({:.2} DN, estimated to {:.2} DN from whole lines{why_not})",
+            verdict(lines_useful),
+            self.lines,
+            self.lines_noise,
         );
         let pixel_text = match self.pixel_noise {
             Some(n) => format!(
-                "the per-pixel master dark: its noise {n:.2} DN ({frames} frames) is {} \
-                 {ratio} × the pixel DSNU {:.2} DN it corrects beyond the lines",
+                "per-pixel master dark {}: its noise {n:.2} DN ({frames} frames) is {} {ratio} × \
+                 the pixel DSNU {:.2} DN it corrects beyond the column/row pattern",
+                verdict(pixel_useful),
                 if pixel_useful { "≤" } else { "not ≤" },
                 self.pixel
             ),
             None => format!(
-                "the per-pixel master dark: a single dark frame, whose temporal noise cannot be \
-                 measured and is part of its pixel pattern of {:.2} DN",
+                "per-pixel master dark not used: a single dark frame, whose temporal noise \
+                 cannot be measured and is part of its pixel pattern of {:.2} DN",
                 self.pixel
             ),
         };
         if pixel_useful {
-            (DarkModel::PerPixel, format!("used {pixel_text}"))
+            (DarkModel::PerPixel, pixel_text)
         } else if lines_useful {
-            (
-                DarkModel::Lines,
-                format!("used {lines_text} over the black level; not used {pixel_text}"),
-            )
+            (DarkModel::Lines, format!("{lines_text}; {pixel_text}"))
         } else {
             (
                 DarkModel::Scalar,
-                format!(
-                    "the scalar black level only; not used {lines_text} (noise not ≤ {ratio} × \
-                     the pattern, or no pattern), nor {pixel_text}"
-                ),
+                format!("scalar black level {black_dn:.1} DN only: {lines_text}; {pixel_text}"),
             )
         }
     }
@@ -428,9 +431,9 @@ fn decide_gain(
             format!(
                 "smooth model kept, gain map not used: the noise of a gain map from {flats} \
                  flat(s) and {darks} dark(s) cannot be measured (that needs ≥ 2 of each), and a \
-                 single flat's shot noise per pixel, 1/√electrons (≈ 1 % at 10 000 e⁻, e.g. \
-                 30 000 DN at 3 DN/e⁻), is as large as a typical PRNU; this map's spread, PRNU \
-                 and noise together, is {:.3} %",
+                 single flat's shot noise per pixel, 1/√electrons (≈ 1 % at 10 000 e⁻, as in a \
+                 flat at 30 000 DN at 3 DN/e⁻), is as large as a typical PRNU; this map's \
+                 spread, PRNU and noise together, is {:.3} %",
                 prnu * 100.0
             ),
         ),

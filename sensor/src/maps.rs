@@ -11,7 +11,7 @@ use std::io::Cursor;
 
 use formats::limits::{DEFAULT_MAX_PIXELS, check_image_size};
 use tiff::decoder::{Decoder, DecodingResult, Limits};
-use tiff::encoder::{Compression, DeflateLevel, TiffEncoder, colortype};
+use tiff::encoder::{Compression, DeflateLevel, TiffEncoder, TiffValue, colortype};
 use tiff::tags::{CompressionMethod, SampleFormat, Tag};
 
 use crate::{Result, SensorError};
@@ -73,15 +73,7 @@ fn tiff_error(e: tiff::TiffError) -> SensorError {
 
 /// 32-bit float, one-channel, deflate-compressed TIFF of a map.
 pub fn encode_f32(values: &[f32], width: u32, height: u32) -> Result<Vec<u8>> {
-    check_encode(values.len(), width, height)?;
-    let mut bytes = Cursor::new(Vec::new());
-    let mut encoder = TiffEncoder::new(&mut bytes)
-        .map_err(tiff_error)?
-        .with_compression(Compression::Deflate(DeflateLevel::default()));
-    encoder
-        .write_image::<colortype::Gray32Float>(width, height, values)
-        .map_err(tiff_error)?;
-    Ok(bytes.into_inner())
+    encode::<colortype::Gray32Float>(values, width, height)
 }
 
 /// The values and size of a 32-bit float one-channel TIFF; refuses another
@@ -107,15 +99,7 @@ pub fn decode_f32(bytes: &[u8]) -> Result<(Vec<f32>, u32, u32)> {
 
 /// 8-bit one-channel, deflate-compressed TIFF (the defect codes).
 pub fn encode_u8(values: &[u8], width: u32, height: u32) -> Result<Vec<u8>> {
-    check_encode(values.len(), width, height)?;
-    let mut bytes = Cursor::new(Vec::new());
-    let mut encoder = TiffEncoder::new(&mut bytes)
-        .map_err(tiff_error)?
-        .with_compression(Compression::Deflate(DeflateLevel::default()));
-    encoder
-        .write_image::<colortype::Gray8>(width, height, values)
-        .map_err(tiff_error)?;
-    Ok(bytes.into_inner())
+    encode::<colortype::Gray8>(values, width, height)
 }
 
 /// The values and size of an 8-bit one-channel TIFF; refuses another
@@ -132,6 +116,23 @@ pub fn decode_u8(bytes: &[u8]) -> Result<(Vec<u8>, u32, u32)> {
 /// CRC-32 (IEEE) of the file's bytes as 8 lower-case hex digits.
 pub fn checksum(bytes: &[u8]) -> String {
     format!("{:08x}", crc32fast::hash(bytes))
+}
+
+/// A deflate-compressed one-channel TIFF of colour type `C`, its size
+/// checked first.
+fn encode<C: colortype::ColorType>(values: &[C::Inner], width: u32, height: u32) -> Result<Vec<u8>>
+where
+    [C::Inner]: TiffValue,
+{
+    check_encode(values.len(), width, height)?;
+    let mut bytes = Cursor::new(Vec::new());
+    let mut encoder = TiffEncoder::new(&mut bytes)
+        .map_err(tiff_error)?
+        .with_compression(Compression::Deflate(DeflateLevel::default()));
+    encoder
+        .write_image::<C>(width, height, values)
+        .map_err(tiff_error)?;
+    Ok(bytes.into_inner())
 }
 
 /// The size of a map to encode: within the limits, with its values.

@@ -33,11 +33,17 @@ pub(crate) struct NoiseModel {
     slope: f64,
     /// The smallest variance ever returned (DN²).
     floor: f64,
+    /// The range of levels the fit saw (DN): outside it the variance of its
+    /// nearest end is returned, never an extrapolation (a dead pixel of a
+    /// flat lies far below the flat's levels, where a line through them may
+    /// fall below the read noise).
+    levels: (f64, f64),
 }
 
 impl NoiseModel {
-    /// `max(a + b·level, floor)`.
+    /// `max(a + b·clamp(level), floor)`.
     pub(crate) fn variance(&self, level: f64) -> f64 {
+        let level = level.clamp(self.levels.0, self.levels.1);
         (self.intercept + self.slope * level).max(self.floor)
     }
 }
@@ -245,6 +251,7 @@ fn fit_model(sums: &[Vec<BinSums>], floor_dn2: f64) -> NoiseModel {
             intercept: 0.5 * centred / n.max(1) as f64,
             slope: 0.0,
             floor: floor_dn2,
+            levels: (0.0, 0.0),
         };
     }
     let weight: f64 = points.iter().map(|p| p.2).sum();
@@ -263,10 +270,13 @@ fn fit_model(sums: &[Vec<BinSums>], floor_dn2: f64) -> NoiseModel {
     } else {
         0.0
     };
+    let low = points.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    let high = points.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
     NoiseModel {
         intercept: mean_var - slope * mean_level,
         slope,
         floor: floor_dn2,
+        levels: (low, high),
     }
 }
 
@@ -280,12 +290,15 @@ mod tests {
             intercept: 10.0,
             slope: 0.5,
             floor: 1.0,
+            levels: (0.0, 1000.0),
         };
         assert_eq!(m.variance(100.0), 60.0);
+        assert_eq!(m.variance(2000.0), 510.0, "no extrapolation");
         let m = NoiseModel {
             intercept: -10.0,
             slope: 0.5,
             floor: 1.0,
+            levels: (0.0, 1000.0),
         };
         assert_eq!(m.variance(0.0), 1.0);
     }
