@@ -11,7 +11,14 @@
 //! decoded from bytes (`maps`), and every check that refuses a frame names
 //! the frame by its index in its stack, for the caller to name the file.
 //!
-//! API (filled in by the implementation; this list is the contract):
+//! # Conventions
+//! DN are the file's values (a 12-bit ADC written left-shifted reads in
+//! steps of 16); pixel (x, y) has its centre at (u, v) = (x, y); maps are
+//! row-major, `width × height`. Statistics are f64, maps f32. Every sum
+//! over a frame adds its rows in order (or is exact), so results do not
+//! depend on the number of threads. See `docs/sensor.md`.
+//!
+//! # API
 //! - [`Frame`], [`StackKind`]: a decoded frame with its metadata.
 //! - [`check_stack`]: the refusals of METHODS §6 / issue 24 item 8.
 //! - [`AdcDepth`], [`adc_depth`]: a 10/12/14-bit ADC written left-shifted.
@@ -26,6 +33,27 @@
 //! - `maps::{encode_f32, decode_f32, encode_u8, decode_u8, checksum}`: the
 //!   map files (32-bit float / 8-bit TIFF) and their CRC-32.
 
+mod adc;
+mod calibrate;
+mod correct;
+mod defect_map;
+mod detect;
 mod error;
+mod frame;
+mod gain;
+pub mod maps;
+mod master;
+mod order;
+mod pattern;
+mod sums;
+mod temporal;
+mod transfer;
 
+pub use adc::{AdcDepth, adc_depth};
+pub use calibrate::{DarkModel, Options, SensorCalibration, calibrate};
+pub use correct::SensorMaps;
+pub use defect_map::{Cluster, Defect, DefectKind, DefectMap};
 pub use error::{Result, SensorError};
+pub use frame::{Frame, StackKind, check_stack};
+pub use master::{Master, master};
+pub use transfer::{PhotonTransfer, photon_transfer};
