@@ -80,7 +80,11 @@ pub(crate) fn frame_blobs(
             .map(|b| {
                 b.runs
                     .iter()
-                    .map(|r| (r.x0..=r.x1).filter(|&x| maps.defects.is_defect(x, r.y)).count() as u32)
+                    .map(|r| {
+                        (r.x0..=r.x1)
+                            .filter(|&x| maps.defects.is_defect(x, r.y))
+                            .count() as u32
+                    })
                     .sum()
             })
             .collect(),
@@ -130,7 +134,10 @@ pub fn extract_file<B: Backend + ?Sized>(
     radiometry: Option<Radiometry<'_>>,
 ) -> Result<FrameBlobs> {
     let (raw, metadata) = reader.read(path)?;
-    let corrected = match radiometry.and_then(|r| r.sensor).filter(|m| !m.is_identity()) {
+    let corrected = match radiometry
+        .and_then(|r| r.sensor)
+        .filter(|m| !m.is_identity())
+    {
         Some(maps) => Some(raw.corrected(maps).map_err(|e| e.in_file(path))?),
         None => None,
     };

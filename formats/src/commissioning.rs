@@ -213,7 +213,11 @@ fn illumination_text(s: &mut String, r: &IlluminationReport) {
 fn sensor_text(s: &mut String, r: &crate::SensorJson) {
     use std::fmt::Write;
     let st = &r.stack;
-    let noise = |n: Option<f64>| n.map_or("not measured (one frame)".to_string(), |n| format!("{n:.2} DN per pixel"));
+    let noise = |n: Option<f64>| {
+        n.map_or("not measured (one frame)".to_string(), |n| {
+            format!("{n:.2} DN per pixel")
+        })
+    };
     let _ = writeln!(
         s,
         "  sensor: {}-bit ADC in {}-bit files; stacks of {} flat and {} dark frames (master flat noise {}, master dark noise {})",
@@ -232,7 +236,11 @@ fn sensor_text(s: &mut String, r: &crate::SensorJson) {
             );
         }
         _ => {
-            let note = r.extra.get("transfer_note").and_then(|v| v.as_str()).unwrap_or("not measured");
+            let note = r
+                .extra
+                .get("transfer_note")
+                .and_then(|v| v.as_str())
+                .unwrap_or("not measured");
             let _ = writeln!(s, "    photon transfer: {note}");
         }
     }

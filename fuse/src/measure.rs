@@ -302,7 +302,10 @@ impl Context<'_> {
         let result = (|| {
             let (raw, _) = reader.read(path).map_err(|e| fail(e.to_string()))?;
             let corrected = match self.sensor.get(&camera).filter(|m| !m.is_identity()) {
-                Some(maps) => Some(raw.corrected(maps).map_err(|e| fail(e.in_file(path).to_string()))?),
+                Some(maps) => Some(
+                    raw.corrected(maps)
+                        .map_err(|e| fail(e.in_file(path).to_string()))?,
+                ),
                 None => None,
             };
             let frame = corrected.as_ref().map_or(raw, extract::Frame::view);

@@ -250,3 +250,36 @@ mod tests {
         assert_eq!(exposure_text(None), "absent");
     }
 }
+
+impl SensorError {
+    /// The index of the frame at fault in its stack, when one frame is.
+    pub fn frame(&self) -> Option<usize> {
+        match self {
+            SensorError::FrameLength { frame, .. }
+            | SensorError::FrameSize { frame, .. }
+            | SensorError::InconsistentStack { frame, .. }
+            | SensorError::SizeDiffers { frame, .. }
+            | SensorError::BitDepthDiffers { frame, .. }
+            | SensorError::ExposureDiffers { frame, .. } => Some(*frame),
+            _ => None,
+        }
+    }
+
+    /// The stack at fault, when one is.
+    pub fn stack(&self) -> Option<StackKind> {
+        match self {
+            SensorError::EmptyStack { kind }
+            | SensorError::FrameLength { kind, .. }
+            | SensorError::FrameSize { kind, .. }
+            | SensorError::SizeDiffers { kind, .. }
+            | SensorError::BitDepthDiffers { kind, .. }
+            | SensorError::ExposureDiffers { kind, .. }
+            | SensorError::StackTooSmall { kind, .. } => Some(*kind),
+            SensorError::SaturatedFlat { .. } | SensorError::UnderexposedFlat { .. } => {
+                Some(StackKind::Flat)
+            }
+            SensorError::DarkWithLight { .. } => Some(StackKind::Dark),
+            _ => None,
+        }
+    }
+}

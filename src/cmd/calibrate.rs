@@ -221,7 +221,7 @@ fn radiometry(
     Ok(Radiometry {
         illumination: Illumination::Radial(fit.model.clone()),
         flat_fit: Some(fit),
-        sensor: Some(sensor),
+        sensor,
     })
 }
 
@@ -472,7 +472,10 @@ fn calibrate_camera(
         flat_fit,
         sensor,
     } = radiometry;
-    let maps = sensor.as_ref().map(|s| &s.maps).filter(|m| !m.is_identity());
+    let maps = sensor
+        .as_ref()
+        .map(|s| &s.maps)
+        .filter(|m| !m.is_identity());
     let (observations, cal, matching) = match (extraction, &camera.nominal) {
         (Some((backend, params)), Some(nominal)) => from_image(
             args,
@@ -522,6 +525,7 @@ fn calibrate_camera(
         map_files = files;
     }
     entry.extra = record(&cal, input, setup.spheres, matching).to_keys()?;
+    let sensor_record = entry.sensor.clone();
     let yaml = (
         beside(&args.out, &format!(".cam{id}.opencv.yml")),
         calib::opencv_yaml(id, &cal.camera, cal.rms_px, None),
@@ -536,7 +540,7 @@ fn calibrate_camera(
             optics: camera.nominal.as_ref().map(optics),
             illumination,
             flat_field: flat_fit,
-            sensor: entry.sensor.clone(),
+            sensor: sensor_record,
         },
         yaml,
         map_files,

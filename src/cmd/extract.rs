@@ -204,7 +204,7 @@ fn fit_flat_field(
     flat: &Path,
     dark: &Path,
     max_pixels: u64,
-) -> Result<(geom::RadialIllumination, sensor::SensorCalibration)> {
+) -> Result<(geom::RadialIllumination, Option<sensor::SensorCalibration>)> {
     let mut reader = extract::FrameReader::new().limit_pixels(max_pixels);
     let flats = Stack::read(flat, &mut reader, None, "the camera")?;
     let first = flats.first().map(|f| (f.width, f.height));
@@ -246,7 +246,9 @@ fn fit_flat_field(
         eprintln!("trinocular: warning: flat field {}: {w}", flat.display());
     }
     let sensor = super::sensor::calibrate(&flats, &darks, &|u, v| fit.model.at(u, v))?;
-    eprintln!("trinocular: sensor: {}; {}", sensor.dark_note, sensor.gain_note);
+    if let Some(s) = &sensor {
+        eprintln!("trinocular: sensor: {}; {}", s.dark_note, s.gain_note);
+    }
     Ok((fit.model, sensor))
 }
 
@@ -381,7 +383,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let radiometry = flat_field.as_ref().map(|(ri, sensor)| extract::Radiometry {
         illumination: ri,
-        sensor: Some(&sensor.maps),
+        sensor: sensor.as_ref().map(|s| &s.maps),
     });
     let mut out = plan.create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);

@@ -74,6 +74,12 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let backend = args.extract.backend()?;
     let sensor = super::sensor::rig_maps(&args.rig, &rig)?;
+    for (id, maps) in sensor.iter().filter(|(_, m)| !m.is_identity()) {
+        eprintln!(
+            "trinocular: note: camera {id}: frames corrected pixel by pixel ({})",
+            super::sensor::describe(maps)
+        );
+    }
     let mut output = OutputPlan::new(args.force);
     output.input(&args.rig).input(&args.spheres);
     let bar = progress::bar(0, "measure");

@@ -79,6 +79,12 @@ impl Stack {
             .collect()
     }
 
+    /// Whether the user gave a folder: a stack, from which per-pixel maps
+    /// are wanted. A single file gives the lens's relative illumination only.
+    pub fn is_stack(&self) -> bool {
+        self.input.is_dir()
+    }
+
     /// The first frame (a stack is never empty).
     pub fn first(&self) -> Option<&Frame> {
         self.frames.first()
@@ -104,26 +110,33 @@ impl Stack {
 
 /// The sensor calibration of one camera from its stacks; `smooth` is the
 /// lens's relative illumination (any scale) the gain map is taken against.
-/// Every refusal names the file (or the stack) and what is wrong.
+/// `None` when neither is a stack (a single flat field and dark frame give
+/// the relative illumination alone, as before stacks). Every refusal names
+/// the file (or the stack) and what is wrong; a stack needs ≥ 2 frames.
 pub fn calibrate(
     flats: &Stack,
     darks: &Stack,
     smooth: &dyn Fn(f64, f64) -> f64,
-) -> Result<SensorCalibration> {
+) -> Result<Option<SensorCalibration>> {
+    if !flats.is_stack() && !darks.is_stack() {
+        return Ok(None);
+    }
     let (f, d) = (flats.frames(), darks.frames());
     sensor::check_stack(&f, StackKind::Flat).map_err(|e| flats.error(e))?;
     sensor::check_stack(&d, StackKind::Dark).map_err(|e| darks.error(e))?;
-    sensor::calibrate(&f, &d, smooth, &sensor::Options::default()).map_err(|e| {
-        match e.stack() {
-            Some(StackKind::Dark) => darks.error(e),
-            Some(StackKind::Flat) => flats.error(e),
-            None => anyhow::anyhow!(
-                "flat fields {} with dark frames {}: {e}",
-                flats.describe(),
-                darks.describe()
-            ),
-        }
-    })
+    let cal =
+        sensor::calibrate(&f, &d, smooth, &sensor::Options::default()).map_err(|e| {
+            match e.stack() {
+                Some(StackKind::Dark) => darks.error(e),
+                Some(StackKind::Flat) => flats.error(e),
+                None => anyhow::anyhow!(
+                    "flat fields {} with dark frames {}: {e}",
+                    flats.describe(),
+                    darks.describe()
+                ),
+            }
+        })?;
+    Ok(Some(cal))
 }
 
 /// `frame` corrected with a camera's sensor maps; `None` without maps (or
@@ -136,6 +149,25 @@ pub fn corrected(
         Some(m) => Ok(Some(frame.corrected(m)?)),
         None => Ok(None),
     }
+}
+
+/// What a camera's maps correct, for notes: "master dark, gain map, 12 defective pixels".
+pub fn describe(maps: &SensorMaps) -> String {
+    let mut parts = Vec::new();
+    if maps.dark.is_some() {
+        parts.push("master dark".to_string());
+    }
+    if maps.gain.is_some() {
+        parts.push("gain map".to_string());
+    }
+    let n = maps.defects.defects.len();
+    if n > 0 || parts.is_empty() {
+        parts.push(format!(
+            "{n} defective pixel{}",
+            if n == 1 { "" } else { "s" }
+        ));
+    }
+    parts.join(", ")
 }
 
 /// The map files of camera `id` beside `out` (`rig.json`), in the order
