@@ -347,3 +347,22 @@ fn two_frames_give_the_plain_mean_and_one_frame_no_temporal_noise() {
         "{e}"
     );
 }
+
+#[test]
+fn a_spike_does_not_inflate_the_temporal_noise_of_a_dark() {
+    // A 5000 DN event in one dark frame: in the two differences it enters
+    // it would add ½·2·5000²/(15·49152) = 34 DN² to σ²_y.dark ≈ 420 DN²
+    // (8 %, and 4 % on the read noise); it is 175σ of a difference, so the
+    // 6σ clip leaves it out and σ²_y.dark stays within 0.1 % (a clean
+    // sample clipped at 6σ: 2·10⁻⁹ of them).
+    let sensor = Sensor::twelve_bit(&Pattern::realistic(), 45);
+    let clean = sensor.stack(&|_, _| 0.0, 16, 7);
+    let mut spiked = clean.clone();
+    spiked[3][60 * sensor.width + 60] += 5000;
+    let saturation = sensor.saturation();
+    let a = master(&frames(&spiked, &sensor, None), saturation).unwrap();
+    let b = master(&frames(&clean, &sensor, None), saturation).unwrap();
+    let (a, b) = (a.temporal_var_dn2.unwrap(), b.temporal_var_dn2.unwrap());
+    eprintln!("σ²_y.dark: {a:.2} DN² with the event, {b:.2} DN² without");
+    assert!((a / b - 1.0).abs() < 1e-3, "{a} {b}");
+}
