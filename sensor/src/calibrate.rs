@@ -15,7 +15,7 @@ use crate::adc::{AdcDepth, adc_depth};
 use crate::correct::SensorMaps;
 use crate::defect_map::DefectMap;
 use crate::detect::{Criteria, defect_codes};
-use crate::frame::{Frame, StackKind, check_same_camera, check_stack};
+use crate::frame::{Frame, StackKind, check_same_camera, check_stack, same_exposure};
 use crate::gain::{StackNoise, gain_map, gain_variances};
 use crate::master::{Master, master};
 use crate::pattern::{
@@ -220,7 +220,13 @@ pub fn calibrate(
         row_dsnu_dn: dsnu.rows,
         prnu,
         gain_noise,
-        transfer_note: transfer_note(transfer.as_ref(), &flat, &dark, adc),
+        transfer_note: transfer_note(
+            transfer.as_ref(),
+            &flat,
+            &dark,
+            adc,
+            exposures(flats, darks),
+        ),
         transfer,
         maps,
         dark_model,
@@ -465,21 +471,32 @@ fn neutral_at_defects(mut gain: Vec<f32>, codes: &[u8]) -> Vec<f32> {
     gain
 }
 
-/// Why photon transfer is missing, or what limits its read noise.
+/// The exposure times (s) of the flats and the darks when both are known
+/// and differ.
+fn exposures(flats: &[Frame<'_>], darks: &[Frame<'_>]) -> Option<(f64, f64)> {
+    let flat = flats.first()?.exposure_s?;
+    let dark = darks.first()?.exposure_s?;
+    (!same_exposure(Some(flat), Some(dark))).then_some((flat, dark))
+}
+
+/// Why photon transfer is missing, or what limits it: the read noise below
+/// the quantisation noise, darks of another exposure than the flats.
 fn transfer_note(
     transfer: Option<&PhotonTransfer>,
     flat: &Master,
     dark: &Master,
     adc: AdcDepth,
+    exposures: Option<(f64, f64)>,
 ) -> Option<String> {
+    let mut notes = Vec::new();
     match transfer {
-        None => Some(format!(
+        None => notes.push(format!(
             "no photon transfer: it needs ≥ {TRANSFER_FRAMES} flats and ≥ {TRANSFER_FRAMES} \
              darks (the temporal noise is ½·var(A − B) of a pair), the stacks hold {} flat(s) \
              and {} dark(s)",
             flat.frames, dark.frames
         )),
-        Some(t) if t.read_noise_e == 0.0 => Some(format!(
+        Some(t) if t.read_noise_e == 0.0 => notes.push(format!(
             "the dark's temporal noise {:.3} DN is not above the quantisation noise {:.3} DN \
              (step {} DN/√12): the read noise is at most {:.3} e⁻",
             t.dark_temporal_dn,
@@ -487,6 +504,14 @@ fn transfer_note(
             adc.step_dn(),
             t.dark_temporal_dn / t.gain_dn_per_e
         )),
-        Some(_) => None,
+        Some(_) => {}
     }
+    if let Some((flat_s, dark_s)) = exposures.filter(|_| transfer.is_some()) {
+        notes.push(format!(
+            "the darks were exposed {dark_s} s and the flats {flat_s} s: photon transfer takes \
+             the darks' level and noise for those of the flats' exposure (true where the dark \
+             current is negligible)"
+        ));
+    }
+    (!notes.is_empty()).then(|| notes.join("; "))
 }

@@ -326,3 +326,24 @@ fn calibration_and_correction_do_not_depend_on_the_thread_count() {
         "the corrected frame differs between 1 and 4 threads"
     );
 }
+
+#[test]
+fn darks_of_another_exposure_are_noted_with_the_photon_transfer() {
+    let sensor = Sensor::twelve_bit(&Pattern::realistic(), 39);
+    let flats = sensor.stack(&sensor.flat_signal(0.6), 2, 93);
+    let darks = sensor.stack(&|_, _| 0.0, 2, 94);
+    let smooth = |u: f64, v: f64| sensor.falloff(u, v);
+    let cal = calibrate(
+        &frames(&flats, &sensor, Some(0.004)),
+        &frames(&darks, &sensor, Some(0.01)),
+        &smooth,
+        &Options::default(),
+    )
+    .unwrap();
+    assert!(cal.transfer.is_some());
+    let note = cal.transfer_note.unwrap_or_default();
+    assert!(
+        note.contains("the darks were exposed 0.01 s and the flats 0.004 s"),
+        "{note}"
+    );
+}

@@ -145,6 +145,28 @@ fn calibrate_refuses_each_bad_stack_with_its_numbers() {
         "{e}"
     );
 
+    // Flats and darks of different cameras: 256×192 flats, 128×96 darks.
+    let (big, small) = (
+        Sensor::twelve_bit(&Pattern::ideal(), 41),
+        Sensor::new(128, 96, 12, 4.0, 5.0, 1600.0, &Pattern::ideal(), 1),
+    );
+    let (flats, darks) = (
+        big.stack(&big.flat_signal(0.6), 3, 1),
+        small.stack(&|_, _| 0.0, 3, 9),
+    );
+    let e = calibrate(
+        &frames(&flats, &big, None),
+        &frames(&darks, &small, None),
+        &|_, _| 1.0,
+        &defaults,
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("dark frame 0 is 128×96 px where frame 0 of the flat stack is 256×192 px"),
+        "{e}"
+    );
+
     // A saturated flat: 110 % of the full scale at the centre.
     let e = refusal(1.1, 3, keep, &defaults);
     assert!(
