@@ -55,8 +55,9 @@ fn found(sensor: &Sensor, cal: &SensorCalibration, kind: DefectKind) -> (usize, 
 fn every_hot_pixel_is_found_with_few_false_positives_beside_a_bright_column() {
     let sensor = Sensor::twelve_bit(&Pattern::realistic(), 31);
     // 16 darks (the stacks) and 2 (the least a map takes): the
-    // weakest hot pixel, 200 DN, is ≥ 13σ of the residual pattern (6 DN
-    // DSNU, 20 DN/√N noise) with 16 darks and ≥ 13σ with 2 (σ ≈ 15 DN).
+    // weakest hot pixel, 200 DN, is 25σ of the residual pattern (6 DN
+    // DSNU, 20 DN/√N noise: σ ≈ 8 DN) with 16 darks and 13σ with 2
+    // (σ ≈ 15 DN), far above the 6σ threshold.
     for n in [16, 2] {
         let cal = calibrated(&sensor, n, n, &Options::default(), 40 + n as u64);
         let (injected, hits, false_positives) = found(&sensor, &cal, DefectKind::Hot);
