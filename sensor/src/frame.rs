@@ -130,7 +130,7 @@ pub(crate) fn check_same_camera(
 
 /// Two EXIF exposure times of one setting: both absent, or equal within
 /// [`EXPOSURE_TOLERANCE`].
-fn same_exposure(a: Option<f64>, b: Option<f64>) -> bool {
+pub(crate) fn same_exposure(a: Option<f64>, b: Option<f64>) -> bool {
     match (a, b) {
         (None, None) => true,
         (Some(a), Some(b)) => (a - b).abs() <= EXPOSURE_TOLERANCE * a.abs().max(b.abs()),

@@ -5,7 +5,8 @@
 //! frame with those maps before its blobs are extracted.
 //!
 //! The model of a pixel's value (DN, METHODS §6):
-//! `y = K·η·photons·(1 + g_px) + d_px + K·n`.
+//! `y = K·(η·photons·(1 + g_px) + dark_px) + d_px + col_x + row_y + K·n`,
+//! quantised in ADC steps.
 //!
 //! The crate does no file I/O: frames come decoded, maps are encoded to and
 //! decoded from bytes (`maps`), and every check that refuses a frame names
@@ -29,13 +30,15 @@
 //! - [`DefectMap`], [`Defect`], [`DefectKind`], [`Cluster`]: defective pixels.
 //! - [`SensorMaps`]: master dark, gain map, defects; [`SensorMaps::correct`].
 //! - [`calibrate`] with [`Options`] → [`SensorCalibration`]: all of the above
-//!   and the decisions (per-pixel dark and gain used or not, and why).
+//!   and the decisions ([`DarkModel`]: per-pixel dark, column/row pattern or
+//!   black level; gain map used or not; and why, with numbers).
 //! - `maps::{encode_f32, decode_f32, encode_u8, decode_u8, checksum}`: the
 //!   map files (32-bit float / 8-bit TIFF) and their CRC-32.
 
 mod adc;
 mod calibrate;
 mod correct;
+mod decision;
 mod defect_map;
 mod detect;
 mod error;
@@ -45,6 +48,7 @@ pub mod maps;
 mod master;
 mod order;
 mod pattern;
+mod refusal;
 mod sums;
 mod temporal;
 mod transfer;

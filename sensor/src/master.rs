@@ -145,12 +145,23 @@ fn medians(frames: &[Frame<'_>], saturation: u16, row: usize) -> (Vec<f32>, Vec<
             for (x, (level, sat)) in levels.iter_mut().zip(saturated.iter_mut()).enumerate() {
                 let i = y * row + x;
                 samples.clear();
-                samples.extend(frames.iter().map(|f| f64::from(f.values[i])));
-                *sat = samples.iter().any(|&v| v >= f64::from(saturation));
-                *level = median(&mut samples).unwrap_or(0.0) as f32;
+                samples.extend(frames.iter().map(|f| f.values[i]));
+                samples.sort_unstable();
+                *sat = samples.last().is_some_and(|&v| v >= saturation);
+                *level = sorted_median(&samples);
             }
         });
     (levels, saturated)
+}
+
+/// The median of sorted integers (exact in f32: at most 2¹⁶ in halves).
+fn sorted_median(sorted: &[u16]) -> f32 {
+    let n = sorted.len();
+    match n {
+        0 => 0.0,
+        _ if n % 2 == 1 => f32::from(sorted[n / 2]),
+        _ => 0.5 * (f32::from(sorted[n / 2 - 1]) + f32::from(sorted[n / 2])),
+    }
 }
 
 /// Replace each pixel's median (in `mean`) by the mean of its samples
@@ -167,7 +178,15 @@ fn robust_means(frames: &[Frame<'_>], model: &NoiseModel, mean: &mut [f32], row:
                 samples.clear();
                 samples.extend(frames.iter().map(|f| f64::from(f.values[i])));
                 let centre = f64::from(*level);
-                let sigma = pixel_sigma(model, centre, &samples, &mut spread);
+                let model_sigma = model.variance(centre).sqrt();
+                let sigma = if samples
+                    .iter()
+                    .all(|v| (v - centre).abs() <= OUTLIER_SIGMAS * model_sigma)
+                {
+                    model_sigma
+                } else {
+                    pixel_sigma(model_sigma, centre, &samples, &mut spread)
+                };
                 let (n, sum) = samples
                     .iter()
                     .filter(|&&v| (v - centre).abs() <= OUTLIER_SIGMAS * sigma)
@@ -184,8 +203,7 @@ fn robust_means(frames: &[Frame<'_>], model: &NoiseModel, mean: &mut [f32], row:
 
 /// σ of one pixel's samples: the model's at its level, or the samples' own
 /// MAD spread about `centre` when larger and there are enough of them.
-fn pixel_sigma(model: &NoiseModel, centre: f64, samples: &[f64], spread: &mut Vec<f64>) -> f64 {
-    let sigma = model.variance(centre).sqrt();
+fn pixel_sigma(sigma: f64, centre: f64, samples: &[f64], spread: &mut Vec<f64>) -> f64 {
     if samples.len() < OWN_SPREAD_FRAMES {
         return sigma;
     }

@@ -160,10 +160,11 @@ fn pair_sums(
         .enumerate()
         .map(|(pair, ab)| {
             let (a, b) = (ab[0].values, ab[1].values);
+            // (mean difference, squared half-width of the kept interval).
             let limit = |level: f64| -> Option<(f64, f64)> {
                 clip.as_ref().map(|c| {
-                    let sigma = (2.0 * c.model.variance(level)).sqrt();
-                    (c.pair_means[pair], CLIP_SIGMAS * sigma)
+                    let var = 2.0 * c.model.variance(level);
+                    (c.pair_means[pair], CLIP_SIGMAS * CLIP_SIGMAS * var)
                 })
             };
             a.par_chunks(width)
@@ -178,8 +179,8 @@ fn pair_sums(
                             }
                             let d = i64::from(va) - i64::from(vb);
                             let level = f64::from(level);
-                            if let Some((mean, half_width)) = limit(level)
-                                && (d as f64 - mean).abs() > half_width
+                            if let Some((mean, half_width2)) = limit(level)
+                                && (d as f64 - mean).powi(2) > half_width2
                             {
                                 continue;
                             }

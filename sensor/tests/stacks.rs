@@ -145,6 +145,28 @@ fn calibrate_refuses_each_bad_stack_with_its_numbers() {
         "{e}"
     );
 
+    // Flats and darks of different cameras: 256×192 flats, 128×96 darks.
+    let (big, small) = (
+        Sensor::twelve_bit(&Pattern::ideal(), 41),
+        Sensor::new(128, 96, 12, 4.0, 5.0, 1600.0, &Pattern::ideal(), 1),
+    );
+    let (flats, darks) = (
+        big.stack(&big.flat_signal(0.6), 3, 1),
+        small.stack(&|_, _| 0.0, 3, 9),
+    );
+    let e = calibrate(
+        &frames(&flats, &big, None),
+        &frames(&darks, &small, None),
+        &|_, _| 1.0,
+        &defaults,
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("dark frame 0 is 128×96 px where frame 0 of the flat stack is 256×192 px"),
+        "{e}"
+    );
+
     // A saturated flat: 110 % of the full scale at the centre.
     let e = refusal(1.1, 3, keep, &defaults);
     assert!(
@@ -346,4 +368,23 @@ fn two_frames_give_the_plain_mean_and_one_frame_no_temporal_noise() {
         e.to_string().contains("frame 1 of the stack: 4×1 px"),
         "{e}"
     );
+}
+
+#[test]
+fn a_spike_does_not_inflate_the_temporal_noise_of_a_dark() {
+    // A 5000 DN event in one dark frame: in the two differences it enters
+    // it would add ½·2·5000²/(15·49152) = 34 DN² to σ²_y.dark ≈ 420 DN²
+    // (8 %, and 4 % on the read noise); it is 175σ of a difference, so the
+    // 6σ clip leaves it out and σ²_y.dark stays within 0.1 % (a clean
+    // sample clipped at 6σ: 2·10⁻⁹ of them).
+    let sensor = Sensor::twelve_bit(&Pattern::realistic(), 45);
+    let clean = sensor.stack(&|_, _| 0.0, 16, 7);
+    let mut spiked = clean.clone();
+    spiked[3][60 * sensor.width + 60] += 5000;
+    let saturation = sensor.saturation();
+    let a = master(&frames(&spiked, &sensor, None), saturation).unwrap();
+    let b = master(&frames(&clean, &sensor, None), saturation).unwrap();
+    let (a, b) = (a.temporal_var_dn2.unwrap(), b.temporal_var_dn2.unwrap());
+    eprintln!("σ²_y.dark: {a:.2} DN² with the event, {b:.2} DN² without");
+    assert!((a / b - 1.0).abs() < 1e-3, "{a} {b}");
 }
