@@ -311,11 +311,7 @@ pub fn load_maps(rig: &Path, id: u8, size: (u32, u32), record: &SensorJson) -> R
             sensor::DefectMap::from_codes(w, h, &codes)
                 .with_context(|| in_file(map).display().to_string())?
         }
-        None => sensor::DefectMap::from_codes(
-            size.0,
-            size.1,
-            &vec![0; size.0 as usize * size.1 as usize],
-        )?,
+        None => sensor::DefectMap::empty(size.0, size.1),
     };
     Ok(SensorMaps {
         width: size.0,
