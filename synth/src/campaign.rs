@@ -272,6 +272,9 @@ fn plan_target(
     [first, last]: [&str; 2],
 ) -> Result<()> {
     output.folder(out).folder(out.join("calib"));
+    for d in crate::target::target_folders(config, rig) {
+        output.folder(out.join(d));
+    }
     for f in crate::target::target_files(config, rig) {
         output.file(out.join(f));
     }

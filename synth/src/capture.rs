@@ -596,7 +596,7 @@ fn write_job(
                         radiance_e: *radiance_e,
                     })
                     .collect();
-                crate::sensor::expose(&cam.sensor, &layers, key, cam.lens.as_ref())
+                cam.expose(&layers, key)
             }
         }
     };

@@ -1,6 +1,7 @@
-//! The lens's relative illumination in rendered images
-//! (`[optics] illumination = "lens"`): the image irradiance of a uniform
-//! radiance source at observed pixel p, relative to the principal point,
+//! The lens's relative illumination in rendered images: the image irradiance
+//! of a uniform radiance source at observed pixel p, relative to the
+//! principal point. With `[optics] illumination = "lens"` it is the physical
+//! model
 //!
 //! `RI(p) = cos⁴θ · V(tan θ) · J(p)`,
 //!
@@ -10,6 +11,12 @@
 //! dA_ideal lands on dA_observed). The renderer multiplies each sphere's
 //! covered area and the background light by RI before the blur and the
 //! sensor; the dark offset is not light and is not multiplied.
+//!
+//! With `illumination = "profile"` it is a lens's measured profile
+//! ([`VignettingProfile`], lensfun's "pa" model): `RI(p) = 1 + k₁ρ² + k₂ρ⁴ + k₃ρ⁶`
+//! about a centre that may be decentred from the principal point. A measured
+//! profile already holds the natural and mechanical vignetting and the
+//! distortion's area effect, so no cos⁴θ or J is applied on top.
 //!
 //! RI is smooth, so it is evaluated exactly (undistortion by Newton) on a
 //! grid of nodes every [`NODE_STEP_PX`] px and, between them, by the nearest
@@ -42,6 +49,39 @@ pub(crate) fn vignetting(v: [f64; 2], n: Vector2<f64>) -> f64 {
     1.0 + v[0] * t2 + v[1] * t2 * t2
 }
 
+/// A lens's measured relative illumination (lensfun's "pa" model, see
+/// `crate::lens_profile`): `RI = 1 + k₁ρ² + k₂ρ⁴ + k₃ρ⁶`, `ρ = |p − centre| / radius`
+/// at observed pixel p.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VignettingProfile {
+    /// Centre of the fall-off (px): the principal point plus the decentring.
+    pub centre_px: [f64; 2],
+    /// Distance (px) at which ρ = 1.
+    pub radius_px: f64,
+    /// `[k₁, k₂, k₃]`.
+    pub k: [f64; 3],
+}
+
+impl VignettingProfile {
+    /// RI at observed pixel (u, v).
+    pub fn at(&self, u: f64, v: f64) -> f64 {
+        let du = (u - self.centre_px[0]) / self.radius_px;
+        let dv = (v - self.centre_px[1]) / self.radius_px;
+        let r2 = du * du + dv * dv;
+        let [k1, k2, k3] = self.k;
+        1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    }
+}
+
+/// What a [`LensIllumination`] evaluates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum IlluminationSource {
+    /// `cos⁴θ·V·J` with the lens's own vignetting `V = 1 + v₁·tan²θ + v₂·tan⁴θ`, `[v₁, v₂]`.
+    Physical([f64; 2]),
+    /// A measured profile.
+    Profile(VignettingProfile),
+}
+
 /// Exact `RI = cos⁴θ·V·J` at observed pixel (u, v).
 pub(crate) fn exact(camera: &Camera, v: [f64; 2], u: f64, w: f64) -> Result<f64> {
     let observed = Point2::new(u, w);
@@ -67,7 +107,7 @@ struct Node {
 /// RI of one camera's lens over its image and a margin around it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LensIllumination {
-    vignetting: [f64; 2],
+    source: IlluminationSource,
     /// Pixel coordinates of node (0, 0).
     origin: [f64; 2],
     columns: usize,
@@ -78,6 +118,26 @@ pub struct LensIllumination {
 impl LensIllumination {
     /// Evaluate the lens of `camera` with vignetting `[v₁, v₂]` at the nodes.
     pub fn new(camera: &Camera, vignetting: [f64; 2]) -> Result<Self> {
+        Self::from_source(camera, IlluminationSource::Physical(vignetting))
+    }
+
+    /// Evaluate `source` over the image of `camera` (and its margin) at the
+    /// nodes; a measured profile must stay positive there.
+    pub fn from_source(camera: &Camera, source: IlluminationSource) -> Result<Self> {
+        let exact_at = |u: f64, w: f64| match source {
+            IlluminationSource::Physical(v) => exact(camera, v, u, w),
+            IlluminationSource::Profile(p) => {
+                let ri = p.at(u, w);
+                if ri.is_nan() || ri <= 0.0 {
+                    Err(SynthError::config(format!(
+                        "optics: the lens profile's relative illumination is {ri} at pixel \
+                         ({u}, {w}); it must stay positive over the image"
+                    )))
+                } else {
+                    Ok(ri)
+                }
+            }
+        };
         let origin = [-NODE_MARGIN_PX, -NODE_MARGIN_PX];
         let count = |size: u32| {
             ((f64::from(size) - 1.0 + 2.0 * NODE_MARGIN_PX) / NODE_STEP_PX).ceil() as usize + 1
@@ -91,7 +151,7 @@ impl LensIllumination {
                     .map(|i| {
                         let u = origin[0] + i as f64 * NODE_STEP_PX;
                         let v = origin[1] + j as f64 * NODE_STEP_PX;
-                        let f = |du: f64, dv: f64| exact(camera, vignetting, u + du, v + dv);
+                        let f = |du: f64, dv: f64| exact_at(u + du, v + dv);
                         let c = f(0.0, 0.0)?;
                         let (e, w, s, n) = (f(h, 0.0)?, f(-h, 0.0)?, f(0.0, h)?, f(0.0, -h)?);
                         let (ne, nw, se, sw) = (f(h, h)?, f(-h, h)?, f(h, -h)?, f(-h, -h)?);
@@ -112,7 +172,7 @@ impl LensIllumination {
             .flatten()
             .collect();
         Ok(Self {
-            vignetting,
+            source,
             origin,
             columns,
             rows,
@@ -120,9 +180,18 @@ impl LensIllumination {
         })
     }
 
-    /// The vignetting coefficients `[v₁, v₂]`.
+    /// The lens's own vignetting `[v₁, v₂]` of the physical model (`[0, 0]`
+    /// for a measured profile, which holds all of RI).
     pub fn vignetting(&self) -> [f64; 2] {
-        self.vignetting
+        match self.source {
+            IlluminationSource::Physical(v) => v,
+            IlluminationSource::Profile(_) => [0.0, 0.0],
+        }
+    }
+
+    /// What this RI evaluates.
+    pub fn source(&self) -> IlluminationSource {
+        self.source
     }
 
     /// RI and its gradient (per px) at pixel (u, v).

@@ -7,8 +7,9 @@ use geom::Camera;
 use crate::coverage::{PixelRect, coverage};
 use crate::illumination::LensIllumination;
 use crate::psf::{Optics, Signal, blur, kernel_radius};
+use crate::rig::SynthCamera;
 use crate::scene::{Sphere, ViewedSphere, check_disjoint, outline_bounds};
-use crate::sensor::{Exposure, Image16, NoiseKey, Sensor, expose};
+use crate::sensor::{Exposure, Image16, NoiseKey};
 use crate::{Result, SynthError};
 
 /// The noise-free signal of each sphere (fraction of a fully covered pixel's
@@ -62,25 +63,24 @@ pub fn sphere_signals(
     Ok(out)
 }
 
-/// Render one frame: the spheres over the sensor's background, with noise;
-/// through the lens's relative illumination `lens` when given (the spheres'
-/// light and the background light), radiance per pixel otherwise.
+/// Render one frame of `cam`: the spheres over the sensor's background,
+/// with noise, through the camera's readout (ADC, fixed pattern); through
+/// its lens's relative illumination when it has one (the spheres' light and
+/// the background light), radiance per pixel otherwise.
 pub(crate) fn render(
-    camera: &Camera,
-    optics: &Optics,
-    sensor: &Sensor,
+    cam: &SynthCamera,
     spheres: &[Sphere],
     key: NoiseKey,
     max_depth: u8,
-    lens: Option<&LensIllumination>,
 ) -> Result<Image16> {
+    let (camera, sensor) = (&cam.camera, &cam.sensor);
     if sensor.width != camera.width || sensor.height != camera.height {
         return Err(SynthError::SensorSize {
             sensor: (sensor.width, sensor.height),
             camera: (camera.width, camera.height),
         });
     }
-    let signals = sphere_signals(camera, optics, spheres, max_depth, lens)?;
+    let signals = sphere_signals(camera, &cam.optics, spheres, max_depth, cam.lens.as_ref())?;
     let layers: Vec<Exposure<'_>> = signals
         .iter()
         .zip(spheres)
@@ -91,5 +91,5 @@ pub(crate) fn render(
             })
         })
         .collect();
-    Ok(expose(sensor, &layers, key, lens))
+    Ok(cam.expose(&layers, key))
 }

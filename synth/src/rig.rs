@@ -7,10 +7,11 @@ use geom::nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion,
 use geom::{Camera, Intrinsics};
 
 use crate::config::{CameraConfig, Config, IlluminationModel};
-use crate::illumination::LensIllumination;
+use crate::illumination::{IlluminationSource, LensIllumination};
+use crate::pattern::{Defects, PatternKey, Readout};
 use crate::psf::Optics;
 use crate::scene::Sphere;
-use crate::sensor::{Image16, NoiseKey, Sensor, StrayLight};
+use crate::sensor::{Exposure, Image16, NoiseKey, Sensor, StrayLight, expose_through};
 use crate::{Result, SynthError};
 
 /// One camera of the synthetic rig.
@@ -30,6 +31,8 @@ pub struct SynthCamera {
     pub sensor: Sensor,
     /// The lens's relative illumination; `None`: radiance images.
     pub lens: Option<LensIllumination>,
+    /// The sensor's ADC resolution and fixed pattern (`crate::pattern`).
+    pub readout: Readout,
 }
 
 /// Fraction of the full scale that a flat field reaches where it is brightest.
@@ -40,18 +43,29 @@ pub(crate) const FLAT_FIELD_FRAME: u64 = u64::MAX - 1;
 /// See [`FLAT_FIELD_FRAME`].
 pub(crate) const DARK_FRAME: u64 = u64::MAX - 2;
 
+/// Noise-key frame of frame `index` of a calibration stack whose frame 0 is
+/// `base` ([`FLAT_FIELD_FRAME`], [`DARK_FRAME`]): `base − index·2³²`, far from
+/// every campaign frame and from the other stack.
+fn stack_frame(base: u64, index: u32) -> u64 {
+    base - (u64::from(index) << 32)
+}
+
 impl SynthCamera {
     /// Render the spheres as this camera sees them.
     pub fn render(&self, spheres: &[Sphere], key: NoiseKey, max_depth: u8) -> Result<Image16> {
-        crate::render::render(
-            &self.camera,
-            &self.optics,
-            &self.sensor,
-            spheres,
-            key,
-            max_depth,
-            self.lens.as_ref(),
-        )
+        crate::render::render(self, spheres, key, max_depth)
+    }
+
+    /// Expose signal layers on this camera's sensor, through its lens's
+    /// relative illumination (background light) and its readout.
+    pub fn expose(&self, layers: &[Exposure<'_>], key: NoiseKey) -> Image16 {
+        expose_through(&self.sensor, &self.readout, layers, key, self.lens.as_ref())
+    }
+
+    /// The injected hot and dead pixels of this camera's sensor (empty
+    /// without a fixed pattern); `truth.json` lists the same.
+    pub fn defects(&self) -> Defects {
+        self.readout.defects(self.sensor.width, self.sensor.height)
     }
 
     /// Radiance (electrons of a pixel at the principal point) of the flat
@@ -66,31 +80,52 @@ impl SynthCamera {
     }
 
     /// A flat-field frame: a uniform radiance source filling the view (no
-    /// stray light, no spheres), through the lens, with the sensor's noise.
+    /// stray light, no spheres), through the lens, with the sensor's noise
+    /// and fixed pattern. The same as [`Self::flat_field_at`] `(seed, 0)`.
     pub fn flat_field(&self, seed: u64) -> Image16 {
+        self.flat_field_at(seed, 0)
+    }
+
+    /// Frame `index` of a stack of flat fields: independent temporal noise,
+    /// the same fixed pattern.
+    pub fn flat_field_at(&self, seed: u64, index: u32) -> Image16 {
         let sensor = Sensor {
             background_e: self.flat_field_radiance_e(),
             gradient_e_per_px: [0.0, 0.0],
             stray_light: Vec::new(),
             ..self.sensor.clone()
         };
-        crate::sensor::expose(
+        expose_through(
             &sensor,
+            &self.readout,
             &[],
-            self.key(seed, FLAT_FIELD_FRAME),
+            self.key(seed, stack_frame(FLAT_FIELD_FRAME, index)),
             self.lens.as_ref(),
         )
     }
 
-    /// A dark frame: the lens capped, the sensor's offset and read noise only.
+    /// A dark frame: the lens capped, the sensor's offset, read noise and
+    /// fixed pattern (hot pixels, DSNU, column and row offsets). The same as
+    /// [`Self::dark_frame_at`] `(seed, 0)`.
     pub fn dark_frame(&self, seed: u64) -> Image16 {
+        self.dark_frame_at(seed, 0)
+    }
+
+    /// Frame `index` of a stack of dark frames.
+    pub fn dark_frame_at(&self, seed: u64, index: u32) -> Image16 {
         let sensor = Sensor {
             background_e: 0.0,
             gradient_e_per_px: [0.0, 0.0],
             stray_light: Vec::new(),
             ..self.sensor.clone()
         };
-        crate::sensor::expose(&sensor, &[], self.key(seed, DARK_FRAME), None)
+        expose_through(
+            &sensor,
+            &self.readout,
+            &[],
+            self.key(seed, stack_frame(DARK_FRAME, index)),
+            None,
+        )
     }
 
     fn key(&self, seed: u64, frame: u64) -> NoiseKey {
@@ -182,9 +217,22 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
     let mut k = Intrinsics::centred(focal_px, s.width, s.height);
     k.cx += c.principal_point_offset_um[0] / 1000.0 / s.pixel_mm;
     k.cy += c.principal_point_offset_um[1] / 1000.0 / s.pixel_mm;
+    let profile = o.lens_profile()?;
+    let mut distortion: geom::Distortion = c.distortion.into();
+    if let Some(fit) = profile
+        .as_ref()
+        .and_then(|p| p.brown_in_pixels(&k, s.width, s.height, s.pixel_mm))
+    {
+        // The measured lens's focal length over the field and radial
+        // distortion; the camera's p1, p2 stay.
+        let fit = fit?;
+        k.fx *= fit.scale;
+        k.fy *= fit.scale;
+        [distortion.k1, distortion.k2, distortion.k3] = fit.k;
+    }
     let camera = Camera {
         intrinsics: k,
-        distortion: c.distortion.into(),
+        distortion,
         pose: Isometry3::from_parts(
             Translation3::from(t),
             UnitQuaternion::from_rotation_matrix(&r_true),
@@ -227,7 +275,28 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
     let lens = match o.illumination {
         IlluminationModel::Lens => Some(LensIllumination::new(&camera, o.vignetting)?),
         IlluminationModel::Radiance => None,
+        IlluminationModel::Profile => {
+            let measured = profile
+                .as_ref()
+                .and_then(|p| p.vignetting_in_pixels(&k, s.pixel_mm, o.profile_centre_offset_um));
+            // Validation requires a profile with vignetting here.
+            let measured = measured.ok_or_else(|| {
+                SynthError::config(
+                    "optics.illumination: \"profile\" needs a lens profile with vignetting_pa",
+                )
+            })?;
+            Some(LensIllumination::from_source(
+                &camera,
+                IlluminationSource::Profile(measured),
+            )?)
+        }
     };
+    let readout = Readout::new(
+        s.bits,
+        s.adc_bits,
+        s.pattern(),
+        PatternKey::new(config.seed, &c.serial),
+    );
     Ok(SynthCamera {
         id: c.id,
         camera,
@@ -236,6 +305,7 @@ fn build_camera(config: &Config, c: &CameraConfig) -> Result<SynthCamera> {
         optics,
         sensor,
         lens,
+        readout,
     })
 }
 

@@ -18,6 +18,7 @@ use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 
 use crate::illumination::LensIllumination;
+use crate::pattern::{FixedPattern, Readout};
 use crate::psf::Signal;
 
 /// A 16-bit grayscale image (8-bit images hold values ≤ 255).
@@ -236,8 +237,89 @@ impl QuantisedNoise {
     }
 }
 
+/// The ADC: converts `DN/2^shift` of the file's DN to an integer in
+/// `[0, max]` (round half up) and writes it shifted left by `shift`
+/// (`shift` = file bits − ADC bits; 0: the file's own depth).
+#[derive(Debug, Clone, Copy)]
+struct Adc {
+    shift: u32,
+    /// `2^−shift`.
+    scale: f64,
+    /// Largest ADC code.
+    max: u16,
+}
+
+impl Adc {
+    fn new(sensor: &Sensor, adc_bits: u8) -> Self {
+        let bits = adc_bits.clamp(1, sensor.bits);
+        let shift = u32::from(sensor.bits - bits);
+        Self {
+            shift,
+            scale: 1.0 / f64::from(1u32 << shift),
+            max: ((1u32 << bits) - 1) as u16,
+        }
+    }
+
+    /// The file value of `x` + ½ ADC DN: truncation rounds half up, `as u16`
+    /// saturates at 0 and 65535 (NaN → 0), `.min(max)` clamps the ADC's range.
+    #[inline]
+    fn code(&self, x_plus_half: f64) -> u16 {
+        (x_plus_half as u16).min(self.max) << self.shift
+    }
+}
+
+/// Electrons to ADC DN for one sensor: `DN/2^shift = offset + gain·e`, the
+/// noise of a pixel of mean `m` electrons `√(m + σ_read²)` (shot noise on) or
+/// `σ_read`.
+#[derive(Debug, Clone, Copy)]
+struct Conversion {
+    adc: Adc,
+    /// Offset in ADC DN plus ½ (rounding half up by truncation).
+    offset: f64,
+    /// ADC DN per electron.
+    gain: f64,
+    /// σ_read² (electrons²).
+    rn2: f64,
+    shot: bool,
+    noisy: bool,
+}
+
+impl Conversion {
+    fn new(sensor: &Sensor, adc: Adc) -> Self {
+        Self {
+            adc,
+            offset: sensor.offset_dn * adc.scale + 0.5,
+            gain: sensor.gain_dn_per_e * adc.scale,
+            rn2: sensor.read_noise_e * sensor.read_noise_e,
+            shot: sensor.shot_noise,
+            noisy: sensor.noisy(),
+        }
+    }
+
+    /// Temporal noise (electrons) of a pixel of mean `m` electrons.
+    #[inline]
+    fn sd(&self, m: f64) -> f64 {
+        (if self.shot { m.max(0.0) } else { 0.0 } + self.rn2).sqrt()
+    }
+
+    /// The file value of a pixel of `e` electrons.
+    #[inline]
+    fn code(&self, e: f64) -> u16 {
+        self.adc.code(self.offset + self.gain * e)
+    }
+
+    /// The file value of a pixel of `e` electrons and an extra dark offset
+    /// `d` (file DN).
+    #[inline]
+    fn code_with_offset(&self, e: f64, d: f64) -> u16 {
+        self.adc
+            .code(self.offset + self.adc.scale * d + self.gain * e)
+    }
+}
+
 /// Expose the sensor: background (times the lens's relative illumination
-/// `lens` when given) + signals + noise → quantised image. Rows are computed
+/// `lens` when given) + signals + noise → quantised image, through the ideal
+/// readout (an ADC of the file's depth, no fixed pattern). Rows are computed
 /// in parallel; the result does not depend on the thread count.
 pub fn expose(
     sensor: &Sensor,
@@ -245,23 +327,67 @@ pub fn expose(
     key: NoiseKey,
     lens: Option<&LensIllumination>,
 ) -> Image16 {
+    expose_through(sensor, &Readout::ideal(sensor.bits), layers, key, lens)
+}
+
+/// [`expose`] through a camera's `readout`: its ADC resolution and fixed
+/// pattern (`crate::pattern`; the pattern at the sensor's size).
+pub fn expose_through(
+    sensor: &Sensor,
+    readout: &Readout,
+    layers: &[Exposure<'_>],
+    key: NoiseKey,
+    lens: Option<&LensIllumination>,
+) -> Image16 {
+    let conversion = Conversion::new(sensor, Adc::new(sensor, readout.adc_bits()));
+    let w = sensor.width as usize;
+    let mut data = vec![0u16; w * sensor.height as usize];
+    match readout.pattern(sensor.width, sensor.height) {
+        None => expose_plain(&mut data, sensor, conversion, layers, key, lens),
+        Some(p) => {
+            let rows = PatternedRows {
+                sensor,
+                conversion,
+                pattern: &p,
+                layers,
+                key,
+                lens,
+            };
+            data.par_chunks_mut(w).enumerate().for_each_init(
+                || PatternRows::new(w),
+                |scratch, (v, out)| rows.row(v, out, scratch),
+            );
+        }
+    }
+    // The buffer has exactly width·height samples by construction.
+    ImageBuffer::from_raw(sensor.width, sensor.height, data)
+        .unwrap_or_else(|| ImageBuffer::new(sensor.width, sensor.height))
+}
+
+/// The rows (`data`, row-major) of a sensor without a fixed pattern: the
+/// uniform background by the exact alias sampler, every other pixel by a
+/// normal draw.
+fn expose_plain(
+    data: &mut [u16],
+    sensor: &Sensor,
+    conversion: Conversion,
+    layers: &[Exposure<'_>],
+    key: NoiseKey,
+    lens: Option<&LensIllumination>,
+) {
     use rand_pcg::rand_core::Rng;
-    let (w, h) = (sensor.width as usize, sensor.height as usize);
-    let mut data = vec![0u16; w * h];
-    // Rounding half up by truncation: `(x + 0.5) as u16` saturates at 0 and
-    // 65535 (NaN → 0); `.min(max)` clamps 8-bit output.
-    let max = sensor.max_dn() as u16;
-    let offset = sensor.offset_dn + 0.5;
-    let gain = sensor.gain_dn_per_e;
-    let rn2 = sensor.read_noise_e * sensor.read_noise_e;
-    let noisy = sensor.noisy();
-    let shot = sensor.shot_noise;
-    let sd_of = |m: f64| (if shot { m.max(0.0) } else { 0.0 } + rn2).sqrt();
+    let w = sensor.width as usize;
+    let (adc, noisy) = (conversion.adc, conversion.noisy);
+    let sd_of = |m: f64| conversion.sd(m);
     // The uniform background (no gradient, no fall-off): sampled exactly in DN.
     let flat = sensor.gradient_e_per_px == [0.0, 0.0] && lens.is_none();
     let bg = sensor.background_e;
     let sampler = if noisy && flat {
-        QuantisedNoise::new(sensor.offset_dn + gain * bg, gain * sd_of(bg), max)
+        QuantisedNoise::new(
+            (sensor.offset_dn + sensor.gain_dn_per_e * bg) * adc.scale,
+            conversion.gain * sd_of(bg),
+            adc.max,
+        )
     } else {
         None
     };
@@ -282,14 +408,14 @@ pub fn expose(
             if !noisy {
                 mean_row(sensor, layers, v, mean, lens);
                 for (o, &m) in out.iter_mut().zip(mean.iter()) {
-                    *o = ((offset + gain * m) as u16).min(max);
+                    *o = conversion.code(m);
                 }
                 return;
             }
             let mut rng = key.row_rng(v as u32);
             if let (Some(q), true) = (&sampler, row_is_plain(v)) {
                 for o in out.iter_mut() {
-                    *o = q.sample(rng.next_u64());
+                    *o = q.sample(rng.next_u64()) << adc.shift;
                 }
                 return;
             }
@@ -298,7 +424,7 @@ pub fn expose(
             let mut sd = 0.0;
             for (o, &m) in out.iter_mut().zip(mean.iter()) {
                 if let (Some(q), true) = (&sampler, m == bg) {
-                    *o = q.sample(rng.next_u64());
+                    *o = q.sample(rng.next_u64()) << adc.shift;
                     continue;
                 }
                 if m != last {
@@ -306,13 +432,62 @@ pub fn expose(
                     last = m;
                 }
                 let z: f64 = StandardNormal.sample(&mut rng);
-                *o = ((offset + gain * (m + sd * z)) as u16).min(max);
+                *o = conversion.code(m + sd * z);
             }
         },
     );
-    // The buffer has exactly width·height samples by construction.
-    ImageBuffer::from_raw(sensor.width, sensor.height, data)
-        .unwrap_or_else(|| ImageBuffer::new(sensor.width, sensor.height))
+}
+
+/// Scratch rows of [`PatternedRows`]: mean electrons, the pattern's
+/// relative gain, dark electrons and dark offset.
+#[derive(Debug, Clone)]
+struct PatternRows {
+    mean: Vec<f64>,
+    gain: Vec<f64>,
+    dark_e: Vec<f64>,
+    offset: Vec<f64>,
+}
+
+impl PatternRows {
+    fn new(width: usize) -> Self {
+        Self {
+            mean: vec![0.0; width],
+            gain: vec![0.0; width],
+            dark_e: vec![0.0; width],
+            offset: vec![0.0; width],
+        }
+    }
+}
+
+/// The exposure of a sensor with a fixed pattern: every pixel by a normal
+/// draw of `e ~ N(μ·(1 + g) + h, shot + σ_read²)`, then `offset + d + K·e`
+/// (module `pattern`).
+struct PatternedRows<'a> {
+    sensor: &'a Sensor,
+    conversion: Conversion,
+    pattern: &'a FixedPattern,
+    layers: &'a [Exposure<'a>],
+    key: NoiseKey,
+    lens: Option<&'a LensIllumination>,
+}
+
+impl PatternedRows<'_> {
+    /// Row `v` into `out`.
+    fn row(&self, v: usize, out: &mut [u16], s: &mut PatternRows) {
+        mean_row(self.sensor, self.layers, v, &mut s.mean, self.lens);
+        self.pattern
+            .row(v as u32, &mut s.gain, &mut s.dark_e, &mut s.offset);
+        let mut rng = self.key.row_rng(v as u32);
+        let c = &self.conversion;
+        for (u, o) in out.iter_mut().enumerate() {
+            let mut e = s.mean[u] * s.gain[u] + s.dark_e[u];
+            if c.noisy {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                e += c.sd(e) * z;
+            }
+            *o = c.code_with_offset(e, s.offset[u]);
+        }
+    }
 }
 
 /// Stray-light blobs are evaluated out to this many σ.

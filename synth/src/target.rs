@@ -7,7 +7,10 @@
 //! observed image of each marker centre through the full true camera model, for
 //! calibration from correspondences), and per camera the radiometric frames a
 //! user captures beside the target: `calib/flat_cam{k}.tif` (a uniform
-//! radiance source filling the view) and `calib/dark_cam{k}.tif` (lens capped).
+//! radiance source filling the view) and `calib/dark_cam{k}.tif` (lens capped);
+//! with `[sensor] calibration_frames = N > 1`, stacks of N frames in the
+//! folders `calib/flat_cam{k}/` and `calib/dark_cam{k}/`
+//! (`flat_001.tif` … and `dark_001.tif` …).
 
 use std::path::Path;
 
@@ -135,31 +138,118 @@ pub fn render_target(cam: &SynthCamera, config: &Config) -> Result<Image16> {
     )
 }
 
-/// The calibration frames of one camera: file stem, what it is.
-const CALIBRATION_FRAMES: [(&str, &str); 3] = [
-    ("cam", "calibration target"),
-    ("flat_cam", "flat field"),
-    ("dark_cam", "dark frame"),
-];
+/// One kind of calibration frame of a camera.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CalibrationKind {
+    Target,
+    FlatField,
+    DarkFrame,
+}
+
+impl CalibrationKind {
+    const ALL: [Self; 3] = [Self::Target, Self::FlatField, Self::DarkFrame];
+
+    /// File stem (`calib/{stem}{k}.ext` or the stack folder `calib/{stem}{k}/`).
+    fn stem(self) -> &'static str {
+        match self {
+            Self::Target => "cam",
+            Self::FlatField => "flat_cam",
+            Self::DarkFrame => "dark_cam",
+        }
+    }
+
+    /// Name of a stack's frames (`{prefix}_{i}.ext`).
+    fn prefix(self) -> &'static str {
+        match self {
+            Self::Target => "cam",
+            Self::FlatField => "flat",
+            Self::DarkFrame => "dark",
+        }
+    }
+
+    fn what(self) -> &'static str {
+        match self {
+            Self::Target => "calibration target",
+            Self::FlatField => "flat field",
+            Self::DarkFrame => "dark frame",
+        }
+    }
+
+    /// Frames of this kind per camera: the target once, flats and darks
+    /// `[sensor] calibration_frames` times.
+    fn frames(self, config: &Config) -> u32 {
+        match self {
+            Self::Target => 1,
+            _ => config.sensor.calibration_frames,
+        }
+    }
+
+    /// The stack folder of camera `id` when the kind is written as a stack.
+    fn folder(self, config: &Config, id: u8) -> Option<String> {
+        (self.frames(config) > 1).then(|| format!("calib/{}{id}", self.stem()))
+    }
+
+    /// Relative path of frame `index` (0-based) of camera `id`.
+    fn path(self, config: &Config, id: u8, index: u32) -> String {
+        let ext = config.output.format.extension();
+        let n = self.frames(config);
+        match self.folder(config, id) {
+            None => format!("calib/{}{id}.{ext}", self.stem()),
+            Some(dir) => {
+                let width = n.to_string().len().max(3);
+                format!("{dir}/{}_{:0width$}.{ext}", self.prefix(), index + 1)
+            }
+        }
+    }
+}
+
+/// The stack folders [`write_target_files`] writes into, relative to the
+/// output folder (none with one flat and one dark per camera).
+pub(crate) fn target_folders(config: &Config, rig: &SynthRig) -> Vec<String> {
+    rig.cameras
+        .iter()
+        .flat_map(|cam| {
+            CalibrationKind::ALL
+                .iter()
+                .filter_map(|kind| kind.folder(config, cam.id))
+        })
+        .collect()
+}
 
 /// The files [`write_target_files`] writes, relative to the output folder:
 /// `target.csv`, then per camera its calibration frames and `calib/points_cam{k}.csv`.
 pub(crate) fn target_files(config: &Config, rig: &SynthRig) -> Vec<String> {
-    let ext = config.output.format.extension();
     let mut files = vec!["target.csv".to_string()];
     for cam in &rig.cameras {
-        for (name, _) in CALIBRATION_FRAMES {
-            files.push(format!("calib/{name}{}.{ext}", cam.id));
+        for kind in CalibrationKind::ALL {
+            for i in 0..kind.frames(config) {
+                files.push(kind.path(config, cam.id, i));
+            }
         }
         files.push(format!("calib/points_cam{}.csv", cam.id));
     }
     files
 }
 
-/// Write `target.csv` and, per camera, `calib/cam{k}.{ext}`,
-/// `calib/flat_cam{k}.{ext}`, `calib/dark_cam{k}.{ext}` and
+/// Render frame `index` of a calibration kind in one camera.
+fn render_calibration(
+    kind: CalibrationKind,
+    cam: &SynthCamera,
+    config: &Config,
+    index: u32,
+) -> Result<Image16> {
+    Ok(match kind {
+        CalibrationKind::Target => render_target(cam, config)?,
+        CalibrationKind::FlatField => cam.flat_field_at(config.seed, index),
+        CalibrationKind::DarkFrame => cam.dark_frame_at(config.seed, index),
+    })
+}
+
+/// Write `target.csv` and, per camera, `calib/cam{k}.{ext}`, its flat
+/// field(s) and dark frame(s) (one each, or stacks) and
 /// `calib/points_cam{k}.csv` under `out`, through `output`, where
-/// [`target_files`] and the folder `calib` are planned. Returns the image
+/// [`target_files`], [`target_folders`] and the folder `calib` are planned.
+/// Frame i of a stack is stamped i/fps after the first. Returns the image
 /// paths (relative).
 pub(crate) fn write_target_files(
     config: &Config,
@@ -170,36 +260,38 @@ pub(crate) fn write_target_files(
 ) -> Result<Vec<String>> {
     let m = markers(&config.target);
     output.write_csv(&out.join("target.csv"), &target_rows(&m))?;
-    let ext = config.output.format.extension();
     let mut paths = Vec::new();
     for cam in &rig.cameras {
-        let [target, flat, dark] = CALIBRATION_FRAMES;
-        let frames = [
-            (target, render_target(cam, config)?),
-            (flat, cam.flat_field(config.seed)),
-            (dark, cam.dark_frame(config.seed)),
-        ];
-        for ((name, what), img) in frames {
-            let rel = format!("calib/{name}{}.{ext}", cam.id);
-            let meta = FrameMetadata {
-                make: config.output.make.clone(),
-                model: config.output.model.clone(),
-                serial: cam.serial.clone(),
-                time_s,
-                exposure_s: config.sensor.exposure_s,
-                f_number: config.optics.f_number,
-                focal_mm: config.optics.focal_mm,
-                description: format!("{what}, camera {}", cam.id),
-            };
-            write_image_into(
-                output.create(&out.join(&rel))?,
-                &img,
-                config.sensor.bits,
-                &meta,
-                config.output.format,
-                config.output.compression,
-            )?;
-            paths.push(rel);
+        for kind in CalibrationKind::ALL {
+            let n = kind.frames(config);
+            for i in 0..n {
+                let img = render_calibration(kind, cam, config, i)?;
+                let rel = kind.path(config, cam.id, i);
+                let stack = if n > 1 {
+                    format!(" {}/{n}", i + 1)
+                } else {
+                    String::new()
+                };
+                let meta = FrameMetadata {
+                    make: config.output.make.clone(),
+                    model: config.output.model.clone(),
+                    serial: cam.serial.clone(),
+                    time_s: time_s + f64::from(i) / config.procedure.fps,
+                    exposure_s: config.sensor.exposure_s,
+                    f_number: config.optics.f_number,
+                    focal_mm: config.optics.focal_mm,
+                    description: format!("{}{stack}, camera {}", kind.what(), cam.id),
+                };
+                write_image_into(
+                    output.create(&out.join(&rel))?,
+                    &img,
+                    config.sensor.bits,
+                    &meta,
+                    config.output.format,
+                    config.output.compression,
+                )?;
+                paths.push(rel);
+            }
         }
         output.write_csv(
             &out.join(format!("calib/points_cam{}.csv", cam.id)),

@@ -9,9 +9,10 @@ use formats::{Axis, PointRow, SphereRow, Truth, TruthCamera, TruthInstant};
 use serde_json::{Map, Value, json};
 
 use crate::config::Config;
+use crate::illumination::IlluminationSource;
 use crate::machine::{AxisErrorValues, axis_error_values};
 use crate::procedure::Plan;
-use crate::rig::{SynthRig, principal_distance_mm};
+use crate::rig::{SynthCamera, SynthRig, principal_distance_mm};
 use crate::{Result, SynthError};
 
 /// The true cameras, with their serial, nominal description and optics in `extra`.
@@ -36,19 +37,84 @@ pub(crate) fn truth_cameras(rig: &SynthRig, config: &Config) -> Vec<TruthCamera>
             // What a pixel's value is proportional to (see synth::illumination).
             t.extra.insert(
                 "illumination".into(),
-                match &c.lens {
-                    Some(l) => json!({
+                match c.lens.as_ref().map(|l| l.source()) {
+                    Some(IlluminationSource::Physical(v)) => json!({
                         "model": "lens",
                         "relative_illumination": "cos⁴θ·V(tan θ)·|∂ideal/∂observed|",
-                        "vignetting": l.vignetting(),
+                        "vignetting": v,
+                        "flat_field_radiance_e": c.flat_field_radiance_e(),
+                    }),
+                    Some(IlluminationSource::Profile(p)) => json!({
+                        "model": "profile",
+                        "relative_illumination": "1 + k1·ρ² + k2·ρ⁴ + k3·ρ⁶, ρ = |p − centre_px|/radius_px",
+                        "centre_px": p.centre_px,
+                        "radius_px": p.radius_px,
+                        "k": p.k,
                         "flat_field_radiance_e": c.flat_field_radiance_e(),
                     }),
                     None => json!({"model": "radiance", "relative_illumination": 1.0}),
                 },
             );
+            if let Ok(Some(p)) = config.optics.lens_profile() {
+                t.extra.insert("lens_profile".into(), lens_profile_truth(c, &p));
+            }
+            if config.sensor.has_readout_model() {
+                t.extra.insert("sensor".into(), sensor_truth(c, config));
+            }
             t
         })
         .collect()
+}
+
+/// A camera's lens profile: its numbers, lensfun's radii in mm, and the
+/// Brown coefficients fitted to its distortion with the fit's largest residual.
+fn lens_profile_truth(c: &SynthCamera, p: &crate::config::LensProfile) -> Value {
+    let k = &c.camera.intrinsics;
+    let fit = p
+        .brown_in_pixels(k, c.sensor.width, c.sensor.height, c.optics.pixel_mm)
+        .and_then(Result::ok);
+    json!({
+        "profile": p,
+        "vignetting_radius_mm": p.vignetting_radius_mm(),
+        "distortion_radius_mm": p.distortion_radius_mm(),
+        "brown_k": fit.map(|f| f.k),
+        "brown_fit_max_residual_px": fit.map(|f| f.max_residual_px),
+    })
+}
+
+/// A camera's readout: file and ADC depth, gain (file DN per electron),
+/// offset, read noise, the fixed-pattern parameters, the injected defects
+/// (`hot_pixels` with their dark electrons, `dead_pixels`; x = column,
+/// y = row, the centre of the top-left pixel at (0, 0)) and the calibration
+/// stack size.
+pub fn sensor_truth(c: &SynthCamera, config: &Config) -> Value {
+    let s = &c.sensor;
+    let p = c.readout.params();
+    let defects = c.defects();
+    json!({
+        "bits": s.bits,
+        "adc_bits": c.readout.adc_bits(),
+        "gain_dn_per_e": s.gain_dn_per_e,
+        "offset_dn": s.offset_dn,
+        "read_noise_e": s.read_noise_e,
+        "shot_noise": s.shot_noise,
+        "prnu": p.prnu,
+        "dsnu_dn": p.dsnu_dn,
+        "column_offset_dn": p.column_offset_dn,
+        "row_offset_dn": p.row_offset_dn,
+        "hot_pixel_e": p.hot_pixel_e,
+        "hot_pixels": defects
+            .hot
+            .iter()
+            .map(|h| json!({"x": h.x, "y": h.y, "dark_e": h.dark_e}))
+            .collect::<Vec<_>>(),
+        "dead_pixels": defects
+            .dead
+            .iter()
+            .map(|[x, y]| json!({"x": x, "y": y}))
+            .collect::<Vec<_>>(),
+        "calibration_frames": config.sensor.calibration_frames,
+    })
 }
 
 /// Round to 1e-12 mm so that JSON stays short (far below any measurable size).

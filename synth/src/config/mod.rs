@@ -25,6 +25,7 @@ use std::path::Path;
 pub use formats::{AxisProcedure, ProcedureConfig};
 use serde::{Deserialize, Serialize};
 
+pub use crate::lens_profile::LensProfile;
 pub(crate) use capture::bad as bad_capture;
 pub use capture::{CaptureConfig, CaptureMode, DroppedFrame, StrayFrame};
 pub(crate) use check::{bad, finite, non_negative, positive};
@@ -38,6 +39,13 @@ pub use spheres::SphereConfig;
 pub use target::TargetConfig;
 
 use crate::{Result, SynthError};
+
+/// Whether a value is its type's default (zero): keys that are off by
+/// default are left out of the serialised configuration, so that a
+/// configuration without them reads as before they existed.
+pub(crate) fn is_default<T: Default + PartialEq>(x: &T) -> bool {
+    *x == T::default()
+}
 
 /// The documented default configuration (the seed's rig and procedure), as
 /// printed by `trinocular synth config`. Parses to [`Config::default`].

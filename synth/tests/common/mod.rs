@@ -1,9 +1,26 @@
-//! What the renderer's accuracy tests share: the seed's camera 3 and three
-//! spheres far off its axis.
+//! What the renderer's tests share: the seed's camera 3 and three spheres
+//! far off its axis; the seed's configuration at 512 × 384. Each test crate
+//! uses a part of it.
+
+#![allow(dead_code)]
 
 use geom::Distortion;
 use geom::nalgebra::{Point3, Vector2};
-use synth::{Config, Image16, NoiseKey, Signal, Sphere, SynthCamera, SynthRig, sphere_signals};
+use synth::{
+    Config, Image16, NoiseKey, Overrides, Signal, Sphere, SynthCamera, SynthRig, sphere_signals,
+};
+
+/// The seed's configuration at 512 × 384 px (the same field of view).
+pub fn small_config() -> Config {
+    let mut c = Config::default();
+    c.apply(&Overrides {
+        width: Some(512),
+        height: Some(384),
+        ..Overrides::default()
+    })
+    .unwrap();
+    c
+}
 
 /// The seed camera 3 (true model of the default config), optionally without
 /// distortion; its relative illumination as the default config gives it.
