@@ -77,9 +77,18 @@ pub(crate) fn check_flat(flat: &Master, dark: &Master, saturation: u16) -> Resul
             dark_dn: dark.level_dn,
         });
     }
-    if flat.saturated_fraction > SATURATED_FLAT_LIMIT {
+    // Hot pixels whose dark signal alone brings the flat to saturation are
+    // defects the dark stack finds, not an over-exposed flat: left out.
+    let headroom = f64::from(saturation) - flat.level_dn;
+    let hot = dark
+        .mean
+        .iter()
+        .filter(|&&d| f64::from(d) - dark.level_dn > headroom)
+        .count();
+    let fraction = (flat.saturated_fraction - hot as f64 / dark.mean.len().max(1) as f64).max(0.0);
+    if fraction > SATURATED_FLAT_LIMIT {
         return Err(SensorError::SaturatedFlat {
-            fraction: flat.saturated_fraction,
+            fraction,
             limit: SATURATED_FLAT_LIMIT,
             saturation_dn: saturation,
         });
