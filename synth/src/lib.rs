@@ -17,8 +17,13 @@
 //!   [`coverage()`] (exact-area coverage through the full camera model),
 //!   [`blur`] and [`sphere_signals`] (moment-exact Gaussian PSF and defocus),
 //!   [`expose`] with [`Sensor`] and [`NoiseKey`] (background, noise, gain,
-//!   quantisation; deterministic per-row random streams), [`LensIllumination`]
-//!   (cos⁴θ, the lens's own vignetting, energy conserved under distortion).
+//!   quantisation; deterministic per-row random streams), [`expose_through`]
+//!   a camera's [`Readout`] (ADC bits, the fixed pattern: PRNU, DSNU, column
+//!   and row offsets, hot and dead pixels — [`SynthCamera::defects`],
+//!   [`truth::sensor_truth`]), [`LensIllumination`] (cos⁴θ, the lens's own
+//!   vignetting, energy conserved under distortion; or a measured
+//!   [`VignettingProfile`]), [`lens_profile`] (lensfun's models, the
+//!   built-in profiles, ptlens → Brown).
 //! - The calibration target: [`markers`], [`marker_spheres`], [`render_target`].
 //! - Files: [`encode_tiff`], [`encode_png`], [`write_image`] with
 //!   [`FrameMetadata`] (8/16-bit TIFF and PNG with EXIF); [`datetime`] (the
@@ -37,8 +42,9 @@
 //! - Pixel coordinates: the centre of the top-left pixel is (0, 0).
 //! - A pixel's value is the scene radiance times the lens's relative
 //!   illumination (`[optics] illumination = "lens"`: cos⁴θ·V/J, see
-//!   [`LensIllumination`]) or the radiance itself (`"radiance"`, a pinhole ray
-//!   tracer); lens distortion only moves light.
+//!   [`LensIllumination`]; `"profile"`: a measured lens profile) or the
+//!   radiance itself (`"radiance"`, a pinhole ray tracer); lens distortion
+//!   only moves light.
 //! - The library never prints; long jobs report through [`Progress`].
 
 #![deny(missing_docs)]

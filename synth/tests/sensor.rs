@@ -405,3 +405,63 @@ fn calibration_stacks_share_the_pattern() {
             .all(|t| t.extra["sensor"]["calibration_frames"] == 4)
     );
 }
+
+/// The pattern is the same in every frame of a campaign: with hot pixels
+/// bright enough to saturate, each of camera 2's frames — the continuous
+/// stream with motion blur, its target image, flat field and dark frame —
+/// holds the ADC's largest code at exactly its hot pixels' positions (and
+/// its dead pixels stay dark in the flat).
+#[test]
+fn every_frame_of_a_campaign_has_the_pattern() {
+    let mut c = config(|s| {
+        s.adc_bits = 12;
+        s.hot_pixels = 12;
+        s.hot_pixel_e = [20_000.0, 30_000.0];
+        s.dead_pixels = 4;
+    });
+    c.procedure.runs = 1;
+    c.procedure.fps = 5.0;
+    c.procedure.feed_mm_per_s = 40.0;
+    c.procedure.settle_s = 0.5;
+    for a in &mut c.procedure.axes {
+        a.segments = 1;
+        a.start_mm = -10.0;
+        a.length_mm = 20.0;
+        a.lines_mm = vec![0.0];
+    }
+    c.capture.mode = synth::config::CaptureMode::Continuous;
+    c.capture.blur_steps = 2;
+    c.validate().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    synth::write_campaign(&c, dir.path(), &mut OutputPlan::new(false), &NoProgress).unwrap();
+    let cam = camera(&c);
+    let defects = cam.defects();
+    let hot: BTreeSet<(u32, u32)> = defects.hot.iter().map(|h| (h.x, h.y)).collect();
+    let top = 4095 << 4;
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir.path().join(&cam.serial))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(files.len() > 10, "{} frames", files.len());
+    for name in ["cam2.tif", "flat_cam2.tif", "dark_cam2.tif"] {
+        files.push(dir.path().join("calib").join(name));
+    }
+    for f in &files {
+        let img = image::open(f).unwrap().to_luma16();
+        let saturated: BTreeSet<(u32, u32)> = img
+            .enumerate_pixels()
+            .filter(|(_, _, p)| p.0[0] == top)
+            .map(|(x, y, _)| (x, y))
+            .collect();
+        assert_eq!(saturated, hot, "{}", f.display());
+    }
+    let flat = image::open(dir.path().join("calib/flat_cam2.tif"))
+        .unwrap()
+        .to_luma16();
+    assert!(
+        defects
+            .dead
+            .iter()
+            .all(|p| flat.get_pixel(p[0], p[1]).0[0] < 1000)
+    );
+}
