@@ -135,3 +135,36 @@ fn exit_status_counts_the_instants_measured() {
     );
     assert_eq!(std::fs::read_dir(d.join("none")).unwrap().count(), 0);
 }
+
+/// With `--all-cameras`, an instant whose frame of one camera is unreadable
+/// is measured from the other two: every instant is in points.csv, and the
+/// camera left out is a `camera` row of points.problems.csv — a problem
+/// listed, so the status is 3, and the message says what it is.
+#[test]
+fn a_camera_left_out_is_listed_with_status_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let instants = campaign(d);
+    let manifest: Vec<ManifestRow> = records(&d.join("c/manifest.csv"));
+    let broken = d.join("c").join(&manifest[4].image);
+    std::fs::write(&broken, b"II*\0not a tiff").unwrap();
+    let (status, last) = measure(d, "all", &d.join("c/spheres.csv"), &["--all-cameras"]);
+    assert_eq!(status, 3, "{last}");
+    let problems_csv = d.join("all/points.problems.csv");
+    assert_eq!(
+        last,
+        format!(
+            "trinocular: finished with problems: 1 instant measured without one of its cameras; listed in {}",
+            problems_csv.display()
+        )
+    );
+    let problems: Vec<InstantProblemRow> = records(&problems_csv);
+    assert_eq!(problems.len(), 1);
+    assert_eq!(problems[0].missing, Missing::Camera);
+    assert_eq!(problems[0].camera, Some(manifest[4].camera));
+    assert_eq!(problems[0].instant(), manifest[4].instant());
+    assert_eq!(
+        records::<PointRow>(&d.join("all/points.csv")).len(),
+        3 * instants
+    );
+}

@@ -137,6 +137,29 @@ pub struct MomentEllipse {
     pub orientation_rad: f64,
 }
 
+impl MomentEllipse {
+    /// The ellipse of central second moments (μ20, μ02, μ11) (px²):
+    /// eigen-decomposition of the covariance, axes `4·√λ`.
+    pub fn of_central((a, b, c): (f64, f64, f64)) -> Self {
+        let mean = 0.5 * (a + b);
+        let d = (0.25 * (a - b) * (a - b) + c * c).sqrt();
+        Self {
+            major_px: 4.0 * (mean + d).max(0.0).sqrt(),
+            minor_px: 4.0 * (mean - d).max(0.0).sqrt(),
+            orientation_rad: 0.5 * (2.0 * c).atan2(a - b),
+        }
+    }
+
+    /// Circularity: minor/major axis ratio (1 for a disc, 0 when degenerate).
+    pub fn circularity(&self) -> f64 {
+        if self.major_px > 0.0 {
+            self.minor_px / self.major_px
+        } else {
+            0.0
+        }
+    }
+}
+
 impl Blob {
     /// Equivalent diameter `√(4·area/π)` (px).
     pub fn diameter_px(&self) -> f64 {
@@ -148,26 +171,14 @@ impl Blob {
         self.moments.s
     }
 
-    /// Moment ellipse: eigen-decomposition of the weighted covariance.
+    /// Moment ellipse of the blob's weighted covariance.
     pub fn ellipse(&self) -> MomentEllipse {
-        let (a, b, c) = self.moments.central();
-        let mean = 0.5 * (a + b);
-        let d = (0.25 * (a - b) * (a - b) + c * c).sqrt();
-        MomentEllipse {
-            major_px: 4.0 * (mean + d).max(0.0).sqrt(),
-            minor_px: 4.0 * (mean - d).max(0.0).sqrt(),
-            orientation_rad: 0.5 * (2.0 * c).atan2(a - b),
-        }
+        MomentEllipse::of_central(self.moments.central())
     }
 
     /// Circularity: minor/major axis ratio of the moment ellipse (1 for a disc).
     pub fn circularity(&self) -> f64 {
-        let e = self.ellipse();
-        if e.major_px > 0.0 {
-            e.minor_px / e.major_px
-        } else {
-            0.0
-        }
+        self.ellipse().circularity()
     }
 
     /// The blob is saturated somewhere.

@@ -18,7 +18,7 @@ use geom::fit::plane_z_on_xy;
 use geom::{Camera, Illumination, Point2, Point3, RadialIllumination};
 use std::cell::Cell;
 
-use crate::blob::Blob;
+use crate::blob::{Blob, MomentEllipse};
 use crate::frame::FrameView;
 use crate::label::Weighting;
 use crate::threshold::Level;
@@ -168,18 +168,37 @@ pub fn background_plane(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Op
     plane
 }
 
-/// The blob's corrected centroid: `Σ p′·F′·J / Σ F′·J` over its pixels, with
-/// the background plane, flat-field correction and threshold of the module
-/// docs. `frame` must be the frame the blob was extracted from (after
-/// denoising). `None` when the background cannot be estimated, a pixel cannot
-/// be mapped, or no weight remains.
-pub fn mapped_centroid(
+/// A blob's corrected light (module docs): the weights `w = F′·J` at the
+/// undistorted positions p′ of its pixels, summed into its centroid and
+/// central second moments — in the corrected (ideal) image, where a luminous
+/// sphere is the ellipse of `geom::sphere_image` whatever the lens.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MappedLight {
+    /// Centroid `c = Σ p′·w / Σ w` (px).
+    pub centroid: [f64; 2],
+    /// Central second moments `(μ20, μ02, μ11) = Σ w·(p′ − c)(p′ − c)ᵀ / Σ w` (px²).
+    pub central: (f64, f64, f64),
+}
+
+impl MappedLight {
+    /// The moment ellipse of the corrected light (its axes and circularity).
+    pub fn ellipse(&self) -> MomentEllipse {
+        MomentEllipse::of_central(self.central)
+    }
+}
+
+/// The blob's corrected light: centroid `Σ p′·F′·J / Σ F′·J` and the second
+/// moments about it over its pixels, with the background plane, flat-field
+/// correction and threshold of the module docs. `frame` must be the frame
+/// the blob was extracted from (after denoising). `None` when the background
+/// cannot be estimated, a pixel cannot be mapped, or no weight remains.
+pub fn mapped_light(
     frame: &FrameView<'_>,
     blob: &Blob,
     level: &Level,
     weighting: Weighting,
     map: &dyn PixelMap,
-) -> Option<[f64; 2]> {
+) -> Option<MappedLight> {
     let [c, a, b] = background_plane(frame, blob, level)?;
     let mut pixels = Vec::with_capacity(blob.area_px as usize);
     let mut t_max = f64::NEG_INFINITY;
@@ -198,18 +217,47 @@ pub fn mapped_centroid(
             pixels.push((m, (f64::from(row[x as usize]) - bg) / m.illumination));
         }
     }
+    // (p′, w) of every weighted pixel.
+    let weighted: Vec<([f64; 2], f64)> = pixels
+        .into_iter()
+        .filter_map(|(m, f)| {
+            let weight = match weighting {
+                Weighting::Subtracted if f > t_max => f - t_max,
+                Weighting::Raw if f >= t_max => f,
+                _ => return None,
+            } * m.jacobian;
+            Some((m.position, weight))
+        })
+        .collect();
     let (mut su, mut sv, mut sw) = (0.0f64, 0.0f64, 0.0f64);
-    for (m, f) in pixels {
-        let weight = match weighting {
-            Weighting::Subtracted if f > t_max => f - t_max,
-            Weighting::Raw if f >= t_max => f,
-            _ => continue,
-        } * m.jacobian;
-        su += m.position[0] * weight;
-        sv += m.position[1] * weight;
-        sw += weight;
+    for &(p, w) in &weighted {
+        su += p[0] * w;
+        sv += p[1] * w;
+        sw += w;
     }
-    (sw > 0.0).then(|| [su / sw, sv / sw])
+    let centroid = (sw > 0.0).then(|| [su / sw, sv / sw])?;
+    let (mut suu, mut svv, mut suv) = (0.0f64, 0.0f64, 0.0f64);
+    for &(p, w) in &weighted {
+        let (du, dv) = (p[0] - centroid[0], p[1] - centroid[1]);
+        suu += du * du * w;
+        svv += dv * dv * w;
+        suv += du * dv * w;
+    }
+    Some(MappedLight {
+        centroid,
+        central: (suu / sw, svv / sw, suv / sw),
+    })
+}
+
+/// The blob's corrected centroid: that of its [`mapped_light`].
+pub fn mapped_centroid(
+    frame: &FrameView<'_>,
+    blob: &Blob,
+    level: &Level,
+    weighting: Weighting,
+    map: &dyn PixelMap,
+) -> Option<[f64; 2]> {
+    mapped_light(frame, blob, level, weighting, map).map(|l| l.centroid)
 }
 
 /// The corrected centroids of `blobs` with `camera`'s model and its lens's
@@ -238,49 +286,63 @@ pub fn observed_centroids(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::backend::{Backend, CpuBackend, ExtractParams};
+    use crate::backend::{Backend, CpuBackend, ExtractParams, Extraction};
     use crate::threshold::Threshold;
 
-    /// A disc of radiance `l` over a background plane, both times a linear
-    /// illumination fall-off, plus an offset: the corrected centroid is the
-    /// disc's centre, the plain one is pulled towards the brighter side.
-    #[test]
-    fn flat_field_correction_recovers_the_radiance_centroid() {
-        let (w, h) = (160u32, 120u32);
-        let (cu, cv, r) = (70.3, 58.6, 20.0);
-        let ri = RadialIllumination {
-            centre: [0.0, 0.0],
-            scale_px: 200.0,
-            coefficients: vec![1.0, -0.3],
-        };
-        let mut pixels = vec![0u16; (w * h) as usize];
-        for y in 0..h {
-            for x in 0..w {
+    const W: u32 = 160;
+    const H: u32 = 120;
+
+    /// A W×H frame's pixels: `value(u, v, c)`, c the area of the unit pixel
+    /// where `inside(u, v)` holds, by 8×8 supersampling (exact to ≈ 1/64 of
+    /// an edge pixel's area).
+    fn render(inside: impl Fn(f64, f64) -> bool, value: impl Fn(f64, f64, f64) -> f64) -> Vec<u16> {
+        let mut pixels = vec![0u16; (W * H) as usize];
+        for y in 0..H {
+            for x in 0..W {
                 let (u, v) = (f64::from(x), f64::from(y));
-                // Area of the unit pixel inside the disc, by 8×8 supersampling.
-                let mut inside = 0.0;
+                let mut c = 0.0f64;
                 for i in 0..8 {
                     for j in 0..8 {
-                        let (du, dv) = (
-                            u - 0.4375 + 0.125 * f64::from(i) - cu,
-                            v - 0.4375 + 0.125 * f64::from(j) - cv,
-                        );
-                        if du * du + dv * dv <= r * r {
-                            inside += 1.0 / 64.0;
+                        let (su, sv) = (0.125 * f64::from(i), 0.125 * f64::from(j));
+                        if inside(u - 0.4375 + su, v - 0.4375 + sv) {
+                            c += 1.0 / 64.0;
                         }
                     }
                 }
-                let light = 300.0 + 0.8 * u + 40_000.0 * inside;
-                pixels[(y * w + x) as usize] = (500.0 + ri.at(u, v) * light).round() as u16;
+                pixels[(y * W + x) as usize] = value(u, v, c).round() as u16;
             }
         }
-        let frame = FrameView::new(w, h, 16, &pixels).unwrap();
+        pixels
+    }
+
+    /// The frame's blobs at a fixed threshold of 2000 DN; there is one.
+    fn extract_one(frame: FrameView<'_>) -> (Extraction, ExtractParams) {
         let params = ExtractParams {
             threshold: Threshold::Fixed(2000),
             ..ExtractParams::default()
         };
         let ex = CpuBackend.extract(frame, &params).unwrap();
         assert_eq!(ex.blobs.len(), 1);
+        (ex, params)
+    }
+
+    /// A disc of radiance `l` over a background plane, both times a linear
+    /// illumination fall-off, plus an offset: the corrected centroid is the
+    /// disc's centre, the plain one is pulled towards the brighter side.
+    #[test]
+    fn flat_field_correction_recovers_the_radiance_centroid() {
+        let (cu, cv, r) = (70.3, 58.6, 20.0);
+        let ri = RadialIllumination {
+            centre: [0.0, 0.0],
+            scale_px: 200.0,
+            coefficients: vec![1.0, -0.3],
+        };
+        let pixels = render(
+            |u, v| (u - cu).hypot(v - cv) <= r,
+            |u, v, inside| 500.0 + ri.at(u, v) * (300.0 + 0.8 * u + 40_000.0 * inside),
+        );
+        let frame = FrameView::new(W, H, 16, &pixels).unwrap();
+        let (ex, params) = extract_one(frame);
         let blob = &ex.blobs[0];
         let plane = background_plane(&frame, blob, &ex.level).unwrap();
         assert!((plane[0] - 800.0).abs() < 30.0, "{plane:?}");
@@ -301,6 +363,56 @@ mod tests {
         assert!(
             plain_err > 10.0 * err,
             "plain centroid only {plain_err} px off"
+        );
+    }
+
+    /// Observed positions stretched by `s` along u about `cu`: ideal
+    /// `u′ = cu + (u − cu)/s`, area Jacobian 1/s (a strong local distortion).
+    struct Stretch {
+        cu: f64,
+        s: f64,
+    }
+
+    impl PixelMap for Stretch {
+        fn map(&self, u: f64, v: f64) -> Option<Mapped> {
+            Some(Mapped {
+                position: [self.cu + (u - self.cu) / self.s, v],
+                jacobian: 1.0 / self.s,
+                illumination: 1.0,
+            })
+        }
+    }
+
+    /// A disc of the ideal image seen through [`Stretch`]: the observed blob
+    /// is an ellipse of circularity 1/s, its corrected light the disc again —
+    /// round, with the disc's diameter as its minor axis and its centre as
+    /// the centroid.
+    #[test]
+    fn the_corrected_light_is_measured_in_the_ideal_image() {
+        let (cu, cv, r, s) = (70.3, 58.6, 15.0, 1.6);
+        let pixels = render(
+            |u, v| ((u - cu) / s).hypot(v - cv) <= r,
+            |_, _, inside| 800.0 + 40_000.0 * inside,
+        );
+        let frame = FrameView::new(W, H, 16, &pixels).unwrap();
+        let (ex, params) = extract_one(frame);
+        let blob = &ex.blobs[0];
+        assert!(
+            (blob.circularity() - 1.0 / s).abs() < 0.01,
+            "{}",
+            blob.circularity()
+        );
+        let stretch = Stretch { cu, s };
+        let light = mapped_light(&frame, blob, &ex.level, params.weighting, &stretch).unwrap();
+        let e = light.ellipse();
+        assert!(e.circularity() > 0.995, "{e:?}");
+        // The thresholded weights thin the edge pixels: within 1 % of 2R.
+        assert!((e.minor_px / (2.0 * r) - 1.0).abs() < 0.01, "{e:?}");
+        let [u, v] = light.centroid;
+        assert!((u - cu).hypot(v - cv) < 2e-3, "{:?}", light.centroid);
+        assert_eq!(
+            mapped_centroid(&frame, blob, &ex.level, params.weighting, &stretch),
+            Some(light.centroid)
         );
     }
 }

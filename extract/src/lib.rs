@@ -13,7 +13,8 @@
 //! - Results are exact integer sums: the same on any number of threads.
 //! - Corrected centroids ([`mapped_centroid`], [`observed_centroids`]) re-weight a blob's pixels with the
 //!   camera's model: undistortion and the flat-field correction by the
-//!   lens's relative illumination, over the local background.
+//!   lens's relative illumination, over the local background; [`mapped_light`]
+//!   adds the second moments of that light (its ellipse in the ideal image).
 
 mod error;
 
@@ -33,9 +34,10 @@ mod threshold;
 pub use backend::{Backend, CpuBackend, DEFAULT_MIN_AREA, ExtractParams, Extraction};
 pub use background::MIN_MESH_PX;
 pub use batch::{FrameBlobs, Radiometry, extract_file, extract_files, extract_files_flat};
-pub use blob::{Blob, BoundingBox, Moments};
+pub use blob::{Blob, BoundingBox, MomentEllipse, Moments};
 pub use correction::{
-    CameraMap, FlatFieldMap, Mapped, PixelMap, mapped_centroid, observed_centroids,
+    CameraMap, FlatFieldMap, Mapped, MappedLight, PixelMap, mapped_centroid, mapped_light,
+    observed_centroids,
 };
 pub use decode::FrameReader;
 pub use denoise::{Denoise, apply as denoise};

@@ -18,6 +18,10 @@ pub enum Missing {
     Sphere,
     /// The instant's pose only (every sphere is in `points.csv`).
     Pose,
+    /// Nothing but one camera's view: the instant (or the sphere named) is in
+    /// `points.csv`, measured from the other cameras (its `cameras` column);
+    /// the row says which camera was left out and why.
+    Camera,
 }
 
 instant_row! {

@@ -48,6 +48,7 @@ mod triangulate;
 
 pub use error::{CampaignProblem, FuseError, Result};
 pub use measure::{Fusion, Inputs, MeasureOptions, SPHERE_LAYOUT_MM, Summary, measure};
+pub use observe::MIN_CIRCULARITY;
 pub use plan::RigModel;
 pub use plausibility::ResidualGate;
 pub use triangulate::{Triangulated, View, predict, seed_displacement, triangulate};

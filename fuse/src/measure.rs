@@ -7,9 +7,10 @@
 //! appended to `points.csv.partial` after each chunk (all rows of an instant
 //! in one write), with a fingerprint of the inputs and options beside it. An
 //! interrupted run started again with the same inputs resumes: instants with
-//! every sphere are kept, the rest (failed, lacking a sphere, or torn by the
-//! interruption) is measured again. At the end every instant's residual is
-//! checked against the campaign's own scatter ([`crate::plausibility`]) —
+//! every sphere from every camera are kept, the rest (failed, lacking a
+//! sphere or a camera, or torn by the interruption) is measured again. At
+//! the end every instant's residual is checked against the campaign's own
+//! scatter ([`crate::plausibility`]) —
 //! over the rows of the partial file, so a resumed run draws the same line —
 //! the rows are sorted into manifest order and every output is written
 //! atomically; the partial files are removed.
@@ -17,9 +18,19 @@
 //! An instant's outcome is one of: every sphere in `points.csv` and its pose
 //! in the poses; some spheres in `points.csv` (a sphere clipped by the
 //! image border or out of a camera's view), a problems row per missing
-//! sphere and camera, no pose; or no rows and one problems row (a frame
-//! that cannot be read, no sphere seen by every camera, an implausible
-//! residual).
+//! sphere and camera, no pose; or no rows and one problems row (too few
+//! frames that can be read, no sphere seen by enough cameras, an
+//! implausible residual).
+//!
+//! A camera that cannot serve an instant — its frame unreadable, or a sphere
+//! it does not find — is left out where the others suffice: each sphere is
+//! triangulated from the cameras that found it, two or more (`cameras` in
+//! `points.csv` names them), and a `camera` row of the problems file names
+//! the camera, its image and why (`missing` = `camera`: nothing is missing
+//! from the outputs but that camera's view; the instant is in `points.csv`).
+//! With the default two cameras per axis one left out leaves one, too few;
+//! with `all_cameras` the other two triangulate the instant (the seed's
+//! fusion needs every camera used).
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
@@ -109,6 +120,9 @@ pub struct Summary {
     pub partial: usize,
     /// Instants with every sphere but without a pose.
     pub without_pose: usize,
+    /// Instants measured without one of their cameras (or without it for a
+    /// sphere): each has a `camera` row in the problems file.
+    pub reduced: usize,
     /// Instants with complete rows kept from an interrupted earlier run.
     pub resumed: usize,
     /// Instants refused as implausible (counted in `instants − measured`).
@@ -164,11 +178,41 @@ fn fingerprint(inputs: &Inputs<'_>, options: &MeasureOptions) -> Result<Fingerpr
 /// Ideal-pixel image centre of one sphere seen by each camera used.
 type Seen = BTreeMap<u8, Point2<f64>>;
 
-/// What the cameras of an instant saw: the cameras used, and per sphere its
-/// image centres when every camera found it, else a row per camera that did not.
+/// Fewest cameras a sphere is triangulated from.
+const MIN_VIEWS: usize = 2;
+
+/// What the cameras of an instant saw: how many cameras are used, those
+/// whose frames could not be used at all (the row saying why), how many
+/// could, and per sphere its image centres in the cameras that found it with
+/// a row per camera that did not.
 struct Sight {
-    cams: Vec<u8>,
-    spheres: Vec<std::result::Result<Seen, Vec<Failure>>>,
+    cams: usize,
+    left_out: Vec<Failure>,
+    usable: usize,
+    spheres: Vec<(Seen, Vec<Failure>)>,
+}
+
+/// `2+3`: the cameras of a `points.csv` row.
+fn camera_set<'a>(cams: impl IntoIterator<Item = &'a u8>) -> String {
+    cams.into_iter()
+        .map(u8::to_string)
+        .collect::<Vec<_>>()
+        .join("+")
+}
+
+/// The note for a camera left out of an instant that is measured without it:
+/// `row` (why the camera could not serve it, or a sphere of it) as a
+/// `camera` row; `measured` says from what the rest was measured.
+fn left_out(row: Failure, measured: &str) -> Failure {
+    let camera = row
+        .camera
+        .map(|c| format!("camera {c} "))
+        .unwrap_or_default();
+    InstantProblemRow {
+        missing: Missing::Camera,
+        reason: format!("{camera}left out: {}; {measured}", row.reason),
+        ..row
+    }
 }
 
 /// A sphere's reference for the seed's fusion: its image centres and
@@ -360,25 +404,48 @@ impl Context<'_> {
         result
     }
 
-    /// What the cameras used for this instant see of every sphere.
-    fn observe_instant(&self, ip: &InstantPlan) -> std::result::Result<Sight, Failure> {
+    /// What the cameras used for this instant see of every sphere. A
+    /// camera whose frame cannot be used is left out; once fewer cameras
+    /// than a sphere needs can remain, the rest are not looked at.
+    fn observe_instant(&self, ip: &InstantPlan) -> Sight {
         let cams = self.rig.cameras_for(ip.key.axis, self.options.all_cameras);
-        let mut spheres: Vec<std::result::Result<Seen, Vec<Failure>>> =
-            vec![Ok(BTreeMap::new()); self.spheres.len()];
+        let mut sight = Sight {
+            cams: cams.len(),
+            left_out: Vec::new(),
+            usable: 0,
+            spheres: vec![(BTreeMap::new(), Vec::new()); self.spheres.len()],
+        };
         for &c in &cams {
-            let seen = self.observe(ip, c)?;
-            for (sphere, outcome) in spheres.iter_mut().zip(seen) {
-                match (sphere, outcome) {
-                    (Ok(views), Ok(p)) => {
-                        views.insert(c, p);
+            if cams.len() - sight.left_out.len() < self.views_needed(cams.len()) {
+                break;
+            }
+            match self.observe(ip, c) {
+                Ok(seen) => {
+                    sight.usable += 1;
+                    for ((views, misses), outcome) in sight.spheres.iter_mut().zip(seen) {
+                        match outcome {
+                            Ok(p) => {
+                                views.insert(c, p);
+                            }
+                            Err(f) => misses.push(f),
+                        }
                     }
-                    (sphere @ Ok(_), Err(f)) => *sphere = Err(vec![f]),
-                    (Err(misses), Err(f)) => misses.push(f),
-                    (Err(_), Ok(_)) => {}
                 }
+                Err(f) => sight.left_out.push(f),
             }
         }
-        Ok(Sight { cams, spheres })
+        sight
+    }
+
+    /// Cameras a sphere is measured from, of the `cams` used: two or more
+    /// for triangulation; every one for the seed's fusion, whose pixel-scale
+    /// model fails for the camera that looks along the motion, which is what
+    /// would remain of `all_cameras` without one of the others.
+    fn views_needed(&self, cams: usize) -> usize {
+        match self.options.fusion {
+            Fusion::Triangulate => MIN_VIEWS,
+            Fusion::Seed => cams,
+        }
     }
 
     fn radius(&self, sphere: usize) -> f64 {
@@ -458,19 +525,17 @@ impl Context<'_> {
     }
 }
 
-fn rows_for(
-    key: &InstantKey,
-    spheres: &[SphereRow],
-    cams: &[u8],
-    centres: &[Option<(Point3<f64>, f64)>],
-) -> Vec<PointRow> {
+/// A sphere's fused centre: the point, its residual (px) and the cameras it
+/// was measured from (`2+3`).
+type Fused = (Point3<f64>, f64, String);
+
+fn rows_for(key: &InstantKey, spheres: &[SphereRow], centres: &[Option<Fused>]) -> Vec<PointRow> {
     let [nx, ny, nz] = key.nominal();
-    let cameras = cams.iter().map(u8::to_string).collect::<Vec<_>>().join("+");
     spheres
         .iter()
         .zip(centres)
-        .filter_map(|(s, c)| c.map(|(p, res)| (s, p, res)))
-        .map(|(s, p, res)| PointRow {
+        .filter_map(|(s, c)| c.as_ref().map(|(p, res, cameras)| (s, p, *res, cameras)))
+        .map(|(s, p, res, cameras)| PointRow {
             axis: key.axis,
             direction: key.direction,
             run: key.run,
@@ -490,25 +555,30 @@ fn rows_for(
 }
 
 /// One problem row for an instant none of whose spheres could be measured,
-/// from the rows of its spheres: the spheres that share a camera and a
-/// reason are named together (`spheres A, B not found among 1 blob`).
+/// from the rows of its cameras and spheres: the spheres that share a camera
+/// and a reason are named together (`spheres A, B not found among 1 blob`);
+/// a camera's own row (a frame that cannot be used) keeps its reason.
 fn whole_instant(key: &InstantKey, misses: Vec<Failure>) -> Failure {
     // (camera, image, reason, spheres)
     type Group = (Option<u8>, Option<String>, String, Vec<String>);
     let mut groups: Vec<Group> = Vec::new();
     for m in misses {
-        let name = m.sphere.unwrap_or_default();
-        let tail = m
-            .reason
-            .strip_prefix(&format!("sphere {name} "))
-            .unwrap_or(&m.reason)
-            .to_string();
+        let (tail, name) = match m.sphere {
+            Some(name) => (
+                m.reason
+                    .strip_prefix(&format!("sphere {name} "))
+                    .unwrap_or(&m.reason)
+                    .to_string(),
+                Some(name),
+            ),
+            None => (m.reason, None),
+        };
         match groups
             .iter_mut()
             .find(|g| g.0 == m.camera && g.1 == m.image && g.2 == tail)
         {
-            Some(g) => g.3.push(name),
-            None => groups.push((m.camera, m.image, tail, vec![name])),
+            Some(g) => g.3.extend(name),
+            None => groups.push((m.camera, m.image, tail, name.into_iter().collect())),
         }
     }
     let one_camera = groups
@@ -517,14 +587,14 @@ fn whole_instant(key: &InstantKey, misses: Vec<Failure>) -> Failure {
     let text: Vec<String> = groups
         .iter()
         .map(|(camera, _, tail, names)| {
-            let spheres = format!(
-                "sphere{} {}",
-                if names.len() == 1 { "" } else { "s" },
-                names.join(", ")
-            );
+            let what = match names.len() {
+                0 => tail.clone(),
+                1 => format!("sphere {} {tail}", names[0]),
+                _ => format!("spheres {} {tail}", names.join(", ")),
+            };
             match camera {
-                Some(c) if !one_camera => format!("camera {c}: {spheres} {tail}"),
-                _ => format!("{spheres} {tail}"),
+                Some(c) if !one_camera => format!("camera {c}: {what}"),
+                _ => what,
             }
         })
         .collect();
@@ -546,25 +616,21 @@ fn measure_one(
     ip: &InstantPlan,
     references: &HashMap<LineKey, Vec<SphereReference>>,
 ) -> Outcome {
-    let sight = match ctx.observe_instant(ip) {
-        Ok(s) => s,
-        Err(f) => {
-            return Outcome {
-                rows: Vec::new(),
-                problems: vec![f],
-            };
-        }
-    };
-    let mut problems = Vec::new();
-    let mut centres = vec![None; ctx.spheres.len()];
-    for (s, seen) in sight.spheres.into_iter().enumerate() {
-        let seen = match seen {
-            Ok(seen) => seen,
-            Err(misses) => {
-                problems.extend(misses);
-                continue;
-            }
+    let sight = ctx.observe_instant(ip);
+    let needed = ctx.views_needed(sight.cams);
+    if sight.usable < needed {
+        return Outcome {
+            rows: Vec::new(),
+            problems: vec![whole_instant(&ip.key, sight.left_out)],
         };
+    }
+    let (mut problems, mut notes) = (Vec::new(), Vec::new());
+    let mut centres = vec![None; ctx.spheres.len()];
+    for (s, (seen, misses)) in sight.spheres.into_iter().enumerate() {
+        if seen.len() < needed {
+            problems.extend(misses);
+            continue;
+        }
         let centre = match ctx.options.fusion {
             Fusion::Triangulate => ctx.triangulate_one(s, &seen),
             Fusion::Seed => match references.get(&ip.line).and_then(|r| r.get(s)) {
@@ -573,19 +639,42 @@ fn measure_one(
             },
         };
         match centre {
-            Ok(c) => centres[s] = Some(c),
-            Err(e) => problems.push(ctx.sphere_failure(
-                &ip.key,
-                s,
-                None,
-                None,
-                &format!("cannot be fused: {e}"),
-            )),
+            Ok((p, residual)) => {
+                let cameras = camera_set(seen.keys());
+                let measured = format!(
+                    "sphere {} measured from cameras {cameras}",
+                    ctx.spheres[s].name
+                );
+                notes.extend(misses.into_iter().map(|m| left_out(m, &measured)));
+                centres[s] = Some((p, residual, cameras));
+            }
+            Err(e) => {
+                problems.extend(misses);
+                problems.push(ctx.sphere_failure(
+                    &ip.key,
+                    s,
+                    None,
+                    None,
+                    &format!("cannot be fused: {e}"),
+                ));
+            }
         }
     }
-    let rows = rows_for(&ip.key, ctx.spheres, &sight.cams, &centres);
+    let rows = rows_for(&ip.key, ctx.spheres, &centres);
     if rows.is_empty() {
-        problems = vec![whole_instant(&ip.key, problems)];
+        problems = vec![whole_instant(
+            &ip.key,
+            sight.left_out.into_iter().chain(problems).collect(),
+        )];
+    } else {
+        let others = "the instant measured from the other cameras";
+        problems = sight
+            .left_out
+            .into_iter()
+            .map(|f| left_out(f, others))
+            .chain(notes)
+            .chain(problems)
+            .collect();
     }
     Outcome { rows, problems }
 }
@@ -610,24 +699,23 @@ fn seed_references(
                 if found.iter().all(Option::is_some) {
                     break;
                 }
-                let sight = match ctx.observe_instant(ip) {
-                    Ok(s) => s,
-                    Err(f) => {
-                        first_failure.get_or_insert(f.reason);
-                        continue;
-                    }
-                };
-                for (s, seen) in sight.spheres.into_iter().enumerate() {
+                let sight = ctx.observe_instant(ip);
+                if let Some(f) = sight.left_out.into_iter().next() {
+                    first_failure.get_or_insert(f.reason);
+                    continue;
+                }
+                for (s, (seen, misses)) in sight.spheres.into_iter().enumerate() {
                     if found[s].is_some() {
                         continue;
                     }
-                    match seen.map_err(|m| m.into_iter().map(|f| f.reason).collect::<Vec<_>>().join("; ")) {
-                        Ok(seen) => match ctx.triangulate_one(s, &seen) {
-                            Ok((p, _)) => found[s] = Some((seen, p)),
-                            Err(e) => {
-                                first_failure.get_or_insert(e);
-                            }
-                        },
+                    if !misses.is_empty() {
+                        first_failure.get_or_insert(
+                            misses.into_iter().map(|f| f.reason).collect::<Vec<_>>().join("; "),
+                        );
+                        continue;
+                    }
+                    match ctx.triangulate_one(s, &seen) {
+                        Ok((p, _)) => found[s] = Some((seen, p)),
                         Err(e) => {
                             first_failure.get_or_insert(e);
                         }
@@ -678,19 +766,27 @@ fn read_partial(path: &Path) -> Result<Vec<PointRow>> {
     Ok(rows.into_iter().map(|r| r.record).collect())
 }
 
-/// Rows of the instants of a partial output that have every sphere: those
-/// a resumed run keeps. An instant with fewer rows — torn by the
-/// interruption, or lacking a sphere, whose problems are not in the partial
-/// output — is measured again.
-fn load_partial(path: &Path, spheres: usize) -> Result<Vec<PointRow>> {
+/// Rows of the instants of a partial output that have every sphere, each
+/// measured from every camera used (`cameras` of the row's axis): those a
+/// resumed run keeps. An instant with fewer rows — torn by the interruption,
+/// or lacking a sphere — or measured without a camera, whose problems are
+/// not in the partial output, is measured again.
+fn load_partial(
+    path: &Path,
+    spheres: usize,
+    cameras: &dyn Fn(formats::Axis) -> String,
+) -> Result<Vec<PointRow>> {
     let rows = read_partial(path)?;
-    let mut count: BTreeMap<InstantKey, usize> = BTreeMap::new();
+    // Instant → (rows, every row from every camera).
+    let mut whole: BTreeMap<InstantKey, (usize, bool)> = BTreeMap::new();
     for r in &rows {
-        *count.entry(r.instant()).or_default() += 1;
+        let w = whole.entry(r.instant()).or_insert((0, true));
+        w.0 += 1;
+        w.1 &= r.cameras == cameras(r.axis);
     }
     Ok(rows
         .into_iter()
-        .filter(|p| count[&p.instant()] == spheres)
+        .filter(|p| whole[&p.instant()] == (spheres, true))
         .collect())
 }
 
@@ -783,7 +879,7 @@ pub fn measure(
         .state(&paths.sidecar);
     output.lock(formats::folder_of(out), "measure")?;
     // Resume or start afresh.
-    let done_rows = resume(inputs, options, &paths, output)?;
+    let done_rows = resume(inputs, options, &rig, &paths, output)?;
     let index_of: HashMap<InstantKey, usize> = plans.iter().map(|p| (p.key, p.index)).collect();
     let done: std::collections::HashSet<InstantKey> = done_rows
         .iter()
@@ -809,6 +905,14 @@ pub fn measure(
     // The plausibility gate over every row written, this run's and the resumed one's.
     let (mut rows, gate, refused) = gated_rows(&paths.partial, &index_of)?;
     let implausible_count = refused.len();
+    // A refused instant is not in points.csv: no note of a camera left out of it.
+    problems.retain(|(_, p)| !(p.missing == Missing::Camera && refused.contains_key(&p.instant())));
+    let reduced = problems
+        .iter()
+        .filter(|(_, p)| p.missing == Missing::Camera)
+        .map(|(_, p)| p.instant())
+        .collect::<std::collections::HashSet<_>>()
+        .len();
     problems.extend(refused.into_iter().map(|(key, p)| (index_of[&key], p)));
 
     // Final outputs, in manifest order, atomically.
@@ -825,6 +929,7 @@ pub fn measure(
             .filter(|&&n| n < inputs.spheres.len())
             .count(),
         without_pose: written.without_pose,
+        reduced,
         resumed,
         implausible: implausible_count,
         gate,
@@ -909,12 +1014,13 @@ impl Paths {
     }
 }
 
-/// The complete instants' rows of a partial output of the same inputs and
-/// options (none when starting afresh); the partial file rewritten with them
+/// The complete instants' rows (every sphere from every camera of `rig`
+/// used) of a partial output of the same inputs and options (none when starting afresh); the partial file rewritten with them
 /// and the fingerprint beside it.
 fn resume(
     inputs: &Inputs<'_>,
     options: &MeasureOptions,
+    rig: &RigModel,
     paths: &Paths,
     output: &mut OutputPlan,
 ) -> Result<Vec<PointRow>> {
@@ -926,7 +1032,8 @@ fn resume(
             return Err(FuseError::ResumeMismatch(paths.partial.clone()));
         }
         output.resume();
-        done_rows = load_partial(&paths.partial, inputs.spheres.len())?;
+        let cameras = |axis| camera_set(&rig.cameras_for(axis, options.all_cameras));
+        done_rows = load_partial(&paths.partial, inputs.spheres.len(), &cameras)?;
     }
     output.check()?;
     output.write_json(&paths.sidecar, &print)?;

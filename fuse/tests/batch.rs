@@ -113,31 +113,48 @@ fn true_centre(dir: &Path, row: &ManifestRow, sphere: &str) -> geom::Point3<f64>
     geom::Point3::from(p.position())
 }
 
+/// Instants of the campaign.
+fn instant_count(dir: &Path) -> usize {
+    let mut k: Vec<_> = manifest(dir).iter().map(ManifestRow::instant).collect();
+    k.sort();
+    k.dedup();
+    k.len()
+}
+
+/// Make a frame unreadable: a TIFF header and nothing it promises.
+fn corrupt(path: &Path) {
+    std::fs::write(path, b"II*\0garbage").unwrap();
+}
+
+/// Paint sphere `sphere` (diameter `diameter` mm) out of `camera`'s frame of
+/// the i-th instant at the background level; the image and its manifest row.
+fn paint_out(
+    dir: &Path,
+    instant: usize,
+    camera: u8,
+    sphere: &str,
+    diameter: f64,
+) -> (PathBuf, ManifestRow) {
+    let (path, row) = image_of(dir, instant, camera);
+    let cam = common::true_camera(dir, camera);
+    let c = true_centre(dir, &row, sphere);
+    let r_px = diameter / 2.0 * cam.intrinsics.fx / cam.to_camera(&c).z + 3.0; // + blur margin
+    paint(&path, &cam, c, r_px, 1200);
+    (path, row)
+}
+
 #[test]
 fn damaged_frames_are_reported_and_the_rest_measured() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     campaign(d);
-    let instants = {
-        let rows = manifest(d);
-        let mut k = Vec::new();
-        for r in rows {
-            if !k.contains(&r.instant()) {
-                k.push(r.instant());
-            }
-        }
-        k.len()
-    };
+    let instants = instant_count(d);
 
     // Instant 1: camera 3's frame is corrupt.
-    let (corrupt, _) = image_of(d, 1, 3);
-    std::fs::write(&corrupt, b"II*\0garbage").unwrap();
+    let (corrupt_frame, _) = image_of(d, 1, 3);
+    corrupt(&corrupt_frame);
     // Instant 2: sphere C painted out of camera 2's frame (background level): A, B measured.
-    let (missing, row) = image_of(d, 2, 2);
-    let cam2 = common::true_camera(d, 2);
-    let c = true_centre(d, &row, "C");
-    let c_px = 5.0 * cam2.intrinsics.fx / cam2.to_camera(&c).z + 3.0; // C's image radius + blur margin
-    paint(&missing, &cam2, c, c_px, 1200);
+    let (missing, _) = paint_out(d, 2, 2, "C", 10.0);
     // Instant 3: an extra blob (a reflection, 4 mm) in camera 3: rejected, instant measured.
     let (extra, row3) = image_of(d, 3, 3);
     let cam3 = common::true_camera(d, 3);
@@ -170,7 +187,7 @@ fn damaged_frames_are_reported_and_the_rest_measured() {
     assert!(
         p[0].reason.contains("cannot decode")
             && p[0].missing == Missing::Instant
-            && p[0].image.as_deref() == Some(corrupt.to_str().unwrap()),
+            && p[0].image.as_deref() == Some(corrupt_frame.to_str().unwrap()),
         "{:?}",
         p[0]
     );
@@ -338,4 +355,162 @@ fn an_interrupted_run_resumes_without_loss_or_duplicates() {
         matches!(&err, FuseError::Format(FormatError::Exists { path }) if path == &d.join("points.csv")),
         "{err}"
     );
+}
+
+/// With every camera in use (`all_cameras`), a camera that cannot serve an
+/// instant — its frame corrupt, or a sphere it does not show — is left out
+/// and the other two measure the instant: `points.problems.csv` names the
+/// camera left out, its image and why (`missing` = `camera`, the instant in
+/// `points.csv` with the cameras that measured it, and its pose). With one
+/// camera left the instant is lost, one row naming both frames; an instant
+/// measured without a camera that the residual gate refuses has that row
+/// alone. A resumed run measures the instants without a camera again and
+/// gives the same outputs.
+#[test]
+fn a_camera_that_cannot_serve_an_instant_is_left_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    campaign(d);
+    let instants = instant_count(d);
+    let all = MeasureOptions {
+        all_cameras: true,
+        ..MeasureOptions::default()
+    };
+
+    // Instant 1: camera 3's frame is corrupt.
+    let (corrupt_frame, row1) = image_of(d, 1, 3);
+    corrupt(&corrupt_frame);
+    // Instant 2: sphere C painted out of camera 2's frame (background level).
+    let (missing, row2) = paint_out(d, 2, 2, "C", 10.0);
+    // Instant 3: cameras 2's and 3's frames are corrupt.
+    let (lost2, row3) = image_of(d, 3, 2);
+    let (lost3, _) = image_of(d, 3, 3);
+    corrupt(&lost2);
+    corrupt(&lost3);
+    // Instant 4: camera 3's frame is corrupt and camera 2's upside down: the
+    // two cameras left disagree on the height of spheres B and C by ≈ 40 mm.
+    let (refused3, row4) = image_of(d, 4, 3);
+    corrupt(&refused3);
+    let (flipped, _) = image_of(d, 4, 2);
+    let img = image::open(&flipped).unwrap().into_luma16();
+    image::imageops::flip_vertical(&img)
+        .save_with_format(&flipped, image::ImageFormat::Tiff)
+        .unwrap();
+
+    std::fs::create_dir_all(d.join("reference")).unwrap();
+    let summary = common::measure_with(d, "reference/points.csv", &all, &|_, _| {}, false).unwrap();
+    assert_eq!(
+        summary.measured,
+        instants - 2,
+        "{:?}",
+        summary.first_problem
+    );
+    assert_eq!(
+        (summary.partial, summary.without_pose, summary.reduced),
+        (0, 0, 2)
+    );
+    let p: Vec<InstantProblemRow> = read_csv(&d.join("reference/points.problems.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    assert_eq!(p.len(), 4, "{p:?}");
+    assert!(
+        p[0].instant() == row1.instant()
+            && p[0].missing == Missing::Camera
+            && (p[0].camera, p[0].sphere.as_deref()) == (Some(3), None)
+            && p[0].image.as_deref() == Some(corrupt_frame.to_str().unwrap())
+            && p[0].reason.starts_with("camera 3 left out: ")
+            && p[0].reason.contains("cannot decode"),
+        "{:?}",
+        p[0]
+    );
+    assert!(
+        p[1].instant() == row2.instant()
+            && p[1].missing == Missing::Camera
+            && (p[1].camera, p[1].sphere.as_deref()) == (Some(2), Some("C"))
+            && p[1].image.as_deref() == Some(missing.to_str().unwrap())
+            && p[1]
+                .reason
+                .starts_with("camera 2 left out: sphere C not found")
+            && p[1].reason.ends_with("sphere C measured from cameras 1+3"),
+        "{:?}",
+        p[1]
+    );
+    assert!(
+        p[2].instant() == row3.instant()
+            && p[2].missing == Missing::Instant
+            && (p[2].camera, p[2].image.as_deref()) == (None, None)
+            && p[2]
+                .reason
+                .contains(&format!("camera 2: {}: cannot decode", lost2.display()))
+            && p[2]
+                .reason
+                .contains(&format!("camera 3: {}: cannot decode", lost3.display())),
+        "{:?}",
+        p[2]
+    );
+    assert!(
+        p[3].instant() == row4.instant()
+            && p[3].missing == Missing::Instant
+            && p[3].reason.starts_with("implausible"),
+        "{:?}",
+        p[3]
+    );
+
+    // points.csv: every sphere of every instant but the lost ones, from the
+    // cameras that saw it, at its true centre.
+    let rows = points(&d.join("reference/points.csv"));
+    assert_eq!(rows.len(), 3 * (instants - 2));
+    for r in &rows {
+        let cameras = if r.instant() == row1.instant() {
+            "1+2"
+        } else if r.instant() == row2.instant() && r.sphere == "C" {
+            "1+3"
+        } else {
+            "1+2+3"
+        };
+        assert_eq!(r.cameras, cameras, "{r:?}");
+        assert!(r.instant() != row3.instant() && r.instant() != row4.instant());
+        let row = manifest(d)
+            .into_iter()
+            .find(|m| m.instant() == r.instant())
+            .unwrap();
+        let off = (geom::Point3::from(r.position()) - true_centre(d, &row, &r.sphere)).norm();
+        // 640 px: a pixel covers ≈ 0.37 mm of the table.
+        assert!(off < 0.01, "{r:?}: {off} mm from the truth");
+    }
+    let poses: Vec<PoseRow> = read_csv(&d.join("reference/points.poses.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    assert_eq!(poses.len(), instants - 2);
+
+    // Interrupted after the first chunk (instants 0–15), then resumed: the
+    // instants measured without a camera are measured again, so their rows
+    // of the problems file are there too.
+    let interrupted = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        common::measure_with(
+            d,
+            "points.csv",
+            &all,
+            &|done, _| {
+                if done >= 16 {
+                    panic!("interrupted");
+                }
+            },
+            false,
+        )
+    }));
+    assert!(interrupted.is_err());
+    let resumed = common::measure_with(d, "points.csv", &all, &|_, _| {}, false).unwrap();
+    assert_eq!(resumed.resumed, 16 - 4);
+    for name in ["points.csv", "points.problems.csv", "points.poses.csv"] {
+        assert_eq!(
+            std::fs::read(d.join(name)).unwrap(),
+            std::fs::read(d.join("reference").join(name)).unwrap(),
+            "{name}"
+        );
+    }
 }

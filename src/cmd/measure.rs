@@ -174,6 +174,13 @@ pub fn run(args: &Args) -> Result<()> {
     if summary.without_pose > 0 {
         what.push(format!("{} lack their pose", summary.without_pose));
     }
+    match summary.reduced {
+        0 => {}
+        1 => what.push("1 instant measured without one of its cameras".into()),
+        n => what.push(format!(
+            "{n} instants measured without one of their cameras"
+        )),
+    }
     Err(Finished::with_problems(format!(
         "{}; listed in {}",
         what.join("; "),
