@@ -239,18 +239,6 @@ fn exposure_text(exposure_s: Option<f64>) -> String {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn exposure_times_read_as_cameras_write_them() {
-        assert_eq!(exposure_text(Some(0.004)), "1/250 s");
-        assert_eq!(exposure_text(Some(0.0042)), "0.0042 s");
-        assert_eq!(exposure_text(None), "absent");
-    }
-}
-
 impl SensorError {
     /// The index of the frame at fault in its stack, when one frame is.
     pub fn frame(&self) -> Option<usize> {
@@ -281,5 +269,17 @@ impl SensorError {
             SensorError::DarkWithLight { .. } => Some(StackKind::Dark),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exposure_times_read_as_cameras_write_them() {
+        assert_eq!(exposure_text(Some(0.004)), "1/250 s");
+        assert_eq!(exposure_text(Some(0.0042)), "0.0042 s");
+        assert_eq!(exposure_text(None), "absent");
     }
 }

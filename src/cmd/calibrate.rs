@@ -252,7 +252,7 @@ struct Calibrated {
     commissioning: CameraInput,
     yaml: (PathBuf, String),
     /// The sensor's per-pixel map files (path, bytes).
-    map_files: Vec<(PathBuf, Vec<u8>)>,
+    map_files: Vec<super::sensor::MapBytes>,
 }
 
 /// Run the command: (1) read and check the inputs, (2) plan the outputs,

@@ -183,13 +183,16 @@ pub fn plan_maps(output: &mut OutputPlan, out: &Path, id: u8) {
     }
 }
 
+/// A map file to write: its path and bytes.
+pub type MapBytes = (PathBuf, Vec<u8>);
+
 /// The encoded map files of a calibration (only the maps that are applied,
 /// and the defect map), with the record that names them.
 pub fn encode_maps(
     cal: &SensorCalibration,
     out: &Path,
     id: u8,
-) -> Result<(Vec<(PathBuf, Vec<u8>)>, SensorMapFiles)> {
+) -> Result<(Vec<MapBytes>, SensorMapFiles)> {
     let maps = &cal.maps;
     let [dark_path, gain_path, defects_path] = map_paths(out, id);
     let mut files = Vec::new();
