@@ -12,7 +12,8 @@
 //! stacks recovers the renderer's gain and read noise within 5 %; the defect
 //! map finds every injected hot pixel with ≤ 1 % false positives. Negative
 //! control: the same frames measured without the maps are worse, so the
-//! maps carry the correction.
+//! maps carry the correction. The ideal sensor's own maps change nothing:
+//! measured with them, its points are the same bytes as without maps.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -202,8 +203,18 @@ fn a_real_sensor_with_its_maps_measures_as_an_ideal_one() {
         sensors.into_iter().map(|(id, c)| (id, c.maps)).collect();
     let with_maps = sphere_a_um(real.path(), &rig, &maps, "points_maps.csv");
     let without = sphere_a_um(real.path(), &rig, &BTreeMap::new(), "points_plain.csv");
-    let (ideal_rig, _) = calibrated(ideal.path());
+    let (ideal_rig, ideal_sensors) = calibrated(ideal.path());
     let reference = sphere_a_um(ideal.path(), &ideal_rig, &BTreeMap::new(), "points.csv");
+    // An ideal sensor's maps change nothing (the scalar black level alone):
+    // measured with them, the same bytes as without maps.
+    let ideal_maps: BTreeMap<u8, sensor::SensorMaps> =
+        ideal_sensors.into_iter().map(|(id, c)| (id, c.maps)).collect();
+    assert!(ideal_maps.values().all(sensor::SensorMaps::is_identity));
+    sphere_a_um(ideal.path(), &ideal_rig, &ideal_maps, "points_ideal_maps.csv");
+    assert_eq!(
+        std::fs::read(ideal.path().join("points.csv")).unwrap(),
+        std::fs::read(ideal.path().join("points_ideal_maps.csv")).unwrap()
+    );
     assert!(
         (with_maps - reference).abs() <= 0.3,
         "real sensor with maps {with_maps:.3} µm, ideal sensor {reference:.3} µm"
