@@ -133,6 +133,59 @@ fn stacks_give_maps_that_measure_uses_and_checks() {
     refused(&again, &["rig.cam2.defects.tif", "checksum"]);
 }
 
+/// `extract` with stacks corrects the frames with the maps and counts the
+/// defective pixels inside each blob; with single files the column is empty.
+#[test]
+fn extract_with_stacks_counts_defective_pixels_in_blobs() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = campaign(dir.path());
+    let image = c.join("calib/cam1.tif");
+    let extract = |flat: &Path, dark: &Path, out: &Path| {
+        bin()
+            .args([
+                "extract",
+                "--backend",
+                "cpu",
+                "--flat-field",
+                s(flat),
+                "--dark-frame",
+                s(dark),
+                "--out",
+                s(out),
+                s(&image),
+            ])
+            .output()
+            .unwrap()
+    };
+    let (flats, darks) = (&stacks(&c, "flat")[0], &stacks(&c, "dark")[0]);
+    let with = dir.path().join("with.csv");
+    let out = extract(flats, darks, &with);
+    ok(&out);
+    assert!(stderr(&out).contains("trinocular: sensor:"), "{}", stderr(&out));
+    let rows: Vec<formats::BlobRow> = formats::read_csv(&with)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    assert!(!rows.is_empty());
+    assert!(rows.iter().all(|r| r.defect_pixels.is_some()));
+    let first = |d: &Path| {
+        std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .min()
+            .unwrap()
+    };
+    let without = dir.path().join("without.csv");
+    ok(&extract(&first(flats), &first(darks), &without));
+    let rows: Vec<formats::BlobRow> = formats::read_csv(&without)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    assert!(rows.iter().all(|r| r.defect_pixels.is_none()));
+}
+
 #[test]
 fn bad_stacks_are_refused_naming_the_file_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
