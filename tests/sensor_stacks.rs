@@ -161,7 +161,11 @@ fn extract_with_stacks_counts_defective_pixels_in_blobs() {
     let with = dir.path().join("with.csv");
     let out = extract(flats, darks, &with);
     ok(&out);
-    assert!(stderr(&out).contains("trinocular: sensor:"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("trinocular: sensor:"),
+        "{}",
+        stderr(&out)
+    );
     let rows: Vec<formats::BlobRow> = formats::read_csv(&with)
         .unwrap()
         .into_iter()

@@ -207,10 +207,17 @@ fn a_real_sensor_with_its_maps_measures_as_an_ideal_one() {
     let reference = sphere_a_um(ideal.path(), &ideal_rig, &BTreeMap::new(), "points.csv");
     // An ideal sensor's maps change nothing (the scalar black level alone):
     // measured with them, the same bytes as without maps.
-    let ideal_maps: BTreeMap<u8, sensor::SensorMaps> =
-        ideal_sensors.into_iter().map(|(id, c)| (id, c.maps)).collect();
+    let ideal_maps: BTreeMap<u8, sensor::SensorMaps> = ideal_sensors
+        .into_iter()
+        .map(|(id, c)| (id, c.maps))
+        .collect();
     assert!(ideal_maps.values().all(sensor::SensorMaps::is_identity));
-    sphere_a_um(ideal.path(), &ideal_rig, &ideal_maps, "points_ideal_maps.csv");
+    sphere_a_um(
+        ideal.path(),
+        &ideal_rig,
+        &ideal_maps,
+        "points_ideal_maps.csv",
+    );
     assert_eq!(
         std::fs::read(ideal.path().join("points.csv")).unwrap(),
         std::fs::read(ideal.path().join("points_ideal_maps.csv")).unwrap()
