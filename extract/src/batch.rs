@@ -134,13 +134,9 @@ pub fn extract_file<B: Backend + ?Sized>(
     radiometry: Option<Radiometry<'_>>,
 ) -> Result<FrameBlobs> {
     let (raw, metadata) = reader.read(path)?;
-    let corrected = match radiometry
-        .and_then(|r| r.sensor)
-        .filter(|m| !m.is_identity())
-    {
-        Some(maps) => Some(raw.corrected(maps).map_err(|e| e.in_file(path))?),
-        None => None,
-    };
+    let corrected = raw
+        .corrected(radiometry.and_then(|r| r.sensor))
+        .map_err(|e| e.in_file(path))?;
     let frame = corrected.as_ref().map_or(raw, |f| f.view());
     let extraction = backend
         .extract(frame, params)

@@ -83,17 +83,22 @@ impl<'a> FrameView<'a> {
 
     /// The frame corrected pixel by pixel with a camera's sensor maps
     /// (master dark, gain map, defective pixels replaced: `sensor::SensorMaps::correct`),
-    /// before its blobs are extracted. Fails when the maps are of another size.
-    pub fn corrected(&self, maps: &sensor::SensorMaps) -> Result<Frame> {
+    /// before its blobs are extracted; `None` without maps or with maps that
+    /// change nothing (the frame is used as it is). Fails when the maps are
+    /// of another size.
+    pub fn corrected(&self, maps: Option<&sensor::SensorMaps>) -> Result<Option<Frame>> {
+        let Some(maps) = maps.filter(|m| !m.is_identity()) else {
+            return Ok(None);
+        };
         let mut pixels = Vec::new();
         maps.correct(self.pixels, self.width, self.height, &mut pixels)
             .map_err(ParameterProblem::Sensor)?;
-        Ok(Frame {
+        Ok(Some(Frame {
             width: self.width,
             height: self.height,
             bit_depth: self.bit_depth,
             pixels,
-        })
+        }))
     }
 }
 

@@ -345,13 +345,9 @@ impl Context<'_> {
             .unwrap_or_else(|| FrameReader::new().limit_pixels(self.options.extract.max_pixels));
         let result = (|| {
             let (raw, _) = reader.read(path).map_err(|e| fail(e.to_string()))?;
-            let corrected = match self.sensor.get(&camera).filter(|m| !m.is_identity()) {
-                Some(maps) => Some(
-                    raw.corrected(maps)
-                        .map_err(|e| fail(e.in_file(path).to_string()))?,
-                ),
-                None => None,
-            };
+            let corrected = raw
+                .corrected(self.sensor.get(&camera))
+                .map_err(|e| fail(e.in_file(path).to_string()))?;
             let frame = corrected.as_ref().map_or(raw, extract::Frame::view);
             let extraction = self
                 .backend

@@ -19,7 +19,7 @@ mod common;
 use std::path::Path;
 
 use formats::{Axis, IlluminationJson, PointRow, Rig, read_csv};
-use fuse::{Inputs, MeasureOptions, measure};
+use fuse::MeasureOptions;
 use geom::Illumination;
 use synth::IlluminationModel;
 
@@ -63,20 +63,15 @@ fn rig(dir: &Path, with_flats: bool) -> Rig {
 
 /// Measure the campaign with `rig`: (sphere-A displacement RMS µm, scale error ppm on X and Y).
 fn measure_campaign(dir: &Path, rig: &Rig, name: &str) -> (f64, [f64; 2]) {
-    let spheres = common::spheres(dir);
     let out = dir.join(name);
-    let summary = measure(
-        &Inputs {
-            manifest: &dir.join("manifest.csv"),
-            rig,
-            spheres: &spheres,
-            sensor: &Default::default(),
-        },
-        &out,
+    let summary = common::measure_rig(
+        dir,
+        name,
+        rig,
+        &Default::default(),
         &MeasureOptions::default(),
-        &extract::CpuBackend,
-        &mut formats::OutputPlan::new(true),
         &|_, _| {},
+        true,
     )
     .unwrap();
     assert_eq!(summary.problems, 0);

@@ -22,13 +22,15 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use formats::{IlluminationJson, PointRow, Rig, Truth, read_csv, read_json};
-use fuse::{Inputs, MeasureOptions, measure};
+use formats::{IlluminationJson, PointRow, Rig, Truth, read_json};
+use fuse::MeasureOptions;
 use geom::Illumination;
 
 /// Read noise (e⁻) and gain (file DN/e⁻) of the rendered sensor.
 const READ_NOISE_E: f64 = 5.0;
 const GAIN_DN_PER_E: f64 = 4.0;
+/// Hot pixels injected per camera.
+const HOT_PIXELS: u32 = 200;
 
 /// Render the campaign: the seed's lens as measured; with `real`, the
 /// 12-bit sensor with its fixed pattern. Both with stacks of 16.
@@ -43,7 +45,7 @@ fn campaign(dir: &Path, real: bool) {
             c.sensor.prnu = 0.01;
             c.sensor.dsnu_dn = 8.0;
             c.sensor.column_offset_dn = 12.0;
-            c.sensor.hot_pixels = 200;
+            c.sensor.hot_pixels = HOT_PIXELS;
             c.sensor.hot_pixel_e = [500.0, 8000.0];
             c.sensor.dead_pixels = 20;
         }
@@ -121,27 +123,22 @@ fn calibrated(dir: &Path) -> (Rig, BTreeMap<u8, sensor::SensorCalibration>) {
 /// Sphere A's displacement error (µm RMS) of the campaign measured with `rig`
 /// and the sensor `maps`.
 fn sphere_a_um(dir: &Path, rig: &Rig, maps: &BTreeMap<u8, sensor::SensorMaps>, name: &str) -> f64 {
-    let spheres = common::spheres(dir);
-    let out = dir.join(name);
-    let summary = measure(
-        &Inputs {
-            manifest: &dir.join("manifest.csv"),
-            rig,
-            spheres: &spheres,
-            sensor: maps,
-        },
-        &out,
+    let summary = common::measure_rig(
+        dir,
+        name,
+        rig,
+        maps,
         &MeasureOptions::default(),
-        &extract::CpuBackend,
-        &mut formats::OutputPlan::new(true),
         &|_, _| {},
+        true,
     )
     .unwrap();
-    let rows = |p: &Path| -> Vec<PointRow> {
-        read_csv(p).unwrap().into_iter().map(|r| r.record).collect()
-    };
-    let errors =
-        synth::truth::displacement_errors(&rows(&out), &rows(&dir.join("truth_points.csv")), "A");
+    let rows = |p: &Path| common::records::<PointRow>(p);
+    let errors = synth::truth::displacement_errors(
+        &rows(&dir.join(name)),
+        &rows(&dir.join("truth_points.csv")),
+        "A",
+    );
     let rms = synth::truth::rms(&errors).unwrap() * 1e3;
     eprintln!(
         "{name}: sphere A {rms:.3} µm RMS over {} instants ({} problems)",
@@ -180,7 +177,7 @@ fn a_real_sensor_with_its_maps_measures_as_an_ideal_one() {
         assert!((t.read_noise_e / READ_NOISE_E - 1.0).abs() < 0.05, "{t:?}");
         // Every injected hot pixel found, ≤ 1 % of those found not injected.
         let injected: Vec<[u32; 2]> = truth_hot_pixels(&truth, *id);
-        assert_eq!(injected.len(), 200);
+        assert_eq!(injected.len(), HOT_PIXELS as usize);
         let found: Vec<[u32; 2]> = cal
             .maps
             .defects

@@ -191,32 +191,11 @@ fn radiometry(
     let size = Some((nominal.width, nominal.height));
     let flats = Stack::read(flat, reader, size, &camera)?;
     let darks = Stack::read(dark, reader, size, &camera)?;
-    let (Some(f), Some(d)) = (flats.first(), darks.first()) else {
-        bail!("{camera}: an empty stack of flat fields or dark frames");
-    };
-    let flat_pixels = calib::Pixels {
-        values: &f.pixels,
-        width: f.width,
-        height: f.height,
-        saturation: f.view().max_value(),
-    };
-    let dark_pixels = calib::Pixels {
-        values: &d.pixels,
-        ..flat_pixels
-    };
     let start = nominal
         .to_camera()
         .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path(args).display()))?;
     let ki = start.intrinsics;
-    let fit = calib::fit_flat_field(&flat_pixels, &dark_pixels, [ki.cx, ki.cy], ki.fx)
-        .with_context(|| {
-            format!(
-                "{camera}: flat field {} with dark frame {}",
-                flats.paths[0].display(),
-                darks.paths[0].display()
-            )
-        })?;
-    let sensor = super::sensor::calibrate(&flats, &darks, &|u, v| fit.model.at(u, v))
+    let (fit, sensor) = super::sensor::fit(&flats, &darks, [ki.cx, ki.cy], ki.fx)
         .with_context(|| camera.clone())?;
     Ok(Radiometry {
         illumination: Illumination::Radial(fit.model.clone()),
@@ -472,10 +451,7 @@ fn calibrate_camera(
         flat_fit,
         sensor,
     } = radiometry;
-    let maps = sensor
-        .as_ref()
-        .map(|s| &s.maps)
-        .filter(|m| !m.is_identity());
+    let maps = sensor.as_ref().map(|s| &s.maps);
     let (observations, cal, matching) = match (extraction, &camera.nominal) {
         (Some((backend, params)), Some(nominal)) => from_image(
             args,
@@ -521,7 +497,7 @@ fn calibrate_camera(
     let mut map_files = Vec::new();
     if let Some(cal) = &sensor {
         let (files, names) = super::sensor::encode_maps(cal, &args.out, id)?;
-        entry.sensor = Some(super::sensor::record(cal, names)?);
+        entry.sensor = Some(super::sensor::record(cal, names));
         map_files = files;
     }
     entry.extra = record(&cal, input, setup.spheres, matching).to_keys()?;
@@ -569,7 +545,7 @@ fn from_image(
         .to_camera()
         .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path.display()))?;
     let (raw, _) = reader.read(input).with_context(context)?;
-    let corrected = super::sensor::corrected(raw, maps).with_context(context)?;
+    let corrected = raw.corrected(maps).with_context(context)?;
     let frame = corrected.as_ref().map_or(raw, extract::Frame::view);
     if frame.width != nominal.width || frame.height != nominal.height {
         bail!(

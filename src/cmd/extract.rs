@@ -209,29 +209,11 @@ fn fit_flat_field(
     let flats = Stack::read(flat, &mut reader, None, "the camera")?;
     let first = flats.first().map(|f| (f.width, f.height));
     let darks = Stack::read(dark, &mut reader, first, "its flat field")?;
-    let (Some(f), Some(d)) = (flats.first(), darks.first()) else {
-        bail!("an empty stack of flat fields or dark frames");
+    let Some(view) = flats.first().map(extract::Frame::view) else {
+        bail!("{}: an empty stack of flat fields", flat.display());
     };
-    let view = f.view();
-    let (centre, half_diagonal) = (view.centre_px(), view.half_diagonal_px());
-    let flat_px = calib::Pixels {
-        values: &f.pixels,
-        width: f.width,
-        height: f.height,
-        saturation: view.max_value(),
-    };
-    let dark_px = calib::Pixels {
-        values: &d.pixels,
-        ..flat_px
-    };
-    let fit =
-        calib::fit_flat_field(&flat_px, &dark_px, centre, half_diagonal).with_context(|| {
-            format!(
-                "flat field {} with dark frame {}",
-                flats.paths[0].display(),
-                darks.paths[0].display()
-            )
-        })?;
+    let (fit, sensor) =
+        super::sensor::fit(&flats, &darks, view.centre_px(), view.half_diagonal_px())?;
     eprintln!(
         "trinocular: flat field: relative illumination {:.4}…{:.4} of its centre ({:.1}, {:.1}) px, \
          fit residual {:.4} % RMS (noise {:.4} %)",
@@ -245,7 +227,6 @@ fn fit_flat_field(
     if let Some(w) = &fit.warning {
         eprintln!("trinocular: warning: flat field {}: {w}", flat.display());
     }
-    let sensor = super::sensor::calibrate(&flats, &darks, &|u, v| fit.model.at(u, v))?;
     if let Some(s) = &sensor {
         eprintln!("trinocular: sensor: {}; {}", s.dark_note, s.gain_note);
     }

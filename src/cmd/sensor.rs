@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use extract::{Frame, FrameReader};
+use formats::commissioning::FlatFieldFit;
 use formats::{MapFile, OutputPlan, SensorJson, SensorMapFiles};
 use sensor::{SensorCalibration, SensorMaps, StackKind};
 
@@ -139,18 +140,6 @@ pub fn calibrate(
     Ok(Some(cal))
 }
 
-/// `frame` corrected with a camera's sensor maps; `None` without maps (or
-/// with maps that change nothing): the frame is used as it is.
-pub fn corrected(
-    frame: extract::FrameView<'_>,
-    maps: Option<&SensorMaps>,
-) -> Result<Option<Frame>> {
-    match maps.filter(|m| !m.is_identity()) {
-        Some(m) => Ok(Some(frame.corrected(m)?)),
-        None => Ok(None),
-    }
-}
-
 /// What a camera's maps correct, for notes: "master dark, gain map, 12 defective pixels".
 pub fn describe(maps: &SensorMaps) -> String {
     let mut parts = Vec::new();
@@ -168,6 +157,41 @@ pub fn describe(maps: &SensorMaps) -> String {
         ));
     }
     parts.join(", ")
+}
+
+/// The lens's relative illumination fitted to the first flat field and dark
+/// frame of the stacks (`calib::fit_flat_field`, its centre started at
+/// `centre`, ρ scaled by `scale_px`), then the sensor's per-pixel
+/// calibration from the stacks against it (`None` for single files).
+pub fn fit(
+    flats: &Stack,
+    darks: &Stack,
+    centre: [f64; 2],
+    scale_px: f64,
+) -> Result<(FlatFieldFit, Option<SensorCalibration>)> {
+    let (Some(f), Some(d)) = (flats.first(), darks.first()) else {
+        bail!("an empty stack of flat fields or dark frames");
+    };
+    let flat_pixels = calib::Pixels {
+        values: &f.pixels,
+        width: f.width,
+        height: f.height,
+        saturation: f.view().max_value(),
+    };
+    let dark_pixels = calib::Pixels {
+        values: &d.pixels,
+        ..flat_pixels
+    };
+    let fit =
+        calib::fit_flat_field(&flat_pixels, &dark_pixels, centre, scale_px).with_context(|| {
+            format!(
+                "flat field {} with dark frame {}",
+                flats.paths[0].display(),
+                darks.paths[0].display()
+            )
+        })?;
+    let sensor = calibrate(flats, darks, &|u, v| fit.model.at(u, v))?;
+    Ok((fit, sensor))
 }
 
 /// The map files of camera `id` beside `out` (`rig.json`), in the order
@@ -228,7 +252,7 @@ pub fn encode_maps(
 }
 
 /// `rig.json`'s `sensor` record of a calibration whose maps are `maps`.
-pub fn record(cal: &SensorCalibration, maps: SensorMapFiles) -> Result<SensorJson> {
+pub fn record(cal: &SensorCalibration, maps: SensorMapFiles) -> SensorJson {
     let d = &cal.maps.defects;
     let clusters = d.clusters.iter().filter(|c| c.pixels > 1).count();
     let mut extra = serde_json::Map::new();
@@ -237,7 +261,7 @@ pub fn record(cal: &SensorCalibration, maps: SensorMapFiles) -> Result<SensorJso
     if let Some(note) = &cal.transfer_note {
         extra.insert("transfer_note".into(), note.clone().into());
     }
-    Ok(SensorJson {
+    SensorJson {
         adc_bits: cal.adc.adc_bits,
         container_bits: cal.adc.container_bits,
         gain_dn_per_e: cal.transfer.as_ref().map(|t| t.gain_dn_per_e),
@@ -262,7 +286,7 @@ pub fn record(cal: &SensorCalibration, maps: SensorMapFiles) -> Result<SensorJso
         },
         maps,
         extra,
-    })
+    }
 }
 
 /// Read one map file named in `rig` (relative to its folder) and check its checksum.

@@ -96,13 +96,33 @@ pub fn measure_with(
     progress: &(dyn Fn(u64, u64) + Sync),
     force: bool,
 ) -> fuse::Result<fuse::Summary> {
-    let (rig, spheres) = (true_rig(dir), spheres(dir));
+    measure_rig(
+        dir,
+        out,
+        &true_rig(dir),
+        &Default::default(),
+        options,
+        progress,
+        force,
+    )
+}
+
+/// Measure a campaign with `rig` and the cameras' sensor maps `sensor` into `dir/out`.
+pub fn measure_rig(
+    dir: &Path,
+    out: &str,
+    rig: &Rig,
+    sensor: &std::collections::BTreeMap<u8, sensor::SensorMaps>,
+    options: &fuse::MeasureOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    force: bool,
+) -> fuse::Result<fuse::Summary> {
     fuse::measure(
         &fuse::Inputs {
             manifest: &dir.join("manifest.csv"),
-            rig: &rig,
-            spheres: &spheres,
-            sensor: &Default::default(),
+            rig,
+            spheres: &spheres(dir),
+            sensor,
         },
         &dir.join(out),
         options,
