@@ -67,6 +67,12 @@ impl Line {
                             z: self.bow_um * UM * BOW[k],
                             cameras: "2+3".into(),
                             residual_px: 0.1,
+                            u_x: None,
+                            u_y: None,
+                            u_z: None,
+                            u_cal_x: None,
+                            u_cal_y: None,
+                            u_cal_z: None,
                         });
                     }
                 }

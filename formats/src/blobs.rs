@@ -56,6 +56,17 @@ pub struct BlobRow {
     /// by their neighbours' mean before the centroid; empty without a map.
     #[serde(default)]
     pub defect_pixels: Option<u32>,
+    /// Standard uncertainty of `u` from the image noise (px), analytic from
+    /// the camera's noise model (docs/uncertainty.md); empty when the noise
+    /// model is unknown.
+    #[serde(default)]
+    pub u_sigma_px: Option<f64>,
+    /// Standard uncertainty of `v` (px).
+    #[serde(default)]
+    pub v_sigma_px: Option<f64>,
+    /// Correlation of the errors of `u` and `v`.
+    #[serde(default)]
+    pub uv_correlation: Option<f64>,
 }
 
 impl Record for BlobRow {

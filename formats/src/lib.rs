@@ -100,6 +100,7 @@ mod sensor;
 mod table;
 mod target;
 mod truth;
+pub mod uncertainty;
 
 pub use atomic::{AtomicFile, beside, folder_of, write_atomic};
 pub use blobs::{BlobRow, ProblemRow};
@@ -113,13 +114,13 @@ pub use figures::{AxisFigures, PositioningFigures, ReportFigures, ZoneFigures};
 pub use fit::{FitResult, ResidualSummary, read_cloud};
 pub use json::{read_json, write_json};
 pub use lock::OutputLock;
-pub use measure::{InstantProblemRow, Missing, PoseRow};
+pub use measure::{InstantProblemRow, Missing, ObservationRow, PoseRow};
 pub use nist::read_ds;
 pub use output::{OutputPlan, Stage};
 pub use points::PointRow;
 pub use rig::{
-    CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalOptics, NominalRig, Rig,
-    RigCamera, read_nominal, read_rig,
+    CameraCovariance, CameraJson, DistortionJson, IlluminationJson, NominalCamera, NominalOptics,
+    NominalRig, Rig, RigCamera, read_nominal, read_rig,
 };
 pub use rig_record::{CalibrationRecord, Matching};
 pub use sensor::{DefectCounts, MapFile, SensorJson, SensorMapFiles, StackRecord};

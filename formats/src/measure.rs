@@ -144,3 +144,91 @@ impl Record for PoseRow {
         finite("yaw", self.yaw)
     }
 }
+
+instant_row! {
+    /// One row of `<stem>.observations.csv`: what one camera saw of one
+    /// sphere at one instant — the centre its sphere centre was triangulated
+    /// from and that centre's covariance — so that `evaluate` can propagate
+    /// the uncertainty of every figure without reading an image again
+    /// (docs/uncertainty.md).
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    pub struct ObservationRow {
+        ..InstantKey,
+        /// Sphere name.
+        pub sphere: String,
+        /// Camera id.
+        pub camera: u8,
+        /// Sphere radius the triangulation's image model used (mm; 0 when the
+        /// perspective bias was not corrected).
+        pub radius_mm: f64,
+        /// Centre of the sphere's image, ideal (undistorted) pixels.
+        pub u: f64,
+        /// Centre of the sphere's image, ideal pixels.
+        pub v: f64,
+        /// Standard uncertainty of `u` from the image noise (px); empty when
+        /// the camera's noise is unknown.
+        pub u_sigma_px: Option<f64>,
+        /// Standard uncertainty of `v` (px).
+        pub v_sigma_px: Option<f64>,
+        /// Correlation of the errors of `u` and `v` (−1 … 1).
+        pub uv_correlation: Option<f64>,
+    }
+}
+
+impl ObservationRow {
+    /// The centre's covariance `[[σu², ρσuσv], [ρσuσv, σv²]]` (px²), when known.
+    pub fn covariance(&self) -> Option<[[f64; 2]; 2]> {
+        let (su, sv, r) = (self.u_sigma_px?, self.v_sigma_px?, self.uv_correlation?);
+        Some([[su * su, r * su * sv], [r * su * sv, sv * sv]])
+    }
+}
+
+impl Record for ObservationRow {
+    const COLUMNS: &'static [&'static str] = &[
+        "axis",
+        "direction",
+        "run",
+        "target",
+        "capture",
+        "nominal_x",
+        "nominal_y",
+        "nominal_z",
+        "sphere",
+        "camera",
+        "radius_mm",
+        "u",
+        "v",
+        "u_sigma_px",
+        "v_sigma_px",
+        "uv_correlation",
+    ];
+
+    fn validate(&self) -> Result<(), Invalid> {
+        if self.run < 1 {
+            return Err(Invalid::new("run", "runs are numbered from 1"));
+        }
+        if self.capture < 1 {
+            return Err(Invalid::new("capture", "captures are numbered from 1"));
+        }
+        if self.sphere.trim().is_empty() {
+            return Err(Invalid::new("sphere", "empty sphere name"));
+        }
+        if !(self.radius_mm.is_finite() && self.radius_mm >= 0.0) {
+            return Err(Invalid::new(
+                "radius_mm",
+                format!("radius {} is not a finite number ≥ 0", self.radius_mm),
+            ));
+        }
+        finite("u", self.u)?;
+        finite("v", self.v)?;
+        crate::table::standard_uncertainty("u_sigma_px", self.u_sigma_px)?;
+        crate::table::standard_uncertainty("v_sigma_px", self.v_sigma_px)?;
+        match self.uv_correlation {
+            Some(r) if !(r.is_finite() && r.abs() <= 1.0) => Err(Invalid::new(
+                "uv_correlation",
+                format!("correlation {r} is not within −1 … 1"),
+            )),
+            _ => Ok(()),
+        }
+    }
+}

@@ -24,6 +24,27 @@ instant_row! {
         /// least-squares centre projects to — how well the cameras' images agree
         /// (0 in the renderer's exact points).
         pub residual_px: f64,
+        /// Standard uncertainty of x from the centroids' noise (mm): the
+        /// random part, independent between instants; empty when the noise
+        /// of the centroids is unknown (docs/uncertainty.md).
+        #[serde(default)]
+        pub u_x: Option<f64>,
+        /// Standard uncertainty of y from the centroids' noise (mm).
+        #[serde(default)]
+        pub u_y: Option<f64>,
+        /// Standard uncertainty of z from the centroids' noise (mm).
+        #[serde(default)]
+        pub u_z: Option<f64>,
+        /// Standard uncertainty of x from the cameras' calibration (mm): the
+        /// part shared by every instant, which averaging does not reduce.
+        #[serde(default)]
+        pub u_cal_x: Option<f64>,
+        /// Standard uncertainty of y from the calibration (mm).
+        #[serde(default)]
+        pub u_cal_y: Option<f64>,
+        /// Standard uncertainty of z from the calibration (mm).
+        #[serde(default)]
+        pub u_cal_z: Option<f64>,
     }
 }
 
@@ -68,6 +89,17 @@ impl Record for PointRow {
         finite("x", self.x)?;
         finite("y", self.y)?;
         finite("z", self.z)?;
-        finite("residual_px", self.residual_px)
+        finite("residual_px", self.residual_px)?;
+        for (column, u) in [
+            ("u_x", self.u_x),
+            ("u_y", self.u_y),
+            ("u_z", self.u_z),
+            ("u_cal_x", self.u_cal_x),
+            ("u_cal_y", self.u_cal_y),
+            ("u_cal_z", self.u_cal_z),
+        ] {
+            crate::table::standard_uncertainty(column, u)?;
+        }
+        Ok(())
     }
 }

@@ -423,6 +423,45 @@ impl IlluminationJson {
     }
 }
 
+/// The covariance of a camera's calibrated parameters (`rig.json`
+/// `covariance`, docs/uncertainty.md): `s²·(JᵀJ)⁻¹` of the calibration's
+/// least squares, plus the propagated uncertainty of the target's marker
+/// coordinates. A draw δ of the parameters gives the camera
+/// [`geom::Camera::perturbed`]: `rx, ry, rz` a small rotation ω about the
+/// camera's own axes, `R = exp([ω]×)·R̂`; `tx, ty, tz` added to t of
+/// `x_cam = R·x + t` (mm); the rest added to their values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraCovariance {
+    /// Parameter names, in the order of the matrix.
+    pub parameters: Vec<String>,
+    /// The full covariance, one row per parameter (units of the parameters²).
+    pub matrix: Vec<Vec<f64>>,
+    /// Of it, the part due to the target's marker coordinates.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<Vec<Vec<f64>>>,
+    /// Standard uncertainty of each coordinate of each marker (µm).
+    pub target_uncertainty_um: f64,
+    /// Where that uncertainty came from (`target.csv u_mm`, the option, the default).
+    pub target_uncertainty_source: String,
+}
+
+impl CameraCovariance {
+    /// The matrix as nalgebra's, checked square and of the parameters' size.
+    pub fn to_matrix(&self) -> Option<geom::nalgebra::DMatrix<f64>> {
+        square(&self.matrix, self.parameters.len())
+    }
+
+    /// The target's part, when given.
+    pub fn target_matrix(&self) -> Option<geom::nalgebra::DMatrix<f64>> {
+        square(self.target.as_ref()?, self.parameters.len())
+    }
+}
+
+fn square(rows: &[Vec<f64>], n: usize) -> Option<geom::nalgebra::DMatrix<f64>> {
+    (rows.len() == n && rows.iter().all(|r| r.len() == n))
+        .then(|| geom::nalgebra::DMatrix::from_fn(n, n, |i, j| rows[i][j]))
+}
+
 /// One calibrated camera of `rig.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RigCamera {
@@ -444,6 +483,10 @@ pub struct RigCamera {
     /// as they are).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor: Option<crate::SensorJson>,
+    /// The covariance of the calibrated parameters (absent in older files:
+    /// the figures measured with the rig carry no calibration uncertainty).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub covariance: Option<CameraCovariance>,
     /// Anything else the calibration reports (standard deviations, model, outliers).
     #[serde(flatten)]
     pub extra: serde_json::Map<String, serde_json::Value>,
@@ -484,6 +527,7 @@ impl RigCamera {
             points,
             relative_illumination: IlluminationJson::default(),
             sensor: None,
+            covariance: None,
             extra: serde_json::Map::new(),
         }
     }

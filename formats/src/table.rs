@@ -49,6 +49,20 @@ pub fn finite(column: &'static str, value: f64) -> std::result::Result<(), Inval
     }
 }
 
+/// Fails unless an optional standard uncertainty is finite and ≥ 0.
+pub fn standard_uncertainty(
+    column: &'static str,
+    value: Option<f64>,
+) -> std::result::Result<(), Invalid> {
+    match value {
+        Some(u) if !(u.is_finite() && u >= 0.0) => Err(Invalid::new(
+            column,
+            format!("standard uncertainty {u} is not a finite number ≥ 0"),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// A record and the line it came from (1-based; the header is line 1).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Row<T> {

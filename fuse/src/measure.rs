@@ -546,6 +546,12 @@ fn rows_for(key: &InstantKey, spheres: &[SphereRow], centres: &[Option<Fused>]) 
             z: p.z,
             cameras: cameras.clone(),
             residual_px: res,
+            u_x: None,
+            u_y: None,
+            u_z: None,
+            u_cal_x: None,
+            u_cal_y: None,
+            u_cal_z: None,
         })
         .collect()
 }

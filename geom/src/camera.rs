@@ -155,6 +155,66 @@ impl Camera {
         }
     }
 
+    /// Names of the parameters [`Camera::perturbed`] accepts, in the order a
+    /// calibration estimates them.
+    pub const PARAMETERS: [&'static str; 16] = [
+        "fx", "fy", "cx", "cy", "skew", "rx", "ry", "rz", "tx", "ty", "tz", "k1", "k2", "p1", "p2",
+        "k3",
+    ];
+
+    /// The camera with its named parameters moved by `delta` (the draw of a
+    /// calibration's covariance): `rx, ry, rz` a small rotation ω about the
+    /// camera's own axes, `R = exp([ω]×)·R` (rad); `tx, ty, tz` added to t
+    /// (mm); `fx, fy, cx, cy, skew` (px) and `k1, k2, p1, p2, k3` added to
+    /// their values. Fails on a name not in [`Camera::PARAMETERS`] or
+    /// lengths that differ.
+    pub fn perturbed<S: AsRef<str>>(&self, names: &[S], delta: &[f64]) -> Result<Camera> {
+        if names.len() != delta.len() {
+            return Err(Degeneracy::LengthsDiffer {
+                what: Some("camera parameters"),
+                first: names.len(),
+                first_items: "names",
+                second: delta.len(),
+                second_items: "values",
+            }
+            .into());
+        }
+        let mut c = self.clone();
+        let (mut omega, mut dt) = (Vector3::zeros(), Vector3::zeros());
+        for (name, &d) in names.iter().zip(delta) {
+            if !d.is_finite() {
+                return Err(GeomError::NonFinite("camera parameter deviation"));
+            }
+            let k = &mut c.intrinsics;
+            let dist = &mut c.distortion;
+            match name.as_ref() {
+                "fx" => k.fx += d,
+                "fy" => k.fy += d,
+                "cx" => k.cx += d,
+                "cy" => k.cy += d,
+                "skew" => k.skew += d,
+                "rx" => omega.x += d,
+                "ry" => omega.y += d,
+                "rz" => omega.z += d,
+                "tx" => dt.x += d,
+                "ty" => dt.y += d,
+                "tz" => dt.z += d,
+                "k1" => dist.k1 += d,
+                "k2" => dist.k2 += d,
+                "p1" => dist.p1 += d,
+                "p2" => dist.p2 += d,
+                "k3" => dist.k3 += d,
+                _ => return Err(Degeneracy::UnknownParameter.into()),
+            }
+        }
+        let rotation = Rotation3::new(omega) * self.rotation();
+        c.pose = Isometry3::from_parts(
+            Translation3::from(self.translation() + dt),
+            UnitQuaternion::from_rotation_matrix(&rotation),
+        );
+        Ok(c)
+    }
+
     /// World → camera rotation R.
     pub fn rotation(&self) -> Rotation3<f64> {
         self.pose.rotation.to_rotation_matrix()

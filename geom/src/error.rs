@@ -246,6 +246,21 @@ pub enum Degeneracy {
     /// A camera centre inside a sphere.
     #[error("camera is inside the sphere")]
     CameraInsideSphere,
+    /// A camera parameter name that is not one of `Camera::PARAMETERS`.
+    #[error(
+        "unknown camera parameter (not one of fx fy cx cy skew rx ry rz tx ty tz k1 k2 p1 p2 k3)"
+    )]
+    UnknownParameter,
+    /// A matrix given as a covariance that is not square, or not positive semi-definite.
+    #[error(
+        "not a covariance matrix (not square, or an eigenvalue {smallest:e} below zero against the largest {largest:e})"
+    )]
+    NotCovariance {
+        /// Its smallest eigenvalue (NaN when not square).
+        smallest: f64,
+        /// Its largest eigenvalue (NaN when not square).
+        largest: f64,
+    },
 }
 
 /// `"{what}: "`, or nothing when no computation is named.

@@ -47,6 +47,7 @@ pub mod illumination;
 pub mod interp;
 pub mod lm;
 pub mod min_zone;
+pub mod montecarlo;
 pub mod sphere_image;
 pub mod stats;
 pub mod transform;

@@ -332,6 +332,9 @@ fn blob_rows<'a>(
             datetime: frame.metadata.datetime.clone(),
             exposure_s: frame.metadata.exposure_s,
             defect_pixels,
+            u_sigma_px: None,
+            v_sigma_px: None,
+            uv_correlation: None,
         }
     })
 }

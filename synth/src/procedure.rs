@@ -212,6 +212,12 @@ impl Plan {
                     z: c.z,
                     cameras: "truth".into(),
                     residual_px: 0.0,
+                    u_x: None,
+                    u_y: None,
+                    u_z: None,
+                    u_cal_x: None,
+                    u_cal_y: None,
+                    u_cal_z: None,
                 });
             }
         }

@@ -284,6 +284,12 @@ impl LineModel {
                                 z: p.z,
                                 cameras: "2+3".into(),
                                 residual_px: 0.0,
+                                u_x: None,
+                                u_y: None,
+                                u_z: None,
+                                u_cal_x: None,
+                                u_cal_y: None,
+                                u_cal_z: None,
                             });
                         }
                     }

@@ -1,0 +1,263 @@
+//! The uncertainty of a report's figures (docs/uncertainty.md): which
+//! numbers of a `report.json` are figures, their expanded uncertainties
+//! `F_U_um` written beside them, and the report's `uncertainty` object.
+//!
+//! A figure is a number whose key ends in one of a report's figure units
+//! (`A_um`, `roll_urad`), named by its path in the report's JSON
+//! (`axes.X.positioning.A_um`, `axes.X.lines.0.positioning.A_um`). Its
+//! expanded uncertainty (k = 2) is written as a sibling key with `_U` before
+//! the unit: `A_um` → `A_U_um`, `roll_urad` → `roll_U_urad`.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+use serde_json::Value;
+
+/// Which numbers of a report are figures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FigureKeys {
+    /// Key suffixes of figures (`_um`, `_urad`, …).
+    pub units: &'static [&'static str],
+    /// Keys whose values are not figures: objects and arrays under them
+    /// (per-target tables) and numbers so named (diagnostics).
+    pub skip: &'static [&'static str],
+}
+
+impl FigureKeys {
+    /// The unit suffix of `key` when it names a figure.
+    fn unit(&self, key: &str) -> Option<&'static str> {
+        if self.skip.contains(&key) {
+            return None;
+        }
+        self.units
+            .iter()
+            .copied()
+            .find(|u| key.len() > u.len() && key.ends_with(u) && !key.ends_with(&format!("_U{u}")))
+    }
+}
+
+/// The key of the expanded uncertainty of figure `key`: `_U` before its
+/// unit (`A_um` → `A_U_um`); `None` when `key` is not a figure.
+pub fn expanded_key(key: &str, keys: &FigureKeys) -> Option<String> {
+    let unit = keys.unit(key)?;
+    Some(format!("{}_U{unit}", &key[..key.len() - unit.len()]))
+}
+
+/// Every figure of `report` by its path.
+pub fn figures<T: Serialize>(
+    report: &T,
+    keys: &FigureKeys,
+) -> serde_json::Result<BTreeMap<String, f64>> {
+    let value = serde_json::to_value(report)?;
+    let mut out = BTreeMap::new();
+    collect(&value, "", keys, &mut out);
+    Ok(out)
+}
+
+fn join(path: &str, key: &str) -> String {
+    if path.is_empty() {
+        key.to_string()
+    } else {
+        format!("{path}.{key}")
+    }
+}
+
+fn collect(value: &Value, path: &str, keys: &FigureKeys, out: &mut BTreeMap<String, f64>) {
+    match value {
+        Value::Object(map) => {
+            for (k, v) in map {
+                if keys.skip.contains(&k.as_str()) {
+                    continue;
+                }
+                match v {
+                    Value::Number(n) if keys.unit(k).is_some() => {
+                        if let Some(x) = n.as_f64() {
+                            out.insert(join(path, k), x);
+                        }
+                    }
+                    _ => collect(v, &join(path, k), keys, out),
+                }
+            }
+        }
+        Value::Array(items) => {
+            for (i, v) in items.iter().enumerate() {
+                collect(v, &join(path, &i.to_string()), keys, out);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// `report` as JSON with the expanded uncertainty of every figure in
+/// `expanded` (by path) written beside it.
+pub fn with_expanded<T: Serialize>(
+    report: &T,
+    expanded: &BTreeMap<String, f64>,
+    keys: &FigureKeys,
+) -> serde_json::Result<Value> {
+    let mut value = serde_json::to_value(report)?;
+    annotate(&mut value, "", expanded, keys);
+    Ok(value)
+}
+
+fn annotate(value: &mut Value, path: &str, expanded: &BTreeMap<String, f64>, keys: &FigureKeys) {
+    match value {
+        Value::Object(map) => {
+            let mut siblings = Vec::new();
+            for (k, v) in map.iter_mut() {
+                if keys.skip.contains(&k.as_str()) {
+                    continue;
+                }
+                let here = join(path, k);
+                match (expanded.get(&here), expanded_key(k, keys)) {
+                    (Some(&u), Some(name)) if v.is_number() => siblings.push((name, u)),
+                    _ => annotate(v, &here, expanded, keys),
+                }
+            }
+            for (name, u) in siblings {
+                if let Some(n) = serde_json::Number::from_f64(u) {
+                    map.insert(name, Value::Number(n));
+                }
+            }
+        }
+        Value::Array(items) => {
+            for (i, v) in items.iter_mut().enumerate() {
+                annotate(v, &join(path, &i.to_string()), expanded, keys);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The `uncertainty` object of a report: how the figures' U were found, or
+/// why there are none.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Uncertainty {
+    /// Propagated by Monte Carlo.
+    Given(Propagated),
+    /// Not given, and why (no observations to propagate, `--trials 0`).
+    NotGiven {
+        /// Why the figures carry no U.
+        reason: String,
+    },
+}
+
+impl Uncertainty {
+    /// The expanded uncertainties by figure path (empty when not given).
+    pub fn expanded(&self) -> Option<&BTreeMap<String, f64>> {
+        match self {
+            Uncertainty::Given(p) => Some(&p.expanded),
+            Uncertainty::NotGiven { .. } => None,
+        }
+    }
+
+    /// U of the figure at `path`, when given.
+    pub fn of(&self, path: &str) -> Option<f64> {
+        self.expanded().and_then(|e| e.get(path).copied())
+    }
+}
+
+/// A Monte Carlo propagation's record (GUM Supplement 1).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Propagated {
+    /// How U is defined.
+    pub method: String,
+    /// Coverage factor k.
+    pub k: f64,
+    /// Trials per run.
+    pub trials: usize,
+    /// Seed of the draws.
+    pub seed: u64,
+    /// Trials whose model failed (left out of U).
+    pub failed_trials: usize,
+    /// The sources of uncertainty drawn, by name, with what each is.
+    pub sources: BTreeMap<String, String>,
+    /// What is not included, in words.
+    pub not_included: Vec<String>,
+    /// The budget of each headline figure.
+    pub budget: Vec<BudgetEntry>,
+    /// U per figure path (written beside each figure, not in this object).
+    #[serde(skip)]
+    pub expanded: BTreeMap<String, f64>,
+}
+
+/// The budget of one figure: its value, U and each source's standard
+/// uncertainty alone (their quadratic sum ≈ (U/k)² for a linear model).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BudgetEntry {
+    /// The figure's path in the report.
+    pub figure: String,
+    /// Its value.
+    pub value: f64,
+    /// Its expanded uncertainty (k = 2), all sources drawn.
+    #[serde(rename = "U")]
+    pub expanded: f64,
+    /// Standard uncertainty from each source alone (by source name).
+    pub contributions: BTreeMap<String, f64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const KEYS: FigureKeys = FigureKeys {
+        units: &["_um", "_urad"],
+        skip: &["targets", "fit_rms_um"],
+    };
+
+    #[derive(Serialize)]
+    struct Line {
+        #[serde(rename = "A_um")]
+        a: f64,
+        roll_urad: f64,
+        fit_rms_um: f64,
+        nominal: f64,
+        targets: Vec<Target>,
+    }
+
+    #[derive(Serialize)]
+    struct Target {
+        mean_um: f64,
+    }
+
+    #[derive(Serialize)]
+    struct Report {
+        lines: Vec<Line>,
+    }
+
+    fn report() -> Report {
+        Report {
+            lines: vec![Line {
+                a: 3.0,
+                roll_urad: 12.0,
+                fit_rms_um: 0.1,
+                nominal: 5.0,
+                targets: vec![Target { mean_um: 1.0 }],
+            }],
+        }
+    }
+
+    #[test]
+    fn figures_are_the_unit_keys_outside_the_skipped_ones() {
+        let f = figures(&report(), &KEYS).unwrap();
+        let names: Vec<&str> = f.keys().map(String::as_str).collect();
+        assert_eq!(names, ["lines.0.A_um", "lines.0.roll_urad"]);
+        assert_eq!(expanded_key("A_um", &KEYS).as_deref(), Some("A_U_um"));
+        assert_eq!(
+            expanded_key("roll_urad", &KEYS).as_deref(),
+            Some("roll_U_urad")
+        );
+        assert_eq!(expanded_key("A_U_um", &KEYS), None);
+        assert_eq!(expanded_key("nominal", &KEYS), None);
+    }
+
+    #[test]
+    fn expanded_uncertainties_are_written_beside_their_figures() {
+        let u = BTreeMap::from([("lines.0.A_um".to_string(), 0.4)]);
+        let v = with_expanded(&report(), &u, &KEYS).unwrap();
+        assert_eq!(v["lines"][0]["A_U_um"], 0.4);
+        assert!(v["lines"][0].get("roll_U_urad").is_none());
+        assert_eq!(v["lines"][0]["A_um"], 3.0);
+    }
+}
