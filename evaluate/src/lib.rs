@@ -84,6 +84,7 @@ mod output;
 mod plot;
 mod points;
 mod straightness;
+pub mod uncertainty;
 mod vdi3441;
 
 use std::path::Path;
@@ -183,6 +184,7 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
         rows: rows.len(),
         conventions: conventions(&sphere),
         warnings: Vec::new(),
+        uncertainty: None,
     };
     let lines = lines::group(rows);
     let mut flat_points: Vec<(Axis, usize, u32, Point3<f64>)> = Vec::new();

@@ -46,7 +46,17 @@ pub fn write_outputs(report: &Report, dir: &Path, output: &mut OutputPlan) -> Re
 fn write_set(report: &Report, page: &str, dir: &Path) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     let json = dir.join("report.json");
-    formats::write_json(&json, report)?;
+    let expanded = report
+        .uncertainty
+        .as_ref()
+        .and_then(|u| u.expanded().cloned())
+        .unwrap_or_default();
+    formats::uncertainty::write_with_expanded(
+        &json,
+        report,
+        &expanded,
+        &crate::uncertainty::FIGURE_KEYS,
+    )?;
     written.push(json);
     written.extend(formats::evaluation::write_tables(report, dir)?);
     let path = dir.join("report.html");

@@ -37,6 +37,18 @@ pub struct Report {
     /// Things worth knowing that did not stop the evaluation (e.g. angular
     /// errors left out because a sphere is missing).
     pub warnings: Vec<String>,
+    /// How the figures' expanded uncertainties were found, or why there are
+    /// none (docs/uncertainty.md); each figure's U is written beside it
+    /// (`A_U_um`). Absent when not asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<crate::uncertainty::Uncertainty>,
+}
+
+impl Report {
+    /// U (k = 2) of the figure at `path` (`axes.X.positioning.A_um`), when given.
+    pub fn expanded(&self, path: &str) -> Option<f64> {
+        self.uncertainty.as_ref().and_then(|u| u.of(path))
+    }
 }
 
 /// The axes present in the data.

@@ -100,6 +100,19 @@ pub fn with_expanded<T: Serialize>(
     Ok(value)
 }
 
+/// Write `report` as JSON to `path` (atomically) with the expanded
+/// uncertainties beside their figures ([`with_expanded`]); errors name `path`.
+pub fn write_with_expanded<T: Serialize>(
+    path: &std::path::Path,
+    report: &T,
+    expanded: &BTreeMap<String, f64>,
+    keys: &FigureKeys,
+) -> crate::Result<()> {
+    let value = with_expanded(report, expanded, keys)
+        .map_err(|e| crate::FormatError::file(path, e.to_string()))?;
+    crate::write_json(path, &value)
+}
+
 fn annotate(value: &mut Value, path: &str, expanded: &BTreeMap<String, f64>, keys: &FigureKeys) {
     match value {
         Value::Object(map) => {

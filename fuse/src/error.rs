@@ -56,15 +56,6 @@ pub enum FuseError {
     /// Extraction failed.
     #[error(transparent)]
     Extract(#[from] extract::ExtractError),
-    /// A sphere was seen by fewer than two cameras.
-    #[error("a sphere needs two views, has {views}")]
-    TooFewViews {
-        /// Views given.
-        views: usize,
-    },
-    /// The views' rays are parallel: linear triangulation puts the sphere at infinity.
-    #[error("views are parallel: the sphere is at infinity")]
-    ParallelViews,
     /// The pixel-scale fusion was given different camera sets at its two
     /// instants, or fewer than two cameras.
     #[error(

@@ -47,8 +47,9 @@ mod pose;
 mod triangulate;
 
 pub use error::{CampaignProblem, FuseError, Result};
+pub use geom::triangulate::{Triangulated, View, predict, triangulate};
 pub use measure::{Fusion, Inputs, MeasureOptions, SPHERE_LAYOUT_MM, Summary, measure};
 pub use observe::MIN_CIRCULARITY;
 pub use plan::RigModel;
 pub use plausibility::ResidualGate;
-pub use triangulate::{Triangulated, View, predict, seed_displacement, triangulate};
+pub use triangulate::seed_displacement;

@@ -50,8 +50,9 @@ use crate::observe::{Candidate, candidates};
 use crate::plan::{InstantPlan, RigModel, plan};
 use crate::plausibility::ResidualGate;
 use crate::pose::poses;
-use crate::triangulate::{View, seed_displacement, triangulate};
+use crate::triangulate::seed_displacement;
 use crate::{FuseError, Result};
+use geom::triangulate::{View, triangulate};
 
 /// Allowance for the spheres' layout on the table around its reference point (mm).
 pub const SPHERE_LAYOUT_MM: f64 = 50.0;

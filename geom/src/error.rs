@@ -246,6 +246,9 @@ pub enum Degeneracy {
     /// A camera centre inside a sphere.
     #[error("camera is inside the sphere")]
     CameraInsideSphere,
+    /// The views of a triangulation are parallel: the point is at infinity.
+    #[error("views are parallel: the sphere is at infinity")]
+    ParallelViews,
     /// A camera parameter name that is not one of `Camera::PARAMETERS`.
     #[error(
         "unknown camera parameter (not one of fx fy cx cy skew rx ry rz tx ty tz k1 k2 p1 p2 k3)"

@@ -51,6 +51,7 @@ pub mod montecarlo;
 pub mod sphere_image;
 pub mod stats;
 pub mod transform;
+pub mod triangulate;
 
 pub use camera::{Camera, Intrinsics};
 pub use distortion::Distortion;

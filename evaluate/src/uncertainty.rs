@@ -1,0 +1,374 @@
+//! The expanded uncertainty (k = 2) of every figure, by Monte Carlo (GUM
+//! Supplement 1; docs/uncertainty.md).
+//!
+//! A trial redraws what the measurement was computed from and computes the
+//! report again: each camera's parameters from its calibration's covariance
+//! (`rig.json`; one draw per camera per trial, shared by every instant, so
+//! that what the calibration got wrong is not averaged away by runs and
+//! captures), split into the least-squares part and the target markers'
+//! part; and each sphere image's centre from its covariance
+//! (`<stem>.observations.csv`, independent between images). The observed
+//! centre moves with a drawn camera as the image it came from would: the
+//! ideal centre is distorted back through the calibrated lens to where it was
+//! seen and undistorted through the drawn one. Every sphere centre is then
+//! triangulated again and every figure evaluated again; U is the half-width
+//! of the interval about the reported figure that holds 95 % of the trials
+//! (`geom::montecarlo`).
+
+use std::collections::{BTreeMap, HashMap};
+
+use formats::uncertainty::{BudgetEntry, FigureKeys, Propagated, Uncertainty, figures};
+use formats::{CameraCovariance, InstantKey, ObservationRow, PointRow};
+use geom::montecarlo::{
+    COVERAGE_FACTOR, CovarianceRoot, Propagation, Trial, propagate as monte_carlo,
+};
+use geom::nalgebra::DMatrix;
+use geom::triangulate::{View, triangulate};
+use geom::{Camera, Point2, Point3, Vector2};
+
+use crate::{Options, Report, evaluate};
+
+/// Which numbers of `report.json` are figures: µm and µrad, not the
+/// per-target tables nor the rigid fits' residual.
+pub const FIGURE_KEYS: FigureKeys = FigureKeys {
+    units: &["_um", "_urad"],
+    skip: &["targets", "points", "fit_rms_um", "uncertainty"],
+};
+
+/// Source indices in the propagation.
+const CENTROIDS: usize = 0;
+const CALIBRATION: usize = 1;
+const TARGET: usize = 2;
+const SOURCES: [&str; 3] = ["centroids", "calibration", "target"];
+
+/// What the figures were measured with: the calibrated cameras by id and
+/// their parameters' covariance.
+#[derive(Debug, Clone, Copy)]
+pub struct Instrument<'a> {
+    /// The cameras (`rig.json`), by id.
+    pub cameras: &'a BTreeMap<u8, Camera>,
+    /// Each camera's parameter covariance, by id.
+    pub covariance: &'a BTreeMap<u8, CameraCovariance>,
+}
+
+/// One camera's draws: its parameter names and the roots of its covariance
+/// without and with only the target's part.
+struct CameraDraw<'a> {
+    id: u8,
+    camera: &'a Camera,
+    names: &'a [String],
+    fit: CovarianceRoot,
+    target: Option<CovarianceRoot>,
+}
+
+/// One image of a sphere: the camera, the centre in ideal pixels, where it
+/// was seen (observed pixels), and the root of its covariance.
+struct Seen {
+    camera: u8,
+    ideal: Point2<f64>,
+    observed: Point2<f64>,
+    root: [[f64; 2]; 2],
+}
+
+/// One row of `points.csv` with the images it was triangulated from and the
+/// centre those images give at the estimate (the trial's shift is added to
+/// the row's own coordinates).
+struct Sighted {
+    row: usize,
+    radius: f64,
+    images: Vec<Seen>,
+    centre: Point3<f64>,
+}
+
+/// Lower-triangular root of a 2×2 covariance.
+fn root2(c: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
+    let l11 = c[0][0].max(0.0).sqrt();
+    let l21 = if l11 > 0.0 { c[1][0] / l11 } else { 0.0 };
+    let l22 = (c[1][1] - l21 * l21).max(0.0).sqrt();
+    [[l11, 0.0], [l21, l22]]
+}
+
+/// The budget's headline figures: those of each axis's main line and the flatness.
+fn headline(path: &str) -> bool {
+    (path.starts_with("axes.") && !path.contains(".lines.")) || path.starts_with("flatness.")
+}
+
+/// Why no U can be given, as the report says it.
+fn not_given(reason: impl Into<String>) -> Uncertainty {
+    Uncertainty::NotGiven {
+        reason: reason.into(),
+    }
+}
+
+/// The report's uncertainty: U of every figure of `report` (evaluated from
+/// `points` with `options`) from the images' `observations` and the
+/// `instrument`, or why there is none. `propagation.trials == 0` turns it off.
+pub fn propagate(
+    report: &Report,
+    points: &[PointRow],
+    observations: &[ObservationRow],
+    instrument: Instrument<'_>,
+    options: &Options,
+    propagation: Propagation,
+) -> Uncertainty {
+    if propagation.trials == 0 {
+        return not_given("the propagation was turned off (--trials 0)");
+    }
+    let cameras = match camera_draws(instrument) {
+        Ok(c) => c,
+        Err(reason) => return not_given(reason),
+    };
+    let sighted = match sightings(points, observations, instrument.cameras) {
+        Ok(s) => s,
+        Err(reason) => return not_given(reason),
+    };
+    let Ok(nominal) = figures(report, &FIGURE_KEYS) else {
+        return not_given("the report's figures cannot be listed");
+    };
+    let with_target = cameras.iter().any(|c| c.target.is_some());
+    let sources: &[&str] = if with_target {
+        &SOURCES
+    } else {
+        &SOURCES[..TARGET]
+    };
+    let result = monte_carlo(&nominal, sources, propagation, |trial| {
+        let rows = trial_points(trial, points, &sighted, &cameras)?;
+        let r = evaluate(&rows, options).ok()?;
+        figures(&r, &FIGURE_KEYS).ok()
+    });
+    let budget = nominal
+        .iter()
+        .filter(|(path, _)| headline(path))
+        .filter_map(|(path, &value)| {
+            let u = *result.expanded.get(path)?;
+            let contributions = result
+                .contributions
+                .iter()
+                .filter_map(|(s, by)| by.get(path).map(|&c| (s.clone(), c)))
+                .collect();
+            Some(BudgetEntry {
+                figure: path.clone(),
+                value,
+                expanded: u,
+                contributions,
+            })
+        })
+        .collect();
+    let mut source_notes = BTreeMap::from([
+        (
+            SOURCES[CENTROIDS].to_string(),
+            "noise of each sphere image's centre (observations.csv covariance; independent between images)"
+                .to_string(),
+        ),
+        (
+            SOURCES[CALIBRATION].to_string(),
+            "the cameras' calibrated parameters (rig.json covariance, least-squares part; one draw per camera \
+             and trial, shared by every instant)"
+                .to_string(),
+        ),
+    ]);
+    if with_target {
+        source_notes.insert(
+            SOURCES[TARGET].to_string(),
+            "the calibration target's marker coordinates (rig.json covariance, target part; shared by every instant)"
+                .to_string(),
+        );
+    }
+    Uncertainty::Given(Propagated {
+        method: format!(
+            "Monte Carlo (GUM Supplement 1): U = half-width of the interval about the reported value holding 95 % \
+             of the trial figures (k = {COVERAGE_FACTOR}); budget: each source alone, standard uncertainty"
+        ),
+        k: COVERAGE_FACTOR,
+        trials: propagation.trials,
+        seed: propagation.seed,
+        failed_trials: result.failed,
+        sources: source_notes,
+        not_included: vec![
+            "temperature: the machine's and the target's thermal expansion (no test conditions given)".into(),
+            "the machine's own scatter is in the figures (R, s), not in U".into(),
+        ],
+        budget,
+        expanded: result.expanded,
+    })
+}
+
+/// Each camera's draws; every camera must carry its covariance.
+fn camera_draws(instrument: Instrument<'_>) -> Result<Vec<CameraDraw<'_>>, String> {
+    instrument
+        .cameras
+        .iter()
+        .map(|(&id, camera)| {
+            let cov = instrument.covariance.get(&id).ok_or_else(|| {
+                format!(
+                    "camera {id} of the rig has no parameter covariance (a rig.json calibrated before \
+                     uncertainties were recorded: calibrate again)"
+                )
+            })?;
+            let bad = |what: &str| format!("camera {id}: the rig's {what} is not a covariance matrix");
+            let total = cov.to_matrix().ok_or_else(|| bad("covariance"))?;
+            let target = cov.target_matrix();
+            let fit = match &target {
+                Some(t) => &total - t,
+                None => total.clone(),
+            };
+            Ok(CameraDraw {
+                id,
+                camera,
+                names: &cov.parameters,
+                fit: CovarianceRoot::new(&fit).map_err(|_| bad("covariance"))?,
+                target: match target {
+                    Some(t) if t.iter().any(|v| *v != 0.0) => {
+                        Some(CovarianceRoot::new(&t).map_err(|_| bad("target covariance"))?)
+                    }
+                    _ => None,
+                },
+            })
+        })
+        .collect()
+}
+
+/// Every row of `points` with its images; every row must have its images
+/// and each image its covariance.
+fn sightings(
+    points: &[PointRow],
+    observations: &[ObservationRow],
+    cameras: &BTreeMap<u8, Camera>,
+) -> Result<Vec<Sighted>, String> {
+    let mut by_row: HashMap<(InstantKey, &str), Vec<&ObservationRow>> = HashMap::new();
+    for o in observations {
+        by_row
+            .entry((o.instant(), o.sphere.as_str()))
+            .or_default()
+            .push(o);
+    }
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let name = || {
+                format!(
+                    "sphere {} at {} run {} target {} capture {}",
+                    p.sphere,
+                    p.axis.name(),
+                    p.run,
+                    p.target,
+                    p.capture
+                )
+            };
+            let obs = by_row
+                .get(&(p.instant(), p.sphere.as_str()))
+                .filter(|o| o.len() >= 2)
+                .ok_or_else(|| format!("{} has no observations of two cameras to propagate", name()))?;
+            let radius = obs[0].radius_mm;
+            let images = obs
+                .iter()
+                .map(|o| {
+                    let camera = cameras
+                        .get(&o.camera)
+                        .ok_or_else(|| format!("{}: camera {} is not in the rig", name(), o.camera))?;
+                    let cov = o.covariance().ok_or_else(|| {
+                        format!(
+                            "the noise of the image centres is unknown ({}, camera {}): no noise model \
+                             (flat and dark stacks, or repeated captures)",
+                            name(),
+                            o.camera
+                        )
+                    })?;
+                    let ideal = Point2::new(o.u, o.v);
+                    Ok(Seen {
+                        camera: o.camera,
+                        ideal,
+                        observed: camera.distort_pixel(ideal),
+                        root: root2(cov),
+                    })
+                })
+                .collect::<Result<Vec<_>, String>>()?;
+            let views: Vec<View<'_>> = images
+                .iter()
+                .filter_map(|s| {
+                    cameras.get(&s.camera).map(|camera| View {
+                        camera,
+                        ideal_px: s.ideal,
+                    })
+                })
+                .collect();
+            let centre = triangulate(&views, radius)
+                .map_err(|e| format!("{}: its images do not triangulate ({e})", name()))?
+                .point;
+            Ok(Sighted {
+                row: i,
+                radius,
+                images,
+                centre,
+            })
+        })
+        .collect()
+}
+
+/// The points of one trial: cameras drawn, image centres drawn and moved
+/// with their camera, every sphere centre triangulated again.
+fn trial_points(
+    trial: &mut Trial,
+    points: &[PointRow],
+    sighted: &[Sighted],
+    cameras: &[CameraDraw<'_>],
+) -> Option<Vec<PointRow>> {
+    let mut drawn: BTreeMap<u8, Option<Camera>> = BTreeMap::new();
+    for c in cameras {
+        let mut delta = DMatrix::<f64>::zeros(c.fit.dim(), 1).column(0).into_owned();
+        let mut moved = false;
+        if let Some(d) = trial.draws(CALIBRATION) {
+            delta += c.fit.draw(d);
+            moved = true;
+        }
+        if let (Some(d), Some(t)) = (trial.draws(TARGET), &c.target) {
+            delta += t.draw(d);
+            moved = true;
+        }
+        let camera = if moved {
+            Some(c.camera.perturbed(c.names, delta.as_slice()).ok()?)
+        } else {
+            None
+        };
+        drawn.insert(c.id, camera);
+    }
+    let mut rows = points.to_vec();
+    for s in sighted {
+        let mut ideal = Vec::with_capacity(s.images.len());
+        for image in &s.images {
+            let mut p = match drawn.get(&image.camera)? {
+                Some(camera) => camera.undistort_pixel(image.observed).ok()?,
+                None => image.ideal,
+            };
+            if let Some(d) = trial.draws(CENTROIDS) {
+                let z = Vector2::new(d.normal(), d.normal());
+                let l = image.root;
+                p += Vector2::new(l[0][0] * z.x, l[1][0] * z.x + l[1][1] * z.y);
+            }
+            ideal.push(p);
+        }
+        let views: Vec<View<'_>> = s
+            .images
+            .iter()
+            .zip(&ideal)
+            .filter_map(|(image, &p)| {
+                let camera = match drawn.get(&image.camera)? {
+                    Some(c) => c,
+                    None => cameras.iter().find(|c| c.id == image.camera)?.camera,
+                };
+                Some(View {
+                    camera,
+                    ideal_px: p,
+                })
+            })
+            .collect();
+        let centre = triangulate(&views, s.radius).ok()?.point;
+        let shift = centre - s.centre;
+        let row = &mut rows[s.row];
+        row.x += shift.x;
+        row.y += shift.y;
+        row.z += shift.z;
+    }
+    Some(rows)
+}
