@@ -56,6 +56,12 @@ pub enum FuseError {
     /// Extraction failed.
     #[error(transparent)]
     Extract(#[from] extract::ExtractError),
+    /// A camera of `rig.json` whose `covariance` matrix is not square in its parameters.
+    #[error("camera {camera} of the rig: its covariance matrix does not match its parameter names")]
+    Covariance {
+        /// Camera id.
+        camera: u8,
+    },
     /// The pixel-scale fusion was given different camera sets at its two
     /// instants, or fewer than two cameras.
     #[error(

@@ -39,9 +39,11 @@ use std::sync::Mutex;
 
 use extract::{Backend, ExtractParams, FrameReader};
 use formats::{
-    InstantKey, InstantProblemRow, LineKey, Missing, OutputPlan, PointRow, SphereRow, read_csv_from,
+    InstantKey, InstantProblemRow, LineKey, Missing, ObservationRow, OutputPlan, PointRow,
+    SphereRow, read_csv_from,
 };
-use geom::{Point2, Point3};
+use geom::nalgebra::Matrix2;
+use geom::{Matrix3, Point2, Point3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -52,7 +54,7 @@ use crate::plausibility::ResidualGate;
 use crate::pose::poses;
 use crate::triangulate::seed_displacement;
 use crate::{FuseError, Result};
-use geom::triangulate::{View, triangulate};
+use geom::triangulate::{View, centre_covariance, parameter_image_covariance, triangulate};
 
 /// Allowance for the spheres' layout on the table around its reference point (mm).
 pub const SPHERE_LAYOUT_MM: f64 = 50.0;
@@ -176,8 +178,22 @@ fn fingerprint(inputs: &Inputs<'_>, options: &MeasureOptions) -> Result<Fingerpr
     })
 }
 
-/// Ideal-pixel image centre of one sphere seen by each camera used.
-type Seen = BTreeMap<u8, Point2<f64>>;
+/// One camera's image of a sphere: its centre in ideal pixels and the
+/// centre's covariance from the image noise (px²), when the camera's noise
+/// is known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Observed {
+    ideal: Point2<f64>,
+    covariance: Option<Matrix2<f64>>,
+}
+
+/// The image of one sphere seen by each camera used.
+type Seen = BTreeMap<u8, Observed>;
+
+/// Ideal-pixel centres of a sphere's images.
+fn ideal_centres(seen: &Seen) -> BTreeMap<u8, Point2<f64>> {
+    seen.iter().map(|(&c, o)| (c, o.ideal)).collect()
+}
 
 /// Fewest cameras a sphere is triangulated from.
 const MIN_VIEWS: usize = 2;
@@ -321,7 +337,7 @@ impl Context<'_> {
         &self,
         ip: &InstantPlan,
         camera: u8,
-    ) -> std::result::Result<Vec<std::result::Result<Point2<f64>, Failure>>, Failure> {
+    ) -> std::result::Result<Vec<std::result::Result<Observed, Failure>>, Failure> {
         let key = &ip.key;
         let path = ip.images.get(&camera).ok_or_else(|| {
             Self::failure(
@@ -368,7 +384,10 @@ impl Context<'_> {
                 .into_iter()
                 .enumerate()
                 .map(|(s, m)| match m {
-                    SphereMatch::Found(c) => Ok(cands[c].ideal_px),
+                    SphereMatch::Found(c) => Ok(Observed {
+                        ideal: cands[c].ideal_px,
+                        covariance: None,
+                    }),
                     SphereMatch::Missing => Err(self.sphere_failure(
                         key,
                         s,
@@ -470,9 +489,40 @@ impl Context<'_> {
         sphere: usize,
         seen: &Seen,
     ) -> std::result::Result<(Point3<f64>, f64), String> {
-        triangulate(&self.views(seen), self.radius(sphere))
+        triangulate(&self.views(&ideal_centres(seen)), self.radius(sphere))
             .map(|t| (t.point, t.residual_px))
             .map_err(|e| e.to_string())
+    }
+
+    /// Standard uncertainties (mm) of a sphere centre `x` from its images'
+    /// noise (when every image's covariance is known) and from the cameras'
+    /// calibration (when every camera's covariance is in the rig), to first
+    /// order (`geom::triangulate::centre_covariance`).
+    fn centre_uncertainty(
+        &self,
+        sphere: usize,
+        seen: &Seen,
+        x: &Point3<f64>,
+    ) -> (Option<[f64; 3]>, Option<[f64; 3]>) {
+        let views = self.views(&ideal_centres(seen));
+        let radius = self.radius(sphere);
+        let sd = |c: Matrix3<f64>| [0, 1, 2].map(|i| c[(i, i)].max(0.0).sqrt());
+        let noise: Option<Vec<Matrix2<f64>>> = seen.values().map(|o| o.covariance).collect();
+        let random = noise
+            .and_then(|n| centre_covariance(&views, radius, x, &n))
+            .map(sd);
+        let calibration: Option<Vec<Matrix2<f64>>> = seen
+            .iter()
+            .map(|(c, o)| {
+                let camera = self.rig.cameras.get(c)?;
+                let (names, cov) = self.rig.covariance.get(c)?;
+                parameter_image_covariance(camera, names, cov, x, radius, o.ideal)
+            })
+            .collect();
+        let calibration = calibration
+            .and_then(|c| centre_covariance(&views, radius, x, &c))
+            .map(sd);
+        (random, calibration)
     }
 
     /// The seed's fusion of one sphere against its reference: the reference
@@ -487,8 +537,8 @@ impl Context<'_> {
         reference: &SphereReference,
     ) -> std::result::Result<(Point3<f64>, f64), String> {
         let (seen0, p0) = reference.as_ref().map_err(Clone::clone)?;
-        let r0 = self.debiased(sphere, seen0, p0);
-        let r1 = self.debiased(sphere, seen, p0);
+        let r0 = self.debiased(sphere, &ideal_centres(seen0), p0);
+        let r1 = self.debiased(sphere, &ideal_centres(seen), p0);
         let depths: Vec<f64> = r0
             .keys()
             .filter_map(|c| self.rig.cameras.get(c).map(|cam| cam.to_camera(p0).z))
@@ -522,39 +572,100 @@ impl Context<'_> {
     }
 }
 
-/// A sphere's fused centre: the point, its residual (px) and the cameras it
-/// was measured from (`2+3`).
-type Fused = (Point3<f64>, f64, String);
+/// A sphere's fused centre: the point, its residual (px), the cameras it
+/// was measured from (`2+3`), the images it was fused from and its standard
+/// uncertainties (mm) from the images' noise and from the calibration.
+#[derive(Debug, Clone)]
+struct Fused {
+    point: Point3<f64>,
+    residual_px: f64,
+    cameras: String,
+    seen: Seen,
+    u_random: Option<[f64; 3]>,
+    u_calibration: Option<[f64; 3]>,
+}
 
 fn rows_for(key: &InstantKey, spheres: &[SphereRow], centres: &[Option<Fused>]) -> Vec<PointRow> {
     let [nx, ny, nz] = key.nominal();
     spheres
         .iter()
         .zip(centres)
-        .filter_map(|(s, c)| c.as_ref().map(|(p, res, cameras)| (s, p, *res, cameras)))
-        .map(|(s, p, res, cameras)| PointRow {
-            axis: key.axis,
-            direction: key.direction,
-            run: key.run,
-            target: key.target,
-            capture: key.capture,
-            nominal_x: nx,
-            nominal_y: ny,
-            nominal_z: nz,
-            sphere: s.name.clone(),
-            x: p.x,
-            y: p.y,
-            z: p.z,
-            cameras: cameras.clone(),
-            residual_px: res,
-            u_x: None,
-            u_y: None,
-            u_z: None,
-            u_cal_x: None,
-            u_cal_y: None,
-            u_cal_z: None,
+        .filter_map(|(s, c)| c.as_ref().map(|f| (s, f)))
+        .map(|(s, f)| {
+            let random = |i: usize| f.u_random.map(|u| u[i]);
+            let calibration = |i: usize| f.u_calibration.map(|u| u[i]);
+            PointRow {
+                axis: key.axis,
+                direction: key.direction,
+                run: key.run,
+                target: key.target,
+                capture: key.capture,
+                nominal_x: nx,
+                nominal_y: ny,
+                nominal_z: nz,
+                sphere: s.name.clone(),
+                x: f.point.x,
+                y: f.point.y,
+                z: f.point.z,
+                cameras: f.cameras.clone(),
+                residual_px: f.residual_px,
+                u_x: random(0),
+                u_y: random(1),
+                u_z: random(2),
+                u_cal_x: calibration(0),
+                u_cal_y: calibration(1),
+                u_cal_z: calibration(2),
+            }
         })
         .collect()
+}
+
+/// The `observations.csv` rows of an instant's fused spheres: each image a
+/// centre was fused from, with the radius its image model used.
+fn observations_for(
+    key: &InstantKey,
+    spheres: &[SphereRow],
+    centres: &[Option<Fused>],
+    radius: impl Fn(usize) -> f64,
+) -> Vec<ObservationRow> {
+    let [nx, ny, nz] = key.nominal();
+    let mut rows = Vec::new();
+    for (i, (s, f)) in spheres.iter().zip(centres).enumerate() {
+        let Some(f) = f else { continue };
+        for (&camera, o) in &f.seen {
+            let (su, sv, rho) = match o.covariance {
+                Some(c) => {
+                    let (su, sv) = (c[(0, 0)].max(0.0).sqrt(), c[(1, 1)].max(0.0).sqrt());
+                    let rho = if su > 0.0 && sv > 0.0 {
+                        (c[(0, 1)] / (su * sv)).clamp(-1.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    (Some(su), Some(sv), Some(rho))
+                }
+                None => (None, None, None),
+            };
+            rows.push(ObservationRow {
+                axis: key.axis,
+                direction: key.direction,
+                run: key.run,
+                target: key.target,
+                capture: key.capture,
+                nominal_x: nx,
+                nominal_y: ny,
+                nominal_z: nz,
+                sphere: s.name.clone(),
+                camera,
+                radius_mm: radius(i),
+                u: o.ideal.x,
+                v: o.ideal.y,
+                u_sigma_px: su,
+                v_sigma_px: sv,
+                uv_correlation: rho,
+            });
+        }
+    }
+    rows
 }
 
 /// One problem row for an instant none of whose spheres could be measured,
@@ -608,9 +719,11 @@ fn whole_instant(key: &InstantKey, misses: Vec<Failure>) -> Failure {
     InstantProblemRow::new(key, camera, image, text.join("; "))
 }
 
-/// What measuring one instant gave: its rows and its problems.
+/// What measuring one instant gave: its rows, the images they were fused
+/// from and its problems.
 struct Outcome {
     rows: Vec<PointRow>,
+    observations: Vec<ObservationRow>,
     problems: Vec<Failure>,
 }
 
@@ -624,6 +737,7 @@ fn measure_one(
     if sight.usable < needed {
         return Outcome {
             rows: Vec::new(),
+            observations: Vec::new(),
             problems: vec![whole_instant(&ip.key, sight.left_out)],
         };
     }
@@ -642,14 +756,22 @@ fn measure_one(
             },
         };
         match centre {
-            Ok((p, residual)) => {
+            Ok((point, residual_px)) => {
                 let cameras = camera_set(seen.keys());
                 let measured = format!(
                     "sphere {} measured from cameras {cameras}",
                     ctx.spheres[s].name
                 );
                 notes.extend(misses.into_iter().map(|m| left_out(m, &measured)));
-                centres[s] = Some((p, residual, cameras));
+                let (u_random, u_calibration) = ctx.centre_uncertainty(s, &seen, &point);
+                centres[s] = Some(Fused {
+                    point,
+                    residual_px,
+                    cameras,
+                    seen,
+                    u_random,
+                    u_calibration,
+                });
             }
             Err(e) => {
                 problems.extend(misses);
@@ -664,6 +786,7 @@ fn measure_one(
         }
     }
     let rows = rows_for(&ip.key, ctx.spheres, &centres);
+    let observations = observations_for(&ip.key, ctx.spheres, &centres, |s| ctx.radius(s));
     if rows.is_empty() {
         problems = vec![whole_instant(
             &ip.key,
@@ -679,7 +802,11 @@ fn measure_one(
             .chain(problems)
             .collect();
     }
-    Outcome { rows, problems }
+    Outcome {
+        rows,
+        observations,
+        problems,
+    }
 }
 
 /// References of the seed's fusion: per line and sphere, the first instant
@@ -762,10 +889,10 @@ fn extent(plans: &[InstantPlan]) -> f64 {
 }
 
 /// Every row of a partial output (a torn last line is dropped).
-fn read_partial(path: &Path) -> Result<Vec<PointRow>> {
+fn read_partial<T: formats::Record>(path: &Path) -> Result<Vec<T>> {
     let bytes = std::fs::read(path).map_err(|e| formats::FormatError::io(path, e))?;
     let end = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-    let rows = read_csv_from::<PointRow, _>(&bytes[..end], path).map_err(FuseError::Format)?;
+    let rows = read_csv_from::<T, _>(&bytes[..end], path).map_err(FuseError::Format)?;
     Ok(rows.into_iter().map(|r| r.record).collect())
 }
 
@@ -779,7 +906,7 @@ fn load_partial(
     spheres: usize,
     cameras: &dyn Fn(formats::Axis) -> String,
 ) -> Result<Vec<PointRow>> {
-    let rows = read_partial(path)?;
+    let rows = read_partial::<PointRow>(path)?;
     // Instant → (rows, every row from every camera).
     let mut whole: BTreeMap<InstantKey, (usize, bool)> = BTreeMap::new();
     for r in &rows {
@@ -878,7 +1005,9 @@ pub fn measure(
         .file(out)
         .file(&paths.poses)
         .file(&paths.problems)
+        .file(&paths.observations)
         .state(&paths.partial)
+        .state(&paths.observations_partial)
         .state(&paths.sidecar);
     output.lock(formats::folder_of(out), "measure")?;
     // Resume or start afresh.
@@ -901,7 +1030,7 @@ pub fn measure(
     };
     let total = plans.len() as u64;
     progress(resumed as u64, total);
-    let mut problems = measure_chunks(&ctx, &todo, &references, &paths.partial, |finished| {
+    let mut problems = measure_chunks(&ctx, &todo, &references, &paths, |finished| {
         progress(resumed as u64 + finished, total)
     })?;
 
@@ -971,6 +1100,14 @@ fn write_outputs(
 ) -> Result<Written> {
     sort_rows(rows, index_of, inputs.spheres);
     output.write_records(out, &*rows)?;
+    let mut observations = read_partial::<ObservationRow>(&paths.observations_partial)?;
+    let kept: std::collections::HashSet<(InstantKey, &str)> = rows
+        .iter()
+        .map(|r| (r.instant(), r.sphere.as_str()))
+        .collect();
+    observations.retain(|o| kept.contains(&(o.instant(), o.sphere.as_str())));
+    sort_observations(&mut observations, index_of, inputs.spheres);
+    output.write_records(&paths.observations, &observations)?;
     let names: Vec<String> = inputs.spheres.iter().map(|s| s.name.clone()).collect();
     let fitted = poses(rows, &names);
     output.write_records(&paths.poses, &fitted.rows)?;
@@ -983,7 +1120,7 @@ fn write_outputs(
     }));
     let problem_count = problems.len();
     let (problems_file, first_problem) = write_problems(problems, &paths.problems, output)?;
-    for f in [&paths.partial, &paths.sidecar] {
+    for f in [&paths.partial, &paths.observations_partial, &paths.sidecar] {
         std::fs::remove_file(f).map_err(|e| formats::FormatError::io(f, e))?;
     }
     Ok(Written {
@@ -1004,15 +1141,22 @@ struct Paths {
     poses: PathBuf,
     /// `<stem>.problems.csv`.
     problems: PathBuf,
+    /// `<stem>.observations.csv`.
+    observations: PathBuf,
+    /// Its rows so far (`<stem>.observations.csv.partial`).
+    observations_partial: PathBuf,
 }
 
 impl Paths {
     fn of(out: &Path) -> Self {
+        let observations = formats::beside(out, "points", ".observations.csv");
         Self {
             partial: with_suffix(out, ".partial"),
             sidecar: with_suffix(out, ".resume.json"),
             poses: formats::beside(out, "points", ".poses.csv"),
             problems: formats::beside(out, "points", ".problems.csv"),
+            observations: observations.clone(),
+            observations_partial: with_suffix(&observations, ".partial"),
         }
     }
 }
@@ -1029,6 +1173,7 @@ fn resume(
 ) -> Result<Vec<PointRow>> {
     let print = fingerprint(inputs, options)?;
     let mut done_rows: Vec<PointRow> = Vec::new();
+    let mut done_observations: Vec<ObservationRow> = Vec::new();
     if paths.partial.exists() && !output.force() {
         let previous: Option<Fingerprint> = formats::read_json(&paths.sidecar).ok();
         if previous.as_ref() != Some(&print) {
@@ -1037,28 +1182,37 @@ fn resume(
         output.resume();
         let cameras = |axis| camera_set(&rig.cameras_for(axis, options.all_cameras));
         done_rows = load_partial(&paths.partial, inputs.spheres.len(), &cameras)?;
+        // The images of the instants kept (written before their points, so
+        // a kept instant has all of them; a torn row is dropped).
+        if paths.observations_partial.exists() {
+            let done: std::collections::HashSet<InstantKey> =
+                done_rows.iter().map(PointRow::instant).collect();
+            done_observations = read_partial(&paths.observations_partial)?;
+            done_observations.retain(|o| done.contains(&o.instant()));
+        }
     }
     output.check()?;
     output.write_json(&paths.sidecar, &print)?;
-    // Rewrite the partial with the complete instants only, then append to it.
+    // Rewrite the partials with the complete instants only, then append to them.
+    output.write_records(&paths.observations_partial, &done_observations)?;
     output.write_records(&paths.partial, &done_rows)?;
     Ok(done_rows)
 }
 
-/// Measure `todo` a chunk at a time in parallel, appending each chunk's rows
-/// to `partial` (synced) and calling `finished(instants so far)`; returns the
-/// problems with their instants' manifest indices.
+/// Measure `todo` a chunk at a time in parallel, appending each chunk's
+/// images to the observations' partial file and then its rows to the
+/// points' (each synced; a kept instant so has its images) and calling
+/// `finished(instants so far)`; returns the problems with their instants'
+/// manifest indices.
 fn measure_chunks(
     ctx: &Context<'_>,
     todo: &[&InstantPlan],
     references: &HashMap<LineKey, Vec<SphereReference>>,
-    partial: &Path,
+    paths: &Paths,
     finished: impl Fn(u64),
 ) -> Result<Vec<(usize, InstantProblemRow)>> {
-    let mut appender = std::fs::OpenOptions::new()
-        .append(true)
-        .open(partial)
-        .map_err(|e| formats::FormatError::io(partial, e))?;
+    let mut points = Appender::open(&paths.partial)?;
+    let mut images = Appender::open(&paths.observations_partial)?;
     let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
     let mut count = 0u64;
     for chunk in todo.chunks(CHUNK_INSTANTS) {
@@ -1066,29 +1220,55 @@ fn measure_chunks(
             .par_iter()
             .map(|ip| measure_one(ctx, ip, references))
             .collect();
+        let mut rows = Vec::new();
+        let mut observations = Vec::new();
+        for (ip, outcome) in chunk.iter().zip(results) {
+            rows.extend(outcome.rows);
+            observations.extend(outcome.observations);
+            problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
+        }
+        images.append(&observations)?;
+        points.append(&rows)?;
+        count += chunk.len() as u64;
+        finished(count);
+    }
+    Ok(problems)
+}
+
+/// A partial output open for appending rows (no header), each append synced.
+struct Appender<'p> {
+    path: &'p Path,
+    file: std::fs::File,
+}
+
+impl<'p> Appender<'p> {
+    fn open(path: &'p Path) -> Result<Self> {
+        let file = std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map_err(|e| formats::FormatError::io(path, e))?;
+        Ok(Self { path, file })
+    }
+
+    fn append<T: Serialize>(&mut self, rows: &[T]) -> Result<()> {
         let mut bytes = Vec::new();
         {
             let mut w = csv::WriterBuilder::new()
                 .has_headers(false)
                 .from_writer(&mut bytes);
-            for (ip, outcome) in chunk.iter().zip(results) {
-                for row in outcome.rows {
-                    w.serialize(row)
-                        .map_err(|e| formats::FormatError::file(partial, e.to_string()))?;
-                }
-                problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
+            for row in rows {
+                w.serialize(row)
+                    .map_err(|e| formats::FormatError::file(self.path, e.to_string()))?;
             }
             w.flush()
-                .map_err(|e| formats::FormatError::io(partial, e))?;
+                .map_err(|e| formats::FormatError::io(self.path, e))?;
         }
-        appender
+        self.file
             .write_all(&bytes)
-            .and_then(|()| appender.sync_data())
-            .map_err(|e| formats::FormatError::io(partial, e))?;
-        count += chunk.len() as u64;
-        finished(count);
+            .and_then(|()| self.file.sync_data())
+            .map_err(|e| formats::FormatError::io(self.path, e))?;
+        Ok(())
     }
-    Ok(problems)
 }
 
 /// Every row of the partial file of a planned instant, as written (the gate
@@ -1103,7 +1283,7 @@ fn gated_rows(
     Option<ResidualGate>,
     BTreeMap<InstantKey, Failure>,
 )> {
-    let mut rows = read_partial(partial)?;
+    let mut rows = read_partial::<PointRow>(partial)?;
     rows.retain(|r| index_of.contains_key(&r.instant()));
     let residuals = instant_residuals(&rows);
     let all: Vec<f64> = residuals.values().map(|r| r.0).collect();
@@ -1133,6 +1313,29 @@ fn sort_rows(rows: &mut [PointRow], index_of: &HashMap<InstantKey, usize>, spher
         )
     };
     rows.sort_by_key(rank);
+}
+
+/// Observations in manifest order, then sphere order, then camera.
+fn sort_observations(
+    rows: &mut [ObservationRow],
+    index_of: &HashMap<InstantKey, usize>,
+    spheres: &[SphereRow],
+) {
+    let sphere_rank: HashMap<&str, usize> = spheres
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.name.as_str(), i))
+        .collect();
+    rows.sort_by_key(|o| {
+        (
+            index_of.get(&o.instant()).copied().unwrap_or(usize::MAX),
+            sphere_rank
+                .get(o.sphere.as_str())
+                .copied()
+                .unwrap_or(usize::MAX),
+            o.camera,
+        )
+    });
 }
 
 /// Write the problems in manifest order (within an instant, as found), or

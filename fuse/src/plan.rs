@@ -35,6 +35,9 @@ pub struct RigModel {
     pub illumination: BTreeMap<u8, Illumination>,
     /// Least-squares intersection of the optical axes (mm): the working point.
     pub working_point: Point3<f64>,
+    /// Camera id → its parameters' names and covariance (`rig.json`
+    /// `covariance`; absent for a camera calibrated without it).
+    pub covariance: BTreeMap<u8, (Vec<String>, geom::nalgebra::DMatrix<f64>)>,
 }
 
 impl RigModel {
@@ -42,7 +45,14 @@ impl RigModel {
     pub fn new(rig: &formats::Rig) -> Result<Self> {
         let mut cameras = BTreeMap::new();
         let mut illumination = BTreeMap::new();
+        let mut covariance = BTreeMap::new();
         for c in &rig.cameras {
+            if let Some(cov) = &c.covariance {
+                let matrix = cov
+                    .to_matrix()
+                    .ok_or(FuseError::Covariance { camera: c.model.id })?;
+                covariance.insert(c.model.id, (cov.parameters.clone(), matrix));
+            }
             let cam = c.model.to_camera().map_err(|source| FuseError::RigCamera {
                 camera: c.model.id,
                 source,
@@ -80,6 +90,7 @@ impl RigModel {
             cameras,
             illumination,
             working_point,
+            covariance,
         })
     }
 

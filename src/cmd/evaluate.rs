@@ -1,7 +1,9 @@
 //! `trinocular evaluate --points points.csv --out DIR`: ISO 230-2
 //! positioning, straightness, flatness and angular errors from `points.csv`;
 //! writes `DIR/report.json`, `DIR/report.html` and CSV tables, and prints
-//! the headline figures.
+//! the headline figures. With the rig (`--rig`) and the images the points
+//! were fused from (`<stem>.observations.csv` beside the points), every
+//! figure carries its expanded uncertainty U (k = 2) by Monte Carlo.
 
 use std::path::PathBuf;
 
@@ -29,6 +31,108 @@ pub struct Args {
     /// Also compute the VDI/DGQ 3441 figures (P, Ps, U, Pa).
     #[arg(long)]
     vdi3441: bool,
+    /// The rig the points were measured with (`rig.json` with each camera's
+    /// covariance): needed for the figures' uncertainty.
+    #[arg(long)]
+    rig: Option<PathBuf>,
+    /// The images the points were fused from (default: `<stem>.observations.csv`
+    /// beside the points, as `measure` writes it).
+    #[arg(long)]
+    observations: Option<PathBuf>,
+    /// Monte Carlo trials of the uncertainty (0: figures without U).
+    #[arg(long, default_value_t = geom::montecarlo::DEFAULT_TRIALS)]
+    trials: usize,
+    /// Seed of the Monte Carlo draws (the same seed gives the same U).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// The figures' uncertainty: propagated from the observations beside the
+/// points and the rig, or why there is none.
+fn uncertainty(
+    args: &Args,
+    report: &evaluate::Report,
+    options: &evaluate::Options,
+) -> Result<formats::uncertainty::Uncertainty> {
+    use formats::uncertainty::Uncertainty;
+    let not_given = |reason: String| Ok(Uncertainty::NotGiven { reason });
+    if args.trials == 0 {
+        return not_given("the propagation was turned off (--trials 0)".into());
+    }
+    let observations = args
+        .observations
+        .clone()
+        .unwrap_or_else(|| formats::beside(&args.points, "points", ".observations.csv"));
+    if !observations.exists() {
+        return not_given(format!(
+            "no observations: {} does not exist (points measured elsewhere carry no record of their              images, and an uncertainty is never invented)",
+            observations.display()
+        ));
+    }
+    let Some(rig_path) = &args.rig else {
+        return not_given(
+            "no rig given (--rig rig.json): the calibration's covariance is unknown".into(),
+        );
+    };
+    let rig = formats::read_rig(rig_path)?;
+    let mut cameras = std::collections::BTreeMap::new();
+    let mut covariance = std::collections::BTreeMap::new();
+    for c in &rig.cameras {
+        cameras.insert(c.model.id, c.validate()?);
+        if let Some(cov) = &c.covariance {
+            covariance.insert(c.model.id, cov.clone());
+        }
+    }
+    let rows: Vec<formats::ObservationRow> = formats::read_csv(&observations)?
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    let points: Vec<formats::PointRow> = evaluate::read_points(&args.points)?
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    Ok(evaluate::uncertainty::propagate(
+        report,
+        &points,
+        &rows,
+        evaluate::uncertainty::Instrument {
+            cameras: &cameras,
+            covariance: &covariance,
+        },
+        options,
+        geom::montecarlo::Propagation {
+            trials: args.trials,
+            seed: args.seed,
+        },
+    ))
+}
+
+/// `v ± U` (3 decimals), `v` alone without U, `—` without a value.
+fn shown(v: Option<f64>, u: Option<f64>) -> String {
+    match (v, u) {
+        (Some(v), Some(u)) => format!("{v:.3} ± {u:.3}"),
+        (Some(v), None) => format!("{v:.3}"),
+        (None, _) => "—".into(),
+    }
+}
+
+/// The report keys of the A, E and R a summary shows
+/// ([`formats::evaluation::PositioningReport::shown_a_e_r`]).
+fn shown_keys(p: &formats::evaluation::PositioningReport) -> [&'static str; 3] {
+    let pick = |bi: Option<f64>, up: Option<f64>, keys: [&'static str; 3]| {
+        if bi.is_some() {
+            keys[0]
+        } else if up.is_some() {
+            keys[1]
+        } else {
+            keys[2]
+        }
+    };
+    [
+        pick(p.a_um, p.a_up_um, ["A_um", "A_up_um", "A_down_um"]),
+        pick(p.e_um, p.e_up_um, ["E_um", "E_up_um", "E_down_um"]),
+        pick(p.r_um, p.r_up_um, ["R_um", "R_up_um", "R_down_um"]),
+    ]
 }
 
 /// Run the evaluation and write the report.
@@ -42,41 +146,69 @@ pub fn run(args: &Args) -> Result<()> {
         evaluate::EvaluateError::UnknownSphere { .. } => Usage::error(e),
         e => e.into(),
     })?;
+    let mut report = report;
+    report.uncertainty = Some(uncertainty(args, &report, &options)?);
     let mut output = formats::OutputPlan::new(args.force);
     output.input(&args.points);
+    output.inputs(args.rig.iter());
+    output.inputs(args.observations.iter());
     let written = evaluate::write_outputs(&report, &args.out, &mut output)
         .with_context(|| format!("writing the report into {}", args.out.display()))?;
+    let u = |path: String| report.expanded(&path);
     for (axis, a) in report.axes.iter() {
         let p = &a.main.positioning;
-        let fig = |v: Option<f64>| v.map_or_else(|| "—".to_string(), |v| format!("{v:.3}"));
+        let at = |key: &str| format!("axes.{}.positioning.{key}", axis.name());
         let [shown_a, shown_e, shown_r] = p.shown_a_e_r();
+        let [key_a, key_e, key_r] = shown_keys(p);
         println!(
             "{axis}: A {} µm, E {} µm, M {} µm, R {} µm, B {} µm, seed 3σ {} µm",
-            fig(shown_a),
-            fig(shown_e),
-            fig(p.m_um),
-            fig(shown_r),
-            fig(p.b_um),
-            fig(p.seed_3sigma_um)
+            shown(shown_a, u(at(key_a))),
+            shown(shown_e, u(at(key_e))),
+            shown(p.m_um, u(at("M_um"))),
+            shown(shown_r, u(at(key_r))),
+            shown(p.b_um, u(at("B_um"))),
+            shown(p.seed_3sigma_um, u(at("seed_3sigma_um")))
         );
         for (dir, s) in &a.main.straightness {
+            let at = |key: &str| format!("axes.{}.straightness.{dir}.{key}", axis.name());
             println!(
-                "{axis}: straightness in {dir}: LSQ {:.3} µm, min zone {:.3} µm",
-                s.lsq_um, s.min_zone_um
+                "{axis}: straightness in {dir}: LSQ {} µm, min zone {} µm",
+                shown(Some(s.lsq_um), u(at("lsq_um"))),
+                shown(Some(s.min_zone_um), u(at("min_zone_um")))
             );
         }
         if let Some(ang) = &a.main.angular {
+            let at = |key: &str| format!("axes.{}.angular.{key}", axis.name());
             println!(
-                "{axis}: roll {:.2} µrad, pitch {:.2} µrad, yaw {:.2} µrad (ranges)",
-                ang.roll_urad, ang.pitch_urad, ang.yaw_urad
+                "{axis}: roll {} µrad, pitch {} µrad, yaw {} µrad (ranges)",
+                shown(Some(ang.roll_urad), u(at("roll_urad"))),
+                shown(Some(ang.pitch_urad), u(at("pitch_urad"))),
+                shown(Some(ang.yaw_urad), u(at("yaw_urad")))
             );
         }
     }
     if let Some(f) = &report.flatness {
         println!(
-            "flatness: LSQ {:.3} µm, min zone {:.3} µm",
-            f.lsq_um, f.min_zone_um
+            "flatness: LSQ {} µm, min zone {} µm",
+            shown(Some(f.lsq_um), u("flatness.lsq_um".into())),
+            shown(Some(f.min_zone_um), u("flatness.min_zone_um".into()))
         );
+    }
+    match &report.uncertainty {
+        Some(formats::uncertainty::Uncertainty::Given(p)) => println!(
+            "uncertainty: U (k = 2) by Monte Carlo, {} trials, seed {}{}",
+            p.trials,
+            p.seed,
+            if p.failed_trials > 0 {
+                format!(" ({} trials failed and were left out)", p.failed_trials)
+            } else {
+                String::new()
+            }
+        ),
+        Some(formats::uncertainty::Uncertainty::NotGiven { reason }) => {
+            eprintln!("trinocular: note: the figures carry no uncertainty: {reason}");
+        }
+        None => {}
     }
     for w in &report.warnings {
         eprintln!("trinocular: warning: {w}");

@@ -1,7 +1,9 @@
 //! `trinocular measure`: sphere centres of every instant of a campaign into
-//! `points.csv`; bad instants into `points.problems.csv` and table poses into
-//! `points.poses.csv` beside it (named after the output). An interrupted run,
-//! started again, resumes.
+//! `points.csv`; bad instants into `points.problems.csv`, table poses into
+//! `points.poses.csv` and the images each centre was fused from into
+//! `points.observations.csv` beside it (named after the output; `evaluate`
+//! propagates the uncertainty from them). An interrupted run, started
+//! again, resumes.
 
 use std::path::PathBuf;
 
@@ -37,7 +39,7 @@ pub struct Args {
     /// Sphere set (spheres.csv: name,diameter).
     #[arg(long)]
     spheres: PathBuf,
-    /// Output points.csv (<stem>.problems.csv and <stem>.poses.csv are written beside it).
+    /// Output points.csv (<stem>.problems.csv, <stem>.poses.csv and <stem>.observations.csv are written beside it).
     #[arg(long)]
     out: PathBuf,
     /// How cameras are fused.
@@ -49,7 +51,7 @@ pub struct Args {
     /// Do not remove the perspective bias of the spheres' images (diagnostics only).
     #[arg(long)]
     no_bias_correction: bool,
-    /// Replace existing outputs (points.csv and its poses and problems) and discard a partial one.
+    /// Replace existing outputs (points.csv and its poses, problems and observations) and discard a partial one.
     #[arg(long)]
     force: bool,
     #[command(flatten)]
