@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use ::report::{Page, escape, num};
+use ::report::{Page, escape, num, num_u};
 use formats::evaluation::{AxisReport, FlatnessReport, LineReport, PositioningReport, Report};
 
 use crate::{Result, plot};
@@ -24,6 +24,7 @@ pub fn render(report: &Report) -> Result<String> {
         escape(&report.sphere),
     ));
     summary(&mut h, report);
+    uncertainty_section(&mut h, report);
     for (axis, a) in report.axes.iter() {
         axis_section(&mut h, axis.name(), a)?;
     }
@@ -44,33 +45,49 @@ fn summary(h: &mut Page, report: &Report) {
     }
     h.raw("</tr>\n");
     type Get = fn(&LineReport) -> Option<f64>;
-    let rows: [(&str, Get); 13] = [
-        ("A — bidirectional accuracy", |l| l.positioning.a_um),
-        ("A↑ — unidirectional accuracy", |l| {
+    // (label, the figure's key under axes.<axis>, value)
+    let rows: [(&str, &str, Get); 13] = [
+        ("A — bidirectional accuracy", "positioning.A_um", |l| {
+            l.positioning.a_um
+        }),
+        ("A↑ — unidirectional accuracy", "positioning.A_up_um", |l| {
             l.positioning.a_up_um
         }),
-        ("A↓ — unidirectional accuracy", |l| {
+        ("A↓ — unidirectional accuracy", "positioning.A_down_um", |l| {
             l.positioning.a_down_um
         }),
-        ("E — systematic positional deviation", |l| {
+        ("E — systematic positional deviation", "positioning.E_um", |l| {
             l.positioning.e_um
         }),
-        ("M — mean bidirectional positional deviation", |l| {
-            l.positioning.m_um
+        (
+            "M — mean bidirectional positional deviation",
+            "positioning.M_um",
+            |l| l.positioning.m_um,
+        ),
+        ("R — bidirectional repeatability", "positioning.R_um", |l| {
+            l.positioning.r_um
         }),
-        ("R — bidirectional repeatability", |l| l.positioning.r_um),
-        ("R↑", |l| l.positioning.r_up_um),
-        ("R↓", |l| l.positioning.r_down_um),
-        ("B — reversal value", |l| l.positioning.b_um),
-        ("seed 3σ figure", |l| l.positioning.seed_3sigma_um),
-        ("roll range", |l| l.angular.as_ref().map(|a| a.roll_urad)),
-        ("pitch range", |l| l.angular.as_ref().map(|a| a.pitch_urad)),
-        ("yaw range", |l| l.angular.as_ref().map(|a| a.yaw_urad)),
+        ("R↑", "positioning.R_up_um", |l| l.positioning.r_up_um),
+        ("R↓", "positioning.R_down_um", |l| l.positioning.r_down_um),
+        ("B — reversal value", "positioning.B_um", |l| l.positioning.b_um),
+        ("seed 3σ figure", "positioning.seed_3sigma_um", |l| {
+            l.positioning.seed_3sigma_um
+        }),
+        ("roll range", "angular.roll_urad", |l| {
+            l.angular.as_ref().map(|a| a.roll_urad)
+        }),
+        ("pitch range", "angular.pitch_urad", |l| {
+            l.angular.as_ref().map(|a| a.pitch_urad)
+        }),
+        ("yaw range", "angular.yaw_urad", |l| {
+            l.angular.as_ref().map(|a| a.yaw_urad)
+        }),
     ];
-    for (label, get) in rows {
+    for (label, key, get) in rows {
         let _ = write!(h, "<tr><td class=\"l\">{}</td>", escape(label));
-        for (_, a) in &axes {
-            let _ = write!(h, "<td>{}</td>", num(get(&a.main)));
+        for (name, a) in &axes {
+            let u = report.expanded(&format!("axes.{name}.{key}"));
+            let _ = write!(h, "<td>{}</td>", num_u(get(&a.main), u));
         }
         h.raw("</tr>\n");
     }
@@ -93,7 +110,13 @@ fn summary(h: &mut Page, report: &Report) {
             );
             for (other, _) in &axes {
                 if other == name {
-                    let _ = write!(h, "<td>{:.3} / {:.3}</td>", s.lsq_um, s.min_zone_um);
+                    let u = |k: &str| report.expanded(&format!("axes.{name}.straightness.{dir}.{k}"));
+                    let _ = write!(
+                        h,
+                        "<td>{} / {}</td>",
+                        num_u(Some(s.lsq_um), u("lsq_um")),
+                        num_u(Some(s.min_zone_um), u("min_zone_um"))
+                    );
                 } else {
                     h.raw("<td></td>");
                 }
@@ -104,13 +127,73 @@ fn summary(h: &mut Page, report: &Report) {
     if let Some(f) = &report.flatness {
         let _ = writeln!(
             h,
-            "<tr><td class=\"l\">flatness (LSQ / min zone)</td><td colspan=\"{}\">{:.3} / {:.3}</td></tr>",
+            "<tr><td class=\"l\">flatness (LSQ / min zone)</td><td colspan=\"{}\">{} / {}</td></tr>",
             axes.len().max(1),
-            f.lsq_um,
-            f.min_zone_um
+            num_u(Some(f.lsq_um), report.expanded("flatness.lsq_um")),
+            num_u(Some(f.min_zone_um), report.expanded("flatness.min_zone_um"))
         );
     }
     h.raw("</table>\n");
+}
+
+/// The figures' uncertainty: how U was found and the budget of the
+/// headline figures, or why the figures carry none.
+fn uncertainty_section(h: &mut Page, report: &Report) {
+    use formats::uncertainty::Uncertainty;
+    match &report.uncertainty {
+        None => {}
+        Some(Uncertainty::NotGiven { reason }) => {
+            let _ = writeln!(
+                h,
+                "<h2 id=\"uncertainty\">Uncertainty</h2>\n<p class=\"warn\">The figures carry no \
+                 uncertainty: {}.</p>",
+                escape(reason)
+            );
+        }
+        Some(Uncertainty::Given(p)) => {
+            let _ = writeln!(
+                h,
+                "<h2 id=\"uncertainty\">Uncertainty</h2>\n<p class=\"meta\">Figures are shown as value ± U \
+                 (expanded uncertainty, k = {}): {} · {} trials, seed {}{}</p>",
+                p.k,
+                escape(&p.method),
+                p.trials,
+                p.seed,
+                if p.failed_trials > 0 {
+                    format!(" · {} trials failed and were left out", p.failed_trials)
+                } else {
+                    String::new()
+                }
+            );
+            let sources: Vec<&String> = p.sources.keys().collect();
+            h.raw("<table id=\"budget\">\n<tr><th class=\"l\">figure (µm / µrad)</th><th>value</th><th>U (k = 2)</th>");
+            for s in &sources {
+                let _ = write!(h, "<th>u {} alone</th>", escape(s));
+            }
+            h.raw("</tr>\n");
+            for b in &p.budget {
+                let _ = write!(
+                    h,
+                    "<tr><td class=\"l\">{}</td><td>{:.3}</td><td>{:.3}</td>",
+                    escape(&b.figure),
+                    b.value,
+                    b.expanded
+                );
+                for s in &sources {
+                    let _ = write!(h, "<td>{}</td>", num(b.contributions.get(*s).copied()));
+                }
+                h.raw("</tr>\n");
+            }
+            h.raw("</table>\n");
+            let mut notes: Vec<String> = p
+                .sources
+                .iter()
+                .map(|(k, v)| format!("{k}: {v}"))
+                .collect();
+            notes.extend(p.not_included.iter().map(|n| format!("not included: {n}")));
+            h.notes("Sources of uncertainty", &notes, false);
+        }
+    }
 }
 
 /// `y = 0, z = 0 mm` for a line's off-axis coordinates.

@@ -18,4 +18,4 @@ pub mod browser;
 pub mod plot;
 
 pub use error::{BrowserFault, ReportError, Result};
-pub use page::{Page, escape, figures, num};
+pub use page::{Page, escape, figures, num, num_u};

@@ -243,7 +243,7 @@ pub fn run(args: &Args) -> Result<()> {
         "measure",
         vec![
             "--rig".into(),
-            rig,
+            rig.clone(),
             "--manifest".into(),
             c("manifest.csv"),
             "--spheres".into(),
@@ -268,7 +268,14 @@ pub fn run(args: &Args) -> Result<()> {
     step::<cmd::evaluate::Args>(
         "4/4 evaluate (ISO 230-2, straightness, flatness, angular)",
         "evaluate",
-        vec!["--points".into(), points, "--out".into(), path(&report_dir)],
+        vec![
+            "--points".into(),
+            points,
+            "--rig".into(),
+            rig,
+            "--out".into(),
+            path(&report_dir),
+        ],
         args.force,
         cmd::evaluate::run,
     )?;
