@@ -16,7 +16,10 @@
 //! image when its circularity is at least [`MIN_CIRCULARITY`] of that,
 //! however strongly the lens distorts the observed one.
 
-use extract::{Blob, CameraMap, Extraction, FrameView, MappedLight, Weighting, mapped_light};
+use extract::{
+    Blob, CameraMap, CentroidCovariance, Extraction, FrameView, MappedLight, Weighting,
+    mapped_light,
+};
 use geom::{Camera, Illumination, Point2};
 
 /// Roundness (the corrected light's circularity over the cos θ a sphere's
@@ -36,6 +39,11 @@ pub struct Candidate {
     pub diameter_px: f64,
     /// Why the blob cannot be a whole sphere image, if it cannot.
     pub rejected: Option<&'static str>,
+    /// Covariance of `ideal_px` from the image noise (ideal px²,
+    /// `extract::CentroidCovariance`); `None` without a noise model (the
+    /// camera's system gain K), for a blob that could not be corrected, or
+    /// with the raw weighting.
+    pub covariance: Option<CentroidCovariance>,
 }
 
 /// Roundness of a blob's corrected light at ideal position `at`: its
@@ -58,21 +66,24 @@ fn rejection(camera: &Camera, blob: &Blob, light: Option<&MappedLight>) -> Optio
 
 /// Candidates of one frame: every blob with its corrected centroid and
 /// diameter in ideal pixels (camera `camera`, its lens's relative
-/// illumination `illumination`). `frame` must be the frame the extraction
-/// came from.
+/// illumination `illumination`); with the camera's system gain
+/// `gain_dn_per_e` (K, DN/e⁻), each centroid's covariance from the image
+/// noise. `frame` must be the frame the extraction came from (not denoised
+/// when K is given: the covariance assumes independent pixels).
 pub fn candidates(
     camera: &Camera,
     illumination: &Illumination,
     frame: &FrameView<'_>,
     extraction: &Extraction,
     weighting: Weighting,
+    gain_dn_per_e: Option<f64>,
 ) -> Vec<Candidate> {
     let map = CameraMap::new(camera, illumination);
     extraction
         .blobs
         .iter()
         .map(|b| {
-            let light = mapped_light(frame, b, &extraction.level, weighting, &map);
+            let light = mapped_light(frame, b, &extraction.level, weighting, &map, gain_dn_per_e);
             let rejected = rejection(camera, b, light.as_ref());
             let ([u, v], diameter_px) = match &light {
                 Some(l) => (l.centroid, l.ellipse().minor_px),
@@ -82,6 +93,7 @@ pub fn candidates(
                 ideal_px: Point2::new(u, v),
                 diameter_px,
                 rejected,
+                covariance: light.and_then(|l| l.covariance),
             }
         })
         .collect()
