@@ -15,12 +15,13 @@
 //! sphere's pixels depends on their blurred coverage alone.
 
 use geom::fit::plane_z_on_xy;
-use geom::{Camera, Illumination, Point2, Point3, RadialIllumination};
+use geom::{Camera, Illumination, Matrix3, Point2, Point3, RadialIllumination, Vector3};
 use std::cell::Cell;
 
 use crate::blob::{Blob, MomentEllipse};
 use crate::frame::FrameView;
 use crate::label::Weighting;
+use crate::noise::{Background, CentroidCovariance, WeightedPixel, centroid_covariance};
 use crate::threshold::Level;
 
 /// Gap (px) between a blob's bounding box and the ring its background is
@@ -105,12 +106,9 @@ impl PixelMap for FlatFieldMap<'_> {
     }
 }
 
-/// The background under a blob as a plane `b(u, v) = c + a·u + b·v` (DN),
-/// fitted to the pixels of a ring [`RING_GAP_PX`] outside its bounding box,
-/// [`RING_WIDTH_PX`] wide: pixels at or above the threshold (other blobs)
-/// are left out, and the fit is repeated without pixels beyond
-/// [`RING_CLIP_SIGMA`]·σ. `None` when too few pixels remain.
-pub fn background_plane(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Option<[f64; 3]> {
+/// The ring of pixels of [`background_fit`], relative to the
+/// centre of the blob's bounding box (u, v, f).
+fn ring_points(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Vec<Point3<f64>> {
     let b = &blob.bbox;
     let (gap, width) = (RING_GAP_PX, RING_WIDTH_PX);
     let inner = (
@@ -143,7 +141,20 @@ pub fn background_plane(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Op
             ));
         }
     }
-    let mut plane = None;
+    points
+}
+
+/// The background under a blob as a plane `b(u, v) = c + a·u + b·v` (DN),
+/// fitted to the pixels of a ring [`RING_GAP_PX`] outside its bounding box,
+/// [`RING_WIDTH_PX`] wide: pixels at or above the threshold (other blobs)
+/// are left out, and the fit is repeated without pixels beyond
+/// [`RING_CLIP_SIGMA`]·σ; with what its noise needs: the residual σ of the
+/// last fit and `XᵀX` of its design. `None` when too few pixels remain.
+fn background_fit(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Option<Background> {
+    let b = &blob.bbox;
+    let mut points = ring_points(frame, blob, level);
+    let centre = [f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0];
+    let mut background = None;
     for _ in 0..3 {
         if points.len() < RING_MIN_PIXELS {
             return None;
@@ -151,6 +162,7 @@ pub fn background_plane(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Op
         let fit = plane_z_on_xy(&points).ok()?;
         let n = fit.residuals.len() as f64;
         let sigma = (fit.residuals.iter().map(|r| r * r).sum::<f64>() / (n - 3.0)).sqrt();
+        let normal = normal_matrix(&points);
         let before = points.len();
         let mut k = 0;
         points.retain(|_| {
@@ -159,13 +171,28 @@ pub fn background_plane(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Op
             keep
         });
         // Back to absolute pixel coordinates: b = c + a·(u − uc) + b·(v − vc).
-        let (uc, vc) = (f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0);
-        plane = Some([fit.c - fit.a * uc - fit.b * vc, fit.a, fit.b]);
+        let (uc, vc) = (centre[0], centre[1]);
+        background = Some(Background {
+            plane: [fit.c - fit.a * uc - fit.b * vc, fit.a, fit.b],
+            sigma_dn: sigma,
+            centre,
+            normal,
+        });
         if points.len() == before {
             break;
         }
     }
-    plane
+    background
+}
+
+/// `XᵀX` of the ring's design matrix, rows `(1, u − uc, v − vc)`.
+fn normal_matrix(points: &[Point3<f64>]) -> Matrix3<f64> {
+    let mut m = Matrix3::zeros();
+    for p in points {
+        let x = Vector3::new(1.0, p.x, p.y);
+        m += x * x.transpose();
+    }
+    m
 }
 
 /// A blob's corrected light (module docs): the weights `w = F′·J` at the
@@ -178,6 +205,11 @@ pub struct MappedLight {
     pub centroid: [f64; 2],
     /// Central second moments `(μ20, μ02, μ11) = Σ w·(p′ − c)(p′ − c)ᵀ / Σ w` (px²).
     pub central: (f64, f64, f64),
+    /// The centroid's covariance from the pixels' noise (`crate::noise`,
+    /// px² of the corrected image); `None` without a system gain K, with
+    /// the raw weighting, or when the background plane's covariance is
+    /// undefined.
+    pub covariance: Option<CentroidCovariance>,
 }
 
 impl MappedLight {
@@ -187,21 +219,38 @@ impl MappedLight {
     }
 }
 
+/// The weight `F′` of a pixel of corrected value `f′` against the threshold
+/// `T′` (before the area Jacobian); `None` for a pixel without weight.
+fn corrected_weight(weighting: Weighting, f: f64, t: f64) -> Option<f64> {
+    match weighting {
+        Weighting::Subtracted if f > t => Some(f - t),
+        Weighting::Raw if f >= t => Some(f),
+        _ => None,
+    }
+}
+
 /// The blob's corrected light: centroid `Σ p′·F′·J / Σ F′·J` and the second
 /// moments about it over its pixels, with the background plane, flat-field
-/// correction and threshold of the module docs. `frame` must be the frame
-/// the blob was extracted from (after denoising). `None` when the background
-/// cannot be estimated, a pixel cannot be mapped, or no weight remains.
+/// correction and threshold of the module docs; with the system gain
+/// `gain_dn_per_e` (K, DN/e⁻), the centroid's covariance (`crate::noise`).
+/// `frame` must be the frame the blob was extracted from (after denoising;
+/// a denoised frame's pixels are correlated, so give no K for one). `None`
+/// when the background cannot be estimated, a pixel cannot be mapped, or no
+/// weight remains.
 pub fn mapped_light(
     frame: &FrameView<'_>,
     blob: &Blob,
     level: &Level,
     weighting: Weighting,
     map: &dyn PixelMap,
+    gain_dn_per_e: Option<f64>,
 ) -> Option<MappedLight> {
-    let [c, a, b] = background_plane(frame, blob, level)?;
+    let background = background_fit(frame, blob, level)?;
+    let [c, a, b] = background.plane;
     let mut pixels = Vec::with_capacity(blob.area_px as usize);
     let mut t_max = f64::NEG_INFINITY;
+    // Observed position and RI of the pixel that sets T′.
+    let mut t_at = ([0.0, 0.0], 1.0);
     for run in &blob.runs {
         let row = frame.row(run.y);
         let v = f64::from(run.y);
@@ -213,39 +262,55 @@ pub fn mapped_light(
             }
             let bg = c + a * u + b * v;
             let t = f64::from(level.at(x, run.y, frame.width));
-            t_max = t_max.max((t - bg) / m.illumination);
-            pixels.push((m, (f64::from(row[x as usize]) - bg) / m.illumination));
+            let t_pixel = (t - bg) / m.illumination;
+            if t_pixel > t_max {
+                t_at = ([u, v], m.illumination);
+            }
+            t_max = t_max.max(t_pixel);
+            let signal = f64::from(row[x as usize]) - bg;
+            pixels.push(WeightedPixel {
+                observed: [u, v],
+                mapped: m,
+                signal_dn: signal,
+            });
         }
     }
-    // (p′, w) of every weighted pixel.
-    let weighted: Vec<([f64; 2], f64)> = pixels
+    // The pixels that carry weight, with their weights.
+    let weighted: Vec<(WeightedPixel, f64)> = pixels
         .into_iter()
-        .filter_map(|(m, f)| {
-            let weight = match weighting {
-                Weighting::Subtracted if f > t_max => f - t_max,
-                Weighting::Raw if f >= t_max => f,
-                _ => return None,
-            } * m.jacobian;
-            Some((m.position, weight))
+        .filter_map(|p| {
+            let f = p.signal_dn / p.mapped.illumination;
+            corrected_weight(weighting, f, t_max).map(|w| (p, w * p.mapped.jacobian))
         })
         .collect();
     let (mut su, mut sv, mut sw) = (0.0f64, 0.0f64, 0.0f64);
     for &(p, w) in &weighted {
-        su += p[0] * w;
-        sv += p[1] * w;
+        su += p.mapped.position[0] * w;
+        sv += p.mapped.position[1] * w;
         sw += w;
     }
     let centroid = (sw > 0.0).then(|| [su / sw, sv / sw])?;
     let (mut suu, mut svv, mut suv) = (0.0f64, 0.0f64, 0.0f64);
     for &(p, w) in &weighted {
-        let (du, dv) = (p[0] - centroid[0], p[1] - centroid[1]);
+        let (du, dv) = (
+            p.mapped.position[0] - centroid[0],
+            p.mapped.position[1] - centroid[1],
+        );
         suu += du * du * w;
         svv += dv * dv * w;
         suv += du * dv * w;
     }
+    let covariance = match (gain_dn_per_e, weighting) {
+        (Some(k), Weighting::Subtracted) => {
+            let kept: Vec<WeightedPixel> = weighted.iter().map(|&(p, _)| p).collect();
+            centroid_covariance(&kept, centroid, sw, &background, t_at, k)
+        }
+        _ => None,
+    };
     Some(MappedLight {
         centroid,
         central: (suu / sw, svv / sw, suv / sw),
+        covariance,
     })
 }
 
@@ -257,7 +322,7 @@ pub fn mapped_centroid(
     weighting: Weighting,
     map: &dyn PixelMap,
 ) -> Option<[f64; 2]> {
-    mapped_light(frame, blob, level, weighting, map).map(|l| l.centroid)
+    mapped_light(frame, blob, level, weighting, map, None).map(|l| l.centroid)
 }
 
 /// The corrected centroids of `blobs` with `camera`'s model and its lens's
@@ -344,7 +409,7 @@ mod tests {
         let frame = FrameView::new(W, H, 16, &pixels).unwrap();
         let (ex, params) = extract_one(frame);
         let blob = &ex.blobs[0];
-        let plane = background_plane(&frame, blob, &ex.level).unwrap();
+        let plane = background_fit(&frame, blob, &ex.level).unwrap().plane;
         assert!((plane[0] - 800.0).abs() < 30.0, "{plane:?}");
         let got = mapped_centroid(
             &frame,
@@ -403,7 +468,8 @@ mod tests {
             blob.circularity()
         );
         let stretch = Stretch { cu, s };
-        let light = mapped_light(&frame, blob, &ex.level, params.weighting, &stretch).unwrap();
+        let light =
+            mapped_light(&frame, blob, &ex.level, params.weighting, &stretch, None).unwrap();
         let e = light.ellipse();
         assert!(e.circularity() > 0.995, "{e:?}");
         // The thresholded weights thin the edge pixels: within 1 % of 2R.
@@ -414,5 +480,119 @@ mod tests {
             mapped_centroid(&frame, blob, &ex.level, params.weighting, &stretch),
             Some(light.centroid)
         );
+    }
+
+    /// Standard normal draws from a seed (SplitMix64 and Box–Muller): the
+    /// test's own noise, independent of the crate.
+    struct Normal(u64);
+
+    impl Normal {
+        fn uniform(&mut self) -> f64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        }
+
+        fn next(&mut self) -> f64 {
+            let (a, b) = (self.uniform().max(1e-300), self.uniform());
+            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+        }
+    }
+
+    /// A stretch with a relative illumination falling along u: J and RI
+    /// both differ from 1, as through a real lens.
+    struct StretchAndFalloff;
+
+    impl PixelMap for StretchAndFalloff {
+        fn map(&self, u: f64, v: f64) -> Option<Mapped> {
+            Some(Mapped {
+                position: [70.0 + (u - 70.0) / 1.3, v],
+                jacobian: 1.0 / 1.3,
+                illumination: 1.0 - 0.003 * (u - 70.0),
+            })
+        }
+    }
+
+    /// `(σ_u, σ_v, ρ)` of the scatter of the centroids and the mean of
+    /// their analytic covariances (with K scaled by `k_factor`) over
+    /// `draws` noisy frames of one blurred disc: dark offset 400 DN, read
+    /// noise 20 DN, shot noise of gain K = 4 DN/e⁻.
+    fn scatter_and_model(draws: u64, k_factor: f64) -> ([f64; 3], [f64; 3]) {
+        const K: f64 = 4.0;
+        let (cu, cv, r) = (70.3, 58.6, 11.0);
+        let mean = render(
+            |u, v| (u - cu).hypot(v - cv) <= r,
+            |u, _, inside| 400.0 + 800.0 + (1.0 - 0.003 * (u - 70.0)) * 20_000.0 * inside,
+        );
+        let mut noise = Normal(7);
+        let (mut centroids, mut model) = (Vec::new(), [0.0f64; 3]);
+        for _ in 0..draws {
+            let pixels: Vec<u16> = mean
+                .iter()
+                .map(|&m| {
+                    let m = f64::from(m);
+                    let sd = (20.0f64.powi(2) + K * (m - 400.0)).sqrt();
+                    (m + sd * noise.next()).round() as u16
+                })
+                .collect();
+            let frame = FrameView::new(W, H, 16, &pixels).unwrap();
+            let (ex, params) = extract_one(frame);
+            let light = mapped_light(
+                &frame,
+                &ex.blobs[0],
+                &ex.level,
+                params.weighting,
+                &StretchAndFalloff,
+                Some(K * k_factor),
+            )
+            .unwrap();
+            let c = light.covariance.unwrap();
+            model[0] += c.uu_px2 / draws as f64;
+            model[1] += c.vv_px2 / draws as f64;
+            model[2] += c.uv_px2 / draws as f64;
+            centroids.push(light.centroid);
+        }
+        let n = draws as f64;
+        let mu = [0, 1].map(|i| centroids.iter().map(|c| c[i]).sum::<f64>() / n);
+        let cov = |i: usize, j: usize| {
+            centroids
+                .iter()
+                .map(|c| (c[i] - mu[i]) * (c[j] - mu[j]))
+                .sum::<f64>()
+                / (n - 1.0)
+        };
+        let sigmas = |uu: f64, vv: f64, uv: f64| [uu.sqrt(), vv.sqrt(), uv / (uu * vv).sqrt()];
+        (
+            sigmas(cov(0, 0), cov(1, 1), cov(0, 1)),
+            sigmas(model[0], model[1], model[2]),
+        )
+    }
+
+    /// The analytic covariance (METHODS §7) against the scatter of 400
+    /// noisy frames of one scene: a sample σ of n = 400 draws has a
+    /// relative standard error of 1/√(2(n − 1)) = 3.5 %, so the ratio lies in
+    /// 0.9…1.1 (±2.8 standard errors) unless the model is wrong; with K
+    /// a quarter of the truth (σ of the shot noise halved) it does not.
+    #[test]
+    fn the_centroid_covariance_matches_the_scatter_of_repeated_frames() {
+        let (scatter, model) = scatter_and_model(400, 1.0);
+        let ratio = [scatter[0] / model[0], scatter[1] / model[1]];
+        eprintln!(
+            "scatter σ_u {:.5} σ_v {:.5} ρ {:+.3}; model σ_u {:.5} σ_v {:.5} ρ {:+.3}; \
+             ratio {:.3} {:.3}",
+            scatter[0], scatter[1], scatter[2], model[0], model[1], model[2], ratio[0], ratio[1]
+        );
+        assert!(ratio.iter().all(|r| (0.9..=1.1).contains(r)), "{ratio:?}");
+        // ρ of 400 draws has a standard error of ≈ 0.05.
+        assert!(
+            (scatter[2] - model[2]).abs() < 0.15,
+            "{scatter:?} {model:?}"
+        );
+        let (scatter, wrong) = scatter_and_model(400, 0.25);
+        let ratio = [scatter[0] / wrong[0], scatter[1] / wrong[1]];
+        eprintln!("K/4: ratio {:.3} {:.3}", ratio[0], ratio[1]);
+        assert!(ratio.iter().all(|r| *r > 1.25), "{ratio:?}");
     }
 }

@@ -29,6 +29,7 @@ mod frame;
 pub mod gpu;
 mod label;
 mod metadata;
+mod noise;
 mod threshold;
 
 pub use backend::{Backend, CpuBackend, DEFAULT_MIN_AREA, ExtractParams, Extraction};
@@ -47,4 +48,5 @@ pub use frame::{Frame, FrameView};
 pub use gpu::GpuBackend;
 pub use label::Weighting;
 pub use metadata::FrameMetadata;
+pub use noise::CentroidCovariance;
 pub use threshold::{DEFAULT_K, Level, Threshold};

@@ -231,6 +231,7 @@ mod tests {
             ideal_px: Point2::origin(),
             diameter_px,
             rejected: None,
+            covariance: None,
         }
     }
 

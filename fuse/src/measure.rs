@@ -376,6 +376,7 @@ impl Context<'_> {
                 &frame,
                 &extraction,
                 self.options.extract.weighting,
+                None,
             );
             let wd = self.rig.working_distance(camera).unwrap_or(1.0);
             let range = ((wd - self.reach_mm).max(0.1 * wd), wd + self.reach_mm);

@@ -191,6 +191,21 @@ pub enum SensorError {
         /// σ²_y of the dark (DN²).
         dark_var_dn2: f64,
     },
+    /// Repeated captures without two levels far enough apart to show the
+    /// rise of the noise with the signal.
+    #[error(
+        "the repeated captures give no system gain: {pixels} flat pixel differences over levels \
+         {low_dn:.0}…{high_dn:.0} DN show no rise of the noise with the signal (they need flat \
+         bright regions, e.g. sphere interiors of ≥ 100 px, besides the background)"
+    )]
+    NoGainFromRepeats {
+        /// Lowest level fitted (DN).
+        low_dn: f64,
+        /// Highest level fitted (DN).
+        high_dn: f64,
+        /// Pixel differences used.
+        pixels: u64,
+    },
     /// The smooth model of the flat is not positive and finite at a pixel.
     #[error("the smooth model of the flat is {value} at pixel ({x}, {y}): it must be positive")]
     SmoothModel {

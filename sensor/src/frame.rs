@@ -38,6 +38,8 @@ pub enum StackKind {
     Flat,
     /// Dark frames: the lens covered.
     Dark,
+    /// Repeated captures of one instant (measurement images), in pairs.
+    Repeat,
 }
 
 impl std::fmt::Display for StackKind {
@@ -45,6 +47,7 @@ impl std::fmt::Display for StackKind {
         f.write_str(match self {
             StackKind::Flat => "flat",
             StackKind::Dark => "dark",
+            StackKind::Repeat => "repeated-capture",
         })
     }
 }

@@ -27,6 +27,8 @@
 //!   temporal noise (`½·var(A − B)` over consecutive pairs) and mean level.
 //! - [`PhotonTransfer`], [`photon_transfer`]: K (DN/e⁻), σ_d (e⁻) from a
 //!   flat and a dark master (each of ≥ 2 frames).
+//! - [`RepeatGain`], [`gain_from_repeats`]: K from pairs of repeated
+//!   captures of one instant (the measurement images), without stacks.
 //! - [`DefectMap`], [`Defect`], [`DefectKind`], [`Cluster`]: defective pixels.
 //! - [`SensorMaps`]: master dark, gain map, defects; [`SensorMaps::correct`].
 //! - [`calibrate`] with [`Options`] → [`SensorCalibration`]: all of the above
@@ -49,6 +51,7 @@ mod master;
 mod order;
 mod pattern;
 mod refusal;
+mod repeats;
 mod sums;
 mod temporal;
 mod transfer;
@@ -60,4 +63,5 @@ pub use defect_map::{Cluster, Defect, DefectKind, DefectMap};
 pub use error::{Result, SensorError};
 pub use frame::{Frame, StackKind, check_stack};
 pub use master::{Master, master};
+pub use repeats::{RepeatGain, gain_from_repeats};
 pub use transfer::{PhotonTransfer, photon_transfer};

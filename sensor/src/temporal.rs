@@ -41,6 +41,17 @@ pub(crate) struct NoiseModel {
 }
 
 impl NoiseModel {
+    /// `b`: the rise of the variance per DN of level (DN); with shot noise,
+    /// the system gain K (DN/e⁻).
+    pub(crate) fn slope(&self) -> f64 {
+        self.slope
+    }
+
+    /// The range of levels the fit saw (DN).
+    pub(crate) fn levels(&self) -> (f64, f64) {
+        self.levels
+    }
+
     /// `max(a + b·clamp(level), floor)`.
     pub(crate) fn variance(&self, level: f64) -> f64 {
         let level = level.clamp(self.levels.0, self.levels.1);
@@ -56,6 +67,8 @@ pub(crate) struct Temporal {
     pub(crate) var_dn2: f64,
     /// The variance against level.
     pub(crate) model: NoiseModel,
+    /// Differences that took part (not excluded, not clipped).
+    pub(crate) samples: u64,
 }
 
 /// Exact sums of the differences of one pair in one level bin.
@@ -103,6 +116,20 @@ struct Clip<'a> {
     pair_means: &'a [f64],
 }
 
+/// Two frames of one scene (`A − B` holds their temporal noise alone) and
+/// what each pixel's difference is binned by.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Pair<'a> {
+    /// Frame A.
+    pub(crate) a: &'a [u16],
+    /// Frame B.
+    pub(crate) b: &'a [u16],
+    /// Each pixel's level (DN).
+    pub(crate) levels: &'a [f32],
+    /// Pixels left out (saturated, or not usable for another reason).
+    pub(crate) excluded: &'a [bool],
+}
+
 /// The temporal noise of a stack of ≥ 2 frames (`None` for fewer).
 /// `levels` holds each pixel's median over the stack, `saturated` whether
 /// it reaches saturation in any frame (those pixels are left out);
@@ -116,16 +143,62 @@ pub(crate) fn temporal_noise(
     if frames.len() < 2 {
         return None;
     }
-    let container_bits = frames.first().map_or(16, |f| f.container_bits);
+    let pairs: Vec<Pair<'_>> = frames
+        .windows(2)
+        .map(|ab| Pair {
+            a: ab[0].values,
+            b: ab[1].values,
+            levels,
+            excluded: saturated,
+        })
+        .collect();
+    let first = frames.first()?;
+    pairs_noise(
+        &pairs,
+        first.width,
+        first.container_bits,
+        floor_dn2,
+        Pooling::Samples,
+    )
+}
+
+/// How a bin's variance is pooled over pairs, each pair's own bin mean
+/// removed: over the samples (`Σ centred / n`, biased low by one sample per
+/// pair and bin: negligible for the full-frame bins of a stack, and what
+/// its figures have always used), or over the degrees of freedom
+/// (`Σ centred / (n − pairs)`, unbiased: needed where a bin holds few
+/// samples of each pair, as the sphere interiors of repeated captures).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Pooling {
+    /// Divide by the number of samples.
+    Samples,
+    /// Divide by the degrees of freedom.
+    DegreesOfFreedom,
+}
+
+/// The temporal noise of pairs of frames of `width` px a row and
+/// `container_bits` bits (`None` without pairs): each pair's `½·var(A − B)`
+/// over the pixels not excluded, binned by level and fitted against it,
+/// outliers beyond [`CLIP_SIGMAS`] of the model left out in up to
+/// [`MAX_PASSES`] passes; bins pooled as `pooling` says.
+pub(crate) fn pairs_noise(
+    pairs: &[Pair<'_>],
+    width: u32,
+    container_bits: u8,
+    floor_dn2: f64,
+    pooling: Pooling,
+) -> Option<Temporal> {
+    if pairs.is_empty() {
+        return None;
+    }
     let bin_shift = u32::from(container_bits.saturating_sub(8));
     let mut clip: Option<(NoiseModel, Vec<f64>)> = None;
     let mut kept_before = None;
     let mut result = None;
     for _ in 0..MAX_PASSES {
         let sums = pair_sums(
-            frames,
-            levels,
-            saturated,
+            pairs,
+            width,
             bin_shift,
             clip.as_ref().map(|(model, pair_means)| Clip {
                 model: *model,
@@ -133,9 +206,13 @@ pub(crate) fn temporal_noise(
             }),
         );
         let kept: u64 = sums.iter().flatten().map(|b| b.n).sum();
-        let model = fit_model(&sums, floor_dn2);
+        let model = fit_model(&sums, floor_dn2, pooling);
         let (var_dn2, pair_means) = pair_variance(&sums);
-        result = Some(Temporal { var_dn2, model });
+        result = Some(Temporal {
+            var_dn2,
+            model,
+            samples: kept,
+        });
         if kept_before == Some(kept) {
             break;
         }
@@ -145,36 +222,39 @@ pub(crate) fn temporal_noise(
     result
 }
 
-/// Per consecutive pair, per level bin: the exact sums of `A − B` over the
-/// pixels not saturated (and within the clip, when one is given).
+/// Per pair, per level bin: the exact sums of `A − B` over the pixels not
+/// excluded (and within the clip, when one is given).
 fn pair_sums(
-    frames: &[Frame<'_>],
-    levels: &[f32],
-    saturated: &[bool],
+    pairs: &[Pair<'_>],
+    width: u32,
     bin_shift: u32,
     clip: Option<Clip<'_>>,
 ) -> Vec<Vec<BinSums>> {
-    let width = frames.first().map_or(1, |f| f.width as usize).max(1);
-    frames
-        .windows(2)
+    let width = (width as usize).max(1);
+    pairs
+        .iter()
         .enumerate()
-        .map(|(pair, ab)| {
-            let (a, b) = (ab[0].values, ab[1].values);
+        .map(|(index, pair)| {
             // (mean difference, squared half-width of the kept interval).
             let limit = |level: f64| -> Option<(f64, f64)> {
                 clip.as_ref().map(|c| {
                     let var = 2.0 * c.model.variance(level);
-                    (c.pair_means[pair], CLIP_SIGMAS * CLIP_SIGMAS * var)
+                    (c.pair_means[index], CLIP_SIGMAS * CLIP_SIGMAS * var)
                 })
             };
-            a.par_chunks(width)
-                .zip(b.par_chunks(width))
-                .zip(levels.par_chunks(width).zip(saturated.par_chunks(width)))
+            pair.a
+                .par_chunks(width)
+                .zip(pair.b.par_chunks(width))
+                .zip(
+                    pair.levels
+                        .par_chunks(width)
+                        .zip(pair.excluded.par_chunks(width)),
+                )
                 .fold(
                     || vec![BinSums::default(); BINS],
                     |mut bins, ((ra, rb), (rl, rs))| {
-                        for (((&va, &vb), &level), &sat) in ra.iter().zip(rb).zip(rl).zip(rs) {
-                            if sat {
+                        for (((&va, &vb), &level), &out) in ra.iter().zip(rb).zip(rl).zip(rs) {
+                            if out {
                                 continue;
                             }
                             let d = i64::from(va) - i64::from(vb);
@@ -225,21 +305,27 @@ fn pair_variance(sums: &[Vec<BinSums>]) -> (f64, Vec<f64>) {
 /// the numbers of differences: `σ²_y(μ) = a + b·μ`. A single populated bin
 /// (a dark frame) or a negative slope gives the constant model; with no
 /// bin populated enough, the variance pooled over all bins.
-fn fit_model(sums: &[Vec<BinSums>], floor_dn2: f64) -> NoiseModel {
+fn fit_model(sums: &[Vec<BinSums>], floor_dn2: f64, pooling: Pooling) -> NoiseModel {
     let mut points = Vec::new();
     for bin in 0..BINS {
         let mut n = 0u64;
         let mut centred = 0.0;
         let mut level2 = 0u64;
+        let mut means = 0u64;
         for bins in sums {
             let b = &bins[bin];
             n += b.n;
             centred += b.centred_s2();
             level2 += b.level2;
+            means += u64::from(b.n > 0);
         }
         if n >= MIN_BIN_SAMPLES {
             let w = n as f64;
-            points.push((level2 as f64 / (2.0 * w), 0.5 * centred / w, w));
+            let dof = match pooling {
+                Pooling::Samples => w,
+                Pooling::DegreesOfFreedom => (n - means).max(1) as f64,
+            };
+            points.push((level2 as f64 / (2.0 * w), 0.5 * centred / dof, w));
         }
     }
     if points.is_empty() {
