@@ -28,8 +28,8 @@ use geom::nalgebra::{Matrix3, Vector3};
 use geom::{Camera, Illumination, Point3};
 
 use formats::commissioning::{
-    AxisPair, CameraReport, DepthOfField, FlatFieldFit, IlluminationReport, Report, ScaleCost,
-    TravelCamera, TravelReport,
+    AxisPair, CameraReport, DepthOfField, FlatFieldFit, IlluminationReport, ParameterUncertainty,
+    Report, ScaleCost, TravelCamera, TravelReport,
 };
 
 use crate::illumination::{profile, scale_error_ppm};
@@ -78,6 +78,8 @@ pub struct CameraInput {
     pub flat_field: Option<FlatFieldFit>,
     /// The sensor's calibration from stacks of flats and darks, when given.
     pub sensor: Option<formats::SensorJson>,
+    /// The covariance of its calibrated parameters, when determined.
+    pub covariance: Option<formats::CameraCovariance>,
 }
 
 /// Tolerances and the travels to check.
@@ -357,6 +359,7 @@ fn camera_report(
         depth_of_field: dof,
         relative_illumination,
         sensor: c.sensor.clone(),
+        parameter_uncertainty: c.covariance.as_ref().and_then(ParameterUncertainty::of),
     }
 }
 
@@ -479,6 +482,7 @@ mod tests {
             illumination: Illumination::Ideal,
             flat_field: None,
             sensor: None,
+            covariance: None,
         }
     }
 

@@ -323,6 +323,19 @@ pub enum OptionProblem {
         /// Height (px).
         height: u32,
     },
+    /// A target uncertainty that is not a finite number ≥ 0.
+    #[error("{0} µm is not a finite number ≥ 0")]
+    TargetUncertainty(f64),
+    /// The observations given with a calibration are not the ones it was fitted to.
+    #[error(
+        "{observations} observations for a calibration of {residuals} points (or in another order)"
+    )]
+    ObservationsDiffer {
+        /// Observations given.
+        observations: usize,
+        /// Points of the calibration.
+        residuals: usize,
+    },
 }
 
 impl OptionProblem {
@@ -338,6 +351,8 @@ impl OptionProblem {
             Self::OutlierK(_) => "outlier k",
             Self::NoRound => "max rounds",
             Self::ImageSize { .. } => "image size",
+            Self::TargetUncertainty(_) => "target uncertainty",
+            Self::ObservationsDiffer { .. } => "observations",
         }
     }
 }

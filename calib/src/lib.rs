@@ -8,6 +8,8 @@
 //! - [`calibrate_detections`]: one camera from the detections in its
 //!   calibration image (assignment, calibration, re-centroiding with the
 //!   camera's model through a callback, refit);
+//! - [`parameter_covariance`]: the covariance of a camera's parameters from
+//!   the image noise and the target's marker uncertainty ([`TargetUncertainty`]);
 //! - [`commission`]: the rig commissioning report (axis angles, pixel sizes,
 //!   depth of field over each axis's travel);
 //! - [`fit_flat_field`]: the lens's relative illumination from a flat-field and a dark frame;
@@ -60,6 +62,7 @@
 mod calibration;
 mod commission;
 mod correspond;
+mod covariance;
 mod dlt;
 mod error;
 mod illumination;
@@ -79,11 +82,14 @@ pub use commission::{
 pub use correspond::{
     CorrespondOptions, Correspondence, GATE_SIGMAS, MIN_GATE_PX, Marker, Match, correspond, markers,
 };
+pub use covariance::{
+    DEFAULT_TARGET_UNCERTAINTY_UM, ParameterCovariance, TargetUncertainty, parameter_covariance,
+};
 pub use dlt::{MIN_POINTS, residuals as dlt_residuals};
 pub use error::{Ambiguity, CalibError, FlatFieldProblem, OptionProblem, Result};
 pub use formats::commissioning::{
     AxisPair, CameraReport, DepthOfField, FLAT_FIELD_ADVICE, FlatFieldFit, IlluminationReport,
-    ProfilePoint, Report, ScaleCost, TravelCamera, TravelReport,
+    ParameterSd, ParameterUncertainty, ProfilePoint, Report, ScaleCost, TravelCamera, TravelReport,
 };
 pub use illumination::{Pixels, fit_flat_field};
 pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};

@@ -90,6 +90,11 @@ impl Layout {
         ROTATION + usize::from(self.skew)
     }
 
+    /// Index of `tx` (then `ty`, `tz`).
+    pub(crate) fn translation_index(&self) -> usize {
+        self.rotation() + 3
+    }
+
     fn radial(&self) -> Option<usize> {
         (self.model != Model::Pinhole).then(|| self.rotation() + 6)
     }

@@ -301,6 +301,7 @@ fn missing_and_nan_rows() {
             y: m.centre.y,
             z: m.centre.z,
             diameter: Some(3.0),
+            u_mm: None,
         })
         .collect();
     let mut points: Vec<CorrespondenceRow> = t

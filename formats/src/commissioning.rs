@@ -52,6 +52,108 @@ pub struct CameraReport {
     /// The sensor as calibrated from stacks of flats and darks, when given.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensor: Option<crate::SensorJson>,
+    /// The standard uncertainties of the calibrated parameters, when their
+    /// covariance is determined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub parameter_uncertainty: Option<ParameterUncertainty>,
+}
+
+/// The standard uncertainties (k = 1) of a camera's calibrated parameters,
+/// from its covariance in `rig.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ParameterUncertainty {
+    /// Per parameter, in the covariance's order.
+    pub parameters: Vec<ParameterSd>,
+    /// Standard uncertainty of each marker coordinate used (µm, RMS over the markers).
+    pub target_uncertainty_um: f64,
+    /// Where it came from.
+    pub target_uncertainty_source: String,
+}
+
+/// One parameter's standard uncertainty (units of [`crate::CameraCovariance`]:
+/// px, rad, mm or none) and, of it, the part due to the target.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ParameterSd {
+    /// Name (`fx`, …, `rx`, …, `tx`, …, `k1`, …).
+    pub name: String,
+    /// Standard uncertainty, `√Σ_jj`.
+    pub u: f64,
+    /// Of it, the target's part, `√(Σ_target)_jj`.
+    pub u_target: f64,
+}
+
+impl ParameterUncertainty {
+    /// The standard uncertainties of a covariance; `None` when its matrix
+    /// is not square and of its parameters' size.
+    pub fn of(c: &crate::CameraCovariance) -> Option<Self> {
+        let total = c.to_matrix()?;
+        let target = c.target_matrix();
+        let parameters = c
+            .parameters
+            .iter()
+            .enumerate()
+            .map(|(j, name)| ParameterSd {
+                name: name.clone(),
+                u: total[(j, j)].max(0.0).sqrt(),
+                u_target: target.as_ref().map_or(0.0, |t| t[(j, j)].max(0.0).sqrt()),
+            })
+            .collect();
+        Some(Self {
+            parameters,
+            target_uncertainty_um: c.target_uncertainty_um,
+            target_uncertainty_source: c.target_uncertainty_source.clone(),
+        })
+    }
+
+    /// Two lines of the text report: the standard uncertainties by unit
+    /// (px; µrad for the rotation; µm for the translation; the distortion
+    /// coefficients as they are), and the target's uncertainty with its
+    /// largest share of a parameter's variance.
+    fn text(&self, s: &mut String) {
+        use std::fmt::Write;
+        let group = |names: &[&str], scale: f64, unit: &str, digits: usize| {
+            let items: Vec<String> = self
+                .parameters
+                .iter()
+                .filter(|p| names.contains(&p.name.as_str()))
+                .map(|p| format!("{} {:.*}", p.name, digits, scale * p.u))
+                .collect();
+            (!items.is_empty()).then(|| format!("{}{unit}", items.join(", ")))
+        };
+        let distortion: Vec<String> = self
+            .parameters
+            .iter()
+            .filter(|p| ["k1", "k2", "p1", "p2", "k3"].contains(&p.name.as_str()))
+            .map(|p| format!("{} {:.2e}", p.name, p.u))
+            .collect();
+        let parts: Vec<String> = [
+            group(&["fx", "fy", "cx", "cy", "skew"], 1.0, " px", 3),
+            group(&["rx", "ry", "rz"], 1e6, " µrad", 1),
+            group(&["tx", "ty", "tz"], 1e3, " µm", 1),
+            (!distortion.is_empty()).then(|| distortion.join(", ")),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let _ = writeln!(
+            s,
+            "  calibration standard uncertainties (k = 1): {}",
+            parts.join("; ")
+        );
+        let share = self
+            .parameters
+            .iter()
+            .filter(|p| p.u > 0.0)
+            .map(|p| (p.u_target / p.u).powi(2))
+            .fold(0.0, f64::max);
+        let _ = writeln!(
+            s,
+            "    target marker coordinates {:.2} µm each ({}); at most {:.0} % of a parameter's variance",
+            self.target_uncertainty_um,
+            self.target_uncertainty_source,
+            100.0 * share
+        );
+    }
 }
 
 /// The relative illumination of one camera in the report.
@@ -325,6 +427,9 @@ impl Report {
             illumination_text(&mut s, &c.relative_illumination);
             if let Some(sensor) = &c.sensor {
                 sensor_text(&mut s, sensor);
+            }
+            if let Some(u) = &c.parameter_uncertainty {
+                u.text(&mut s);
             }
             let _ = writeln!(s);
         }

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::table::{Invalid, Record, Row, finite, read_csv};
+use crate::table::{Invalid, Record, Row, finite, read_csv, standard_uncertainty};
 use crate::{FormatError, Result};
 
 /// One marker of the 3-D calibration target (target frame, mm).
@@ -23,6 +23,11 @@ pub struct TargetRow {
     /// Marker diameter (mm), when known.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub diameter: Option<f64>,
+    /// Standard uncertainty of each of the marker's coordinates (mm), when
+    /// known (the target's own calibration, e.g. a CMM's); it enters the
+    /// cameras' parameter covariance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u_mm: Option<f64>,
 }
 
 impl Record for TargetRow {
@@ -41,7 +46,7 @@ impl Record for TargetRow {
                 ));
             }
         }
-        Ok(())
+        standard_uncertainty("u_mm", self.u_mm)
     }
 }
 

@@ -11,7 +11,10 @@
 //! and the camera refitted.
 //! Writes, all atomically, once every camera is calibrated:
 //! - `--out` (`rig.json`, docs/formats.md), with each camera's model, parameter
-//!   standard deviations, outliers and DLT figures under extra keys;
+//!   standard deviations, outliers and DLT figures under extra keys, and its
+//!   parameter `covariance` (`calib::parameter_covariance`: image noise and
+//!   the target's marker uncertainty, `target.csv u_mm` or
+//!   `--target-uncertainty-um`);
 //! - `<stem>.cam<ID>.opencv.yml` beside it: OpenCV `FileStorage` YAML;
 //! - `<stem>.residuals.csv`: per-point residuals of every camera;
 //! - `<stem>.commissioning.txt` and `<stem>.commissioning.json`: the rig
@@ -117,6 +120,11 @@ pub struct Args {
     /// Keep every point (no outlier rejection).
     #[arg(long)]
     keep_outliers: bool,
+    /// Standard uncertainty (µm) of each coordinate of every marker, for the
+    /// cameras' parameter covariance in rig.json (overrides target.csv's
+    /// `u_mm`; without either: 1 µm).
+    #[arg(long, value_parser = values::non_negative)]
+    target_uncertainty_um: Option<f64>,
     /// Marker type; default: spheres when target.csv gives diameters.
     #[arg(long, value_enum)]
     markers: Option<MarkerArg>,
@@ -221,6 +229,7 @@ struct Setup {
     cameras: Vec<CameraSpec>,
     spheres: bool,
     sphere_set: Vec<(String, f64)>,
+    target_uncertainty: calib::TargetUncertainty,
 }
 
 /// One camera calibrated: its `rig.json` entry, residual rows, commissioning
@@ -290,6 +299,8 @@ fn setup(args: &Args) -> Result<Setup> {
         .map(|r| r.record)
         .collect();
     calib::check_target(&target).with_context(|| format!("{}", args.target.display()))?;
+    let target_uncertainty = calib::TargetUncertainty::resolve(&target, args.target_uncertainty_um)
+        .with_context(|| format!("{}", args.target.display()))?;
     let cameras = cameras(args)?;
     check_counts(args, cameras.len(), inputs(args).len())?;
     let spheres = match args.markers {
@@ -315,6 +326,7 @@ fn setup(args: &Args) -> Result<Setup> {
         cameras,
         spheres,
         sphere_set,
+        target_uncertainty,
     })
 }
 
@@ -467,6 +479,7 @@ fn calibrate_camera(
         _ => from_points(setup, camera, input)?,
     };
     summarise(id, &cal, &matching);
+    let covariance = covariance(setup, id, input, &cal, &observations)?;
     if let Some(fit) = &flat_fit {
         println!(
             "camera {id}: relative illumination {:.4}…{:.4} of the centre, fit residual {:.4} % RMS (noise {:.4} %)",
@@ -501,7 +514,9 @@ fn calibrate_camera(
         map_files = files;
     }
     entry.extra = record(&cal, input, setup.spheres, matching).to_keys()?;
+    entry.covariance = covariance;
     let sensor_record = entry.sensor.clone();
+    let covariance_record = entry.covariance.clone();
     let yaml = (
         beside(&args.out, &format!(".cam{id}.opencv.yml")),
         calib::opencv_yaml(id, &cal.camera, cal.rms_px, None),
@@ -517,10 +532,40 @@ fn calibrate_camera(
             illumination,
             flat_field: flat_fit,
             sensor: sensor_record,
+            covariance: covariance_record,
         },
         yaml,
         map_files,
     })
+}
+
+/// The covariance of camera `id`'s parameters (`calib::parameter_covariance`),
+/// with a warning when it is not determined or the stated target uncertainty
+/// exceeds what the residuals show.
+fn covariance(
+    setup: &Setup,
+    id: u8,
+    input: &Path,
+    cal: &Calibration,
+    observations: &[calib::Observation],
+) -> Result<Option<formats::CameraCovariance>> {
+    let target = &setup.target_uncertainty;
+    let covariance = calib::parameter_covariance(cal, observations, target)
+        .with_context(|| format!("camera {id} ({})", input.display()))?;
+    match &covariance {
+        None => eprintln!(
+            "trinocular: warning: camera {id}: the parameters' covariance is not determined \
+             (too few points for the model, or a degenerate target): figures measured with \
+             this rig carry no calibration uncertainty"
+        ),
+        Some(c) if c.target_exceeds_residuals() => eprintln!(
+            "trinocular: note: camera {id}: the target uncertainty ({}) explains more than the \
+             reprojection residuals show (σ {:.4} px); the covariance rests on it alone",
+            target.source, c.residual_sigma_px
+        ),
+        Some(_) => {}
+    }
+    Ok(covariance.as_ref().map(calib::ParameterCovariance::record))
 }
 
 /// A camera from its calibration image: markers extracted, assigned to the

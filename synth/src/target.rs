@@ -87,6 +87,7 @@ pub(crate) fn target_rows(markers: &[Marker]) -> Vec<TargetRow> {
             y: m.centre.y,
             z: m.centre.z,
             diameter: Some(m.diameter),
+            u_mm: None,
         })
         .collect()
 }
