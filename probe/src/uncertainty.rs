@@ -9,7 +9,8 @@
 use std::collections::BTreeMap;
 
 use formats::uncertainty::{BudgetEntry, FigureKeys, Propagated, Uncertainty, with_expanded};
-use geom::montecarlo::{self, COVERAGE_FACTOR, Propagation, Trial};
+use geom::montecarlo::{self, COVERAGE_FACTOR, Trial};
+pub use geom::montecarlo::{DEFAULT_TRIALS, Propagation};
 use report::Page;
 use serde::Serialize;
 use serde_json::Value;

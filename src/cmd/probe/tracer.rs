@@ -59,7 +59,7 @@ pub struct Args {
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub(super) struct PropagationArgs {
     /// Monte Carlo trials for the expanded uncertainties U (k = 2); 0 turns the propagation off.
-    #[arg(long, default_value_t = geom::montecarlo::DEFAULT_TRIALS)]
+    #[arg(long, default_value_t = probe::uncertainty::DEFAULT_TRIALS)]
     trials: usize,
     /// Seed of the Monte Carlo draws.
     #[arg(long, default_value_t = 1)]
@@ -68,8 +68,8 @@ pub(super) struct PropagationArgs {
 
 impl PropagationArgs {
     /// As the library's settings.
-    pub(super) fn options(self) -> geom::montecarlo::Propagation {
-        geom::montecarlo::Propagation {
+    pub(super) fn options(self) -> probe::uncertainty::Propagation {
+        probe::uncertainty::Propagation {
             trials: self.trials,
             seed: self.seed,
         }
