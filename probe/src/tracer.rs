@@ -44,6 +44,7 @@
 //!
 //! [`CorrectionGrid`] interpolates corrections trilinearly inside the cells
 //! of a lattice grid (`--query`); [`TracerReport`] is `report.json`;
+//! [`uncertainty()`] gives U (k = 2) of its figures by Monte Carlo;
 //! [`html`] writes `report.html`.
 //!
 //! # Conventions
@@ -63,6 +64,7 @@ mod lattice;
 mod normal;
 mod report;
 mod start;
+mod uncertainty;
 mod view;
 
 use geom::nalgebra::{Point3, Vector3};
@@ -74,6 +76,7 @@ pub use lattice::CorrectionGrid;
 pub use report::{
     OutlierReading, Outliers, StationReport, TracerReport, WeakItem, Weakness, report,
 };
+pub use uncertainty::uncertainty;
 
 /// Fewest stations: with three, each point is only just determined and
 /// `m·n ≥ 4m + 3n − 6` fails for every n.

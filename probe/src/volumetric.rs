@@ -21,6 +21,7 @@
 //! - [`campaign`]: a vision campaign's error motions in the conventions here.
 //! - [`analyse`] and [`report`]: the whole analysis ([`Analysis`], with the
 //!   LinuxCNC `COMP_FILE` pitch-compensation tables) and its `report.json`;
+//!   [`uncertainty()`]: U (k = 2) of its figures by Monte Carlo;
 //!   [`html`]: `report.html`.
 //!
 //! # Conventions
@@ -57,6 +58,7 @@ mod model;
 mod plot;
 pub mod report;
 mod series;
+mod uncertainty;
 
 pub use chain::{Chain, DEFAULT_CHAIN, Machine, Side, Squareness};
 pub use circle::{CirclePoint, CirclePrediction, CircleSpec, predict as predict_circle};
@@ -65,3 +67,4 @@ pub use html::render as html;
 pub use model::{DEFAULT_ORDER, ErrorModel, Evaluation, Model, Order};
 pub use report::{Analysis, Setup, analyse};
 pub use series::{Figures, POINTS_PER_COEFFICIENT, Series, SeriesFit};
+pub use uncertainty::{CURVES_NOT_GIVEN, Inputs as UncertaintyInputs, uncertainty};

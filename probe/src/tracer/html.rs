@@ -11,9 +11,12 @@ use report::plot::{
     diverging, mesh, padded, percentile, svg, with_legend_room,
 };
 
+use super::report::{MAX_CORRECTION, RMS_CORRECTION};
 use super::view::{arrows, grid_chart};
 use super::{Network, Solution, TracerReport};
 use crate::Result;
+use crate::uncertainty::{self, plus_minus};
+use formats::uncertainty::Uncertainty;
 
 const UM: f64 = 1e3;
 /// The longest correction arrow, as a fraction of the grid's largest extent.
@@ -206,7 +209,7 @@ fn uncertainty_plot(net: &Network, s: &Solution) -> Result<String> {
 }
 
 /// `report.html`: figures, plots and tables of a solution of `net`.
-pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
+pub fn html(net: &Network, s: &Solution, r: &TracerReport, u: &Uncertainty) -> Result<String> {
     let mut page = Page::new(
         "trinocular — laser-tracer multilateration",
         "CMM volumetric correction by laser-tracer multilateration",
@@ -215,7 +218,8 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
         "{} grid points, {} stations, {} readings; {} unknowns after the datum, redundancy {}",
         r.points, r.stations, r.equations, r.unknowns, r.redundancy
     ));
-    figures_section(&mut page, net, s, r)?;
+    figures_section(&mut page, net, s, r, u)?;
+    uncertainty::section(&mut page, u, uncertainty::unit_of);
     stations_table(&mut page, r);
     largest_corrections(&mut page, net, s);
     outliers_section(&mut page, r);
@@ -224,7 +228,13 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport) -> Result<String> {
 }
 
 /// The solution's figures, its datum and the three plots.
-fn figures_section(page: &mut Page, net: &Network, s: &Solution, r: &TracerReport) -> Result<()> {
+fn figures_section(
+    page: &mut Page,
+    net: &Network,
+    s: &Solution,
+    r: &TracerReport,
+    u: &Uncertainty,
+) -> Result<()> {
     page.h2("figures", "Figures");
     let rows: Vec<Vec<String>> = vec![
         vec![
@@ -261,13 +271,24 @@ fn figures_section(page: &mut Page, net: &Network, s: &Solution, r: &TracerRepor
         vec![
             "largest correction".into(),
             format!(
-                "{:.3} µm at point {}",
-                r.max_correction_um, r.max_correction_point
+                "{} at point {}",
+                plus_minus(
+                    &format!("{:.3}", r.max_correction_um),
+                    u,
+                    MAX_CORRECTION,
+                    "µm"
+                ),
+                r.max_correction_point
             ),
         ],
         vec![
             "RMS correction".into(),
-            format!("{:.3} µm", r.rms_correction_um),
+            plus_minus(
+                &format!("{:.3}", r.rms_correction_um),
+                u,
+                RMS_CORRECTION,
+                "µm",
+            ),
         ],
         vec![
             "standard uncertainty".into(),

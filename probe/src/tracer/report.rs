@@ -8,6 +8,10 @@ pub use formats::probe::tracer::report::{
     OutlierReading, Outliers, StationReport, TracerReport, WeakItem, Weakness,
 };
 
+use std::collections::BTreeMap;
+
+use geom::nalgebra::Vector3;
+
 use super::{Network, Solution};
 
 const UM: f64 = 1e3;
@@ -26,18 +30,55 @@ fn items(weak: &[super::Weak], names: &[String]) -> Vec<WeakItem> {
         .collect()
 }
 
+/// The headline figures of a set of corrections: the largest length (and
+/// where), the RMS length (mm).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct CorrectionFigures {
+    /// Index of the largest correction.
+    pub at: usize,
+    /// Its length (mm).
+    pub max: f64,
+    /// RMS of the lengths (mm).
+    pub rms: f64,
+}
+
+impl CorrectionFigures {
+    /// The figures of `vectors` (mm).
+    pub fn of<'a>(vectors: impl Iterator<Item = &'a Vector3<f64>>) -> CorrectionFigures {
+        let lengths: Vec<f64> = vectors.map(|v| v.norm()).collect();
+        let (at, max) =
+            lengths
+                .iter()
+                .copied()
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |best, (i, v)| {
+                    if v > best.1 { (i, v) } else { best }
+                });
+        let n = lengths.len().max(1) as f64;
+        CorrectionFigures {
+            at,
+            max: max.max(0.0),
+            rms: (lengths.iter().map(|v| v * v).sum::<f64>() / n).sqrt(),
+        }
+    }
+
+    /// As the report's figures by their keys (µm).
+    pub fn named(&self) -> BTreeMap<String, f64> {
+        BTreeMap::from([
+            (MAX_CORRECTION.to_string(), self.max * UM),
+            (RMS_CORRECTION.to_string(), self.rms * UM),
+        ])
+    }
+}
+
+/// Key of the largest correction in `report.json`.
+pub(crate) const MAX_CORRECTION: &str = "max_correction_um";
+/// Key of the RMS correction in `report.json`.
+pub(crate) const RMS_CORRECTION: &str = "rms_correction_um";
+
 /// Build `report.json` from a solution of `network`.
 pub fn report(network: &Network, s: &Solution) -> TracerReport {
-    let lengths: Vec<f64> = s.corrections.iter().map(|c| c.vector.norm()).collect();
-    let (max_i, max_len) =
-        lengths
-            .iter()
-            .copied()
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |best, (i, v)| {
-                if v > best.1 { (i, v) } else { best }
-            });
-    let n = lengths.len().max(1) as f64;
+    let figures = CorrectionFigures::of(s.corrections.iter().map(|c| &c.vector));
     let mut u_max: Vec<f64> = s.corrections.iter().map(|c| c.u.max()).collect();
     u_max.sort_by(f64::total_cmp);
     let median_u = u_max.get(u_max.len() / 2).copied().unwrap_or(0.0);
@@ -70,9 +111,9 @@ pub fn report(network: &Network, s: &Solution) -> TracerReport {
         datum: DATUM.into(),
         worst_point: network.point_names[s.worst_point.0].clone(),
         worst_point_condition: s.worst_point.1,
-        max_correction_um: max_len.max(0.0) * UM,
-        max_correction_point: network.point_names[max_i].clone(),
-        rms_correction_um: (lengths.iter().map(|v| v * v).sum::<f64>() / n).sqrt() * UM,
+        max_correction_um: figures.max * UM,
+        max_correction_point: network.point_names[figures.at].clone(),
+        rms_correction_um: figures.rms * UM,
         max_u_um: u_max.last().copied().unwrap_or(0.0) * UM,
         median_u_um: median_u * UM,
         station_positions: s

@@ -10,6 +10,8 @@ use super::plot;
 use super::report::{Analysis, Report, unit};
 use super::series::Series;
 use crate::Result;
+use crate::uncertainty::{self, plus_minus};
+use formats::uncertainty::Uncertainty;
 
 /// A figure to `digits` decimals, or an em dash.
 fn fig(v: Option<f64>, digits: usize) -> String {
@@ -18,16 +20,17 @@ fn fig(v: Option<f64>, digits: usize) -> String {
 
 /// Render the page: set-up, predicted circle, fit table, the curves of each
 /// axis, volumetric errors, compensation tables, the campaign's sweeps.
-pub fn render(a: &Analysis) -> Result<String> {
+pub fn render(a: &Analysis, u: &Uncertainty) -> Result<String> {
     let mut h = Page::new(
         "trinocular — 21-error volumetric model",
         "21-error volumetric model",
     );
     setup_section(&mut h, &a.report);
-    circle_section(&mut h, a)?;
+    circle_section(&mut h, a, u)?;
     fit_table(&mut h, &a.report);
-    axis_sections(&mut h, a)?;
-    volumetric_section(&mut h, &a.report);
+    axis_sections(&mut h, a, u)?;
+    volumetric_section(&mut h, &a.report, u);
+    uncertainty::section(&mut h, u, uncertainty::unit_of);
     compensation_section(&mut h, &a.report);
     campaign_section(&mut h, &a.report);
     h.notes("Conventions", &a.report.conventions, false);
@@ -68,25 +71,38 @@ fn setup_section(h: &mut Page, r: &Report) {
 }
 
 /// The predicted circular test (with `--circle`): figures and two plots.
-fn circle_section(h: &mut Page, a: &Analysis) -> Result<()> {
+fn circle_section(h: &mut Page, a: &Analysis, u: &Uncertainty) -> Result<()> {
     let r = &a.report;
     if let (Some(c), Some(cr)) = (&a.circles, &r.circle) {
         h.h2("circle", "Predicted circular test (ISO 230-4)");
+        let f = |v: f64, path: &str| plus_minus(&format!("{v:.3}"), u, path, "µm");
         h.paragraph(&format!(
             "Circle of radius {} mm about ({}, {}, {}) mm in the workpiece frame, plane XY, 1° steps. \
-             Circular deviation about the least-squares centre {:.3} µm, radial range {:.3} µm; after \
-             compensation with the Fourier series {:.3} µm (range {:.3} µm), with the polynomial {:.3} µm \
-             (range {:.3} µm).",
+             Circular deviation about the least-squares centre {}, radial range {}; after \
+             compensation with the Fourier series {} (range {}), with the polynomial {} \
+             (range {}).",
             cr.radius_mm,
             cr.centre_mm[0],
             cr.centre_mm[1],
             cr.centre_mm[2],
-            cr.circular_deviation_um,
-            cr.radial_range_um,
-            cr.compensated.fourier.circular_deviation_um,
-            cr.compensated.fourier.radial_range_um,
-            cr.compensated.polynomial.circular_deviation_um,
-            cr.compensated.polynomial.radial_range_um,
+            f(cr.circular_deviation_um, "circle.circular_deviation_um"),
+            f(cr.radial_range_um, "circle.radial_range_um"),
+            f(
+                cr.compensated.fourier.circular_deviation_um,
+                "circle.compensated.fourier.circular_deviation_um"
+            ),
+            f(
+                cr.compensated.fourier.radial_range_um,
+                "circle.compensated.fourier.radial_range_um"
+            ),
+            f(
+                cr.compensated.polynomial.circular_deviation_um,
+                "circle.compensated.polynomial.circular_deviation_um"
+            ),
+            f(
+                cr.compensated.polynomial.radial_range_um,
+                "circle.compensated.polynomial.radial_range_um"
+            ),
         ));
         let (svg, m) = plot::polar("Predicted circle (polar)", c)?;
         h.figure(
@@ -149,9 +165,9 @@ fn fit_table(h: &mut Page, r: &Report) {
 }
 
 /// Per axis: its curves with both fits, the removed straightness lines and the orders chosen.
-fn axis_sections(h: &mut Page, a: &Analysis) -> Result<()> {
+fn axis_sections(h: &mut Page, a: &Analysis, unc: &Uncertainty) -> Result<()> {
     let r = &a.report;
-    for (axis, ar) in a.model.axes.iter().zip(&r.axes) {
+    for (index, (axis, ar)) in a.model.axes.iter().zip(&r.axes).enumerate() {
         let name = axis.axis().name();
         h.h2(
             &format!("axis-{name}"),
@@ -177,11 +193,23 @@ fn axis_sections(h: &mut Page, a: &Analysis) -> Result<()> {
         let slopes: Vec<Vec<String>> = ar
             .straightness_lines
             .iter()
-            .map(|s| {
+            .enumerate()
+            .map(|(k, s)| {
+                let path = format!("axes.{index}.straightness_lines.{k}");
                 vec![
                     format!("{} {}", s.error.symbol(axis.axis()), s.error.name()),
-                    format!("{:.3}", s.slope_urad),
-                    format!("{:.3}", s.intercept_um),
+                    plus_minus(
+                        &format!("{:.3}", s.slope_urad),
+                        unc,
+                        &format!("{path}.slope_urad"),
+                        "",
+                    ),
+                    plus_minus(
+                        &format!("{:.3}", s.intercept_um),
+                        unc,
+                        &format!("{path}.intercept_um"),
+                        "",
+                    ),
                 ]
             })
             .collect();
@@ -227,12 +255,14 @@ fn axis_sections(h: &mut Page, a: &Analysis) -> Result<()> {
 }
 
 /// The volumetric errors (with `--at`), the first rows.
-fn volumetric_section(h: &mut Page, r: &Report) {
+fn volumetric_section(h: &mut Page, r: &Report, u: &Uncertainty) {
     if let Some(v) = &r.volumetric {
         h.h2("volumetric", "Volumetric errors");
         h.paragraph(&format!(
-            "{} positions; largest |Δ| {:.3} µm, RMS {:.3} µm (workpiece frame; all rows in volumetric.csv).",
-            v.points, v.max_um, v.rms_um
+            "{} positions; largest |Δ| {}, RMS {} (workpiece frame; all rows in volumetric.csv).",
+            v.points,
+            plus_minus(&format!("{:.3}", v.max_um), u, "volumetric.max_um", "µm"),
+            plus_minus(&format!("{:.3}", v.rms_um), u, "volumetric.rms_um", "µm"),
         ));
         let rows: Vec<Vec<String>> = v
             .rows

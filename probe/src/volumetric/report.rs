@@ -88,8 +88,24 @@ pub fn analyse(
         .map(AxisCurves::new)
         .collect::<Result<_>>()?;
     let model = ErrorModel::new(checked, setup.order)?;
+    predict(model, None, setup, campaign)
+}
+
+/// The predictions of `model` under `setup` and the report. The circle
+/// after compensation uses the series of `compensating` (the compensation a
+/// controller was given) on `model`'s curves; `None`: `model`'s own.
+pub(crate) fn predict(
+    model: ErrorModel,
+    compensating: Option<&ErrorModel>,
+    setup: &Setup,
+    campaign: Option<&CampaignCurves>,
+) -> Result<Analysis> {
     let tool = Vector3::from(setup.tool);
     let machine = Machine::new(&setup.chain, setup.squareness, tool, &model)?;
+    let compensated = match compensating {
+        Some(c) => Machine::new(&setup.chain, setup.squareness, tool, c)?,
+        None => machine,
+    };
     let how = Evaluation::Model(setup.model);
     let volumetric = setup
         .at
@@ -109,12 +125,12 @@ pub fn analyse(
             spec,
             predicted: circle::predict(&machine, &spec, how)?,
             compensated_fourier: circle::predict(
-                &machine,
+                &compensated,
                 &spec,
                 Evaluation::Residual(Series::Fourier),
             )?,
             compensated_polynomial: circle::predict(
-                &machine,
+                &compensated,
                 &spec,
                 Evaluation::Residual(Series::Polynomial),
             )?,

@@ -68,7 +68,17 @@ pub fn tracer() -> String {
     let solution = tracer::solve(&net, &TracerOptions::default()).unwrap();
     let report = tracer::report(&net, &solution);
     assert!(report.outliers.count >= 1);
-    tracer::html(&net, &solution, &report).unwrap()
+    let u = tracer::uncertainty(
+        &net,
+        &solution,
+        &TracerOptions::default(),
+        geom::montecarlo::Propagation {
+            trials: 50,
+            seed: 1,
+        },
+    )
+    .unwrap();
+    tracer::html(&net, &solution, &report, &u).unwrap()
 }
 
 /// The volumetric report of the check data with its circle and one
@@ -93,5 +103,22 @@ pub fn volumetric() -> String {
         }),
         source: "check data".into(),
     };
-    volumetric::html(&analyse(measured_axes(&rows), &setup, None).unwrap()).unwrap()
+    let measured = measured_axes(&rows);
+    let a = analyse(measured.clone(), &setup, None).unwrap();
+    let u = volumetric::uncertainty(
+        &measured,
+        &setup,
+        None,
+        &a,
+        &volumetric::UncertaintyInputs {
+            translation_mm: Some(5e-5),
+            rotation_rad: Some(5e-8),
+            squareness_rad: None,
+        },
+        geom::montecarlo::Propagation {
+            trials: 50,
+            seed: 1,
+        },
+    );
+    volumetric::html(&a, &u).unwrap()
 }

@@ -12,12 +12,13 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use formats::Axis;
+use formats::probe::volumetric::report::FIGURES;
 use formats::probe::volumetric::{
     self as files, AtRow, CircleRow, ErrorRow, FitRow, VolumetricRow,
 };
 use probe::volumetric::{
-    Chain, CircleSpec, MeasuredAxis, Model, Order, Setup, Squareness, analyse, campaign, html,
-    measured_axes,
+    Chain, CircleSpec, MeasuredAxis, Model, Order, Setup, Squareness, UncertaintyInputs, analyse,
+    campaign, html, measured_axes, uncertainty,
 };
 
 use crate::cmd::OrUsage;
@@ -65,6 +66,19 @@ pub struct Args {
     /// radius (mm). Writes circle.csv.
     #[arg(long, value_name = "CX,CY,CZ,R", allow_hyphen_values = true, value_parser = circle)]
     circle: Option<[f64; 4]>,
+    /// Standard uncertainty of a translation value of the curves (µm; the instrument's, Type B):
+    /// with --curve-u-urad, the figures get their U (k = 2) by Monte Carlo.
+    #[arg(long, value_name = "UM", requires = "curve_u_urad", value_parser = crate::cmd::values::positive)]
+    curve_u_um: Option<f64>,
+    /// Standard uncertainty of a rotation value of the curves (µrad; the instrument's, Type B).
+    #[arg(long, value_name = "URAD", requires = "curve_u_um", value_parser = crate::cmd::values::positive)]
+    curve_u_urad: Option<f64>,
+    /// Standard uncertainty of each squareness error (µrad, Type B); without it the squareness
+    /// is taken as exact.
+    #[arg(long, value_name = "URAD", value_parser = crate::cmd::values::positive)]
+    squareness_u_urad: Option<f64>,
+    #[command(flatten)]
+    propagation: super::tracer::PropagationArgs,
     /// Overwrite output files that exist.
     #[arg(long)]
     force: bool,
@@ -192,11 +206,26 @@ pub fn run(args: &Args) -> Result<()> {
     }
     curves.inputs.extend(args.at.clone());
     let setup = setup(args, chain, &curves)?;
-    let analysis = analyse(curves.axes, &setup, curves.campaign.as_ref())
+    let analysis = analyse(curves.axes.clone(), &setup, curves.campaign.as_ref())
         .with_context(|| format!("volumetric model from {}", setup.source))?;
-    let page = html(&analysis)?;
-    let written = write_outputs(args, &analysis, &page, &curves.inputs)?;
+    let inputs = UncertaintyInputs {
+        translation_mm: args.curve_u_um.map(|u| u * 1e-3),
+        rotation_rad: args.curve_u_urad.map(|u| u * 1e-6),
+        squareness_rad: args.squareness_u_urad.map(|u| u * 1e-6),
+    };
+    let u = uncertainty(
+        &curves.axes,
+        &setup,
+        curves.campaign.as_ref(),
+        &analysis,
+        &inputs,
+        args.propagation.options(),
+    );
+    let page = html(&analysis, &u)?;
+    let json = probe::uncertainty::report_json(&analysis.report, &u, &FIGURES)?;
+    let written = write_outputs(args, &analysis, &json, &page, &curves.inputs)?;
     print_summary(&analysis, &setup);
+    super::tracer::print_uncertainty(&u);
     println!("wrote {written} files into {}", args.out.display());
     Ok(())
 }
@@ -327,6 +356,7 @@ fn setup(args: &Args, chain: Chain, curves: &Curves) -> Result<Setup> {
 fn write_outputs(
     args: &Args,
     analysis: &probe::volumetric::Analysis,
+    json: &serde_json::Value,
     page: &str,
     inputs: &[PathBuf],
 ) -> Result<usize> {
@@ -402,7 +432,7 @@ fn write_outputs(
     for (axis, table) in &analysis.compensation {
         files::write_comp_file(&output, &out.join(comp_name(*axis)), table)?;
     }
-    output.write_json(&out.join("report.json"), &analysis.report)?;
+    output.write_json(&out.join("report.json"), json)?;
     output.write_bytes(&out.join("report.html"), page.as_bytes())?;
     Ok(names.len())
 }
@@ -544,7 +574,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     );
     println!(
         "next: trinocular probe volumetric --errors {e} --chain {} --squareness {},{},{} --tool {},{},{} \
-         --at {a} --circle {},{},{},{} --out <DIR>",
+         --at {a} --circle {},{},{},{} --curve-u-um {} --curve-u-urad {} --out <DIR>",
         s.chain,
         s.squareness_rad.ec0y,
         s.squareness_rad.eb0z,
@@ -556,6 +586,8 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         s.circle.centre_mm[1],
         s.circle.centre_mm[2],
         s.circle.radius_mm,
+        config.noise_um,
+        config.noise_urad,
         e = out.join("errors.csv").display(),
         a = out.join("at.csv").display(),
     );

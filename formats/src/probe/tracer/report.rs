@@ -5,6 +5,27 @@
 
 use serde::Serialize;
 
+use crate::uncertainty::FigureKeys;
+
+/// The figures of the report that carry an expanded uncertainty `F_U_um`:
+/// the correction field's largest and RMS length. Left out: the fit's
+/// statistics (residual RMS, σ of a reading, the last step), the standard
+/// uncertainties themselves, the per-station and per-reading tables.
+pub const FIGURES: FigureKeys = FigureKeys {
+    units: &["_um"],
+    skip: &[
+        "residual_rms_um",
+        "sigma0_um",
+        "sigma_um",
+        "last_step_um",
+        "max_u_um",
+        "median_u_um",
+        "station_positions",
+        "outliers",
+        "weak",
+    ],
+};
+
 /// A station's estimate in the report (mm for the position and dead path,
 /// µm for uncertainties and residuals).
 #[derive(Debug, Clone, PartialEq, Serialize)]

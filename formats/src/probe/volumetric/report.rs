@@ -6,6 +6,18 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use crate::uncertainty::FigureKeys;
+
+/// The figures of the report that carry an expanded uncertainty (`F_U_um`,
+/// `F_U_urad`): the removed straightness lines' slopes and intercepts, the
+/// largest and RMS volumetric error, the circle's radial range and circular
+/// deviation, before and after compensation. Left out: the squareness given
+/// as input and the campaign's conversion (echoes of inputs).
+pub const FIGURES: FigureKeys = FigureKeys {
+    units: &["_um", "_urad"],
+    skip: &["squareness_urad", "campaign"],
+};
+
 use super::{Model, Motion, Series, Squareness};
 use crate::campaign::Axis;
 

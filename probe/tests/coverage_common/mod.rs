@@ -1,0 +1,117 @@
+//! The coverage check of docs/methods.md §7 for a probe method on its
+//! generator: over many campaigns with known truth, the true figure lies in
+//! value ± U for 90–99 % of all figures and for ≥ 85 % of each figure type,
+//! and U is not inflated: per type the median U is at most 3× the RMS of the
+//! actual errors (value − truth).
+
+#![allow(clippy::unwrap_used, clippy::expect_used, dead_code)]
+
+use std::collections::BTreeMap;
+
+/// One figure of one campaign: its type, the truth, the measured value and U.
+#[derive(Debug, Clone)]
+pub struct Case {
+    /// Figure type (the report's key without indices).
+    pub figure: String,
+    /// True value (from the generator's truth).
+    pub truth: f64,
+    /// Measured value.
+    pub value: f64,
+    /// Expanded uncertainty (k = 2).
+    pub u: f64,
+}
+
+impl Case {
+    fn covered(&self) -> bool {
+        (self.value - self.truth).abs() <= self.u
+    }
+}
+
+/// Per figure type: count, coverage, median U, RMS of the actual errors.
+#[derive(Debug, Clone, Copy)]
+pub struct TypeCoverage {
+    /// Figures of the type.
+    pub count: usize,
+    /// Share with the truth inside value ± U.
+    pub coverage: f64,
+    /// Median U.
+    pub median_u: f64,
+    /// RMS of value − truth.
+    pub rms_error: f64,
+}
+
+/// The coverage of `cases` per type and over all, printed as a table.
+pub fn summarise(method: &str, cases: &[Case]) -> (f64, BTreeMap<String, TypeCoverage>) {
+    let mut by_type: BTreeMap<String, Vec<&Case>> = BTreeMap::new();
+    for c in cases {
+        by_type.entry(c.figure.clone()).or_default().push(c);
+    }
+    let per_type: BTreeMap<String, TypeCoverage> = by_type
+        .iter()
+        .map(|(name, cs)| {
+            let mut us: Vec<f64> = cs.iter().map(|c| c.u).collect();
+            us.sort_by(f64::total_cmp);
+            let n = cs.len();
+            let median_u = if n % 2 == 1 {
+                us[n / 2]
+            } else {
+                0.5 * (us[n / 2 - 1] + us[n / 2])
+            };
+            let rms_error =
+                (cs.iter().map(|c| (c.value - c.truth).powi(2)).sum::<f64>() / n as f64).sqrt();
+            let covered = cs.iter().filter(|c| c.covered()).count();
+            (
+                name.clone(),
+                TypeCoverage {
+                    count: n,
+                    coverage: covered as f64 / n as f64,
+                    median_u,
+                    rms_error,
+                },
+            )
+        })
+        .collect();
+    let all = cases.iter().filter(|c| c.covered()).count() as f64 / cases.len() as f64;
+    println!(
+        "{method}: coverage over {} figures {:.1} %",
+        cases.len(),
+        100.0 * all
+    );
+    println!(
+        "{:<48} {:>5} {:>9} {:>10} {:>10} {:>8}",
+        "figure", "n", "coverage", "median U", "RMS error", "ratio"
+    );
+    for (name, t) in &per_type {
+        println!(
+            "{name:<48} {:>5} {:>8.1}% {:>10.4} {:>10.4} {:>8.2}",
+            t.count,
+            100.0 * t.coverage,
+            t.median_u,
+            t.rms_error,
+            t.median_u / t.rms_error
+        );
+    }
+    (all, per_type)
+}
+
+/// Assert the criteria of §7 on `cases`.
+pub fn assert_coverage(method: &str, cases: &[Case]) {
+    let (all, per_type) = summarise(method, cases);
+    assert!(
+        (0.90..=0.99).contains(&all),
+        "{method}: overall coverage {all}"
+    );
+    for (name, t) in &per_type {
+        assert!(
+            t.coverage >= 0.85,
+            "{method}: {name} covered {}",
+            t.coverage
+        );
+        assert!(
+            t.median_u <= 3.0 * t.rms_error,
+            "{method}: {name}: median U {} > 3 × RMS error {}",
+            t.median_u,
+            t.rms_error
+        );
+    }
+}
