@@ -53,7 +53,11 @@ fn config(spec: &Spec) -> String {
     for (i, cam) in cams.iter_mut().enumerate() {
         let t = cam.as_table_mut().unwrap();
         let turn = |x: &toml::Value, k: usize| {
-            let sign = if (spec.seed as usize + i + k) % 3 == 0 { -1.0 } else { 1.0 };
+            let sign = if (spec.seed as usize + i + k) % 3 == 0 {
+                -1.0
+            } else {
+                1.0
+            };
             toml::Value::Float(x.as_float().unwrap() * spec.rig * sign)
         };
         for key in ["rotation_error_deg", "position_error_mm"] {
@@ -98,7 +102,11 @@ fn campaign(dir: &Path, spec: &Spec) -> (Value, Value) {
         &spec.seed.to_string(),
     ]));
     let target = if spec.marker_stride > 1 {
-        thin_target(&c.join("target.csv"), spec.marker_stride, &dir.join("target.csv"))
+        thin_target(
+            &c.join("target.csv"),
+            spec.marker_stride,
+            &dir.join("target.csv"),
+        )
     } else {
         c.join("target.csv")
     };
@@ -210,9 +218,10 @@ fn walk(v: &Value, t: &Value, path: &str, out: &mut Vec<Figure>) {
                     .or_else(|| k.strip_suffix("_urad").map(|s| format!("{s}_U_urad")));
                 match (x, u_key.and_then(|u| map.get(&u))) {
                     (Value::Number(n), Some(Value::Number(u))) => {
-                        let truth = t.get(k).and_then(Value::as_f64).unwrap_or_else(|| {
-                            panic!("{here}: no true value")
-                        });
+                        let truth = t
+                            .get(k)
+                            .and_then(Value::as_f64)
+                            .unwrap_or_else(|| panic!("{here}: no true value"));
                         let kind = if path.starts_with(".flatness") {
                             format!("flatness.{k}")
                         } else {
@@ -294,7 +303,9 @@ fn the_true_figures_lie_within_the_expanded_uncertainty() {
     for f in &all {
         kinds.entry(f.kind.clone()).or_default().push(f);
     }
-    let inside = |f: &&Figure| (f.value - f.truth).abs() <= f.expanded;
+    fn inside(f: &Figure) -> bool {
+        (f.value - f.truth).abs() <= f.expanded
+    }
     let total = all.iter().filter(|f| inside(f)).count() as f64 / all.len() as f64;
     let mut lines = vec![format!(
         "all: {:.1} % of {} figures within ±U",
@@ -303,9 +314,9 @@ fn the_true_figures_lie_within_the_expanded_uncertainty() {
     )];
     let mut failures = Vec::new();
     for (kind, fs) in &kinds {
-        let cover = fs.iter().filter(inside).count() as f64 / fs.len() as f64;
-        let rms = (fs.iter().map(|f| (f.value - f.truth).powi(2)).sum::<f64>() / fs.len() as f64)
-            .sqrt();
+        let cover = fs.iter().filter(|f| inside(f)).count() as f64 / fs.len() as f64;
+        let rms =
+            (fs.iter().map(|f| (f.value - f.truth).powi(2)).sum::<f64>() / fs.len() as f64).sqrt();
         let mu = median(fs.iter().map(|f| f.expanded).collect());
         lines.push(format!(
             "{kind}: {:.1} % of {} within ±U; median U {mu:.3}, RMS error {rms:.3} (ratio {:.2})",
@@ -350,8 +361,20 @@ fn the_budget_follows_the_physics() {
         marker_stride: 1,
     };
     let normal = run("normal", base);
-    let noisy = run("noisy", Spec { radiance: 0.25, ..base });
-    let sparse = run("sparse", Spec { marker_stride: 3, ..base });
+    let noisy = run(
+        "noisy",
+        Spec {
+            radiance: 0.25,
+            ..base
+        },
+    );
+    let sparse = run(
+        "sparse",
+        Spec {
+            marker_stride: 3,
+            ..base
+        },
+    );
     let share = |b: &BTreeMap<String, (f64, BTreeMap<String, f64>)>, what: &str| -> f64 {
         median(
             b.values()
@@ -360,15 +383,25 @@ fn the_budget_follows_the_physics() {
         )
     };
     let centroid = (share(&normal, "centroids"), share(&noisy, "centroids"));
-    eprintln!("centroid share (median, µm or µrad): normal {:.3}, exposure ÷ 4 {:.3}", centroid.0, centroid.1);
+    eprintln!(
+        "centroid share (median, µm or µrad): normal {:.3}, exposure ÷ 4 {:.3}",
+        centroid.0, centroid.1
+    );
     // Centroid noise goes as 1/√signal: ÷ 4 the light, × 2 the noise (± the MC's spread).
     assert!(centroid.1 > 1.6 * centroid.0, "{centroid:?}");
     let larger = normal
         .iter()
         .filter(|(p, (u, _))| noisy.get(*p).is_some_and(|(v, _)| v > u))
         .count();
-    assert!(larger * 10 >= normal.len() * 8, "{larger} of {} figures", normal.len());
+    assert!(
+        larger * 10 >= normal.len() * 8,
+        "{larger} of {} figures",
+        normal.len()
+    );
     let cal = (share(&normal, "calibration"), share(&sparse, "calibration"));
-    eprintln!("calibration share (median): all markers {:.3}, a third {:.3}", cal.0, cal.1);
+    eprintln!(
+        "calibration share (median): all markers {:.3}, a third {:.3}",
+        cal.0, cal.1
+    );
     assert!(cal.1 > 1.3 * cal.0, "{cal:?}");
 }

@@ -50,26 +50,36 @@ fn summary(h: &mut Page, report: &Report) {
         ("A — bidirectional accuracy", "positioning.A_um", |l| {
             l.positioning.a_um
         }),
-        ("A↑ — unidirectional accuracy", "positioning.A_up_um", |l| {
-            l.positioning.a_up_um
-        }),
-        ("A↓ — unidirectional accuracy", "positioning.A_down_um", |l| {
-            l.positioning.a_down_um
-        }),
-        ("E — systematic positional deviation", "positioning.E_um", |l| {
-            l.positioning.e_um
-        }),
+        (
+            "A↑ — unidirectional accuracy",
+            "positioning.A_up_um",
+            |l| l.positioning.a_up_um,
+        ),
+        (
+            "A↓ — unidirectional accuracy",
+            "positioning.A_down_um",
+            |l| l.positioning.a_down_um,
+        ),
+        (
+            "E — systematic positional deviation",
+            "positioning.E_um",
+            |l| l.positioning.e_um,
+        ),
         (
             "M — mean bidirectional positional deviation",
             "positioning.M_um",
             |l| l.positioning.m_um,
         ),
-        ("R — bidirectional repeatability", "positioning.R_um", |l| {
-            l.positioning.r_um
-        }),
+        (
+            "R — bidirectional repeatability",
+            "positioning.R_um",
+            |l| l.positioning.r_um,
+        ),
         ("R↑", "positioning.R_up_um", |l| l.positioning.r_up_um),
         ("R↓", "positioning.R_down_um", |l| l.positioning.r_down_um),
-        ("B — reversal value", "positioning.B_um", |l| l.positioning.b_um),
+        ("B — reversal value", "positioning.B_um", |l| {
+            l.positioning.b_um
+        }),
         ("seed 3σ figure", "positioning.seed_3sigma_um", |l| {
             l.positioning.seed_3sigma_um
         }),
@@ -110,7 +120,8 @@ fn summary(h: &mut Page, report: &Report) {
             );
             for (other, _) in &axes {
                 if other == name {
-                    let u = |k: &str| report.expanded(&format!("axes.{name}.straightness.{dir}.{k}"));
+                    let u =
+                        |k: &str| report.expanded(&format!("axes.{name}.straightness.{dir}.{k}"));
                     let _ = write!(
                         h,
                         "<td>{} / {}</td>",
@@ -185,11 +196,8 @@ fn uncertainty_section(h: &mut Page, report: &Report) {
                 h.raw("</tr>\n");
             }
             h.raw("</table>\n");
-            let mut notes: Vec<String> = p
-                .sources
-                .iter()
-                .map(|(k, v)| format!("{k}: {v}"))
-                .collect();
+            let mut notes: Vec<String> =
+                p.sources.iter().map(|(k, v)| format!("{k}: {v}")).collect();
             notes.extend(p.not_included.iter().map(|n| format!("not included: {n}")));
             h.notes("Sources of uncertainty", &notes, false);
         }

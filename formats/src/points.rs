@@ -72,6 +72,8 @@ impl Record for PointRow {
         "cameras",
         "residual_px",
     ];
+    const OPTIONAL_COLUMNS: &'static [&'static str] =
+        &["u_x", "u_y", "u_z", "u_cal_x", "u_cal_y", "u_cal_z"];
 
     fn validate(&self) -> Result<(), Invalid> {
         if self.run < 1 {

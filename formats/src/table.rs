@@ -14,6 +14,9 @@ use crate::{FormatError, Result};
 pub trait Record: DeserializeOwned + Serialize {
     /// Columns that must be present in the header.
     const COLUMNS: &'static [&'static str];
+    /// Columns that follow them and may be absent on reading (newer
+    /// additions); the header of a file without records lists both.
+    const OPTIONAL_COLUMNS: &'static [&'static str] = &[];
     /// Check the values of one row; on failure give the column at fault and why.
     fn validate(&self) -> std::result::Result<(), Invalid>;
 }
@@ -251,7 +254,8 @@ fn serialize_all<'a, T: Serialize + 'a>(
 
 /// Write records of the contract as CSV, atomically, replacing an existing
 /// file; the header is written even when there are no records (from
-/// [`Record::COLUMNS`], which must then list every field in order).
+/// [`Record::COLUMNS`] and [`Record::OPTIONAL_COLUMNS`], which must then
+/// list every field in order).
 pub fn write_records<'a, T: Record + 'a>(
     path: &Path,
     records: impl IntoIterator<Item = &'a T>,
@@ -287,7 +291,11 @@ pub(crate) fn write_records_into<'a, T: Record + 'a>(
                 .map(str::to_string)
                 .collect()
         }
-        None => T::COLUMNS.iter().map(|c| (*c).to_string()).collect(),
+        None => T::COLUMNS
+            .iter()
+            .chain(T::OPTIONAL_COLUMNS)
+            .map(|c| (*c).to_string())
+            .collect(),
     };
     w.write_record(&header)
         .map_err(|e| FormatError::file(path, e.to_string()))?;

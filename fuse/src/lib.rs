@@ -40,6 +40,7 @@
 mod error;
 mod matching;
 mod measure;
+mod noise;
 mod observe;
 mod plan;
 mod plausibility;
@@ -49,6 +50,7 @@ mod triangulate;
 pub use error::{CampaignProblem, FuseError, Result};
 pub use geom::triangulate::{Triangulated, View, predict, triangulate};
 pub use measure::{Fusion, Inputs, MeasureOptions, SPHERE_LAYOUT_MM, Summary, measure};
+pub use noise::{CameraNoise, NoiseSource};
 pub use observe::MIN_CIRCULARITY;
 pub use plan::RigModel;
 pub use plausibility::ResidualGate;

@@ -48,6 +48,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{SphereMatch, assign};
+use crate::noise::{CameraNoise, noise_models};
 use crate::observe::{Candidate, candidates};
 use crate::plan::{InstantPlan, RigModel, plan};
 use crate::plausibility::ResidualGate;
@@ -145,6 +146,9 @@ pub struct Summary {
     /// Cameras whose relative illumination is the assumed ideal lens (no
     /// flat-field model in `rig.json`).
     pub assumed_ideal_lens: Vec<u8>,
+    /// Each camera's noise model, which the centroids' covariances in
+    /// `<stem>.observations.csv` come from.
+    pub noise: BTreeMap<u8, CameraNoise>,
 }
 
 fn with_suffix(out: &Path, suffix: &str) -> PathBuf {
@@ -248,6 +252,8 @@ struct Context<'a> {
     backend: &'a dyn Backend,
     readers: Mutex<Vec<FrameReader>>,
     sensor: &'a BTreeMap<u8, sensor::SensorMaps>,
+    /// Each camera's noise model (the centroids' covariances).
+    noise: BTreeMap<u8, CameraNoise>,
 }
 
 impl<'a> Context<'a> {
@@ -258,6 +264,7 @@ impl<'a> Context<'a> {
         options: &MeasureOptions,
         backend: &'a dyn Backend,
     ) -> Self {
+        let noise = noise_models(inputs.rig, plans, options.extract.max_pixels);
         let spheres = inputs.spheres;
         Self {
             reach_mm: 0.5 * extent(plans) + SPHERE_LAYOUT_MM,
@@ -268,6 +275,7 @@ impl<'a> Context<'a> {
             backend,
             readers: Mutex::new(Vec::new()),
             sensor: inputs.sensor,
+            noise,
         }
     }
 }
@@ -376,7 +384,7 @@ impl Context<'_> {
                 &frame,
                 &extraction,
                 self.options.extract.weighting,
-                None,
+                self.noise.get(&camera).and_then(|n| n.gain_dn_per_e),
             );
             let wd = self.rig.working_distance(camera).unwrap_or(1.0);
             let range = ((wd - self.reach_mm).max(0.1 * wd), wd + self.reach_mm);
@@ -387,7 +395,9 @@ impl Context<'_> {
                 .map(|(s, m)| match m {
                     SphereMatch::Found(c) => Ok(Observed {
                         ideal: cands[c].ideal_px,
-                        covariance: None,
+                        covariance: cands[c]
+                            .covariance
+                            .map(|k| Matrix2::new(k.uu_px2, k.uv_px2, k.uv_px2, k.vv_px2)),
                     }),
                     SphereMatch::Missing => Err(self.sphere_failure(
                         key,
@@ -1072,6 +1082,7 @@ pub fn measure(
         problems_file: written.problems_file,
         poses: paths.poses,
         assumed_ideal_lens: assumed_ideal,
+        noise: ctx.noise.clone(),
     })
 }
 

@@ -118,6 +118,12 @@ pub fn run(args: &Args) -> Result<()> {
             args.rig.display()
         );
     }
+    for (camera, noise) in &summary.noise {
+        eprintln!(
+            "trinocular: camera {camera}: image noise {}",
+            noise.describe()
+        );
+    }
     eprintln!(
         "measured {} of {} instants{}{} → {}",
         summary.measured,
