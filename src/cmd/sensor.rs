@@ -130,7 +130,7 @@ pub fn calibrate(
             match e.stack() {
                 Some(StackKind::Dark) => darks.error(e),
                 Some(StackKind::Flat) => flats.error(e),
-                None => anyhow::anyhow!(
+                Some(StackKind::Repeat) | None => anyhow::anyhow!(
                     "flat fields {} with dark frames {}: {e}",
                     flats.describe(),
                     darks.describe()
