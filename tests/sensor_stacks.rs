@@ -173,6 +173,27 @@ fn extract_with_stacks_counts_defective_pixels_in_blobs() {
         .collect();
     assert!(!rows.is_empty());
     assert!(rows.iter().all(|r| r.defect_pixels.is_some()));
+    // K from the stacks' photon transfer: every centroid has its σ.
+    let sigmas = |rows: &[formats::BlobRow]| -> Vec<(f64, f64, f64)> {
+        rows.iter()
+            .map(|r| {
+                (
+                    r.u_sigma_px.unwrap(),
+                    r.v_sigma_px.unwrap(),
+                    r.uv_correlation.unwrap(),
+                )
+            })
+            .collect()
+    };
+    let from_stacks = sigmas(&rows);
+    assert!(
+        from_stacks.iter().all(|&(su, sv, r)| su > 0.0
+            && su < 0.1
+            && sv > 0.0
+            && sv < 0.1
+            && r.abs() <= 1.0),
+        "{from_stacks:?}"
+    );
     let first = |d: &Path| {
         std::fs::read_dir(d)
             .unwrap()
@@ -188,6 +209,33 @@ fn extract_with_stacks_counts_defective_pixels_in_blobs() {
         .map(|r| r.record)
         .collect();
     assert!(rows.iter().all(|r| r.defect_pixels.is_none()));
+    // Single frames measure no K: no σ, unless K is given; the renderer's
+    // K (4 DN/e⁻) gives the σ of the stacks' K to its accuracy.
+    assert!(
+        rows.iter()
+            .all(|r| r.u_sigma_px.is_none() && r.uv_correlation.is_none())
+    );
+    let given = dir.path().join("given.csv");
+    let out = bin()
+        .args(["extract", "--backend", "cpu", "--gain-dn-per-e", "4"])
+        .args([
+            "--flat-field",
+            s(&first(flats)),
+            "--dark-frame",
+            s(&first(darks)),
+        ])
+        .args(["--out", s(&given), s(&image)])
+        .output()
+        .unwrap();
+    ok(&out);
+    let rows: Vec<formats::BlobRow> = formats::read_csv(&given)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    for (g, k) in sigmas(&rows).iter().zip(&from_stacks) {
+        assert!((g.0 / k.0 - 1.0).abs() < 0.05, "{g:?} {k:?}");
+    }
 }
 
 #[test]

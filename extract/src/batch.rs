@@ -14,11 +14,13 @@ use sensor::SensorMaps;
 use crate::Result;
 use crate::backend::{Backend, ExtractParams, Extraction};
 use crate::blob::Blob;
-use crate::correction::{FlatFieldMap, mapped_centroid};
+use crate::correction::{FlatFieldMap, mapped_light};
 use crate::decode::FrameReader;
+use crate::denoise::Denoise;
 use crate::frame::FrameView;
 use crate::label::Weighting;
 use crate::metadata::FrameMetadata;
+use crate::noise::CentroidCovariance;
 
 /// How a camera's frames are corrected before their centroids are taken:
 /// the sensor's per-pixel maps (master dark, gain map, defective pixels)
@@ -30,6 +32,10 @@ pub struct Radiometry<'a> {
     pub illumination: &'a RadialIllumination,
     /// The sensor's per-pixel maps, when calibrated from stacks.
     pub sensor: Option<&'a SensorMaps>,
+    /// The system gain K (DN/e⁻), when known: each corrected centroid then
+    /// gets its covariance from the image noise (`crate::noise`; not with a
+    /// denoised frame, whose pixels are correlated).
+    pub gain_dn_per_e: Option<f64>,
 }
 
 /// Files processed together; results of a chunk are delivered in order.
@@ -53,6 +59,9 @@ pub struct FrameBlobs {
     /// Blobs whose flat-field correction failed (their centroid is the plain
     /// one), with the reason; empty without a flat field.
     pub uncorrected: Vec<(usize, String)>,
+    /// Per blob, the covariance of its corrected centroid from the image
+    /// noise (px²); empty without a system gain K.
+    pub covariance: Vec<Option<CentroidCovariance>>,
     /// Per blob, the defective pixels (of the sensor's defect map) inside it,
     /// replaced by their neighbours before the centroid; empty without maps.
     pub defect_pixels: Vec<u32>,
@@ -63,15 +72,21 @@ pub struct FrameBlobs {
 
 /// A file's result from its frame, metadata and extraction (blob runs
 /// dropped); with a flat field, each blob's centroid is the flat-field
-/// corrected one (`crate::correction`).
+/// corrected one (`crate::correction`), with its covariance when the
+/// radiometry knows K and `denoise` is none.
 pub(crate) fn frame_blobs(
     frame: &FrameView<'_>,
     metadata: FrameMetadata,
     extraction: Extraction,
     weighting: Weighting,
     radiometry: Option<Radiometry<'_>>,
+    denoise: Denoise,
 ) -> FrameBlobs {
     let mut uncorrected = Vec::new();
+    let gain = radiometry
+        .and_then(|r| r.gain_dn_per_e)
+        .filter(|_| denoise == Denoise::None);
+    let mut covariance = Vec::new();
     let flat_field = radiometry.map(|r| r.illumination);
     let defect_pixels = match radiometry.and_then(|r| r.sensor) {
         Some(maps) => extraction
@@ -98,12 +113,17 @@ pub(crate) fn frame_blobs(
         .map(|(i, b)| {
             let mut b = b.clone();
             if let Some(ri) = flat_field {
-                match mapped_centroid(frame, &b, &extraction.level, weighting, &FlatFieldMap(ri)) {
-                    Some([u, v]) => (b.u, b.v) = (u, v),
+                let map = FlatFieldMap(ri);
+                let light = mapped_light(frame, &b, &extraction.level, weighting, &map, gain);
+                match light {
+                    Some(l) => (b.u, b.v) = (l.centroid[0], l.centroid[1]),
                     None => uncorrected.push((
                         i,
                         "no flat-field correction: too little background around the blob".into(),
                     )),
+                }
+                if gain.is_some() {
+                    covariance.push(light.and_then(|l| l.covariance));
                 }
             }
             b.runs = Vec::new();
@@ -118,6 +138,7 @@ pub(crate) fn frame_blobs(
         threshold: extraction.level.describe(),
         blobs,
         uncorrected,
+        covariance,
         defect_pixels,
         saturation,
     }
@@ -150,6 +171,7 @@ pub fn extract_file<B: Backend + ?Sized>(
         extraction,
         params.weighting,
         radiometry,
+        params.denoise,
     ))
 }
 

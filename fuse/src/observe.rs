@@ -114,6 +114,10 @@ mod tests {
     /// scaled by each of `k_factors`.
     type Scatter = Vec<([f64; 2], Vec<[f64; 2]>)>;
 
+    /// One sphere image over the captures: its centroids, and the sums of
+    /// the analytic variances (u, v) per K factor.
+    type Track = (Vec<Point2<f64>>, Vec<[f64; 2]>);
+
     /// The renderer's seed scene at 512×384 (sphere images 20–45 px
     /// across): the spheres of the first instant, fixed, exposed
     /// [`CAPTURES`] times with independent sensor noise (the repeated
@@ -155,8 +159,7 @@ mod tests {
                 })
                 .collect();
             let k = cam.sensor.gain_dn_per_e;
-            // Per blob of the first capture: centroids, and Σ σ² per K factor.
-            let mut blobs: Vec<(Vec<Point2<f64>>, Vec<[f64; 2]>)> = Vec::new();
+            let mut blobs: Vec<Track> = Vec::new();
             for capture in 0..CAPTURES {
                 let image = cam.expose(
                     &layers,

@@ -155,6 +155,13 @@ pub struct Args {
     /// them, with --flat-field: a stack gives the per-pixel master dark and hot pixels.
     #[arg(long, requires = "flat_field")]
     dark_frame: Option<PathBuf>,
+    /// System gain K (DN per electron) of the camera, with --flat-field:
+    /// each blob gets its centroid's standard uncertainties
+    /// (`u_sigma_px`, `v_sigma_px`, `uv_correlation`). Without it, K comes
+    /// from the photon transfer of flat and dark stacks (folders of ≥ 2
+    /// frames each); with single frames the columns stay empty.
+    #[arg(long, requires = "flat_field", value_parser = crate::cmd::values::positive)]
+    gain_dn_per_e: Option<f64>,
     /// Images (8/16-bit grayscale TIFF or PNG) or folders of them.
     #[arg(required = true)]
     images: Vec<PathBuf>,
@@ -310,6 +317,7 @@ fn blob_rows<'a>(
     frame.blobs.iter().enumerate().map(move |(i, b)| {
         let e = b.ellipse();
         let defect_pixels = frame.defect_pixels.get(i).copied();
+        let covariance = frame.covariance.get(i).copied().flatten();
         BlobRow {
             image: name.to_string(),
             blob: i as u32,
@@ -332,9 +340,9 @@ fn blob_rows<'a>(
             datetime: frame.metadata.datetime.clone(),
             exposure_s: frame.metadata.exposure_s,
             defect_pixels,
-            u_sigma_px: None,
-            v_sigma_px: None,
-            uv_correlation: None,
+            u_sigma_px: covariance.map(|c| c.sigma_u_px()),
+            v_sigma_px: covariance.map(|c| c.sigma_v_px()),
+            uv_correlation: covariance.map(|c| c.correlation()),
         }
     })
 }
@@ -368,7 +376,18 @@ pub fn run(args: &Args) -> Result<()> {
     let radiometry = flat_field.as_ref().map(|(ri, sensor)| extract::Radiometry {
         illumination: ri,
         sensor: sensor.as_ref().map(|s| &s.maps),
+        gain_dn_per_e: args.gain_dn_per_e.or_else(|| {
+            sensor
+                .as_ref()
+                .and_then(|s| s.transfer.map(|t| t.gain_dn_per_e))
+        }),
     });
+    if radiometry.is_some_and(|r| r.gain_dn_per_e.is_some()) && params.denoise != Denoise::None {
+        eprintln!(
+            "trinocular: note: no centroid uncertainties with --denoise (its pixels' noise is \
+             correlated)"
+        );
+    }
     let mut out = plan.create(&args.out)?;
     let mut csv = csv::Writer::from_writer(&mut out);
     let mut tally = Tally::default();

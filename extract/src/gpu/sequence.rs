@@ -260,6 +260,7 @@ pub(super) fn files(
                         extraction,
                         params.weighting,
                         None,
+                        params.denoise,
                     );
                     if let Pixels::Owned(frame) = pixels {
                         // The decoder may be gone already; the buffer is then dropped.
