@@ -67,7 +67,7 @@ impl TargetUncertainty {
             .filter_map(|r| r.u_mm.map(|u| (r.id, 1000.0 * u)))
             .collect();
         let default = format!(
-            "default {DEFAULT_TARGET_UNCERTAINTY_UM} µm (give target.csv u_mm or --target-uncertainty-um)"
+            "default {DEFAULT_TARGET_UNCERTAINTY_UM} µm; give target.csv u_mm or --target-uncertainty-um"
         );
         let source = if per_marker_um.is_empty() {
             default

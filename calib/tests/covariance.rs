@@ -12,6 +12,8 @@
 
 mod common;
 
+use common::{mahalanobis, parameter_error};
+
 use calib::{
     Layout, Model, Observation, Options, ParameterCovariance, TargetUncertainty, calibrate,
     parameter_covariance,
@@ -76,47 +78,6 @@ fn observe(
             }
         })
         .collect()
-}
-
-/// The deviation δ with `estimate.perturbed(names, δ) = truth` (to first order).
-fn parameter_error(names: &[&str], estimate: &Camera, truth: &Camera) -> DVector<f64> {
-    let omega = (truth.rotation() * estimate.rotation().inverse()).scaled_axis();
-    let dt = truth.translation() - estimate.translation();
-    let (ki, ke) = (truth.intrinsics, estimate.intrinsics);
-    let (di, de) = (truth.distortion, estimate.distortion);
-    DVector::from_iterator(
-        names.len(),
-        names.iter().map(|n| match *n {
-            "fx" => ki.fx - ke.fx,
-            "fy" => ki.fy - ke.fy,
-            "cx" => ki.cx - ke.cx,
-            "cy" => ki.cy - ke.cy,
-            "skew" => ki.skew - ke.skew,
-            "rx" => omega.x,
-            "ry" => omega.y,
-            "rz" => omega.z,
-            "tx" => dt.x,
-            "ty" => dt.y,
-            "tz" => dt.z,
-            "k1" => di.k1 - de.k1,
-            "k2" => di.k2 - de.k2,
-            "p1" => di.p1 - de.p1,
-            "p2" => di.p2 - de.p2,
-            "k3" => di.k3 - de.k3,
-            other => panic!("{other}"),
-        }),
-    )
-}
-
-/// `δᵀ·Σ⁻¹·δ`, solved on the correlation matrix (the parameters' units differ by 10⁸).
-fn mahalanobis(sigma: &DMatrix<f64>, delta: &DVector<f64>) -> f64 {
-    let s: DVector<f64> = sigma.diagonal().map(f64::sqrt);
-    let corr = DMatrix::from_fn(sigma.nrows(), sigma.ncols(), |i, j| {
-        sigma[(i, j)] / (s[i] * s[j])
-    });
-    let z = delta.component_div(&s);
-    let chol = corr.cholesky().expect("a covariance");
-    z.dot(&chol.solve(&z))
 }
 
 /// ∂π(X)/∂δ of `camera.perturbed(names, δ)` at δ = 0 (central differences,

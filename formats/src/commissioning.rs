@@ -148,7 +148,7 @@ impl ParameterUncertainty {
             .fold(0.0, f64::max);
         let _ = writeln!(
             s,
-            "    target marker coordinates {:.2} µm each ({}); at most {:.0} % of a parameter's variance",
+            "    target marker coordinates {:.2} µm each ({}): at most {:.1} % of a parameter's variance",
             self.target_uncertainty_um,
             self.target_uncertainty_source,
             100.0 * share

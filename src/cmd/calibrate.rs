@@ -66,7 +66,7 @@ pub enum MarkerArg {
 #[derive(Debug, clap::Args)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["images", "points"])))]
 pub struct Args {
-    /// Calibration target `target.csv` (`id,x,y,z[,diameter]`, mm).
+    /// Calibration target `target.csv` (`id,x,y,z[,diameter][,u_mm]`, mm).
     #[arg(long)]
     target: PathBuf,
     /// Nominal rig `nominal.json`: starts the calibration and finds the
