@@ -40,6 +40,7 @@ mod html;
 pub mod layout;
 mod plot;
 mod summary;
+pub mod uncertainty;
 
 use geom::nalgebra::{Point3, Vector3};
 

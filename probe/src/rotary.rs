@@ -39,6 +39,7 @@ mod identify;
 mod location;
 mod plot;
 pub mod report;
+pub mod uncertainty;
 
 use geom::nalgebra::{Point3, Rotation3, Vector3, Vector6};
 

@@ -7,6 +7,7 @@ use report::{Page, escape};
 use super::layout::wrap_deg;
 use super::{Angles, Extreme, Report, plot};
 use crate::Result;
+use crate::type_a::plus_minus;
 
 /// Most positions beyond the tolerance listed on the page (all are in
 /// `report.json`).
@@ -29,6 +30,7 @@ pub fn render(r: &Report, angles: &[Angles]) -> Result<String> {
         r.axes.b_turn_step_deg,
     ));
     summary(&mut h, r);
+    crate::type_a::budget_html(&mut h, r.uncertainty.as_ref());
     maps(&mut h, r, angles)?;
     curves(&mut h, r, angles)?;
     detents(&mut h, r);
@@ -42,12 +44,22 @@ fn triple(v: [f64; 3], digits: usize) -> String {
     format!("({:.digits$}, {:.digits$}, {:.digits$})", v[0], v[1], v[2])
 }
 
+/// U (k = 2) of the figure at `path`, when the report gives it.
+fn big_u(r: &Report, path: &str) -> Option<f64> {
+    r.uncertainty.as_ref().and_then(|u| u.of(path))
+}
+
+/// `value ± U″` of the figure at `path` in arc-seconds.
+fn arcsec(r: &Report, path: &str, value: f64) -> String {
+    format!("{}″", plus_minus(value, big_u(r, path), 3))
+}
+
 fn summary(h: &mut Page, r: &Report) {
-    h.h2("summary", "Summary");
-    let extreme = |label: &str, e: &Extreme| {
+    h.h2("summary", "Summary (value ± U, k = 2)");
+    let extreme = |label: &str, path: &str, e: &Extreme| {
         [
             label.to_string(),
-            format!("{:.3}″", e.value_arcsec.abs()),
+            arcsec(r, path, e.value_arcsec.abs()),
             format!(
                 "{:+.3}″ at A = {}°, B = {}°",
                 e.value_arcsec, e.a_deg, e.b_deg
@@ -55,23 +67,24 @@ fn summary(h: &mut Page, r: &Report) {
         ]
     };
     let mut rows: Vec<[String; 3]> = vec![
-        extreme("max |ΔθA|", &r.max_d_a_at),
-        extreme("max |ΔθB| (A > 0°)", &r.max_d_b_at),
+        extreme("max |ΔθA|", "max_dA_arcsec", &r.max_d_a_at),
+        extreme("max |ΔθB| (A > 0°)", "max_dB_arcsec", &r.max_d_b_at),
         [
             "RMS ΔθA".into(),
-            format!("{:.3}″", r.rms_d_a_arcsec),
+            arcsec(r, "rms_dA_arcsec", r.rms_d_a_arcsec),
             String::new(),
         ],
         [
             "RMS ΔθB (A > 0°)".into(),
-            format!("{:.3}″", r.rms_d_b_arcsec),
+            arcsec(r, "rms_dB_arcsec", r.rms_d_b_arcsec),
             String::new(),
         ],
         [
             "max |mean ΔθA| per A detent (A > 0°) / |mean ΔθB| per B detent".into(),
             format!(
-                "{:.3}″ / {:.3}″",
-                r.max_detent_d_a_arcsec, r.max_detent_d_b_arcsec
+                "{} / {}",
+                arcsec(r, "max_detent_dA_arcsec", r.max_detent_d_a_arcsec),
+                arcsec(r, "max_detent_dB_arcsec", r.max_detent_d_b_arcsec)
             ),
             "the detents' own errors, noise averaged down".into(),
         ],
@@ -90,14 +103,20 @@ fn summary(h: &mut Page, r: &Report) {
         ],
         [
             "radius (stylus length)".into(),
-            format!("{:.4} mm", r.radius_mm),
+            match big_u(r, "radius_mm") {
+                Some(u) => format!("{:.4} mm ± {:.3} µm", r.radius_mm, u * 1e3),
+                None => format!("{:.4} mm", r.radius_mm),
+            },
             format!("u = {:.3} µm", r.u_radius_um),
         ],
     ];
     if let (Some(n), Some(d)) = (r.nominal_radius_mm, r.radius_deviation_um) {
         rows.push([
             "radius − nominal".into(),
-            format!("{d:+.1} µm"),
+            match big_u(r, "radius_deviation_um") {
+                Some(u) => format!("{d:+.1} ± {u:.1} µm"),
+                None => format!("{d:+.1} µm"),
+            },
             format!("nominal {n} mm"),
         ]);
     }
@@ -230,13 +249,21 @@ fn detents(h: &mut Page, r: &Report) {
     let rows: Vec<Vec<String>> = r
         .a_detents
         .iter()
-        .map(|d| {
+        .enumerate()
+        .map(|(k, d)| {
+            let cell = |name: &str, v: f64| {
+                let u = big_u(r, &format!("a_detents.{k}.{name}"));
+                format!(
+                    "{v:+.3}{}",
+                    u.map_or_else(String::new, |u| format!(" ± {u:.3}"))
+                )
+            };
             vec![
                 format!("{}", d.a_deg),
                 d.positions.to_string(),
-                format!("{:+.3}", d.mean_d_a_arcsec),
-                format!("{:+.3}", d.min_d_a_arcsec),
-                format!("{:+.3}", d.max_d_a_arcsec),
+                cell("mean_dA_arcsec", d.mean_d_a_arcsec),
+                cell("min_dA_arcsec", d.min_d_a_arcsec),
+                cell("max_dA_arcsec", d.max_d_a_arcsec),
             ]
         })
         .collect();
@@ -248,11 +275,17 @@ fn detents(h: &mut Page, r: &Report) {
     let rows: Vec<Vec<String>> = r
         .b_detents
         .iter()
-        .map(|d| {
+        .enumerate()
+        .map(|(k, d)| {
+            let u = big_u(r, &format!("b_detents.{k}.mean_dB_arcsec"));
             vec![
                 format!("{}", d.b_deg),
                 d.positions.to_string(),
-                format!("{:+.3}", d.mean_d_b_arcsec),
+                format!(
+                    "{:+.3}{}",
+                    d.mean_d_b_arcsec,
+                    u.map_or_else(String::new, |u| format!(" ± {u:.3}"))
+                ),
                 format!("{:.3}", d.u_mean_d_b_arcsec),
             ]
         })

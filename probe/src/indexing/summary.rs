@@ -151,6 +151,7 @@ pub fn report(ind: &Indexing, options: &Options) -> Result<Report> {
         },
         warnings,
         conventions: conventions(),
+        uncertainty: None,
     })
 }
 

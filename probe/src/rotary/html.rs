@@ -13,6 +13,7 @@ use super::NAMES;
 use super::plot::{self, Path, Series};
 use super::report::{AngleReport, Report, Six};
 use crate::Result;
+use crate::type_a::plus_minus;
 
 /// Units of the six errors in the report.
 const UNITS: [&str; 6] = ["µm", "µm", "µm", "µrad", "µrad", "µrad"];
@@ -130,6 +131,7 @@ pub fn render(report: &Report) -> Result<String> {
         report.residual_rms_um
     ));
     summary(&mut h, report);
+    crate::type_a::budget_html(&mut h, report.uncertainty.as_ref());
 
     h.h2("errors", "Errors against the table angle");
     angle_plots(
@@ -223,7 +225,7 @@ pub fn render(report: &Report) -> Result<String> {
 
 /// The sign-off figures: location errors and the ranges.
 fn summary(h: &mut Page, report: &Report) {
-    h.h2("summary", "Sign-off figures");
+    h.h2("summary", "Sign-off figures (value ± U, k = 2)");
     if let Some(l) = &report.location {
         let rows: Vec<Vec<String>> = [
             (
@@ -257,10 +259,11 @@ fn summary(h: &mut Page, report: &Report) {
         ]
         .iter()
         .map(|(name, meaning, v, u, unit)| {
+            let big_u = expanded(report, &format!("location.{name}_{}", key_unit(unit)));
             vec![
                 (*name).to_string(),
                 (*meaning).to_string(),
-                format!("{v:.3}"),
+                plus_minus(*v, big_u, 3),
                 format!("{u:.3}"),
                 (*unit).to_string(),
             ]
@@ -272,7 +275,7 @@ fn summary(h: &mut Page, report: &Report) {
             &[
                 "location error (ISO 230-7)",
                 "meaning",
-                "value",
+                "value ± U (k = 2)",
                 "u",
                 "unit",
             ],
@@ -286,11 +289,15 @@ fn summary(h: &mut Page, report: &Report) {
     let components = report.ranges.components.map(|c| c.values());
     let rows: Vec<Vec<String>> = (0..6)
         .map(|k| {
+            let path = |which: &str| format!("ranges.{which}.{}_{}", NAMES[k], key_unit(UNITS[k]));
             vec![
                 NAMES[k].to_string(),
                 MEANING[k].to_string(),
-                format!("{:.3}", errors[k]),
-                components.map_or_else(|| "—".into(), |c| format!("{:.3}", c[k])),
+                plus_minus(errors[k], expanded(report, &path("errors")), 3),
+                components.map_or_else(
+                    || "—".into(),
+                    |c| plus_minus(c[k], expanded(report, &path("components")), 3),
+                ),
                 UNITS[k].to_string(),
             ]
         })
@@ -313,6 +320,16 @@ fn summary(h: &mut Page, report: &Report) {
         "<p class=\"meta\">Largest standard uncertainty: {:.3} µm (translations), {:.3} µrad (rotations).</p>",
         report.max_u_translation_um, report.max_u_rotation_urad
     );
+}
+
+/// The key suffix of a unit: `um` for µm, `urad` for µrad.
+fn key_unit(unit: &str) -> &'static str {
+    if unit == "µm" { "um" } else { "urad" }
+}
+
+/// U (k = 2) of the figure at `path`, when the report gives it.
+fn expanded(report: &Report, path: &str) -> Option<f64> {
+    report.uncertainty.as_ref().and_then(|u| u.of(path))
 }
 
 /// Six values with their uncertainties, formatted for a table row.

@@ -181,5 +181,6 @@ pub fn report(solution: &Solution, source: &str, at: &[Interpolated]) -> Report 
         interpolated: at.iter().map(interpolated_report).collect(),
         conventions: conventions(),
         warnings: solution.warnings.clone(),
+        uncertainty: None,
     }
 }

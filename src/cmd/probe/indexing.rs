@@ -8,8 +8,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use formats::FormatError;
+use formats::probe::indexing::report::FIGURES;
 use formats::probe::indexing::{CentreRow, IndexingRow, read_centres};
 use probe::indexing::{self as method, Position, layout};
+use probe::type_a::{DEFAULT_TRIALS, Propagation};
 use synth::probe::indexing::{DEFAULT_TOML, IndexingConfig, generate};
 
 use crate::cmd::OrUsage;
@@ -29,6 +31,13 @@ pub struct Args {
     /// List the positions whose |ΔθA| or |ΔθB| exceed this many arc-seconds.
     #[arg(long, value_name = "ARCSEC", value_parser = crate::cmd::values::non_negative)]
     tolerance: Option<f64>,
+    /// Monte Carlo trials of the expanded uncertainties (k = 2) of every figure; 0 turns the
+    /// propagation off (the report says so).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_TRIALS)]
+    trials: usize,
+    /// Seed of the Monte Carlo draws (the same seed, the same U).
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    seed: u64,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
@@ -104,7 +113,7 @@ fn positions(path: &Path) -> Result<Vec<Position>> {
 
 /// Run the method.
 pub fn run(args: &Args) -> Result<()> {
-    let (output, [csv, json, html]) = super::outputs_n(
+    let (output, [csv, json_path, html]) = super::outputs_n(
         &args.out,
         ["indexing.csv", "report.json", "report.html"],
         [&args.centres],
@@ -118,7 +127,19 @@ pub fn run(args: &Args) -> Result<()> {
         tolerance_arcsec: args.tolerance,
         source: args.centres.display().to_string(),
     };
-    let report = method::report(&solved, &options)?;
+    let mut report = method::report(&solved, &options)?;
+    let propagation = Propagation {
+        trials: args.trials,
+        seed: args.seed,
+    };
+    report.uncertainty = Some(method::uncertainty::propagate(
+        &positions,
+        &solved,
+        &report,
+        &options,
+        propagation,
+    ));
+    let json = probe::type_a::report_json(&report, report.uncertainty.as_ref(), &FIGURES)?;
     let page = method::html(&report, &solved.angles)?;
     let rows: Vec<IndexingRow> = solved
         .angles
@@ -136,7 +157,7 @@ pub fn run(args: &Args) -> Result<()> {
         })
         .collect();
     output.write_records(&csv, &rows)?;
-    output.write_json(&json, &report)?;
+    output.write_json(&json_path, &json)?;
     output.write_bytes(&html, page.as_bytes())?;
 
     let c = report.rotation_centre;
@@ -178,6 +199,11 @@ pub fn run(args: &Args) -> Result<()> {
             t.count_d_b
         );
     }
+    if let Some(u) = &report.uncertainty {
+        for line in probe::type_a::summary(u) {
+            println!("{line}");
+        }
+    }
     for w in &report.warnings {
         eprintln!("trinocular: warning: {w}");
     }
@@ -185,7 +211,7 @@ pub fn run(args: &Args) -> Result<()> {
         "wrote {} positions to {}, {} and {}",
         rows.len(),
         csv.display(),
-        json.display(),
+        json_path.display(),
         html.display()
     );
     Ok(())

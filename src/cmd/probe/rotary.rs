@@ -12,11 +12,14 @@
 use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
+use formats::probe::rotary::report::FIGURES;
 use formats::probe::rotary::{
     CentreRow, ErrorRow, RotaryInput, SphereFitRow, read_centres, read_points,
 };
 use probe::rotary::report::{Report, report};
+use probe::rotary::uncertainty::Measured;
 use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
+use probe::type_a::{DEFAULT_TRIALS, Propagation};
 use probe::{CentreFault, ProbeError};
 use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
 
@@ -41,6 +44,13 @@ pub struct Args {
     /// the two nearest measured angles, wrapping at 360°).
     #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "DEG", value_parser = crate::cmd::values::finite)]
     at: Vec<f64>,
+    /// Monte Carlo trials of the expanded uncertainties (k = 2) of every figure; 0 turns the
+    /// propagation off (the report says so).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_TRIALS)]
+    trials: usize,
+    /// Seed of the Monte Carlo draws (the same seed, the same U).
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    seed: u64,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
@@ -155,6 +165,11 @@ fn print_summary(solution: &Solution, report: &Report) {
     if let Some(c) = &report.ranges.components {
         ranges("ranges of the component errors", c.values());
     }
+    if let Some(u) = &report.uncertainty {
+        for line in probe::type_a::summary(u) {
+            println!("{line}");
+        }
+    }
     for w in &report.warnings {
         eprintln!("trinocular: warning: {w}");
     }
@@ -192,7 +207,27 @@ pub fn run(args: &Args) -> Result<()> {
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    let report = report(&solution, &source, &at);
+    let mut report = report(&solution, &source, &at);
+    let probed = if points { input.points() } else { Vec::new() };
+    let measured = if points {
+        Measured::Points {
+            angles_deg: &input.angles_deg,
+            balls: &probed,
+        }
+    } else {
+        Measured::Centres(&m)
+    };
+    let propagation = Propagation {
+        trials: args.trials,
+        seed: args.seed,
+    };
+    report.uncertainty = Some(probe::rotary::uncertainty::propagate(
+        measured,
+        &solution,
+        &report,
+        propagation,
+    ));
+    let json = probe::type_a::report_json(&report, report.uncertainty.as_ref(), &FIGURES)?;
     let html = probe::rotary::html(&report)?;
 
     let mut names = vec!["rotary.csv", "report.json", "report.html"];
@@ -209,7 +244,7 @@ pub fn run(args: &Args) -> Result<()> {
         .map(|e| error_row(e.angle_deg, &e.errors, &e.uncertainty))
         .collect();
     output.write_records(&files[0], &rows)?;
-    output.write_json(&files[1], &report)?;
+    output.write_json(&files[1], &json)?;
     output.write_bytes(&files[2], html.as_bytes())?;
     let mut next = 3;
     if !at.is_empty() {

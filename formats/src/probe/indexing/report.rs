@@ -5,6 +5,31 @@
 
 use serde::Serialize;
 
+use crate::uncertainty::{FigureKeys, Uncertainty};
+
+/// The figures of the report (docs/probe-indexing.md, "Uncertainty"): the
+/// radius, its deviation from the nominal, the maxima, RMS and per-detent
+/// values of ΔθA and ΔθB; not the standard uncertainties, the nominal and
+/// tolerance given, the sphere fit's diagnostics, the signed extremes'
+/// positions (`max_dA_at`: a position and a sign, its magnitude is
+/// `max_dA_arcsec`) nor the list of positions beyond the tolerance.
+pub const FIGURES: FigureKeys = FigureKeys {
+    units: &["_mm", "_um", "_arcsec"],
+    skip: &[
+        "u_radius_um",
+        "u_rotation_centre_um",
+        "nominal_radius_mm",
+        "sphere_fit",
+        "max_dA_at",
+        "max_dB_at",
+        "median_u_dA_arcsec",
+        "median_u_dB_arcsec",
+        "u_mean_dB_arcsec",
+        "tolerance",
+        "uncertainty",
+    ],
+};
+
 /// `report.json` (the positions themselves are in `indexing.csv`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
@@ -77,6 +102,10 @@ pub struct Report {
     pub warnings: Vec<String>,
     /// The conventions of the figures.
     pub conventions: Vec<String>,
+    /// How the expanded uncertainties (k = 2) of the figures were found
+    /// (written beside each figure as `F_U_arcsec`), or why there are none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<Uncertainty>,
 }
 
 /// The sphere through the centres.

@@ -8,6 +8,32 @@
 use serde::Serialize;
 
 use super::LocationErrors;
+use crate::uncertainty::{FigureKeys, Uncertainty};
+
+/// The figures of the report (docs/probe-rotary.md, "Uncertainty"): every
+/// error, location error, component error, range and interpolated error
+/// (`_um`, `_urad`); not the standard uncertainties beside them, nor the
+/// diagnostics (residuals, largest u) and the sphere fits.
+pub const FIGURES: FigureKeys = FigureKeys {
+    units: &["_um", "_urad"],
+    skip: &[
+        "u_EXC_um",
+        "u_EYC_um",
+        "u_EZC_um",
+        "u_EAC_urad",
+        "u_EBC_urad",
+        "u_ECC_urad",
+        "u_X0C_um",
+        "u_Y0C_um",
+        "u_A0C_urad",
+        "u_B0C_urad",
+        "residual_rms_um",
+        "max_u_translation_um",
+        "max_u_rotation_urad",
+        "sphere_fits",
+        "uncertainty",
+    ],
+};
 
 /// Where the centres came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -203,4 +229,8 @@ pub struct Report {
     pub conventions: Vec<String>,
     /// Things worth knowing that did not stop the method.
     pub warnings: Vec<String>,
+    /// How the expanded uncertainties (k = 2) of the figures were found
+    /// (written beside each figure as `F_U_um`), or why there are none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<Uncertainty>,
 }

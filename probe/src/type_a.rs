@@ -1,0 +1,428 @@
+//! The expanded uncertainty (k = 2) of a probe method's figures by Monte
+//! Carlo (GUM Supplement 1, `geom::montecarlo`; docs/uncertainty.md): each
+//! method re-draws its measured inputs, re-runs its own computation and its
+//! report per trial, and this module turns the trials into the report's
+//! `uncertainty` object (`formats::uncertainty`).
+//!
+//! - [`TypeA`]: a noise estimated from residuals with ν degrees of freedom;
+//!   each trial draws its standard deviation as `s·√(ν/χ²_ν)`, so that the
+//!   drawn inputs follow the scaled-and-shifted t distribution of JCGM 101
+//!   §6.4.9 (a noise known from few residuals widens U).
+//! - [`Model`]: what a method states about its propagation (sources, what
+//!   is not included, the headline figures with a budget).
+//! - [`propagate`]: run it; [`not_given`]: the object when there is none.
+//! - [`Bound`]: the figures whose U is the quantile of a bound on their
+//!   error rather than of their own spread (extremes over positions that
+//!   share one true value); [`reflected_rms`]: a root mean square, whose
+//!   noise bias is additive in its square.
+
+use std::collections::BTreeMap;
+
+use formats::uncertainty::{
+    BudgetEntry, FigureKeys, Propagated, Uncertainty, figures, with_expanded,
+};
+use geom::montecarlo::{self, COVERAGE_FACTOR, Draws, Trial};
+use report::Page;
+
+/// The trials and seed of a propagation, and the trials when none are
+/// named (the command line's `--trials`, `--seed`).
+pub use geom::montecarlo::{DEFAULT_TRIALS, Propagation};
+
+/// A standard deviation estimated from residuals (Type A), with its degrees
+/// of freedom ν.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TypeA {
+    /// The estimate s (the unit of the residuals).
+    pub sd: f64,
+    /// Degrees of freedom ν of the estimate.
+    pub dof: usize,
+}
+
+impl TypeA {
+    /// `s = √(Σr² / (scale·ν))` from a sum of squared residuals and its
+    /// degrees of freedom (`scale` the variance of a residual in units of
+    /// the noise's, e.g. 2 for a difference of two measured values);
+    /// `None` without degrees of freedom or with a sum that is not finite.
+    pub fn from_sum_of_squares(sum_sq: f64, dof: usize, scale: f64) -> Option<TypeA> {
+        (dof > 0 && sum_sq.is_finite() && sum_sq >= 0.0 && scale > 0.0).then(|| TypeA {
+            sd: (sum_sq / (scale * dof as f64)).sqrt(),
+            dof,
+        })
+    }
+
+    /// One trial's standard deviation `s·√(ν/χ²_ν)` (χ²_ν the sum of ν
+    /// squared standard normal deviates): normal draws of it are t-distributed
+    /// with ν degrees of freedom about the estimate (JCGM 101 §6.4.9.7).
+    pub fn trial_sd(&self, draws: &mut Draws) -> f64 {
+        let chi2: f64 = (0..self.dof).map(|_| draws.normal().powi(2)).sum();
+        if chi2 > 0.0 {
+            self.sd * (self.dof as f64 / chi2).sqrt()
+        } else {
+            self.sd
+        }
+    }
+
+    /// The standard deviation of a trial whose sources `0..sources` share
+    /// this noise: drawn from the stream of the first source the trial
+    /// draws, `None` when it draws none.
+    pub fn shared_sd(&self, trial: &mut Trial, sources: usize) -> Option<f64> {
+        (0..sources).find_map(|s| trial.draws(s).map(|d| self.trial_sd(d)))
+    }
+}
+
+/// What a method states about its propagation.
+#[derive(Debug, Clone, Copy)]
+pub struct Model<'a> {
+    /// How U is defined and what the trials re-run.
+    pub method: &'a str,
+    /// The sources of uncertainty in the order of the trials' streams:
+    /// name and what it is.
+    pub sources: &'a [(&'a str, String)],
+    /// What is not included, in words.
+    pub not_included: &'a [&'a str],
+    /// The headline figures (paths in the report) that get a budget entry.
+    pub headline: &'a [String],
+}
+
+/// The `uncertainty` object when the figures carry no U.
+pub fn not_given(reason: impl Into<String>) -> Uncertainty {
+    Uncertainty::NotGiven {
+        reason: reason.into(),
+    }
+}
+
+/// Figures of a report (by path); a report that does not serialise has none.
+pub fn report_figures<R: serde::Serialize>(report: &R, keys: &FigureKeys) -> BTreeMap<String, f64> {
+    figures(report, keys).unwrap_or_default()
+}
+
+/// `report.json` of a report: its JSON with the expanded uncertainty of
+/// every figure written beside it (`F_U_um`), when `uncertainty` gives them.
+pub fn report_json<R: serde::Serialize>(
+    report: &R,
+    uncertainty: Option<&Uncertainty>,
+    keys: &FigureKeys,
+) -> serde_json::Result<serde_json::Value> {
+    let none = BTreeMap::new();
+    let expanded = uncertainty.and_then(Uncertainty::expanded).unwrap_or(&none);
+    with_expanded(report, expanded, keys)
+}
+
+/// Lines that state the uncertainty for a terminal: how it was found and
+/// each headline figure as `value ± U`, or why there is none.
+pub fn summary(uncertainty: &Uncertainty) -> Vec<String> {
+    match uncertainty {
+        Uncertainty::NotGiven { reason } => {
+            vec![format!("no expanded uncertainties: {reason}")]
+        }
+        Uncertainty::Given(p) => {
+            let failed = if p.failed_trials > 0 {
+                format!(", {} failed", p.failed_trials)
+            } else {
+                String::new()
+            };
+            std::iter::once(format!(
+                "expanded uncertainties U (k = {}) by Monte Carlo, {} trials, seed {}{failed}:",
+                p.k, p.trials, p.seed
+            ))
+            .chain(
+                p.budget
+                    .iter()
+                    .map(|b| format!("  {} = {:.4} ± {:.4}", b.figure, b.value, b.expanded)),
+            )
+            .collect()
+        }
+    }
+}
+
+/// `value ± U` with `decimals` decimals, or the value alone without U.
+pub fn plus_minus(value: f64, expanded: Option<f64>, decimals: usize) -> String {
+    match expanded {
+        Some(u) => format!("{value:.decimals$} ± {u:.decimals$}"),
+        None => format!("{value:.decimals$}"),
+    }
+}
+
+/// The uncertainty section of a report page: the budget of each headline
+/// figure (value, U and each source's standard uncertainty alone), the
+/// sources and what is not included; or why the figures carry no U.
+pub fn budget_html(page: &mut Page, uncertainty: Option<&Uncertainty>) {
+    let Some(uncertainty) = uncertainty else {
+        return;
+    };
+    page.h2("uncertainty", "Uncertainty budget (U with k = 2)");
+    let p = match uncertainty {
+        Uncertainty::NotGiven { reason } => {
+            page.paragraph(&format!(
+                "The figures carry no expanded uncertainty: {reason}."
+            ));
+            return;
+        }
+        Uncertainty::Given(p) => p,
+    };
+    page.paragraph(&format!(
+        "{}. {} trials, seed {}, {} failed.",
+        p.method, p.trials, p.seed, p.failed_trials
+    ));
+    let names: Vec<&String> = p.sources.keys().collect();
+    let mut header = vec!["figure".to_string(), "value".into(), "U (k = 2)".into()];
+    header.extend(names.iter().map(|n| format!("u from {n}")));
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    let rows: Vec<Vec<String>> = p
+        .budget
+        .iter()
+        .map(|b| {
+            let mut row = vec![
+                b.figure.clone(),
+                format!("{:.4}", b.value),
+                format!("{:.4}", b.expanded),
+            ];
+            row.extend(names.iter().map(|n| {
+                b.contributions
+                    .get(*n)
+                    .map_or_else(|| "—".into(), |u| format!("{u:.4}"))
+            }));
+            row
+        })
+        .collect();
+    page.table(Some("budget"), &header, &rows);
+    let sources: Vec<String> = p.sources.iter().map(|(n, d)| format!("{n}: {d}")).collect();
+    page.notes("Sources of uncertainty", &sources, false);
+    page.notes("Not included in U", &p.not_included, false);
+}
+
+/// Propagate by Monte Carlo: `nominal` are the reported figures; `trial`
+/// re-draws the inputs and returns the figures of the re-run method (`None`
+/// when it fails on that draw). A figure every trial fails is left without U.
+pub fn propagate<F>(
+    nominal: &BTreeMap<String, f64>,
+    model: &Model<'_>,
+    options: Propagation,
+    trial: F,
+) -> Uncertainty
+where
+    F: Fn(&mut Trial) -> Option<BTreeMap<String, f64>> + Sync,
+{
+    if options.trials == 0 {
+        return not_given("no Monte Carlo trials were asked for (trials = 0)");
+    }
+    let names: Vec<&str> = model.sources.iter().map(|(n, _)| *n).collect();
+    let p = montecarlo::propagate(nominal, &names, options, trial);
+    if p.expanded.is_empty() {
+        return not_given(format!(
+            "every one of the {} Monte Carlo trials failed: the method cannot be re-run on \
+             inputs drawn about the measured ones",
+            options.trials
+        ));
+    }
+    let budget = model
+        .headline
+        .iter()
+        .filter_map(|figure| {
+            let value = *nominal.get(figure)?;
+            let expanded = *p.expanded.get(figure)?;
+            let contributions = p
+                .contributions
+                .iter()
+                .filter_map(|(source, u)| u.get(figure).map(|v| (source.clone(), *v)))
+                .collect();
+            Some(BudgetEntry {
+                figure: figure.clone(),
+                value,
+                expanded,
+                contributions,
+            })
+        })
+        .collect();
+    Uncertainty::Given(Propagated {
+        method: model.method.to_string(),
+        k: COVERAGE_FACTOR,
+        trials: options.trials,
+        seed: options.seed,
+        failed_trials: p.failed,
+        sources: model
+            .sources
+            .iter()
+            .map(|(n, d)| ((*n).to_string(), d.clone()))
+            .collect(),
+        not_included: model
+            .not_included
+            .iter()
+            .map(|s| (*s).to_string())
+            .collect(),
+        budget,
+        expanded: p.expanded,
+    })
+}
+
+/// A figure whose error is bounded by the largest error of the values it is
+/// an extreme (or a mean of magnitudes) of: `|max|m| − max|t|| ≤ max|m − t|`
+/// (and the same for a minimum; `|mean|m| − mean|t|| ≤ mean|m − t|`). Where
+/// many values share one true value (the positions of one detent), noise
+/// biases the extreme by the largest of many deviations, which re-drawing
+/// about the measured values reproduces only in part; the trial value
+/// `reported + bound` makes U the 95 % quantile of the bound's draws.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bound {
+    /// The figure's path.
+    pub figure: String,
+    /// The values it is taken over (indices into the trial's deviations).
+    pub over: Vec<usize>,
+    /// Largest (extremes) or mean (means of magnitudes) of the deviations.
+    pub kind: BoundKind,
+}
+
+/// How a [`Bound`] combines the deviations of its values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoundKind {
+    /// An extreme: the largest deviation.
+    Largest,
+    /// A mean of magnitudes: the mean deviation.
+    Mean,
+}
+
+impl Bound {
+    /// Replace the figure's trial value in `trial` by `reported + bound`,
+    /// the bound from the trial's `deviations` (|trial value − reported
+    /// value| of each value); nothing when the figure is not reported.
+    pub fn apply(
+        &self,
+        nominal: &BTreeMap<String, f64>,
+        deviations: &[f64],
+        trial: &mut BTreeMap<String, f64>,
+    ) {
+        let Some(reported) = nominal.get(&self.figure) else {
+            return;
+        };
+        let devs = self.over.iter().filter_map(|&i| deviations.get(i).copied());
+        let bound = match self.kind {
+            BoundKind::Largest => devs.fold(0.0, f64::max),
+            BoundKind::Mean => {
+                let (sum, n) = devs.fold((0.0, 0usize), |(s, n), d| (s + d, n + 1));
+                if n == 0 { 0.0 } else { sum / n as f64 }
+            }
+        };
+        trial.insert(self.figure.clone(), reported + bound);
+    }
+}
+
+/// The trial value of a root mean square `R` whose re-run gave `T`: noise
+/// adds its variance to the mean square (`E[rms(t + n)²] = rms(t)² + σ̄²`),
+/// a bias re-drawing adds once more, so the trial's draw of the truth is
+/// the reflection `√max(0, 2R² − T²)` (the basic bootstrap on the mean
+/// square, whose bias is additive); `|draw − R|` then holds the bias that
+/// `|T − R|` would hold only in part where the noise is comparable with R.
+pub fn reflected_rms(reported: f64, trial: f64) -> f64 {
+    (2.0 * reported * reported - trial * trial).max(0.0).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `n` standard normal deviates of the streams of `seed`.
+    fn normals(seed: u64, n: usize) -> Vec<f64> {
+        let out = std::sync::Mutex::new(vec![0.0; n]);
+        let options = Propagation { trials: n, seed };
+        montecarlo::propagate(&BTreeMap::new(), &["z"], options, |t| {
+            let z = t.draws(0)?.normal();
+            if let Ok(mut o) = out.lock() {
+                o[t.index()] = z;
+            }
+            None
+        });
+        out.into_inner().unwrap_or_default()
+    }
+
+    fn model<'a>(sources: &'a [(&'a str, String)], headline: &'a [String]) -> Model<'a> {
+        Model {
+            method: "test",
+            sources,
+            not_included: &[],
+            headline,
+        }
+    }
+
+    /// 48 values sharing one true value 1.0 with noise σ = 0.1: the
+    /// maximum is biased by ≈ 2.3σ; re-drawing about the measured values
+    /// alone covers the truth rarely, the bound in ≥ 90 % of campaigns.
+    #[test]
+    fn the_bound_covers_a_maximum_over_tied_values() {
+        let sigma = 0.1;
+        let noise = TypeA {
+            sd: sigma,
+            dof: 1000,
+        };
+        let options = Propagation {
+            trials: 200,
+            seed: 5,
+        };
+        let sources = [("noise", String::from("the values' noise"))];
+        let headline = [String::from("max")];
+        let model = model(&sources, &headline);
+        let max = |v: &[f64]| v.iter().fold(f64::MIN, |m, x| m.max(*x));
+        let bound = Bound {
+            figure: "max".into(),
+            over: (0..48).collect(),
+            kind: BoundKind::Largest,
+        };
+        let (mut naive, mut bounded) = (0, 0);
+        let campaigns = 40;
+        for c in 0..campaigns {
+            let measured: Vec<f64> = normals(100 + c, 48)
+                .iter()
+                .map(|z| 1.0 + sigma * z)
+                .collect();
+            let nominal = BTreeMap::from([("max".to_string(), max(&measured))]);
+            for (with_bound, count) in [(false, &mut naive), (true, &mut bounded)] {
+                let u = propagate(&nominal, &model, options, |t| {
+                    let sd = noise.shared_sd(t, 1)?;
+                    let d = t.draws(0)?;
+                    let trial: Vec<f64> = measured.iter().map(|m| m + d.gaussian(sd)).collect();
+                    let mut f = BTreeMap::from([("max".to_string(), max(&trial))]);
+                    if with_bound {
+                        let dev: Vec<f64> = trial
+                            .iter()
+                            .zip(&measured)
+                            .map(|(a, b)| (a - b).abs())
+                            .collect();
+                        bound.apply(&nominal, &dev, &mut f);
+                    }
+                    Some(f)
+                });
+                if (nominal["max"] - 1.0).abs() <= u.of("max").unwrap_or(0.0) {
+                    *count += 1;
+                }
+            }
+        }
+        assert!(naive < campaigns / 2, "naive {naive}/{campaigns}");
+        assert!(bounded >= campaigns * 9 / 10, "bound {bounded}/{campaigns}");
+    }
+
+    /// 95 % quantiles of |t₃| = 3.18 and of |N(0, 1)| = 1.96.
+    #[test]
+    fn t_scaling_widens_a_noise_known_from_few_residuals() {
+        let quantile = |dof: usize| {
+            let noise = TypeA { sd: 1.0, dof };
+            let nominal = BTreeMap::from([("y".to_string(), 0.0)]);
+            let sources = [("noise", String::new())];
+            let options = Propagation {
+                trials: 20_000,
+                seed: 3,
+            };
+            let u = propagate(&nominal, &model(&sources, &[]), options, |t| {
+                let sd = noise.shared_sd(t, 1)?;
+                Some(BTreeMap::from([(
+                    "y".to_string(),
+                    t.draws(0)?.gaussian(sd),
+                )]))
+            });
+            u.of("y").unwrap_or(f64::NAN)
+        };
+        assert!((quantile(3) - 3.18).abs() < 0.25, "{}", quantile(3));
+        assert!((quantile(3000) - 1.96).abs() < 0.08, "{}", quantile(3000));
+        let s = TypeA::from_sum_of_squares(8.0, 2, 2.0).unwrap();
+        assert!((s.sd - 2.0_f64.sqrt()).abs() < 1e-15);
+        assert!(TypeA::from_sum_of_squares(1.0, 0, 1.0).is_none());
+    }
+}
