@@ -130,6 +130,9 @@ fn campaign(dir: &Path, spec: &Spec) -> (Value, Value) {
         s(&f("calib/dark_cam1.tif")),
         s(&f("calib/dark_cam2.tif")),
         s(&f("calib/dark_cam3.tif")),
+        // The renderer's target is exact.
+        "--target-uncertainty-um",
+        "0",
         "--out",
         s(&rig),
     ]));
@@ -280,8 +283,10 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// The must-hold coverage over 20 campaigns.
+/// The must-hold coverage over 20 campaigns (≈ minutes: run with
+/// `cargo test --release --test uncertainty -- --ignored --nocapture`).
 #[test]
+#[ignore = "20 rendered campaigns; the coverage experiment of docs/uncertainty.md"]
 fn the_true_figures_lie_within_the_expanded_uncertainty() {
     let tmp = tempfile::tempdir().unwrap();
     let mut all: Vec<Figure> = Vec::new();
@@ -347,6 +352,7 @@ fn the_true_figures_lie_within_the_expanded_uncertainty() {
 /// Noisier images give a larger U; a calibration from fewer markers a
 /// larger calibration share.
 #[test]
+#[ignore = "three rendered campaigns; run with the coverage experiment"]
 fn the_budget_follows_the_physics() {
     let tmp = tempfile::tempdir().unwrap();
     let run = |name: &str, spec: Spec| {
