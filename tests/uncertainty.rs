@@ -53,7 +53,7 @@ fn config(spec: &Spec) -> String {
     for (i, cam) in cams.iter_mut().enumerate() {
         let t = cam.as_table_mut().unwrap();
         let turn = |x: &toml::Value, k: usize| {
-            let sign = if (spec.seed as usize + i + k) % 3 == 0 {
+            let sign = if (spec.seed as usize + i + k).is_multiple_of(3) {
                 -1.0
             } else {
                 1.0

@@ -19,14 +19,15 @@ use std::collections::{BTreeMap, HashMap};
 
 use formats::uncertainty::{BudgetEntry, FigureKeys, Propagated, Uncertainty, figures};
 use formats::{CameraCovariance, InstantKey, ObservationRow, PointRow};
-use geom::montecarlo::{
-    COVERAGE_FACTOR, CovarianceRoot, Propagation, Trial, propagate as monte_carlo,
-};
+use geom::montecarlo::{COVERAGE_FACTOR, CovarianceRoot, Trial, propagate as monte_carlo};
 use geom::nalgebra::DMatrix;
 use geom::triangulate::{View, triangulate};
 use geom::{Camera, Point2, Point3, Vector2};
 
 use crate::{Options, Report, evaluate};
+
+/// The Monte Carlo's settings, as the command sets them.
+pub use geom::montecarlo::{DEFAULT_TRIALS, Propagation};
 
 /// Which numbers of `report.json` are figures: µm and µrad, not the
 /// per-target tables nor the rigid fits' residual.

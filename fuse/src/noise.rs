@@ -81,6 +81,9 @@ fn repeat_pairs(plans: &[InstantPlan], camera: u8) -> Vec<(&std::path::Path, &st
         .collect()
 }
 
+/// A frame read into memory: pixels, width, height, bit depth, exposure (s).
+type OwnedFrame = (Vec<u16>, u32, u32, u8, Option<f64>);
+
 /// K from pairs of repeated captures of `camera`, read with `max_pixels`.
 fn from_repeats(plans: &[InstantPlan], camera: u8, max_pixels: u64) -> CameraNoise {
     let unknown = |why: String| CameraNoise {
@@ -96,7 +99,7 @@ fn from_repeats(plans: &[InstantPlan], camera: u8, max_pixels: u64) -> CameraNoi
         );
     }
     let mut reader = FrameReader::new().limit_pixels(max_pixels);
-    let mut frames: Vec<(Vec<u16>, u32, u32, u8, Option<f64>)> = Vec::new();
+    let mut frames: Vec<OwnedFrame> = Vec::new();
     for path in pairs.iter().flat_map(|(a, b)| [*a, *b]) {
         match reader.read(path) {
             Ok((f, meta)) => frames.push((
@@ -109,7 +112,7 @@ fn from_repeats(plans: &[InstantPlan], camera: u8, max_pixels: u64) -> CameraNoi
             Err(e) => return unknown(format!("repeated captures cannot be read: {e}")),
         }
     }
-    fn view(f: &(Vec<u16>, u32, u32, u8, Option<f64>)) -> sensor::Frame<'_> {
+    fn view(f: &OwnedFrame) -> sensor::Frame<'_> {
         sensor::Frame {
             values: &f.0,
             width: f.1,

@@ -10,13 +10,13 @@
 
 mod tally_common;
 
-use tally_common::{Tally, assert_unchanged, unit};
 use formats::probe::indexing::IndexingTruth;
 use formats::probe::indexing::report::FIGURES;
 use geom::montecarlo::Propagation;
 use probe::indexing::uncertainty::propagate;
 use probe::indexing::{Options, Position, report, solve};
 use synth::probe::indexing::{AErrors, BErrors, Generated, IndexingConfig, generate};
+use tally_common::{Tally, assert_unchanged, unit};
 
 /// Campaigns, each with its own seed, noise, grid, head and errors.
 const CAMPAIGNS: u64 = 24;

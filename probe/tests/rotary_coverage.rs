@@ -11,7 +11,6 @@
 
 mod tally_common;
 
-use tally_common::{Tally, assert_unchanged};
 use formats::probe::rotary::CentreRow;
 use formats::probe::rotary::RotaryTruth;
 use geom::montecarlo::Propagation;
@@ -20,6 +19,7 @@ use probe::rotary::{Measurement, NAMES, solve};
 use synth::probe::rotary::{
     BallConfig, Harmonic, LocationConfig, RotaryConfig, RotaryData, generate,
 };
+use tally_common::{Tally, assert_unchanged};
 
 /// Campaigns, each with its own seed, noise, step, layout and errors.
 const CAMPAIGNS: u64 = 30;

@@ -40,7 +40,7 @@ pub struct Args {
     #[arg(long)]
     observations: Option<PathBuf>,
     /// Monte Carlo trials of the uncertainty (0: figures without U).
-    #[arg(long, default_value_t = geom::montecarlo::DEFAULT_TRIALS)]
+    #[arg(long, default_value_t = evaluate::uncertainty::DEFAULT_TRIALS)]
     trials: usize,
     /// Seed of the Monte Carlo draws (the same seed gives the same U).
     #[arg(long, default_value_t = 1)]
@@ -100,7 +100,7 @@ fn uncertainty(
             covariance: &covariance,
         },
         options,
-        geom::montecarlo::Propagation {
+        evaluate::uncertainty::Propagation {
             trials: args.trials,
             seed: args.seed,
         },
