@@ -29,7 +29,9 @@ const TRIALS: &str = "200";
 struct Spec {
     seed: u64,
     /// The spheres' radiance relative to the seed's (a noise level: the
-    /// centroid noise goes as 1/√radiance).
+    /// centroid noise goes as 1/√radiance). At most ≈ 1.3: the seed's
+    /// spheres fill ¾ of the 16-bit range, and saturated spheres hide the
+    /// noise's rise with the signal that the noise model is found from.
     radiance: f64,
     /// Scale of the cameras' mounting and lens errors (a rig perturbation).
     rig: f64,
@@ -293,7 +295,7 @@ fn the_true_figures_lie_within_the_expanded_uncertainty() {
     for i in 0..20u64 {
         let spec = Spec {
             seed: 100 + i,
-            radiance: [1.0, 0.5, 0.25, 2.0][i as usize % 4],
+            radiance: [1.0, 0.5, 0.25, 0.7][i as usize % 4],
             rig: [1.0, 0.5, 1.5][i as usize % 3],
             marker_stride: 1,
         };
@@ -301,7 +303,11 @@ fn the_true_figures_lie_within_the_expanded_uncertainty() {
         std::fs::create_dir_all(&dir).unwrap();
         let (report, truth) = campaign(&dir, &spec);
         let f = figures(&report, &truth);
-        assert!(!f.is_empty(), "campaign {i}: no figure with U");
+        assert!(
+            !f.is_empty(),
+            "campaign {i}: no figure with U: {}",
+            report["uncertainty"]
+        );
         all.extend(f);
     }
     let mut kinds: BTreeMap<String, Vec<&Figure>> = BTreeMap::new();

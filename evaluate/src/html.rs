@@ -26,10 +26,10 @@ pub fn render(report: &Report) -> Result<String> {
     summary(&mut h, report);
     uncertainty_section(&mut h, report);
     for (axis, a) in report.axes.iter() {
-        axis_section(&mut h, axis.name(), a)?;
+        axis_section(&mut h, report, axis.name(), a)?;
     }
     if let Some(f) = &report.flatness {
-        flatness_section(&mut h, f)?;
+        flatness_section(&mut h, report, f)?;
     }
     h.notes("Warnings", &report.warnings, true);
     h.notes("Conventions", &report.conventions, false);
@@ -214,8 +214,16 @@ fn off_axis(l: &LineReport) -> String {
     format!("{} mm", parts.join(", "))
 }
 
-fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
+/// U of the figures under `prefix` (`axes.X`, `axes.X.lines.2`), by their
+/// key below it (`positioning.A_um`).
+fn expanded_under<'a>(report: &'a Report, prefix: &str) -> impl Fn(&str) -> Option<f64> + 'a {
+    let prefix = prefix.to_string();
+    move |key| report.expanded(&format!("{prefix}.{key}"))
+}
+
+fn axis_section(h: &mut Page, report: &Report, name: &str, a: &AxisReport) -> Result<()> {
     let l = &a.main;
+    let main_u = expanded_under(report, &format!("axes.{name}"));
     let _ = write!(
         h,
         "<h2 id=\"axis-{name}\">{name} axis</h2>\n<p class=\"meta\">Line at {} · {} targets · {} ↑ runs, {} ↓ runs · \
@@ -239,14 +247,16 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
             &plot::positioning(&title, &l.positioning)?,
             "Dots: the deviation of every run (captures averaged); solid: mean per direction; dashed: mean ± 2s.",
         );
-        positioning_tables(h, &l.positioning);
+        positioning_tables(h, &l.positioning, &main_u);
     }
 
     h.raw("<h3>Straightness</h3>\n");
     for (dir, s) in &l.straightness {
+        let u = |k: &str| main_u(&format!("straightness.{dir}.{k}"));
         let title = format!(
-            "{name} axis — straightness in {dir}: LSQ {:.3} µm, min zone {:.3} µm",
-            s.lsq_um, s.min_zone_um
+            "{name} axis — straightness in {dir}: LSQ {} µm, min zone {} µm",
+            num_u(Some(s.lsq_um), u("lsq_um")),
+            num_u(Some(s.min_zone_um), u("min_zone_um"))
         );
         h.figure(
             &format!("plot-{name}-straightness-{dir}"),
@@ -270,8 +280,10 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
         let _ = writeln!(
             h,
             "<table><tr><th class=\"l\">range (µrad)</th><th>roll</th><th>pitch</th><th>yaw</th></tr>\
-             <tr><td class=\"l\">{name} axis</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr></table>",
-            ang.roll_urad, ang.pitch_urad, ang.yaw_urad
+             <tr><td class=\"l\">{name} axis</td><td>{}</td><td>{}</td><td>{}</td></tr></table>",
+            num_u(Some(ang.roll_urad), main_u("angular.roll_urad")),
+            num_u(Some(ang.pitch_urad), main_u("angular.pitch_urad")),
+            num_u(Some(ang.yaw_urad), main_u("angular.yaw_urad"))
         );
     }
     if a.lines.len() > 1 {
@@ -288,6 +300,7 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
         let mut partial = Vec::new();
         for line in &a.lines {
             let p = &line.positioning;
+            let u = expanded_under(report, &format!("axes.{name}.lines.{}", line.line));
             let _ = write!(
                 h,
                 "<tr><td class=\"l\">{}{}</td><td class=\"l\">{}</td><td>{}</td>",
@@ -307,14 +320,15 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
                 }
                 _ => {
                     let [a, e, r] = p.shown_a_e_r();
+                    let pu = |k: &str| u(&format!("positioning.{k}"));
                     let _ = write!(
                         h,
                         "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
-                        num(a),
-                        num(e),
-                        num(p.m_um),
-                        num(r),
-                        num(p.b_um),
+                        num_u(a.0, pu(a.1)),
+                        num_u(e.0, pu(e.1)),
+                        num_u(p.m_um, pu("M_um")),
+                        num_u(r.0, pu(r.1)),
+                        num_u(p.b_um, pu("B_um")),
                     );
                     if let Some(reason) = &p.left_out {
                         partial.push(format!("line {}: {reason}", line.line));
@@ -324,7 +338,13 @@ fn axis_section(h: &mut Page, name: &str, a: &AxisReport) -> Result<()> {
             for d in &dirs {
                 match line.straightness.get(*d) {
                     Some(s) => {
-                        let _ = write!(h, "<td>{:.3} / {:.3}</td>", s.lsq_um, s.min_zone_um);
+                        let su = |k: &str| u(&format!("straightness.{d}.{k}"));
+                        let _ = write!(
+                            h,
+                            "<td>{} / {}</td>",
+                            num_u(Some(s.lsq_um), su("lsq_um")),
+                            num_u(Some(s.min_zone_um), su("min_zone_um"))
+                        );
                     }
                     None => {
                         h.raw("<td>—</td>");
@@ -350,50 +370,60 @@ fn has_iso(p: &PositioningReport) -> bool {
     p.a_up_um.is_some() || p.a_down_um.is_some()
 }
 
-fn positioning_tables(h: &mut Page, p: &PositioningReport) {
+/// The ISO 230-2 and VDI/DGQ 3441 tables of a line, its figures ± U (`u`:
+/// U by the key under the line) and the per-target statistics.
+fn positioning_tables(h: &mut Page, p: &PositioningReport, u: &dyn Fn(&str) -> Option<f64>) {
+    let pu = |k: &str| u(&format!("positioning.{k}"));
     h.raw(
         "<table><tr><th class=\"l\">ISO 230-2 (µm)</th><th>bidirectional</th><th>↑</th><th>↓</th></tr>\n",
     );
-    type Row<'a> = (&'a str, Option<f64>, Option<f64>, Option<f64>);
+    // (label, figure key, bidirectional, ↑, ↓)
+    type Row<'a> = (&'a str, &'a str, Option<f64>, Option<f64>, Option<f64>);
     let rows: [Row<'_>; 4] = [
-        ("A — accuracy", p.a_um, p.a_up_um, p.a_down_um),
+        ("A — accuracy", "A", p.a_um, p.a_up_um, p.a_down_um),
         (
             "E — systematic positional deviation",
+            "E",
             p.e_um,
             p.e_up_um,
             p.e_down_um,
         ),
-        ("R — repeatability", p.r_um, p.r_up_um, p.r_down_um),
+        ("R — repeatability", "R", p.r_um, p.r_up_um, p.r_down_um),
         (
             "M — mean bidirectional positional deviation",
+            "M",
             p.m_um,
             None,
             None,
         ),
     ];
-    for (label, b, u, d) in rows {
+    for (label, key, both, up, down) in rows {
         let _ = writeln!(
             h,
             "<tr><td class=\"l\">{label}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            num(b),
-            num(u),
-            num(d)
+            num_u(both, pu(&format!("{key}_um"))),
+            num_u(up, pu(&format!("{key}_up_um"))),
+            num_u(down, pu(&format!("{key}_down_um")))
         );
     }
     let _ = writeln!(
         h,
         "<tr><td class=\"l\">B — reversal value (B̄ mean)</td><td>{} ({})</td><td></td><td></td></tr>\n\
          <tr><td class=\"l\">seed figure max(x̄+3s) − min(x̄−3s)</td><td>{}</td><td></td><td></td></tr>\n</table>",
-        num(p.b_um),
-        num(p.b_mean_um),
-        num(p.seed_3sigma_um)
+        num_u(p.b_um, pu("B_um")),
+        num_u(p.b_mean_um, pu("B_mean_um")),
+        num_u(p.seed_3sigma_um, pu("seed_3sigma_um"))
     );
     if let Some(v) = &p.vdi3441 {
         let _ = writeln!(
             h,
             "<table><tr><th class=\"l\">VDI/DGQ 3441 (µm)</th><th>P</th><th>Ps</th><th>U</th><th>Ū</th><th>Pa</th></tr>\
-             <tr><td class=\"l\">figures</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr></table>",
-            v.p_um, v.ps_um, v.u_um, v.u_mean_um, v.pa_um
+             <tr><td class=\"l\">figures</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>",
+            num_u(Some(v.p_um), pu("vdi3441.P_um")),
+            num_u(Some(v.ps_um), pu("vdi3441.Ps_um")),
+            num_u(Some(v.u_um), pu("vdi3441.U_um")),
+            num_u(Some(v.u_mean_um), pu("vdi3441.U_mean_um")),
+            num_u(Some(v.pa_um), pu("vdi3441.Pa_um"))
         );
     }
     h.raw(
@@ -420,12 +450,11 @@ fn positioning_tables(h: &mut Page, p: &PositioningReport) {
     h.raw("</table>\n");
 }
 
-fn flatness_section(h: &mut Page, f: &FlatnessReport) -> Result<()> {
+fn flatness_section(h: &mut Page, report: &Report, f: &FlatnessReport) -> Result<()> {
     h.raw("<h2 id=\"flatness\">Flatness</h2>\n");
-    let title = format!(
-        "Flatness: LSQ {:.3} µm, min zone {:.3} µm",
-        f.lsq_um, f.min_zone_um
-    );
+    let lsq = num_u(Some(f.lsq_um), report.expanded("flatness.lsq_um"));
+    let min_zone = num_u(Some(f.min_zone_um), report.expanded("flatness.min_zone_um"));
+    let title = format!("Flatness: LSQ {lsq} µm, min zone {min_zone} µm");
     h.figure(
         "plot-flatness",
         &plot::flatness(&title, f)?,
@@ -438,9 +467,7 @@ fn flatness_section(h: &mut Page, f: &FlatnessReport) -> Result<()> {
     let _ = writeln!(
         h,
         "<table><tr><th class=\"l\">flatness (µm)</th><th>least squares</th><th>minimum zone</th><th>points</th></tr>\
-         <tr><td class=\"l\">X and Y lines</td><td>{:.3}</td><td>{:.3}</td><td>{}</td></tr></table>",
-        f.lsq_um,
-        f.min_zone_um,
+         <tr><td class=\"l\">X and Y lines</td><td>{lsq}</td><td>{min_zone}</td><td>{}</td></tr></table>",
         f.points.len()
     );
     Ok(())

@@ -183,13 +183,39 @@ pub struct PositioningReport {
 }
 
 impl PositioningReport {
-    /// A, E and R as a summary shows them: the bidirectional figure, else
-    /// that of the one direction ISO 230-2 could evaluate (↑ before ↓).
-    pub fn shown_a_e_r(&self) -> [Option<f64>; 3] {
+    /// A, E and R as a summary shows them, each with its report key: the
+    /// bidirectional figure, else that of the one direction ISO 230-2 could
+    /// evaluate (↑ before ↓).
+    pub fn shown_a_e_r(&self) -> [(Option<f64>, &'static str); 3] {
+        let pick = |both: Option<f64>,
+                    up: Option<f64>,
+                    down: Option<f64>,
+                    keys: [&'static str; 3]| {
+            match (both, up) {
+                (Some(v), _) => (Some(v), keys[0]),
+                (None, Some(v)) => (Some(v), keys[1]),
+                (None, None) => (down, if down.is_some() { keys[2] } else { keys[0] }),
+            }
+        };
         [
-            self.a_um.or(self.a_up_um).or(self.a_down_um),
-            self.e_um.or(self.e_up_um).or(self.e_down_um),
-            self.r_um.or(self.r_up_um).or(self.r_down_um),
+            pick(
+                self.a_um,
+                self.a_up_um,
+                self.a_down_um,
+                ["A_um", "A_up_um", "A_down_um"],
+            ),
+            pick(
+                self.e_um,
+                self.e_up_um,
+                self.e_down_um,
+                ["E_um", "E_up_um", "E_down_um"],
+            ),
+            pick(
+                self.r_um,
+                self.r_up_um,
+                self.r_down_um,
+                ["R_um", "R_up_um", "R_down_um"],
+            ),
         ]
     }
 }

@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 
 use crate::cmd::Usage;
+use report::num_u;
 
 /// Arguments of `trinocular evaluate`.
 #[derive(Debug, clap::Args)]
@@ -107,34 +108,6 @@ fn uncertainty(
     ))
 }
 
-/// `v ± U` (3 decimals), `v` alone without U, `—` without a value.
-fn shown(v: Option<f64>, u: Option<f64>) -> String {
-    match (v, u) {
-        (Some(v), Some(u)) => format!("{v:.3} ± {u:.3}"),
-        (Some(v), None) => format!("{v:.3}"),
-        (None, _) => "—".into(),
-    }
-}
-
-/// The report keys of the A, E and R a summary shows
-/// ([`formats::evaluation::PositioningReport::shown_a_e_r`]).
-fn shown_keys(p: &formats::evaluation::PositioningReport) -> [&'static str; 3] {
-    let pick = |bi: Option<f64>, up: Option<f64>, keys: [&'static str; 3]| {
-        if bi.is_some() {
-            keys[0]
-        } else if up.is_some() {
-            keys[1]
-        } else {
-            keys[2]
-        }
-    };
-    [
-        pick(p.a_um, p.a_up_um, ["A_um", "A_up_um", "A_down_um"]),
-        pick(p.e_um, p.e_up_um, ["E_um", "E_up_um", "E_down_um"]),
-        pick(p.r_um, p.r_up_um, ["R_um", "R_up_um", "R_down_um"]),
-    ]
-}
-
 /// Run the evaluation and write the report.
 pub fn run(args: &Args) -> Result<()> {
     let options = evaluate::Options {
@@ -158,40 +131,39 @@ pub fn run(args: &Args) -> Result<()> {
     for (axis, a) in report.axes.iter() {
         let p = &a.main.positioning;
         let at = |key: &str| format!("axes.{}.positioning.{key}", axis.name());
-        let [shown_a, shown_e, shown_r] = p.shown_a_e_r();
-        let [key_a, key_e, key_r] = shown_keys(p);
+        let [(shown_a, key_a), (shown_e, key_e), (shown_r, key_r)] = p.shown_a_e_r();
         println!(
             "{axis}: A {} µm, E {} µm, M {} µm, R {} µm, B {} µm, seed 3σ {} µm",
-            shown(shown_a, u(at(key_a))),
-            shown(shown_e, u(at(key_e))),
-            shown(p.m_um, u(at("M_um"))),
-            shown(shown_r, u(at(key_r))),
-            shown(p.b_um, u(at("B_um"))),
-            shown(p.seed_3sigma_um, u(at("seed_3sigma_um")))
+            num_u(shown_a, u(at(key_a))),
+            num_u(shown_e, u(at(key_e))),
+            num_u(p.m_um, u(at("M_um"))),
+            num_u(shown_r, u(at(key_r))),
+            num_u(p.b_um, u(at("B_um"))),
+            num_u(p.seed_3sigma_um, u(at("seed_3sigma_um")))
         );
         for (dir, s) in &a.main.straightness {
             let at = |key: &str| format!("axes.{}.straightness.{dir}.{key}", axis.name());
             println!(
                 "{axis}: straightness in {dir}: LSQ {} µm, min zone {} µm",
-                shown(Some(s.lsq_um), u(at("lsq_um"))),
-                shown(Some(s.min_zone_um), u(at("min_zone_um")))
+                num_u(Some(s.lsq_um), u(at("lsq_um"))),
+                num_u(Some(s.min_zone_um), u(at("min_zone_um")))
             );
         }
         if let Some(ang) = &a.main.angular {
             let at = |key: &str| format!("axes.{}.angular.{key}", axis.name());
             println!(
                 "{axis}: roll {} µrad, pitch {} µrad, yaw {} µrad (ranges)",
-                shown(Some(ang.roll_urad), u(at("roll_urad"))),
-                shown(Some(ang.pitch_urad), u(at("pitch_urad"))),
-                shown(Some(ang.yaw_urad), u(at("yaw_urad")))
+                num_u(Some(ang.roll_urad), u(at("roll_urad"))),
+                num_u(Some(ang.pitch_urad), u(at("pitch_urad"))),
+                num_u(Some(ang.yaw_urad), u(at("yaw_urad")))
             );
         }
     }
     if let Some(f) = &report.flatness {
         println!(
             "flatness: LSQ {} µm, min zone {} µm",
-            shown(Some(f.lsq_um), u("flatness.lsq_um".into())),
-            shown(Some(f.min_zone_um), u("flatness.min_zone_um".into()))
+            num_u(Some(f.lsq_um), u("flatness.lsq_um".into())),
+            num_u(Some(f.min_zone_um), u("flatness.min_zone_um".into()))
         );
     }
     match &report.uncertainty {
