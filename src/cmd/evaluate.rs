@@ -8,6 +8,8 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+/// A figure as `v ± U` (U with two significant digits), `v` alone without U, `—` without a value.
+use report::num_u as shown;
 
 use crate::cmd::Usage;
 
@@ -57,7 +59,7 @@ fn uncertainty(
     use formats::uncertainty::Uncertainty;
     let not_given = |reason: String| Ok(Uncertainty::NotGiven { reason });
     if args.trials == 0 {
-        return not_given("the propagation was turned off (--trials 0)".into());
+        return not_given(formats::uncertainty::TRIALS_OFF.into());
     }
     let observations = args
         .observations
@@ -105,15 +107,6 @@ fn uncertainty(
             seed: args.seed,
         },
     ))
-}
-
-/// `v ± U` (3 decimals), `v` alone without U, `—` without a value.
-fn shown(v: Option<f64>, u: Option<f64>) -> String {
-    match (v, u) {
-        (Some(v), Some(u)) => format!("{v:.3} ± {u:.3}"),
-        (Some(v), None) => format!("{v:.3}"),
-        (None, _) => "—".into(),
-    }
 }
 
 /// The report keys of the A, E and R a summary shows
