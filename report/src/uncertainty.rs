@@ -17,13 +17,19 @@ pub fn significant(u: f64) -> String {
     format!("{u:.decimals$}")
 }
 
-/// The decimals that give `u` two significant digits (0 when `u` is not
-/// finite and positive).
+/// The decimals that give `u` two significant digits once rounded (a `u`
+/// that rounds up to the next power of ten, 0.99996 → 1.0, one fewer); 0
+/// when `u` is not finite and positive.
 fn decimals(u: f64) -> usize {
-    if u.is_finite() && u > 0.0 {
-        (1 - u.log10().floor() as i32).max(0) as usize
+    if !(u.is_finite() && u > 0.0) {
+        return 0;
+    }
+    let d = (1 - u.log10().floor() as i32).max(0) as usize;
+    let rounded: f64 = format!("{u:.d$}").parse().unwrap_or(u);
+    if d > 0 && rounded >= 10f64.powi(2 - d as i32) {
+        d - 1
     } else {
-        0
+        d
     }
 }
 
@@ -152,6 +158,9 @@ mod tests {
         assert_eq!(significant(1.234), "1.2");
         assert_eq!(significant(12.34), "12");
         assert_eq!(significant(0.0), "0");
+        assert_eq!(significant(0.99996), "1.0");
+        assert_eq!(significant(9.97), "10");
+        assert_eq!(significant(0.0999), "0.10");
         assert_eq!(plus_minus(3.0, None, 3), "3.000");
         assert_eq!(plus_minus(3.0, Some(0.04567), 3), "3.000 ± 0.046");
         assert_eq!(num_u(None, Some(1.0)), "—");
