@@ -24,7 +24,7 @@ pub fn render(report: &Report) -> Result<String> {
         escape(&report.sphere),
     ));
     summary(&mut h, report);
-    uncertainty_section(&mut h, report);
+    ::report::uncertainty::section(&mut h, report.uncertainty.as_ref());
     for (axis, a) in report.axes.iter() {
         axis_section(&mut h, report, axis.name(), a)?;
     }
@@ -145,63 +145,6 @@ fn summary(h: &mut Page, report: &Report) {
         );
     }
     h.raw("</table>\n");
-}
-
-/// The figures' uncertainty: how U was found and the budget of the
-/// headline figures, or why the figures carry none.
-fn uncertainty_section(h: &mut Page, report: &Report) {
-    use formats::uncertainty::Uncertainty;
-    match &report.uncertainty {
-        None => {}
-        Some(Uncertainty::NotGiven { reason }) => {
-            let _ = writeln!(
-                h,
-                "<h2 id=\"uncertainty\">Uncertainty</h2>\n<p class=\"warn\">The figures carry no \
-                 uncertainty: {}.</p>",
-                escape(reason)
-            );
-        }
-        Some(Uncertainty::Given(p)) => {
-            let _ = writeln!(
-                h,
-                "<h2 id=\"uncertainty\">Uncertainty</h2>\n<p class=\"meta\">Figures are shown as value ± U \
-                 (expanded uncertainty, k = {}): {} · {} trials, seed {}{}</p>",
-                p.k,
-                escape(&p.method),
-                p.trials,
-                p.seed,
-                if p.failed_trials > 0 {
-                    format!(" · {} trials failed and were left out", p.failed_trials)
-                } else {
-                    String::new()
-                }
-            );
-            let sources: Vec<&String> = p.sources.keys().collect();
-            h.raw("<table id=\"budget\">\n<tr><th class=\"l\">figure (µm / µrad)</th><th>value</th><th>U (k = 2)</th>");
-            for s in &sources {
-                let _ = write!(h, "<th>u {} alone</th>", escape(s));
-            }
-            h.raw("</tr>\n");
-            for b in &p.budget {
-                let _ = write!(
-                    h,
-                    "<tr><td class=\"l\">{}</td><td>{:.3}</td><td>{:.3}</td>",
-                    escape(&b.figure),
-                    b.value,
-                    b.expanded
-                );
-                for s in &sources {
-                    let _ = write!(h, "<td>{}</td>", num(b.contributions.get(*s).copied()));
-                }
-                h.raw("</tr>\n");
-            }
-            h.raw("</table>\n");
-            let mut notes: Vec<String> =
-                p.sources.iter().map(|(k, v)| format!("{k}: {v}")).collect();
-            notes.extend(p.not_included.iter().map(|n| format!("not included: {n}")));
-            h.notes("Sources of uncertainty", &notes, false);
-        }
-    }
 }
 
 /// `y = 0, z = 0 mm` for a line's off-axis coordinates.

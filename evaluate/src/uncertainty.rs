@@ -17,7 +17,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use formats::uncertainty::{BudgetEntry, FigureKeys, Propagated, Uncertainty, figures};
+use formats::uncertainty::{FigureKeys, Source, Statement, TRIALS_OFF, Uncertainty, figures};
 use formats::{CameraCovariance, InstantKey, ObservationRow, PointRow};
 use geom::montecarlo::{COVERAGE_FACTOR, CovarianceRoot, Trial, propagate as monte_carlo};
 use geom::nalgebra::DMatrix;
@@ -113,7 +113,7 @@ pub fn propagate(
     propagation: Propagation,
 ) -> Uncertainty {
     if propagation.trials == 0 {
-        return not_given("the propagation was turned off (--trials 0)");
+        return not_given(TRIALS_OFF);
     }
     let cameras = match camera_draws(instrument) {
         Ok(c) => c,
@@ -137,61 +137,40 @@ pub fn propagate(
         let r = evaluate(&rows, options).ok()?;
         figures(&r, &FIGURE_KEYS).ok()
     });
-    let budget = nominal
-        .iter()
-        .filter(|(path, _)| headline(path))
-        .filter_map(|(path, &value)| {
-            let u = *result.expanded.get(path)?;
-            let contributions = result
-                .contributions
-                .iter()
-                .filter_map(|(s, by)| by.get(path).map(|&c| (s.clone(), c)))
-                .collect();
-            Some(BudgetEntry {
-                figure: path.clone(),
-                value,
-                expanded: u,
-                contributions,
-            })
-        })
-        .collect();
-    let mut source_notes = BTreeMap::from([
-        (
-            SOURCES[CENTROIDS].to_string(),
-            "noise of each sphere image's centre (observations.csv covariance; independent between images)"
-                .to_string(),
+    let source = |name: &'static str, description: &str| Source {
+        name,
+        description: description.to_string(),
+    };
+    let mut notes = vec![
+        source(
+            SOURCES[CENTROIDS],
+            "noise of each sphere image's centre (observations.csv covariance; independent between images)",
         ),
-        (
-            SOURCES[CALIBRATION].to_string(),
+        source(
+            SOURCES[CALIBRATION],
             "the cameras' calibrated parameters (rig.json covariance, least-squares part; one draw per camera \
-             and trial, shared by every instant)"
-                .to_string(),
+             and trial, shared by every instant)",
         ),
-    ]);
+    ];
     if with_target {
-        source_notes.insert(
-            SOURCES[TARGET].to_string(),
-            "the calibration target's marker coordinates (rig.json covariance, target part; shared by every instant)"
-                .to_string(),
-        );
+        notes.push(source(
+            SOURCES[TARGET],
+            "the calibration target's marker coordinates (rig.json covariance, target part; shared by every instant)",
+        ));
     }
-    Uncertainty::Given(Propagated {
+    let statement = Statement {
         method: format!(
             "Monte Carlo (GUM Supplement 1): U = half-width of the interval about the reported value holding 95 % \
              of the trial figures (k = {COVERAGE_FACTOR}); budget: each source alone, standard uncertainty"
         ),
-        k: COVERAGE_FACTOR,
-        trials: propagation.trials,
-        seed: propagation.seed,
-        failed_trials: result.failed,
-        sources: source_notes,
+        sources: notes,
         not_included: vec![
             "temperature: the machine's and the target's thermal expansion (no test conditions given)".into(),
             "the machine's own scatter is in the figures (R, s), not in U".into(),
         ],
-        budget,
-        expanded: result.expanded,
-    })
+        headline: nominal.keys().filter(|p| headline(p)).cloned().collect(),
+    };
+    Uncertainty::from_trials(result, &nominal, statement, propagation)
 }
 
 /// Each camera's draws; every camera must carry its covariance.

@@ -10,6 +10,7 @@
 
 use std::collections::BTreeMap;
 
+use geom::montecarlo::{self, COVERAGE_FACTOR, Propagation};
 use serde::Serialize;
 use serde_json::Value;
 
@@ -210,6 +211,105 @@ pub struct BudgetEntry {
     pub contributions: BTreeMap<String, f64>,
 }
 
+/// Why a report carries no U when no trials were asked for.
+pub const TRIALS_OFF: &str =
+    "the Monte Carlo propagation was turned off (trials = 0, --trials 0 on the command line)";
+
+/// A source of uncertainty: its name in the budget (the name of its draws
+/// in [`geom::montecarlo::propagate`]) and what is drawn, in words.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Source {
+    /// Name in the budget (`readings`, `centroids`).
+    pub name: &'static str,
+    /// What is drawn, from which distribution, in words.
+    pub description: String,
+}
+
+/// What a method states about its propagation besides the trials: how U is
+/// defined, the sources (in the order of the trials' streams), what is not
+/// included, and the headline figures (paths) that get a budget entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Statement {
+    /// How U is defined and what the trials re-run.
+    pub method: String,
+    /// The sources of uncertainty, in the order of the trials' streams.
+    pub sources: Vec<Source>,
+    /// What is not included, in words.
+    pub not_included: Vec<String>,
+    /// The headline figures (paths in the report), in the budget's order.
+    pub headline: Vec<String>,
+}
+
+impl Statement {
+    /// The sources' names, in the order of the trials' streams.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.sources.iter().map(|s| s.name).collect()
+    }
+}
+
+impl Uncertainty {
+    /// The record of a Monte Carlo run (`found`, from
+    /// [`geom::montecarlo::propagate`] of `statement`'s sources with
+    /// `options`) about the reported figures `nominal`: U of every figure,
+    /// the budget of each headline figure present (value, U, each source's
+    /// standard uncertainty alone). No U, and why, when every trial failed.
+    pub fn from_trials(
+        found: montecarlo::Propagated,
+        nominal: &BTreeMap<String, f64>,
+        statement: Statement,
+        options: Propagation,
+    ) -> Uncertainty {
+        if options.trials > 0 && found.failed >= options.trials {
+            return Uncertainty::NotGiven {
+                reason: format!(
+                    "every one of the {} Monte Carlo trials failed: the method cannot be re-run \
+                     on inputs drawn about the measured ones",
+                    options.trials
+                ),
+            };
+        }
+        let budget = statement
+            .headline
+            .iter()
+            .filter_map(|figure| budget_entry(figure, nominal, &found))
+            .collect();
+        Uncertainty::Given(Propagated {
+            method: statement.method,
+            k: COVERAGE_FACTOR,
+            trials: options.trials,
+            seed: options.seed,
+            failed_trials: found.failed,
+            sources: statement
+                .sources
+                .into_iter()
+                .map(|s| (s.name.to_string(), s.description))
+                .collect(),
+            not_included: statement.not_included,
+            budget,
+            expanded: found.expanded,
+        })
+    }
+}
+
+/// The budget of `figure`: its value in `nominal`, its U and each source's
+/// standard uncertainty in `found`; `None` when it has no value or no U.
+fn budget_entry(
+    figure: &str,
+    nominal: &BTreeMap<String, f64>,
+    found: &montecarlo::Propagated,
+) -> Option<BudgetEntry> {
+    Some(BudgetEntry {
+        figure: figure.to_string(),
+        value: *nominal.get(figure)?,
+        expanded: *found.expanded.get(figure)?,
+        contributions: found
+            .contributions
+            .iter()
+            .filter_map(|(source, u)| u.get(figure).map(|v| (source.clone(), *v)))
+            .collect(),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -272,5 +372,70 @@ mod tests {
         assert_eq!(v["lines"][0]["A_U_um"], 0.4);
         assert!(v["lines"][0].get("roll_U_urad").is_none());
         assert_eq!(v["lines"][0]["A_um"], 3.0);
+    }
+
+    fn statement(headline: &[&str]) -> Statement {
+        Statement {
+            method: "m".into(),
+            sources: vec![Source {
+                name: "noise",
+                description: "N(0, 1)".into(),
+            }],
+            not_included: vec!["heat".into()],
+            headline: headline.iter().map(|h| (*h).to_string()).collect(),
+        }
+    }
+
+    /// The budget holds the headline figures that have a value and a U, in
+    /// the statement's order; U of every figure is kept.
+    #[test]
+    fn the_budget_is_assembled_from_the_trials() {
+        let nominal = BTreeMap::from([("a_um".to_string(), 2.0), ("b_um".to_string(), 3.0)]);
+        let options = Propagation {
+            trials: 50,
+            seed: 1,
+        };
+        let found = montecarlo::propagate(&nominal, &["noise"], options, |t| {
+            let z = t.draws(0).map_or(0.0, |d| d.normal());
+            Some(BTreeMap::from([
+                ("a_um".to_string(), 2.0 + z),
+                ("b_um".to_string(), 3.0 + 0.1 * z),
+            ]))
+        });
+        let u = Uncertainty::from_trials(
+            found.clone(),
+            &nominal,
+            statement(&["b_um", "missing_um", "a_um"]),
+            options,
+        );
+        let Uncertainty::Given(p) = &u else {
+            panic!("{u:?}")
+        };
+        let figures: Vec<&str> = p.budget.iter().map(|b| b.figure.as_str()).collect();
+        assert_eq!(figures, ["b_um", "a_um"]);
+        assert_eq!(p.budget[1].value, 2.0);
+        assert_eq!(p.budget[1].expanded, found.expanded["a_um"]);
+        assert_eq!(
+            p.budget[1].contributions["noise"],
+            found.contributions["noise"]["a_um"]
+        );
+        assert_eq!(p.expanded, found.expanded);
+        assert_eq!(p.sources["noise"], "N(0, 1)");
+        assert_eq!((p.trials, p.seed, p.k), (50, 1, 2.0));
+    }
+
+    #[test]
+    fn no_u_when_every_trial_fails() {
+        let nominal = BTreeMap::from([("a_um".to_string(), 2.0)]);
+        let options = Propagation {
+            trials: 10,
+            seed: 1,
+        };
+        let found = montecarlo::propagate(&nominal, &["noise"], options, |_| None);
+        let u = Uncertainty::from_trials(found, &nominal, statement(&["a_um"]), options);
+        assert!(
+            matches!(&u, Uncertainty::NotGiven { reason } if reason.contains("every one of the 10")),
+            "{u:?}"
+        );
     }
 }

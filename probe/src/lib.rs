@@ -39,7 +39,6 @@ mod error;
 pub mod indexing;
 pub mod rotary;
 pub mod tracer;
-pub mod type_a;
 pub mod uncertainty;
 pub mod volumetric;
 

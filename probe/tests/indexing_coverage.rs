@@ -8,15 +8,15 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod tally_common;
+mod coverage_common;
 
+use coverage_common::{Case, assert_coverage, assert_unchanged, unit};
 use formats::probe::indexing::IndexingTruth;
 use formats::probe::indexing::report::FIGURES;
 use geom::montecarlo::Propagation;
 use probe::indexing::uncertainty::propagate;
 use probe::indexing::{Options, Position, report, solve};
 use synth::probe::indexing::{AErrors, BErrors, Generated, IndexingConfig, generate};
-use tally_common::{Tally, assert_unchanged, unit};
 
 /// Campaigns, each with its own seed, noise, grid, head and errors.
 const CAMPAIGNS: u64 = 24;
@@ -110,7 +110,7 @@ fn positions(g: &Generated) -> Vec<Position> {
 
 #[test]
 fn the_true_figures_lie_within_u_as_often_as_k_2_promises() {
-    let mut tally = Tally::default();
+    let mut cases = Vec::new();
     let propagation = Propagation {
         trials: 100,
         seed: 1,
@@ -138,10 +138,10 @@ fn the_true_figures_lie_within_u_as_often_as_k_2_promises() {
             let truth = true_figure(path, &g.truth, nominal)
                 .or_else(|| true_detent(path, &json, &g.truth))
                 .unwrap_or_else(|| panic!("no truth for {path}"));
-            tally.add(path, *value, truth, expanded[path]);
+            cases.push(Case::at(path, truth, *value, expanded[path]));
         }
     }
-    tally.check(CAMPAIGNS);
+    assert_coverage("indexing", &cases);
 }
 
 /// `report.json` adds `F_U_arcsec` beside the figures and changes no value.
@@ -163,7 +163,7 @@ fn report_json_adds_u_and_changes_nothing() {
         seed: 2,
     };
     r.uncertainty = Some(propagate(&positions, &solved, &r, &options, propagation));
-    let json = probe::type_a::report_json(&r, r.uncertainty.as_ref(), &FIGURES).unwrap();
+    let json = probe::uncertainty::report_json(&r, r.uncertainty.as_ref(), &FIGURES).unwrap();
     assert_unchanged(&plain, &json, "");
     for key in [
         "radius_U_mm",

@@ -9,8 +9,9 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod tally_common;
+mod coverage_common;
 
+use coverage_common::{Case, assert_coverage, assert_unchanged};
 use formats::probe::rotary::CentreRow;
 use formats::probe::rotary::RotaryTruth;
 use geom::montecarlo::Propagation;
@@ -19,14 +20,13 @@ use probe::rotary::{Measurement, NAMES, solve};
 use synth::probe::rotary::{
     BallConfig, Harmonic, LocationConfig, RotaryConfig, RotaryData, generate,
 };
-use tally_common::{Tally, assert_unchanged};
 
 /// Campaigns, each with its own seed, noise, step, layout and errors.
 const CAMPAIGNS: u64 = 30;
 
 /// A number in [−1, 1) from a campaign and a slot (deterministic).
 fn unit(campaign: u64, slot: u64) -> f64 {
-    2.0 * tally_common::unit(campaign, slot) - 1.0
+    2.0 * coverage_common::unit(campaign, slot) - 1.0
 }
 
 /// The configuration of campaign `c`.
@@ -174,7 +174,7 @@ fn inputs(config: &RotaryConfig, data: &RotaryData) -> (Vec<f64>, Centres, Point
 
 #[test]
 fn the_true_figures_lie_within_u_as_often_as_k_2_promises() {
-    let mut tally = Tally::default();
+    let mut cases = Vec::new();
     let options = Propagation {
         trials: 100,
         seed: 1,
@@ -213,10 +213,10 @@ fn the_true_figures_lie_within_u_as_often_as_k_2_promises() {
             let Some(truth) = true_figure(path, &data.truth) else {
                 continue;
             };
-            tally.add(path, *value, truth, expanded[path]);
+            cases.push(Case::at(path, truth, *value, expanded[path]));
         }
     }
-    tally.check(CAMPAIGNS);
+    assert_coverage("rotary", &cases);
 }
 
 /// `report.json` keeps every key and value of the report and adds `F_U_um`
@@ -240,7 +240,7 @@ fn report_json_adds_u_and_changes_nothing() {
     assert_eq!(u, propagate(Measured::Centres(&m), &s, &report, options));
     report.uncertainty = Some(u);
     let keys = &formats::probe::rotary::report::FIGURES;
-    let json = probe::type_a::report_json(&report, report.uncertainty.as_ref(), keys).unwrap();
+    let json = probe::uncertainty::report_json(&report, report.uncertainty.as_ref(), keys).unwrap();
     assert_unchanged(&plain, &json, "");
     assert!(json["interpolated"][0]["EXC_U_um"].as_f64().unwrap() > 0.0);
     assert!(json["location"]["B0C_U_urad"].as_f64().unwrap() > 0.0);

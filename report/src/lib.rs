@@ -3,6 +3,8 @@
 //! probe methods write as `report.html`.
 //!
 //! - [`Page`]: the document scaffold, headings, tables, figures, notes.
+//! - [`uncertainty`]: figures as value ± U and the uncertainty section
+//!   (the budget table) of a report's `formats::uncertainty` object.
 //! - [`plot`]: SVG plots drawn with plotters in memory, the shared chart
 //!   set-up, legend and colours.
 //! - `browser` (feature `browser`): opens a page in headless Chromium and
@@ -16,6 +18,8 @@ mod page;
 #[cfg(feature = "browser")]
 pub mod browser;
 pub mod plot;
+pub mod uncertainty;
 
 pub use error::{BrowserFault, ReportError, Result};
-pub use page::{Page, escape, figures, num, num_u};
+pub use page::{Page, escape, figures, num};
+pub use uncertainty::{num_u, plus_minus, plus_minus_in};

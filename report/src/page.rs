@@ -24,15 +24,6 @@ pub fn num(v: Option<f64>) -> String {
     v.map_or_else(|| "—".into(), |v| format!("{v:.3}"))
 }
 
-/// A figure as `value ± U` (3 decimals; U the expanded uncertainty, k = 2)
-/// where its U is known, else as [`num`] shows it.
-pub fn num_u(value: Option<f64>, expanded: Option<f64>) -> String {
-    match (value, expanded) {
-        (Some(v), Some(u)) => format!("{v:.3} ± {u:.3}"),
-        _ => num(value),
-    }
-}
-
 const STYLE: &str = "
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-serif;margin:0;background:#f5f6f8;color:#1d2127}
 main{max-width:960px;margin:0 auto;padding:16px 24px 48px}

@@ -58,7 +58,7 @@ fn uncertainty(
     use formats::uncertainty::Uncertainty;
     let not_given = |reason: String| Ok(Uncertainty::NotGiven { reason });
     if args.trials == 0 {
-        return not_given("the propagation was turned off (--trials 0)".into());
+        return not_given(formats::uncertainty::TRIALS_OFF.into());
     }
     let observations = args
         .observations

@@ -2,12 +2,11 @@
 //! construction's figures, ΔθA and ΔθB as maps and curves, the per-detent
 //! means and the positions beyond the tolerance.
 
-use report::{Page, escape};
+use report::{Page, escape, plus_minus_in};
 
 use super::layout::wrap_deg;
 use super::{Angles, Extreme, Report, plot};
 use crate::Result;
-use crate::type_a::plus_minus;
 
 /// Most positions beyond the tolerance listed on the page (all are in
 /// `report.json`).
@@ -30,7 +29,7 @@ pub fn render(r: &Report, angles: &[Angles]) -> Result<String> {
         r.axes.b_turn_step_deg,
     ));
     summary(&mut h, r);
-    crate::type_a::budget_html(&mut h, r.uncertainty.as_ref());
+    report::uncertainty::section(&mut h, r.uncertainty.as_ref());
     maps(&mut h, r, angles)?;
     curves(&mut h, r, angles)?;
     detents(&mut h, r);
@@ -51,7 +50,7 @@ fn big_u(r: &Report, path: &str) -> Option<f64> {
 
 /// `value ± U″` of the figure at `path` in arc-seconds.
 fn arcsec(r: &Report, path: &str, value: f64) -> String {
-    format!("{}″", plus_minus(value, big_u(r, path), 3))
+    plus_minus_in(value, big_u(r, path), 3, "″")
 }
 
 fn summary(h: &mut Page, r: &Report) {

@@ -23,7 +23,7 @@
 //! The RMS of ΔθA and ΔθB carry the noise's variance in their square
 //! (`rms(m)² ≈ rms(t)² + σ̄²`); each trial's draw of them is the reflection
 //! `√(2R² − T²)` of the re-run's T about the reported R
-//! ([`crate::type_a::reflected_rms`]).
+//! ([`crate::uncertainty::reflected_rms`]).
 //!
 //! Two sources, the same noise: the positions that fix the frame (the B
 //! turn at A = 0° and the B = 0° sweep) and the other positions.
@@ -36,8 +36,9 @@ use geom::montecarlo::{Propagation, Trial};
 use geom::nalgebra::Vector3;
 
 use super::{ARCSEC_PER_DEG, Angles, Indexing, Options, Position, layout, report, solve};
-use crate::type_a::{
-    Bound, BoundKind, Model, TypeA, not_given, propagate as run, reflected_rms, report_figures,
+use crate::uncertainty::{
+    Bound, BoundKind, Source, Statement, TypeA, not_given, propagate as run, reflected_rms,
+    report_figures,
 };
 
 /// µm per mm.
@@ -178,33 +179,34 @@ pub fn propagate(
             *f = true;
         }
     }
-    let sources = [
-        (
-            "frame",
-            format!(
+    let sources = vec![
+        Source {
+            name: "frame",
+            description: format!(
                 "noise of the centres that fix the frame (the B turn at A = 0°, the B = 0° sweep): {words}"
             ),
-        ),
-        (
-            "positions",
-            "noise of the other centres: the same noise".to_string(),
-        ),
+        },
+        Source {
+            name: "positions",
+            description: "noise of the other centres: the same noise".to_string(),
+        },
     ];
-    let headline: Vec<String> = HEADLINE.iter().map(|s| (*s).to_string()).collect();
-    let model = Model {
-        method: "GUM Supplement 1 Monte Carlo: every centre re-drawn about its measured value with \
+    let statement = Statement {
+        method:
+            "GUM Supplement 1 Monte Carlo: every centre re-drawn about its measured value with \
                  the noise s (t-distributed draws for its degrees of freedom), the sphere, frame, \
                  angles and figures recomputed per trial; U = half-width of the symmetric interval \
                  about the reported value holding 95 % of the trials (k = 2); extremes over the \
                  positions of a detent: the 95 % quantile of the largest deviation of those \
-                 positions (docs/probe-indexing.md)",
-        sources: &sources,
-        not_included: NOT_INCLUDED,
-        headline: &headline,
+                 positions (docs/probe-indexing.md)"
+                .to_string(),
+        sources,
+        not_included: NOT_INCLUDED.iter().map(|s| (*s).to_string()).collect(),
+        headline: HEADLINE.iter().map(|s| (*s).to_string()).collect(),
     };
     let figures = report_figures(nominal, &FIGURES);
     let (on_a, on_b) = bounds(solved);
-    run(&figures, &model, propagation, |trial| {
+    run(&figures, statement, propagation, |trial| {
         let sd = noise.shared_sd(trial, SOURCES)?;
         let moved = trial_positions(positions, &frame, trial, sd);
         let ind = solve(&moved).ok()?;

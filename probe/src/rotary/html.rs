@@ -7,13 +7,12 @@
 use std::fmt::Write;
 
 use report::plot::SIX;
-use report::{Page, escape};
+use report::{Page, escape, plus_minus};
 
 use super::NAMES;
 use super::plot::{self, Path, Series};
 use super::report::{AngleReport, Report, Six};
 use crate::Result;
-use crate::type_a::plus_minus;
 
 /// Units of the six errors in the report.
 const UNITS: [&str; 6] = ["µm", "µm", "µm", "µrad", "µrad", "µrad"];
@@ -131,7 +130,7 @@ pub fn render(report: &Report) -> Result<String> {
         report.residual_rms_um
     ));
     summary(&mut h, report);
-    crate::type_a::budget_html(&mut h, report.uncertainty.as_ref());
+    report::uncertainty::section(&mut h, report.uncertainty.as_ref());
 
     h.h2("errors", "Errors against the table angle");
     angle_plots(

@@ -29,7 +29,7 @@ use geom::nalgebra::Vector3;
 
 use super::report::report;
 use super::{Interpolated, Measurement, NAMES, Solution, solve};
-use crate::type_a::{Model, TypeA, not_given, propagate as run, report_figures};
+use crate::uncertainty::{Source, Statement, TypeA, not_given, propagate as run, report_figures};
 
 /// µm per mm.
 const UM_PER_MM: f64 = 1e3;
@@ -190,34 +190,33 @@ pub fn propagate(
             "the spheres re-fitted, the six errors re-solved",
         ),
     };
-    let sources = [
-        (
-            "reference",
-            format!(
+    let sources = vec![
+        Source {
+            name: "reference",
+            description: format!(
                 "noise of the {what} at 0° (the reference of every angle, shared by all): {words}"
             ),
-        ),
-        (
-            "angles",
-            format!("noise of the {what} at the other angles: the same noise"),
-        ),
+        },
+        Source {
+            name: "angles",
+            description: format!("noise of the {what} at the other angles: the same noise"),
+        },
     ];
-    let headline = headline();
     let method = format!(
         "GUM Supplement 1 Monte Carlo: the {what} re-drawn about their measured values with the \
          noise s (t-distributed draws for its degrees of freedom), {re_run}, the axis average line, \
          component errors, ranges and interpolated rows recomputed per trial; U = half-width of the \
          symmetric interval about the reported value holding 95 % of the trials (k = 2)"
     );
-    let model = Model {
-        method: &method,
-        sources: &sources,
-        not_included: NOT_INCLUDED,
-        headline: &headline,
+    let statement = Statement {
+        method,
+        sources,
+        not_included: NOT_INCLUDED.iter().map(|s| (*s).to_string()).collect(),
+        headline: headline(),
     };
     let figures = report_figures(nominal, &FIGURES);
     let at: Vec<f64> = nominal.interpolated.iter().map(|r| r.angle_deg).collect();
-    run(&figures, &model, options, |trial| {
+    run(&figures, statement, options, |trial| {
         let sd = noise.shared_sd(trial, SOURCES)?;
         let m = trial_measurement(measured, trial, sd)?;
         let s = solve(&m).ok()?;

@@ -5,17 +5,16 @@
 //! outliers and the weakly determined points and stations.
 
 use plotters::prelude::*;
-use report::Page;
 use report::plot::{
     DOWN, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, SIX, UP, WIDTH, ZONE, chart_builder, colour_bar,
     diverging, mesh, padded, percentile, svg, with_legend_room,
 };
+use report::{Page, plus_minus_in};
 
 use super::report::{MAX_CORRECTION, RMS_CORRECTION};
 use super::view::{arrows, grid_chart};
 use super::{Network, Solution, TracerReport};
 use crate::Result;
-use crate::uncertainty::{self, plus_minus};
 use formats::uncertainty::Uncertainty;
 
 const UM: f64 = 1e3;
@@ -219,7 +218,7 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport, u: &Uncertainty) -> R
         r.points, r.stations, r.equations, r.unknowns, r.redundancy
     ));
     figures_section(&mut page, net, s, r, u)?;
-    uncertainty::section(&mut page, u, uncertainty::unit_of);
+    report::uncertainty::section(&mut page, Some(u));
     stations_table(&mut page, r);
     largest_corrections(&mut page, net, s);
     outliers_section(&mut page, r);
@@ -272,23 +271,13 @@ fn figures_section(
             "largest correction".into(),
             format!(
                 "{} at point {}",
-                plus_minus(
-                    &format!("{:.3}", r.max_correction_um),
-                    u,
-                    MAX_CORRECTION,
-                    "µm"
-                ),
+                plus_minus_in(r.max_correction_um, u.of(MAX_CORRECTION), 3, "µm"),
                 r.max_correction_point
             ),
         ],
         vec![
             "RMS correction".into(),
-            plus_minus(
-                &format!("{:.3}", r.rms_correction_um),
-                u,
-                RMS_CORRECTION,
-                "µm",
-            ),
+            plus_minus_in(r.rms_correction_um, u.of(RMS_CORRECTION), 3, "µm"),
         ],
         vec![
             "standard uncertainty".into(),

@@ -37,7 +37,7 @@ use super::normal::{self, State, Structure};
 use super::report::{CorrectionFigures, MAX_CORRECTION, RMS_CORRECTION};
 use super::{Network, Options, Solution};
 use crate::Result;
-use crate::uncertainty::{Source, propagate};
+use crate::uncertainty::{METHOD, Source, Statement, TypeA, propagate};
 
 /// Index of the readings among the sources.
 const READINGS: usize = 0;
@@ -61,8 +61,8 @@ fn not_included() -> Vec<String> {
 enum Sigma {
     /// Given a priori (mm).
     Given(f64),
-    /// Estimated from the residuals (mm) with `dof` degrees of freedom.
-    Estimated { sigma: f64, dof: usize },
+    /// Estimated from the residuals (mm), with its degrees of freedom.
+    Estimated(TypeA),
 }
 
 impl Sigma {
@@ -70,21 +70,18 @@ impl Sigma {
         if solution.sigma_a_priori {
             Sigma::Given(solution.sigma)
         } else {
-            Sigma::Estimated {
-                sigma: solution.sigma0,
+            Sigma::Estimated(TypeA {
+                sd: solution.sigma0,
                 dof: solution.redundancy,
-            }
+            })
         }
     }
 
-    /// One trial's σ: `σ̂·√(ν/χ²_ν)` for an estimate, χ²_ν a sum of ν squared normals.
+    /// One trial's σ: given, or `σ̂·√(ν/χ²_ν)` for an estimate ([`TypeA::trial_sd`]).
     fn draw(self, d: &mut Draws) -> f64 {
         match self {
             Sigma::Given(s) => s,
-            Sigma::Estimated { sigma, dof } => {
-                let chi2: f64 = (0..dof).map(|_| d.normal().powi(2)).sum();
-                sigma * (dof as f64 / chi2).sqrt()
-            }
+            Sigma::Estimated(estimate) => estimate.trial_sd(d),
         }
     }
 
@@ -94,10 +91,10 @@ impl Sigma {
                 "each reading + N(0, σ²), σ = {:.4} µm given a priori (--sigma-um)",
                 s * 1e3
             ),
-            Sigma::Estimated { sigma, dof } => format!(
+            Sigma::Estimated(TypeA { sd, dof }) => format!(
                 "each reading + N(0, σ²), σ from the residuals (Type A: σ̂ = {:.4} µm, \
                  ν = {dof}; each trial draws σ² = ν·σ̂²/χ²_ν)",
-                sigma * 1e3
+                sd * 1e3
             ),
         }
     }
@@ -243,27 +240,25 @@ pub fn uncertainty(
     };
     let sigma = Sigma::of(solution);
     let nominal = CorrectionFigures::of(solution.corrections.iter().map(|c| &c.vector)).named();
-    let sources = [Source {
-        name: "readings",
-        description: sigma.describe(),
-    }];
-    Ok(propagate(
-        &nominal,
-        &sources,
-        not_included(),
-        &[MAX_CORRECTION, RMS_CORRECTION],
-        propagation,
-        |trial| {
-            let error = match trial.draws(READINGS) {
-                Some(d) => field.error(d, sigma)?,
-                None => BTreeMap::new(),
-            };
-            Some(
-                nominal
-                    .iter()
-                    .map(|(k, v)| (k.clone(), v + error.get(k).copied().unwrap_or(0.0)))
-                    .collect(),
-            )
-        },
-    ))
+    let statement = Statement {
+        method: METHOD.into(),
+        sources: vec![Source {
+            name: "readings",
+            description: sigma.describe(),
+        }],
+        not_included: not_included(),
+        headline: vec![MAX_CORRECTION.into(), RMS_CORRECTION.into()],
+    };
+    Ok(propagate(&nominal, statement, propagation, |trial| {
+        let error = match trial.draws(READINGS) {
+            Some(d) => field.error(d, sigma)?,
+            None => BTreeMap::new(),
+        };
+        Some(
+            nominal
+                .iter()
+                .map(|(k, v)| (k.clone(), v + error.get(k).copied().unwrap_or(0.0)))
+                .collect(),
+        )
+    }))
 }

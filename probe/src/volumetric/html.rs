@@ -3,14 +3,13 @@
 //! plot, the fit table, the eighteen curves with both fits, the removed
 //! straightness lines, the volumetric errors and the compensation tables.
 
-use report::{Page, escape};
+use report::{Page, escape, plus_minus, plus_minus_in};
 
 use super::curves::Motion;
 use super::plot;
 use super::report::{Analysis, Report, unit};
 use super::series::Series;
 use crate::Result;
-use crate::uncertainty::{self, plus_minus};
 use formats::uncertainty::Uncertainty;
 
 /// A figure to `digits` decimals, or an em dash.
@@ -30,7 +29,7 @@ pub fn render(a: &Analysis, u: &Uncertainty) -> Result<String> {
     fit_table(&mut h, &a.report);
     axis_sections(&mut h, a, u)?;
     volumetric_section(&mut h, &a.report, u);
-    uncertainty::section(&mut h, u, uncertainty::unit_of);
+    report::uncertainty::section(&mut h, Some(u));
     compensation_section(&mut h, &a.report);
     campaign_section(&mut h, &a.report);
     h.notes("Conventions", &a.report.conventions, false);
@@ -75,7 +74,7 @@ fn circle_section(h: &mut Page, a: &Analysis, u: &Uncertainty) -> Result<()> {
     let r = &a.report;
     if let (Some(c), Some(cr)) = (&a.circles, &r.circle) {
         h.h2("circle", "Predicted circular test (ISO 230-4)");
-        let f = |v: f64, path: &str| plus_minus(&format!("{v:.3}"), u, path, "µm");
+        let f = |v: f64, path: &str| plus_minus_in(v, u.of(path), 3, "µm");
         h.paragraph(&format!(
             "Circle of radius {} mm about ({}, {}, {}) mm in the workpiece frame, plane XY, 1° steps. \
              Circular deviation about the least-squares centre {}, radial range {}; after \
@@ -198,18 +197,8 @@ fn axis_sections(h: &mut Page, a: &Analysis, unc: &Uncertainty) -> Result<()> {
                 let path = format!("axes.{index}.straightness_lines.{k}");
                 vec![
                     format!("{} {}", s.error.symbol(axis.axis()), s.error.name()),
-                    plus_minus(
-                        &format!("{:.3}", s.slope_urad),
-                        unc,
-                        &format!("{path}.slope_urad"),
-                        "",
-                    ),
-                    plus_minus(
-                        &format!("{:.3}", s.intercept_um),
-                        unc,
-                        &format!("{path}.intercept_um"),
-                        "",
-                    ),
+                    plus_minus(s.slope_urad, unc.of(&format!("{path}.slope_urad")), 3),
+                    plus_minus(s.intercept_um, unc.of(&format!("{path}.intercept_um")), 3),
                 ]
             })
             .collect();
@@ -261,8 +250,8 @@ fn volumetric_section(h: &mut Page, r: &Report, u: &Uncertainty) {
         h.paragraph(&format!(
             "{} positions; largest |Δ| {}, RMS {} (workpiece frame; all rows in volumetric.csv).",
             v.points,
-            plus_minus(&format!("{:.3}", v.max_um), u, "volumetric.max_um", "µm"),
-            plus_minus(&format!("{:.3}", v.rms_um), u, "volumetric.rms_um", "µm"),
+            plus_minus_in(v.max_um, u.of("volumetric.max_um"), 3, "µm"),
+            plus_minus_in(v.rms_um, u.of("volumetric.rms_um"), 3, "µm"),
         ));
         let rows: Vec<Vec<String>> = v
             .rows

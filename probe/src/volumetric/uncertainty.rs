@@ -38,7 +38,7 @@ use super::curves::{AxisCurves, MeasuredAxis, Motion};
 use super::model::{AxisModel, ErrorModel};
 use super::report::{Analysis, Report, Setup, predict};
 use super::series::{Series, SeriesFit};
-use crate::uncertainty::{Source, propagate};
+use crate::uncertainty::{METHOD, Source, Statement, not_given, propagate};
 
 /// Index of the curves among the sources.
 const CURVES: usize = 0;
@@ -136,16 +136,12 @@ pub fn uncertainty(
     propagation: Propagation,
 ) -> Uncertainty {
     let (Some(u_mm), Some(u_rad)) = (inputs.translation_mm, inputs.rotation_rad) else {
-        return Uncertainty::NotGiven {
-            reason: CURVES_NOT_GIVEN.into(),
-        };
+        return not_given(CURVES_NOT_GIVEN);
     };
     let nominal = match figures(&analysis.report, &FIGURES) {
         Ok(f) => f,
         Err(e) => {
-            return Uncertainty::NotGiven {
-                reason: format!("the report's figures could not be read: {e}"),
-            };
+            return not_given(format!("the report's figures could not be read: {e}"));
         }
     };
     let mut sources = vec![Source {
@@ -166,11 +162,12 @@ pub fn uncertainty(
             ),
         });
     }
-    let headline: Vec<&str> = HEADLINE
-        .iter()
-        .copied()
-        .filter(|f| nominal.contains_key(*f))
-        .collect();
+    let statement = Statement {
+        method: METHOD.into(),
+        sources,
+        not_included: not_included(inputs),
+        headline: HEADLINE.iter().map(|f| (*f).to_string()).collect(),
+    };
     let plausible = Plausible::of(measured, analysis, u_mm, u_rad);
     let analyse_figures = |axes: Vec<MeasuredAxis>, s: &Setup| -> Option<BTreeMap<String, f64>> {
         let curves = axes
@@ -186,40 +183,33 @@ pub fn uncertainty(
         let a = predict(predicting, Some(&compensating), s, campaign).ok()?;
         figures(&lean(a.report), &FIGURES).ok()
     };
-    propagate(
-        &nominal,
-        &sources,
-        not_included(inputs),
-        &headline,
-        propagation,
-        |trial| {
-            let (truth, noisy) = match trial.draws(CURVES) {
-                Some(d) => {
-                    let truth = plausible.draw(d)?;
-                    let noisy = perturbed(&truth, u_mm, u_rad, d);
-                    (truth, noisy)
-                }
-                None => (measured.to_vec(), measured.to_vec()),
-            };
-            let mut s = setup.clone();
-            if let (Some(u), Some(d)) = (inputs.squareness_rad, trial.draws(SQUARENESS)) {
-                s.squareness.ec0y += d.gaussian(u);
-                s.squareness.eb0z += d.gaussian(u);
-                s.squareness.ea0z += d.gaussian(u);
+    propagate(&nominal, statement, propagation, |trial| {
+        let (truth, noisy) = match trial.draws(CURVES) {
+            Some(d) => {
+                let truth = plausible.draw(d)?;
+                let noisy = perturbed(&truth, u_mm, u_rad, d);
+                (truth, noisy)
             }
-            let want = analyse_figures(truth, setup)?;
-            let got = analyse_figures(noisy, &s)?;
-            Some(
-                nominal
-                    .iter()
-                    .map(|(k, v)| {
-                        let error = got.get(k).zip(want.get(k)).map_or(0.0, |(g, w)| g - w);
-                        (k.clone(), v + error)
-                    })
-                    .collect(),
-            )
-        },
-    )
+            None => (measured.to_vec(), measured.to_vec()),
+        };
+        let mut s = setup.clone();
+        if let (Some(u), Some(d)) = (inputs.squareness_rad, trial.draws(SQUARENESS)) {
+            s.squareness.ec0y += d.gaussian(u);
+            s.squareness.eb0z += d.gaussian(u);
+            s.squareness.ea0z += d.gaussian(u);
+        }
+        let want = analyse_figures(truth, setup)?;
+        let got = analyse_figures(noisy, &s)?;
+        Some(
+            nominal
+                .iter()
+                .map(|(k, v)| {
+                    let error = got.get(k).zip(want.get(k)).map_or(0.0, |(g, w)| g - w);
+                    (k.clone(), v + error)
+                })
+                .collect(),
+        )
+    })
 }
 
 /// The report without its tables (curves, fits, per-position and

@@ -1,12 +1,32 @@
-//! The coverage check of docs/methods.md §7 for a probe method on its
-//! generator: over many campaigns with known truth, the true figure lies in
-//! value ± U for 90–99 % of all figures and for ≥ 85 % of each figure type,
-//! and U is not inflated: per type the median U is at most 3× the RMS of the
-//! actual errors (value − truth).
+//! What the coverage tests of the probe methods share: the check of
+//! docs/methods.md §7 on a method's generator (over many campaigns with
+//! known truth, the true figure lies in value ± U for 90–99 % of all figures
+//! and for ≥ 85 % of each figure type, and U is not inflated: per type the
+//! median U is at most 3× the RMS of the actual errors, value − truth), a
+//! campaign's deterministic numbers, and the check that `report.json` keeps
+//! every key and value of the report.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, dead_code)]
 
 use std::collections::BTreeMap;
+
+/// A number in [0, 1) from a campaign and a slot (deterministic).
+pub fn unit(campaign: u64, slot: u64) -> f64 {
+    let mut z = campaign
+        .wrapping_mul(0x9e37_79b9_7f4a_7c15)
+        .wrapping_add(slot.wrapping_mul(0xbf58_476d_1ce4_e5b9));
+    z = (z ^ (z >> 31)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 29;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The figure's type: its path without the row indices (`errors.EXC_um`).
+pub fn figure_type(path: &str) -> String {
+    path.split('.')
+        .filter(|p| p.parse::<usize>().is_err())
+        .collect::<Vec<_>>()
+        .join(".")
+}
 
 /// One figure of one campaign: its type, the truth, the measured value and U.
 #[derive(Debug, Clone)]
@@ -22,6 +42,16 @@ pub struct Case {
 }
 
 impl Case {
+    /// The figure at `path` (its type by [`figure_type`]).
+    pub fn at(path: &str, truth: f64, value: f64, u: f64) -> Case {
+        Case {
+            figure: figure_type(path),
+            truth,
+            value,
+            u,
+        }
+    }
+
     fn covered(&self) -> bool {
         (self.value - self.truth).abs() <= self.u
     }
@@ -113,5 +143,24 @@ pub fn assert_coverage(method: &str, cases: &[Case]) {
             t.median_u,
             t.rms_error
         );
+    }
+}
+
+/// Every key of `plain` is in `annotated` with the same value.
+pub fn assert_unchanged(plain: &serde_json::Value, annotated: &serde_json::Value, path: &str) {
+    match (plain, annotated) {
+        (serde_json::Value::Object(a), serde_json::Value::Object(b)) => {
+            for (k, v) in a {
+                let w = b.get(k).unwrap_or_else(|| panic!("{path}.{k} missing"));
+                assert_unchanged(v, w, &format!("{path}.{k}"));
+            }
+        }
+        (serde_json::Value::Array(a), serde_json::Value::Array(b)) => {
+            assert_eq!(a.len(), b.len(), "{path}");
+            for (i, (v, w)) in a.iter().zip(b).enumerate() {
+                assert_unchanged(v, w, &format!("{path}.{i}"));
+            }
+        }
+        _ => assert_eq!(plain, annotated, "{path}"),
     }
 }

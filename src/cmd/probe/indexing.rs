@@ -11,7 +11,6 @@ use formats::FormatError;
 use formats::probe::indexing::report::FIGURES;
 use formats::probe::indexing::{CentreRow, IndexingRow, read_centres};
 use probe::indexing::{self as method, Position, layout};
-use probe::type_a::{DEFAULT_TRIALS, Propagation};
 use synth::probe::indexing::{DEFAULT_TOML, IndexingConfig, generate};
 
 use crate::cmd::OrUsage;
@@ -31,13 +30,8 @@ pub struct Args {
     /// List the positions whose |ΔθA| or |ΔθB| exceed this many arc-seconds.
     #[arg(long, value_name = "ARCSEC", value_parser = crate::cmd::values::non_negative)]
     tolerance: Option<f64>,
-    /// Monte Carlo trials of the expanded uncertainties (k = 2) of every figure; 0 turns the
-    /// propagation off (the report says so).
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_TRIALS)]
-    trials: usize,
-    /// Seed of the Monte Carlo draws (the same seed, the same U).
-    #[arg(long, value_name = "S", default_value_t = 1)]
-    seed: u64,
+    #[command(flatten)]
+    propagation: super::PropagationArgs,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
@@ -128,10 +122,7 @@ pub fn run(args: &Args) -> Result<()> {
         source: args.centres.display().to_string(),
     };
     let mut report = method::report(&solved, &options)?;
-    let propagation = Propagation {
-        trials: args.trials,
-        seed: args.seed,
-    };
+    let propagation = args.propagation.options();
     report.uncertainty = Some(method::uncertainty::propagate(
         &positions,
         &solved,
@@ -139,7 +130,7 @@ pub fn run(args: &Args) -> Result<()> {
         &options,
         propagation,
     ));
-    let json = probe::type_a::report_json(&report, report.uncertainty.as_ref(), &FIGURES)?;
+    let json = probe::uncertainty::report_json(&report, report.uncertainty.as_ref(), &FIGURES)?;
     let page = method::html(&report, &solved.angles)?;
     let rows: Vec<IndexingRow> = solved
         .angles
@@ -200,9 +191,7 @@ pub fn run(args: &Args) -> Result<()> {
         );
     }
     if let Some(u) = &report.uncertainty {
-        for line in probe::type_a::summary(u) {
-            println!("{line}");
-        }
+        super::print_uncertainty(u);
     }
     for w in &report.warnings {
         eprintln!("trinocular: warning: {w}");

@@ -42,6 +42,37 @@ pub fn run(args: &Args) -> Result<()> {
     }
 }
 
+/// The Monte Carlo options of a probe method (docs/methods.md §7),
+/// flattened into each method's arguments.
+#[derive(Debug, Clone, Copy, clap::Args)]
+struct PropagationArgs {
+    /// Monte Carlo trials of the expanded uncertainties U (k = 2) of every figure; 0 turns the
+    /// propagation off (the report says so).
+    #[arg(long, value_name = "N", default_value_t = probe::uncertainty::DEFAULT_TRIALS)]
+    trials: usize,
+    /// Seed of the Monte Carlo draws (the same seed, the same U).
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    seed: u64,
+}
+
+impl PropagationArgs {
+    /// As the library's settings.
+    fn options(self) -> probe::uncertainty::Propagation {
+        probe::uncertainty::Propagation {
+            trials: self.trials,
+            seed: self.seed,
+        }
+    }
+}
+
+/// The uncertainty of a report's figures on stdout: how U was found and the
+/// headline figures as value ± U, or why there is none.
+fn print_uncertainty(u: &formats::uncertainty::Uncertainty) {
+    for line in probe::uncertainty::summary(u) {
+        println!("{line}");
+    }
+}
+
 /// The checked output plan of a method or generator writing `names` into
 /// `dir` (created if missing), and their paths: no output over an input, an
 /// existing one only with `force`.

@@ -19,7 +19,6 @@ use formats::probe::rotary::{
 use probe::rotary::report::{Report, report};
 use probe::rotary::uncertainty::Measured;
 use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
-use probe::type_a::{DEFAULT_TRIALS, Propagation};
 use probe::{CentreFault, ProbeError};
 use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
 
@@ -44,13 +43,8 @@ pub struct Args {
     /// the two nearest measured angles, wrapping at 360°).
     #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "DEG", value_parser = crate::cmd::values::finite)]
     at: Vec<f64>,
-    /// Monte Carlo trials of the expanded uncertainties (k = 2) of every figure; 0 turns the
-    /// propagation off (the report says so).
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_TRIALS)]
-    trials: usize,
-    /// Seed of the Monte Carlo draws (the same seed, the same U).
-    #[arg(long, value_name = "S", default_value_t = 1)]
-    seed: u64,
+    #[command(flatten)]
+    propagation: super::PropagationArgs,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
@@ -166,9 +160,7 @@ fn print_summary(solution: &Solution, report: &Report) {
         ranges("ranges of the component errors", c.values());
     }
     if let Some(u) = &report.uncertainty {
-        for line in probe::type_a::summary(u) {
-            println!("{line}");
-        }
+        super::print_uncertainty(u);
     }
     for w in &report.warnings {
         eprintln!("trinocular: warning: {w}");
@@ -217,17 +209,14 @@ pub fn run(args: &Args) -> Result<()> {
     } else {
         Measured::Centres(&m)
     };
-    let propagation = Propagation {
-        trials: args.trials,
-        seed: args.seed,
-    };
+    let propagation = args.propagation.options();
     report.uncertainty = Some(probe::rotary::uncertainty::propagate(
         measured,
         &solution,
         &report,
         propagation,
     ));
-    let json = probe::type_a::report_json(&report, report.uncertainty.as_ref(), &FIGURES)?;
+    let json = probe::uncertainty::report_json(&report, report.uncertainty.as_ref(), &FIGURES)?;
     let html = probe::rotary::html(&report)?;
 
     let mut names = vec!["rotary.csv", "report.json", "report.html"];

@@ -13,7 +13,6 @@ use formats::probe::tracer::{
     CorrectedRow, CorrectionRow, Grid, QueryRow, ResidualRow, StationRow, read_grid, read_query,
     read_readings,
 };
-use formats::uncertainty::Uncertainty;
 use formats::{Row, write_records};
 use geom::Point3;
 use probe::ProbeError;
@@ -49,31 +48,10 @@ pub struct Args {
     #[arg(long, value_name = "UM", value_parser = crate::cmd::values::positive)]
     sigma_um: Option<f64>,
     #[command(flatten)]
-    propagation: PropagationArgs,
+    propagation: super::PropagationArgs,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
-}
-
-/// The Monte Carlo options of a probe method (docs/methods.md §7).
-#[derive(Debug, Clone, Copy, clap::Args)]
-pub(super) struct PropagationArgs {
-    /// Monte Carlo trials for the expanded uncertainties U (k = 2); 0 turns the propagation off.
-    #[arg(long, default_value_t = probe::uncertainty::DEFAULT_TRIALS)]
-    trials: usize,
-    /// Seed of the Monte Carlo draws.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-}
-
-impl PropagationArgs {
-    /// As the library's settings.
-    pub(super) fn options(self) -> probe::uncertainty::Propagation {
-        probe::uncertainty::Propagation {
-            trials: self.trials,
-            seed: self.seed,
-        }
-    }
 }
 
 /// Arguments of `trinocular synth probe tracer`. Defaults are those of
@@ -216,7 +194,7 @@ pub fn run(args: &Args) -> Result<()> {
     })?;
     let uncertainty = tracer::uncertainty(&net, &solution, &options, args.propagation.options())?;
     let report = tracer::report(&net, &solution);
-    let json = probe::uncertainty::report_json(&report, &uncertainty, &FIGURES)?;
+    let json = probe::uncertainty::report_json(&report, Some(&uncertainty), &FIGURES)?;
     let page = tracer::html(&net, &solution, &report, &uncertainty)?;
     let tables = tables(&net, &solution, &readings, query.as_deref())?;
 
@@ -231,7 +209,7 @@ pub fn run(args: &Args) -> Result<()> {
     output.write_bytes(&out.join("report.html"), page.as_bytes())?;
 
     print_summary(&report, tables.corrected.as_ref().map(Vec::len));
-    print_uncertainty(&uncertainty);
+    super::print_uncertainty(&uncertainty);
     println!("wrote {} files into {}", names.len(), out.display());
     Ok(())
 }
@@ -374,26 +352,6 @@ fn print_summary(report: &tracer::TracerReport, corrected: Option<usize>) {
     }
 }
 
-/// U of the headline figures, or why there is none, on stdout (shared by the probe methods).
-pub(super) fn print_uncertainty(u: &Uncertainty) {
-    match u {
-        Uncertainty::NotGiven { reason } => println!("uncertainty: not given: {reason}"),
-        Uncertainty::Given(p) => {
-            let figures: Vec<String> = p
-                .budget
-                .iter()
-                .map(|b| format!("{} {:.3} ± {:.3}", b.figure, b.value, b.expanded))
-                .collect();
-            println!(
-                "uncertainty (k = 2, {} trials, seed {}): {}",
-                p.trials,
-                p.seed,
-                figures.join(", ")
-            );
-        }
-    }
-}
-
 /// Parse `a,b,c` (x, y, z) for a flag.
 fn triple<T: std::str::FromStr>(text: &str) -> std::result::Result<[T; 3], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
@@ -504,9 +462,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     })?;
     let start = Instant::now();
     let report = tracer::report(&net, &solution);
-    let none = formats::uncertainty::Uncertainty::NotGiven {
-        reason: "not computed by the benchmark".into(),
-    };
+    let none = probe::uncertainty::not_given("not computed by the benchmark");
     let page = tracer::html(&net, &solution, &report, &none)?;
     let html = start.elapsed();
     let ms = |d: Duration| d.as_secs_f64() * 1e3;

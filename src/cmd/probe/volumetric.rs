@@ -78,7 +78,7 @@ pub struct Args {
     #[arg(long, value_name = "URAD", value_parser = crate::cmd::values::positive)]
     squareness_u_urad: Option<f64>,
     #[command(flatten)]
-    propagation: super::tracer::PropagationArgs,
+    propagation: super::PropagationArgs,
     /// Overwrite output files that exist.
     #[arg(long)]
     force: bool,
@@ -222,10 +222,10 @@ pub fn run(args: &Args) -> Result<()> {
         args.propagation.options(),
     );
     let page = html(&analysis, &u)?;
-    let json = probe::uncertainty::report_json(&analysis.report, &u, &FIGURES)?;
+    let json = probe::uncertainty::report_json(&analysis.report, Some(&u), &FIGURES)?;
     let written = write_outputs(args, &analysis, &json, &page, &curves.inputs)?;
     print_summary(&analysis, &setup);
-    super::tracer::print_uncertainty(&u);
+    super::print_uncertainty(&u);
     println!("wrote {written} files into {}", args.out.display());
     Ok(())
 }
