@@ -194,7 +194,7 @@ impl PositioningReport {
             match (both, up) {
                 (Some(v), _) => (Some(v), keys[0]),
                 (None, Some(v)) => (Some(v), keys[1]),
-                (None, None) => (down, if down.is_some() { keys[2] } else { keys[0] }),
+                (None, None) => (down, keys[2]),
             }
         };
         [
