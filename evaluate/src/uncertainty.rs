@@ -17,7 +17,10 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use formats::uncertainty::{FigureKeys, Source, Statement, TRIALS_OFF, Uncertainty, figures};
+use formats::evaluation::{AngularTarget, LineReport};
+use formats::uncertainty::{
+    BoundKind, FigureKeys, Source, Statement, TRIALS_OFF, Uncertainty, bounded, figures,
+};
 use formats::{CameraCovariance, InstantKey, ObservationRow, PointRow};
 use geom::montecarlo::{COVERAGE_FACTOR, CovarianceRoot, Trial, propagate as monte_carlo};
 use geom::nalgebra::DMatrix;
@@ -135,7 +138,9 @@ pub fn propagate(
     let result = monte_carlo(&nominal, sources, propagation, |trial| {
         let rows = trial_points(trial, points, &sighted, &cameras)?;
         let r = evaluate(&rows, options).ok()?;
-        figures(&r, &FIGURE_KEYS).ok()
+        let mut f = figures(&r, &FIGURE_KEYS).ok()?;
+        bound_ranges(report, &r, &nominal, &mut f);
+        Some(f)
     });
     let source = |name: &'static str, description: &str| Source {
         name,
@@ -171,6 +176,109 @@ pub fn propagate(
         headline: nominal.keys().filter(|p| headline(p)).cloned().collect(),
     };
     Uncertainty::from_trials(result, &nominal, statement, propagation)
+}
+
+/// The ranges over a line's targets — the angular errors (roll, pitch, yaw)
+/// and the straightness (least squares and minimum zone) — take their trial
+/// value from the bound on their error (`formats::uncertainty::Bound`):
+/// `reported + range(d)`, `d` the per-target change of the trial from the
+/// report (for the minimum zone, the minimum zone of `d`, since
+/// `|zone(m) − zone(t)| ≤ zone(m − t)`). Their noise biases them upward by
+/// about the range of the noise, which re-drawn trials reproduce only in
+/// part (docs/uncertainty.md).
+fn bound_ranges(
+    reported: &Report,
+    trial: &Report,
+    nominal: &BTreeMap<String, f64>,
+    figures: &mut BTreeMap<String, f64>,
+) {
+    for (axis, r) in reported.axes.iter() {
+        let Some(t) = trial.axes.get(axis) else {
+            continue;
+        };
+        let name = axis.name();
+        let lines = std::iter::once((format!("axes.{name}"), &r.main, &t.main)).chain(
+            r.lines
+                .iter()
+                .zip(&t.lines)
+                .enumerate()
+                .map(|(i, (r, t))| (format!("axes.{name}.lines.{i}"), r, t)),
+        );
+        for (prefix, r, t) in lines {
+            bound_line(&prefix, r, t, nominal, figures);
+        }
+    }
+}
+
+/// [`bound_ranges`] for one line; nothing where the trial's targets are not
+/// the report's.
+fn bound_line(
+    prefix: &str,
+    r: &LineReport,
+    t: &LineReport,
+    nominal: &BTreeMap<String, f64>,
+    figures: &mut BTreeMap<String, f64>,
+) {
+    if let (Some(ra), Some(ta)) = (&r.angular, &t.angular)
+        && ra
+            .targets
+            .iter()
+            .map(|x| x.target)
+            .eq(ta.targets.iter().map(|x| x.target))
+    {
+        let change = |f: fn(&AngularTarget) -> f64| -> Vec<f64> {
+            ra.targets
+                .iter()
+                .zip(&ta.targets)
+                .map(|(a, b)| f(b) - f(a))
+                .collect()
+        };
+        let ranges = [
+            ("roll_urad", change(|x| x.roll_urad)),
+            ("pitch_urad", change(|x| x.pitch_urad)),
+            ("yaw_urad", change(|x| x.yaw_urad)),
+        ];
+        for (key, d) in ranges {
+            let bound = BoundKind::Range.of(d);
+            bounded(nominal, &format!("{prefix}.angular.{key}"), bound, figures);
+        }
+    }
+    for (direction, rs) in &r.straightness {
+        let Some(ts) = t.straightness.get(direction) else {
+            continue;
+        };
+        if !rs
+            .targets
+            .iter()
+            .map(|x| x.target)
+            .eq(ts.targets.iter().map(|x| x.target))
+        {
+            continue;
+        }
+        let d: Vec<f64> = rs
+            .targets
+            .iter()
+            .zip(&ts.targets)
+            .map(|(a, b)| b.deviation_um - a.deviation_um)
+            .collect();
+        let path = format!("{prefix}.straightness.{direction}");
+        bounded(
+            nominal,
+            &format!("{path}.lsq_um"),
+            BoundKind::Range.of(d.iter().copied()),
+            figures,
+        );
+        // The profile of d, along and across the axis in µm.
+        let profile: Vec<Point2<f64>> = rs
+            .targets
+            .iter()
+            .zip(&d)
+            .map(|(a, d)| Point2::new(a.nominal * 1e3, *d))
+            .collect();
+        if let Ok(zone) = geom::min_zone::straightness(&profile) {
+            bounded(nominal, &format!("{path}.min_zone_um"), zone.width, figures);
+        }
+    }
 }
 
 /// Each camera's draws; every camera must carry its covariance.

@@ -19,8 +19,8 @@
 
 use std::collections::BTreeMap;
 
+pub use formats::uncertainty::{Bound, BoundKind, Source, Statement, TRIALS_OFF};
 use formats::uncertainty::{FigureKeys, Uncertainty, figures, with_expanded};
-pub use formats::uncertainty::{Source, Statement, TRIALS_OFF};
 use geom::montecarlo::{self, Draws, Trial};
 /// The trials and seed of a propagation, and the trials when none are
 /// named (the command line's `--trials`, `--seed`).
@@ -151,57 +151,6 @@ pub fn summary(uncertainty: &Uncertainty) -> Vec<String> {
             }))
             .collect()
         }
-    }
-}
-
-/// A figure whose error is bounded by the largest error of the values it is
-/// an extreme (or a mean of magnitudes) of: `|max|m| − max|t|| ≤ max|m − t|`
-/// (and the same for a minimum; `|mean|m| − mean|t|| ≤ mean|m − t|`). Where
-/// many values share one true value (the positions of one detent), noise
-/// biases the extreme by the largest of many deviations, which re-drawing
-/// about the measured values reproduces only in part; the trial value
-/// `reported + bound` makes U the 95 % quantile of the bound's draws.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Bound {
-    /// The figure's path.
-    pub figure: String,
-    /// The values it is taken over (indices into the trial's deviations).
-    pub over: Vec<usize>,
-    /// Largest (extremes) or mean (means of magnitudes) of the deviations.
-    pub kind: BoundKind,
-}
-
-/// How a [`Bound`] combines the deviations of its values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BoundKind {
-    /// An extreme: the largest deviation.
-    Largest,
-    /// A mean of magnitudes: the mean deviation.
-    Mean,
-}
-
-impl Bound {
-    /// Replace the figure's trial value in `trial` by `reported + bound`,
-    /// the bound from the trial's `deviations` (|trial value − reported
-    /// value| of each value); nothing when the figure is not reported.
-    pub fn apply(
-        &self,
-        nominal: &BTreeMap<String, f64>,
-        deviations: &[f64],
-        trial: &mut BTreeMap<String, f64>,
-    ) {
-        let Some(reported) = nominal.get(&self.figure) else {
-            return;
-        };
-        let devs = self.over.iter().filter_map(|&i| deviations.get(i).copied());
-        let bound = match self.kind {
-            BoundKind::Largest => devs.fold(0.0, f64::max),
-            BoundKind::Mean => {
-                let (sum, n) = devs.fold((0.0, 0usize), |(s, n), d| (s + d, n + 1));
-                if n == 0 { 0.0 } else { sum / n as f64 }
-            }
-        };
-        trial.insert(self.figure.clone(), reported + bound);
     }
 }
 
