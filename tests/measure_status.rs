@@ -168,3 +168,57 @@ fn a_camera_left_out_is_listed_with_status_3() {
         3 * instants
     );
 }
+
+/// Sphere images whose pixels reach the sensor's maximum are measured (the
+/// instants are not lost) but said to be saturated, per camera, on stderr:
+/// their flat tops bias the centres. The same campaign at the seed's
+/// brightness says nothing of the kind.
+#[test]
+fn saturated_sphere_images_are_warned_about() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = common::ok_stdout(&trinocular(&["synth", "config"]));
+    let mut bright: toml::Table = config.parse().unwrap();
+    for sphere in bright["spheres"].as_array_mut().unwrap() {
+        let t = sphere.as_table_mut().unwrap();
+        let r = t["radiance_e"].as_float().unwrap();
+        t.insert("radiance_e".into(), toml::Value::Float(4.0 * r));
+    }
+    let bright_cfg = tmp.path().join("bright.toml");
+    std::fs::write(&bright_cfg, toml::to_string(&bright).unwrap()).unwrap();
+    for (name, saturated) in [("seed", false), ("bright", true)] {
+        let dir = tmp.path().join(name);
+        let c = dir.join("c");
+        let extra: &[&str] = if saturated {
+            &["--config", common::s(&bright_cfg)]
+        } else {
+            &[]
+        };
+        render_campaign(&c, (384, 288), [3, 2, 1], extra);
+        write_true_rig(&c, &dir.join("rig.json"));
+        let out = trinocular(&[
+            "measure",
+            "--rig",
+            common::s(&dir.join("rig.json")),
+            "--manifest",
+            common::s(&c.join("manifest.csv")),
+            "--spheres",
+            common::s(&c.join("spheres.csv")),
+            "--out",
+            common::s(&dir.join("points.csv")),
+            "--backend",
+            "cpu",
+        ]);
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(out.status.code(), Some(0), "{name}: {err}");
+        let warnings: Vec<&str> = err
+            .lines()
+            .filter(|l| l.contains("have saturated pixels"))
+            .collect();
+        if saturated {
+            assert!(!warnings.is_empty(), "{name}: no saturation warning: {err}");
+            assert!(warnings.iter().all(|w| w.contains("camera ") && w.contains(" of ")));
+        } else {
+            assert!(warnings.is_empty(), "{name}: {warnings:?}");
+        }
+    }
+}

@@ -182,6 +182,8 @@ fn campaign(dir: &Path, spec: &Spec) -> (Value, Value) {
         "--out",
         s(&truth),
     ]));
+    // The images are not needed again (a full-size campaign is ≈ 9 GB).
+    std::fs::remove_dir_all(&c).unwrap();
     let read = |d: &PathBuf| -> Value {
         serde_json::from_slice(&std::fs::read(d.join("report.json")).unwrap()).unwrap()
     };

@@ -49,7 +49,7 @@ mod triangulate;
 
 pub use error::{CampaignProblem, FuseError, Result};
 pub use geom::triangulate::{Triangulated, View, predict, triangulate};
-pub use measure::{Fusion, Inputs, MeasureOptions, SPHERE_LAYOUT_MM, Summary, measure};
+pub use measure::{Fusion, Inputs, MeasureOptions, SPHERE_LAYOUT_MM, Saturation, Summary, measure};
 pub use noise::{CameraNoise, NoiseSource};
 pub use observe::MIN_CIRCULARITY;
 pub use plan::RigModel;

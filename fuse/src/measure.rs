@@ -149,6 +149,9 @@ pub struct Summary {
     /// Each camera's noise model, which the centroids' covariances in
     /// `<stem>.observations.csv` come from.
     pub noise: BTreeMap<u8, CameraNoise>,
+    /// Per camera, the sphere images this run measured from and how many of
+    /// them are saturated (resumed instants not counted).
+    pub saturation: BTreeMap<u8, Saturation>,
 }
 
 fn with_suffix(out: &Path, suffix: &str) -> PathBuf {
@@ -182,13 +185,26 @@ fn fingerprint(inputs: &Inputs<'_>, options: &MeasureOptions) -> Result<Fingerpr
     })
 }
 
-/// One camera's image of a sphere: its centre in ideal pixels and the
-/// centre's covariance from the image noise (px²), when the camera's noise
-/// is known.
+/// One camera's image of a sphere: its centre in ideal pixels, the
+/// centre's covariance from the image noise (px²) when the camera's noise
+/// is known, and whether some of its pixels are at the sensor's maximum.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Observed {
     ideal: Point2<f64>,
     covariance: Option<Matrix2<f64>>,
+    saturated: bool,
+}
+
+/// Of one camera's sphere images that the points were measured from, how
+/// many have saturated pixels: their flat tops bias the centre and hide the
+/// noise's rise with the signal (no covariance), so a run with any is said
+/// to need a lower exposure.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Saturation {
+    /// Sphere images used.
+    pub images: usize,
+    /// Of those, images with saturated pixels.
+    pub saturated: usize,
 }
 
 /// The image of one sphere seen by each camera used.
@@ -395,6 +411,11 @@ impl Context<'_> {
                 .map(|(s, m)| match m {
                     SphereMatch::Found(c) => Ok(Observed {
                         ideal: cands[c].ideal_px,
+                        // Candidates are the extraction's blobs, in order.
+                        saturated: extraction
+                            .blobs
+                            .get(c)
+                            .is_some_and(extract::Blob::saturated),
                         covariance: cands[c]
                             .covariance
                             .map(|k| Matrix2::new(k.uu_px2, k.uv_px2, k.uv_px2, k.vv_px2)),
@@ -736,6 +757,7 @@ struct Outcome {
     rows: Vec<PointRow>,
     observations: Vec<ObservationRow>,
     problems: Vec<Failure>,
+    saturation: BTreeMap<u8, Saturation>,
 }
 
 fn measure_one(
@@ -750,6 +772,7 @@ fn measure_one(
             rows: Vec::new(),
             observations: Vec::new(),
             problems: vec![whole_instant(&ip.key, sight.left_out)],
+            saturation: BTreeMap::new(),
         };
     }
     let (mut problems, mut notes) = (Vec::new(), Vec::new());
@@ -796,6 +819,12 @@ fn measure_one(
             }
         }
     }
+    let mut saturation: BTreeMap<u8, Saturation> = BTreeMap::new();
+    for (&camera, o) in centres.iter().flatten().flat_map(|c| &c.seen) {
+        let tally = saturation.entry(camera).or_default();
+        tally.images += 1;
+        tally.saturated += usize::from(o.saturated);
+    }
     let rows = rows_for(&ip.key, ctx.spheres, &centres);
     let observations = observations_for(&ip.key, ctx.spheres, &centres, |s| ctx.radius(s));
     if rows.is_empty() {
@@ -817,6 +846,7 @@ fn measure_one(
         rows,
         observations,
         problems,
+        saturation,
     }
 }
 
@@ -1041,9 +1071,15 @@ pub fn measure(
     };
     let total = plans.len() as u64;
     progress(resumed as u64, total);
-    let mut problems = measure_chunks(&ctx, &todo, &references, &paths, |finished| {
-        progress(resumed as u64 + finished, total)
-    })?;
+    let mut saturation = BTreeMap::new();
+    let mut problems = measure_chunks(
+        &ctx,
+        &todo,
+        &references,
+        &paths,
+        &mut saturation,
+        |finished| progress(resumed as u64 + finished, total),
+    )?;
 
     // The plausibility gate over every row written, this run's and the resumed one's.
     let (mut rows, gate, refused) = gated_rows(&paths.partial, &index_of)?;
@@ -1083,6 +1119,7 @@ pub fn measure(
         poses: paths.poses,
         assumed_ideal_lens: assumed_ideal,
         noise: ctx.noise.clone(),
+        saturation,
     })
 }
 
@@ -1215,12 +1252,13 @@ fn resume(
 /// images to the observations' partial file and then its rows to the
 /// points' (each synced; a kept instant so has its images) and calling
 /// `finished(instants so far)`; returns the problems with their instants'
-/// manifest indices.
+/// manifest indices, and adds each camera's saturated images to `saturation`.
 fn measure_chunks(
     ctx: &Context<'_>,
     todo: &[&InstantPlan],
     references: &HashMap<LineKey, Vec<SphereReference>>,
     paths: &Paths,
+    saturation: &mut BTreeMap<u8, Saturation>,
     finished: impl Fn(u64),
 ) -> Result<Vec<(usize, InstantProblemRow)>> {
     let mut points = Appender::open(&paths.partial)?;
@@ -1238,6 +1276,11 @@ fn measure_chunks(
             rows.extend(outcome.rows);
             observations.extend(outcome.observations);
             problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
+            for (camera, s) in outcome.saturation {
+                let tally = saturation.entry(camera).or_default();
+                tally.images += s.images;
+                tally.saturated += s.saturated;
+            }
         }
         images.append(&observations)?;
         points.append(&rows)?;

@@ -124,6 +124,14 @@ pub fn run(args: &Args) -> Result<()> {
             noise.describe()
         );
     }
+    for (camera, s) in summary.saturation.iter().filter(|(_, s)| s.saturated > 0) {
+        eprintln!(
+            "trinocular: warning: camera {camera}: {} of {} sphere images measured have saturated pixels \
+             (at the sensor's maximum): their centres are biased and their noise is not known; lower the \
+             exposure or the spheres' brightness",
+            s.saturated, s.images
+        );
+    }
     eprintln!(
         "measured {} of {} instants{}{} → {}",
         summary.measured,
