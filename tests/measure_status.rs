@@ -216,7 +216,11 @@ fn saturated_sphere_images_are_warned_about() {
             .collect();
         if saturated {
             assert!(!warnings.is_empty(), "{name}: no saturation warning: {err}");
-            assert!(warnings.iter().all(|w| w.contains("camera ") && w.contains(" of ")));
+            assert!(
+                warnings
+                    .iter()
+                    .all(|w| w.contains("camera ") && w.contains(" of "))
+            );
         } else {
             assert!(warnings.is_empty(), "{name}: {warnings:?}");
         }

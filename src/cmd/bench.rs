@@ -35,6 +35,8 @@ enum What {
     Tracer(crate::cmd::probe::tracer::BenchArgs),
     /// `trinocular manifest` on thousands of full-size frames per camera (metadata only).
     Manifest(crate::cmd::manifest::BenchArgs),
+    /// `evaluate`'s Monte Carlo: 108 instants × 3 spheres × 200 trials.
+    Uncertainty(crate::cmd::evaluate::BenchArgs),
 }
 
 /// Arguments of `trinocular bench extract`.
@@ -264,5 +266,6 @@ pub fn run(args: &Args) -> Result<()> {
         What::Extract(a) => bench_extract(a),
         What::Tracer(a) => crate::cmd::probe::tracer::bench(a),
         What::Manifest(a) => crate::cmd::manifest::bench(a),
+        What::Uncertainty(a) => crate::cmd::evaluate::bench(a),
     }
 }

@@ -5,7 +5,8 @@
 //! were fused from (`<stem>.observations.csv` beside the points), every
 //! figure carries its expanded uncertainty U (k = 2) by Monte Carlo.
 
-use std::path::PathBuf;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
@@ -66,7 +67,8 @@ fn uncertainty(
         .unwrap_or_else(|| formats::beside(&args.points, "points", ".observations.csv"));
     if !observations.exists() {
         return not_given(format!(
-            "no observations: {} does not exist (points measured elsewhere carry no record of their              images, and an uncertainty is never invented)",
+            "no observations: {} does not exist (points measured elsewhere carry no record of their \
+             images, and an uncertainty is never invented)",
             observations.display()
         ));
     }
@@ -75,37 +77,219 @@ fn uncertainty(
             "no rig given (--rig rig.json): the calibration's covariance is unknown".into(),
         );
     };
-    let rig = formats::read_rig(rig_path)?;
-    let mut cameras = std::collections::BTreeMap::new();
-    let mut covariance = std::collections::BTreeMap::new();
-    for c in &rig.cameras {
-        cameras.insert(c.model.id, c.validate()?);
-        if let Some(cov) = &c.covariance {
-            covariance.insert(c.model.id, cov.clone());
-        }
-    }
-    let rows: Vec<formats::ObservationRow> = formats::read_csv(&observations)?
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
-    let points: Vec<formats::PointRow> = evaluate::read_points(&args.points)?
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
-    Ok(evaluate::uncertainty::propagate(
+    let inputs = Propagated::read(&args.points, &observations, rig_path)?;
+    Ok(inputs.propagate(
         report,
-        &points,
-        &rows,
-        evaluate::uncertainty::Instrument {
-            cameras: &cameras,
-            covariance: &covariance,
-        },
         options,
         evaluate::uncertainty::Propagation {
             trials: args.trials,
             seed: args.seed,
         },
     ))
+}
+
+/// What the propagation reads: the points, the images they were fused
+/// from, and the rig's cameras and covariances by id.
+struct Propagated {
+    points: Vec<formats::PointRow>,
+    observations: Vec<formats::ObservationRow>,
+    cameras: BTreeMap<u8, geom::Camera>,
+    covariance: BTreeMap<u8, formats::CameraCovariance>,
+}
+
+impl Propagated {
+    fn read(points: &Path, observations: &Path, rig: &Path) -> Result<Self> {
+        let rig = formats::read_rig(rig)?;
+        let mut cameras = BTreeMap::new();
+        let mut covariance = BTreeMap::new();
+        for c in &rig.cameras {
+            cameras.insert(c.model.id, c.validate()?);
+            if let Some(cov) = &c.covariance {
+                covariance.insert(c.model.id, cov.clone());
+            }
+        }
+        Ok(Self {
+            points: evaluate::read_points(points)?
+                .into_iter()
+                .map(|r| r.record)
+                .collect(),
+            observations: formats::read_csv(observations)?
+                .into_iter()
+                .map(|r| r.record)
+                .collect(),
+            cameras,
+            covariance,
+        })
+    }
+
+    fn propagate(
+        &self,
+        report: &evaluate::Report,
+        options: &evaluate::Options,
+        propagation: evaluate::uncertainty::Propagation,
+    ) -> formats::uncertainty::Uncertainty {
+        evaluate::uncertainty::propagate(
+            report,
+            &self.points,
+            &self.observations,
+            evaluate::uncertainty::Instrument {
+                cameras: &self.cameras,
+                covariance: &self.covariance,
+            },
+            options,
+            propagation,
+        )
+    }
+}
+
+/// Arguments of `trinocular bench uncertainty`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Monte Carlo trials.
+    #[arg(long, default_value_t = evaluate::uncertainty::DEFAULT_TRIALS)]
+    trials: usize,
+    /// Timed propagations (the median is reported).
+    #[arg(long, default_value_t = 3, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
+    repeat: usize,
+}
+
+/// `trinocular bench uncertainty`: a campaign of 108 instants × 3 spheres
+/// (the seed's 3 axes × 6 targets × 3 runs × 2 directions) rendered small
+/// (384×288 px, two captures so that the noise model is found from them),
+/// calibrated and measured by this binary, then the Monte Carlo of
+/// `evaluate` over its first captures timed on all threads and on one,
+/// minimum-zone fits included.
+pub fn bench(args: &BenchArgs) -> Result<()> {
+    let dir = formats::interrupt::ScratchFolder::new()?;
+    let at = |name: &str| dir.path().join(name);
+    let exe = std::env::current_exe().context("finding this program")?;
+    let step = |what: &[&std::ffi::OsStr]| -> Result<()> {
+        let out = std::process::Command::new(&exe)
+            .args(what)
+            .output()
+            .context("running this program")?;
+        anyhow::ensure!(
+            out.status.success(),
+            "trinocular {} failed: {}",
+            what.first()
+                .map_or(String::new(), |w| w.to_string_lossy().into_owned()),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+        Ok(())
+    };
+    let (c, rig, points) = (at("campaign"), at("rig.json"), at("points.csv"));
+    let cal = |name: &str| c.join("calib").join(name).into_os_string();
+    let os = |s: &str| std::ffi::OsString::from(s);
+    eprintln!("rendering, calibrating and measuring 108 instants (384×288 px) …");
+    let mut render: Vec<std::ffi::OsString> = [
+        "synth",
+        "campaign",
+        "--width",
+        "384",
+        "--height",
+        "288",
+        "--targets",
+        "6",
+        "--runs",
+        "3",
+        "--captures",
+        "2",
+        "--out",
+    ]
+    .map(os)
+    .into();
+    render.push(c.clone().into());
+    for command in [
+        render,
+        vec![
+            os("calibrate"),
+            os("--target"),
+            c.join("target.csv").into(),
+            os("--nominal"),
+            c.join("nominal.json").into(),
+            os("--images"),
+            cal("cam1.tif"),
+            cal("cam2.tif"),
+            cal("cam3.tif"),
+            os("--flat-fields"),
+            cal("flat_cam1.tif"),
+            cal("flat_cam2.tif"),
+            cal("flat_cam3.tif"),
+            os("--dark-frames"),
+            cal("dark_cam1.tif"),
+            cal("dark_cam2.tif"),
+            cal("dark_cam3.tif"),
+            os("--out"),
+            rig.clone().into(),
+        ],
+        vec![
+            os("measure"),
+            os("--rig"),
+            rig.clone().into(),
+            os("--manifest"),
+            c.join("manifest.csv").into(),
+            os("--spheres"),
+            c.join("spheres.csv").into(),
+            os("--out"),
+            points.clone().into(),
+        ],
+    ] {
+        let refs: Vec<&std::ffi::OsStr> = command.iter().map(|a| a.as_os_str()).collect();
+        step(&refs)?;
+    }
+    let mut inputs = Propagated::read(&points, &at("points.observations.csv"), &rig)?;
+    inputs.points.retain(|p| p.capture == 1);
+    inputs.observations.retain(|o| o.capture == 1);
+    let instants: std::collections::HashSet<_> = inputs
+        .points
+        .iter()
+        .map(formats::PointRow::instant)
+        .collect();
+    let options = evaluate::Options::default();
+    let report = evaluate::evaluate(&inputs.points, &options)?;
+    let propagation = evaluate::uncertainty::Propagation {
+        trials: args.trials,
+        seed: 1,
+    };
+    let timed = |f: &dyn Fn() -> formats::uncertainty::Uncertainty| {
+        let mut times = Vec::new();
+        let mut last = f();
+        for _ in 0..args.repeat {
+            let start = std::time::Instant::now();
+            last = f();
+            times.push(start.elapsed());
+        }
+        times.sort();
+        (times[times.len() / 2], last)
+    };
+    let (all, u) = timed(&|| inputs.propagate(&report, &options, propagation));
+    let one_pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let (one, _) = timed(&|| one_pool.install(|| inputs.propagate(&report, &options, propagation)));
+    let given = match &u {
+        formats::uncertainty::Uncertainty::Given(p) => p,
+        formats::uncertainty::Uncertainty::NotGiven { reason } => {
+            anyhow::bail!("the benchmark's campaign gave no uncertainty: {reason}")
+        }
+    };
+    println!(
+        "uncertainty: {} instants × {} spheres ({} centres, {} images), {} trials, {} figures \
+         (minimum zones included)",
+        instants.len(),
+        report.spheres.len(),
+        inputs.points.len(),
+        inputs.observations.len(),
+        args.trials,
+        given.expanded.len()
+    );
+    let threads = rayon::current_num_threads();
+    println!(
+        "  {threads} threads: {:.2} s ({:.1} ms a trial with its budget runs); 1 thread: {:.2} s (median of {})",
+        all.as_secs_f64(),
+        all.as_secs_f64() * 1e3 / args.trials.max(1) as f64,
+        one.as_secs_f64(),
+        args.repeat
+    );
+    Ok(())
 }
 
 /// Run the evaluation and write the report.
