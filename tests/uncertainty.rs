@@ -439,4 +439,45 @@ fn the_budget_follows_the_physics() {
         cal.0, cal.1
     );
     assert!(cal.1 > 1.3 * cal.0, "{cal:?}");
+
+    // The machine at 25 ± 0.5 °C, α = 11.5 ± 1 µm/(m·K): a Type B source of
+    // u(ε) = √((α·u_T)² + (u_α·ΔT)²) = 7.6 µm/m on every positioning
+    // deviation in proportion to its travel. It moves the systematic
+    // figures (E) and not the repeatability (R), the same in every run.
+    let dir = tmp.path().join("normal");
+    let conditions = dir.join("conditions.toml");
+    std::fs::write(
+        &conditions,
+        "[temperature]\nmachine_c = 25.0\nmachine_u_c = 0.5\nexpansion_um_per_m_k = 11.5\n\
+         expansion_u_um_per_m_k = 1.0\n",
+    )
+    .unwrap();
+    let warm = dir.join("warm");
+    ok(&trinocular(&[
+        "evaluate",
+        "--points",
+        s(&dir.join("points.csv")),
+        "--rig",
+        s(&dir.join("rig.json")),
+        "--conditions",
+        s(&conditions),
+        "--out",
+        s(&warm),
+    ]));
+    let report: Value =
+        serde_json::from_slice(&std::fs::read(warm.join("report.json")).unwrap()).unwrap();
+    let budget = headline_u(&report);
+    let temperature = |figure: &str| budget[figure].1["temperature"];
+    let axes: Vec<&str> = ["X", "Y", "Z"]
+        .into_iter()
+        .filter(|a| budget.contains_key(&format!("axes.{a}.positioning.E_um")))
+        .collect();
+    assert!(!axes.is_empty(), "no E in the budget");
+    for axis in axes {
+        let e = temperature(&format!("axes.{axis}.positioning.E_um"));
+        let r = temperature(&format!("axes.{axis}.positioning.R_um"));
+        eprintln!("{axis}: temperature share of E {e:.3} µm, of R {r:.4} µm");
+        assert!(e > 0.05, "{axis}: E {e}");
+        assert!(r < 0.1 * e, "{axis}: R {r} against E {e}");
+    }
 }

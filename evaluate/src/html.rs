@@ -23,6 +23,7 @@ pub fn render(report: &Report) -> Result<String> {
         escape(&report.spheres.join(", ")),
         escape(&report.sphere),
     ));
+    ::report::conditions::section(&mut h, report.conditions.as_ref());
     summary(&mut h, report);
     ::report::uncertainty::section(&mut h, report.uncertainty.as_ref());
     for (axis, a) in report.axes.iter() {

@@ -117,6 +117,14 @@ pub struct Options {
     pub sphere: Option<String>,
     /// Also compute the VDI/DGQ 3441 figures (P, Ps, U, Pa).
     pub vdi3441: bool,
+    /// The machine scale's nominal differential expansion α·(T − 20 °C)
+    /// (dimensionless; 0: no correction): each positioning deviation is
+    /// corrected by −ε·(P − P₀) (`formats::conditions`).
+    pub machine_strain: f64,
+    /// The calibration target's expansion α_t·(T_t − 20 °C) during the
+    /// calibration (0: none): the rig's lengths are scaled by (1 + ε_t), a
+    /// scaling of every centre about the rig's origin.
+    pub target_strain: f64,
 }
 
 /// Evaluate every axis, line and the flatness from `points.csv` rows given in
@@ -167,6 +175,30 @@ fn choose_sphere(spheres: &[String], options: &Options) -> Result<String> {
 
 fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Result<Report> {
     points::check(rows, source)?;
+    if options.target_strain != 0.0 {
+        // A target warmer than 20 °C was larger than its file says: every
+        // length the rig measured is short by 1/(1 + ε_t).
+        let scale = 1.0 + options.target_strain;
+        let scaled: Vec<PointRow> = rows
+            .iter()
+            .map(|r| PointRow {
+                x: r.row.x * scale,
+                y: r.row.y * scale,
+                z: r.row.z * scale,
+                ..r.row.clone()
+            })
+            .collect();
+        let located: Vec<Located<'_>> = rows
+            .iter()
+            .zip(&scaled)
+            .map(|(r, row)| Located { line: r.line, row })
+            .collect();
+        let unscaled = Options {
+            target_strain: 0.0,
+            ..options.clone()
+        };
+        return evaluate_located(&located, source, &unscaled);
+    }
     let mut spheres: Vec<String> = Vec::new();
     for r in rows {
         if !spheres.contains(&r.row.sphere) {
@@ -185,6 +217,8 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
         conventions: conventions(&sphere),
         warnings: Vec::new(),
         uncertainty: None,
+        conditions: None,
+        uncorrected: None,
     };
     let lines = lines::group(rows);
     let mut flat_points: Vec<(Axis, usize, u32, Point3<f64>)> = Vec::new();
@@ -195,8 +229,7 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
         }
         let mut results = Vec::with_capacity(of_axis.len());
         for (index, line) in of_axis.iter().enumerate() {
-            let result =
-                lines::evaluate_line(line, index, &sphere, &spheres, options.vdi3441, source)?;
+            let result = lines::evaluate_line(line, index, &sphere, &spheres, options, source)?;
             if axis != Axis::Z {
                 flat_points.extend(result.means.iter().map(|(t, p)| (axis, index, *t, *p)));
             }

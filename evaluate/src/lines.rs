@@ -137,13 +137,15 @@ pub(crate) struct LineResult {
 /// Evaluate one line with `sphere` carrying positioning and straightness:
 /// the commanded coordinate of each target, the captures per sphere, the axis
 /// frame through the sphere's per-target means, then positioning (ISO 230-2,
-/// the seed's 3σ, VDI/DGQ 3441), straightness and angular errors.
+/// the seed's 3σ, VDI/DGQ 3441), straightness and angular errors; the
+/// positioning deviations corrected for the machine's expansion
+/// (`options.machine_strain`).
 pub(crate) fn evaluate_line(
     line: &Line<'_>,
     index: usize,
     sphere: &str,
     all_spheres: &[String],
-    vdi: bool,
+    options: &crate::Options,
     source: &str,
 ) -> Result<LineResult> {
     let axis = line.axis;
@@ -187,8 +189,9 @@ pub(crate) fn evaluate_line(
         commanded: &commanded,
         frame: &frame,
         what,
+        machine_strain: options.machine_strain,
     };
-    let positioning = sweep.positioning(vdi)?;
+    let positioning = sweep.positioning(options.vdi3441)?;
     let straightness = sweep.straightness(&means)?;
     let mut warnings = Vec::new();
     let angular = angular_errors(line, &data, all_spheres, &sweep, &mut warnings);
@@ -279,12 +282,18 @@ struct Sweep<'a> {
     frame: &'a AxisFrame,
     /// The line, for messages.
     what: LineName,
+    /// The machine scale's nominal differential expansion α·(T − 20 °C).
+    machine_strain: f64,
 }
 
 impl Sweep<'_> {
-    /// Positional deviation of a measured point at target index k (µm).
+    /// Positional deviation of a measured point at target index k (µm),
+    /// corrected to 20 °C for the machine scale's nominal differential
+    /// expansion ε = α·(T − 20 °C) (ISO 230-2:2014 §3.3, 5.3): the
+    /// deviation less ε·(P − P₀), P₀ the line's first target.
     fn deviation(&self, k: usize, p: &Point3<f64>) -> f64 {
-        um(self.frame.along(p) - (self.commanded[k] - self.commanded[0]))
+        let travel = self.commanded[k] - self.commanded[0];
+        um(self.frame.along(p) - travel - self.machine_strain * travel)
     }
 
     /// Per target: the deviation of each approach (its captures averaged) by

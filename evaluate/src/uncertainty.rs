@@ -17,6 +17,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
+use formats::conditions::MachineExpansion;
 use formats::evaluation::{AngularTarget, LineReport};
 use formats::uncertainty::{
     BoundKind, FigureKeys, Source, Statement, TRIALS_OFF, Uncertainty, bounded, figures,
@@ -36,14 +37,46 @@ pub use geom::montecarlo::{DEFAULT_TRIALS, Propagation};
 /// per-target tables nor the rigid fits' residual.
 pub const FIGURE_KEYS: FigureKeys = FigureKeys {
     units: &["_um", "_urad"],
-    skip: &["targets", "points", "fit_rms_um", "uncertainty"],
+    skip: &[
+        "targets",
+        "points",
+        "fit_rms_um",
+        "uncertainty",
+        "conditions",
+        "uncorrected",
+    ],
 };
 
-/// Source indices in the propagation.
+/// Source indices in the propagation; the target's and the temperature's
+/// follow when present ([`Sources`]).
 const CENTROIDS: usize = 0;
 const CALIBRATION: usize = 1;
-const TARGET: usize = 2;
-const SOURCES: [&str; 3] = ["centroids", "calibration", "target"];
+
+/// The sources of one propagation and their indices.
+struct Sources {
+    names: Vec<&'static str>,
+    target: Option<usize>,
+    temperature: Option<usize>,
+}
+
+impl Sources {
+    fn new(with_target: bool, with_temperature: bool) -> Self {
+        let mut names = vec!["centroids", "calibration"];
+        let mut add = |on: bool, name| {
+            on.then(|| {
+                names.push(name);
+                names.len() - 1
+            })
+        };
+        let target = add(with_target, "target");
+        let temperature = add(with_temperature, "temperature");
+        Sources {
+            names,
+            target,
+            temperature,
+        }
+    }
+}
 
 /// What the figures were measured with: the calibrated cameras by id and
 /// their parameters' covariance.
@@ -105,14 +138,17 @@ fn not_given(reason: impl Into<String>) -> Uncertainty {
 }
 
 /// The report's uncertainty: U of every figure of `report` (evaluated from
-/// `points` with `options`) from the images' `observations` and the
-/// `instrument`, or why there is none. `propagation.trials == 0` turns it off.
+/// `points` with `options`) from the images' `observations`, the
+/// `instrument` and, when the test conditions give them, the machine's
+/// temperature and expansion coefficient (Type B, normal, one draw per
+/// trial), or why there is none. `propagation.trials == 0` turns it off.
 pub fn propagate(
     report: &Report,
     points: &[PointRow],
     observations: &[ObservationRow],
     instrument: Instrument<'_>,
     options: &Options,
+    machine: Option<MachineExpansion>,
     propagation: Propagation,
 ) -> Uncertainty {
     if propagation.trials == 0 {
@@ -130,14 +166,26 @@ pub fn propagate(
         return not_given("the report's figures cannot be listed");
     };
     let with_target = cameras.iter().any(|c| c.target.is_some());
-    let sources: &[&str] = if with_target {
-        &SOURCES
-    } else {
-        &SOURCES[..TARGET]
-    };
-    let result = monte_carlo(&nominal, sources, propagation, |trial| {
-        let rows = trial_points(trial, points, &sighted, &cameras)?;
-        let r = evaluate(&rows, options).ok()?;
+    let thermal = machine.filter(|m| m.temperature_u_c > 0.0 || m.alpha_u_um_per_m_k > 0.0);
+    let sources = Sources::new(with_target, thermal.is_some());
+    let result = monte_carlo(&nominal, &sources.names, propagation, |trial| {
+        let rows = trial_points(trial, points, &sighted, &cameras, sources.target)?;
+        let drawn;
+        let trial_options = match (thermal, sources.temperature.and_then(|i| trial.draws(i))) {
+            (Some(m), Some(d)) => {
+                let (dt, da) = (
+                    d.gaussian(m.temperature_u_c),
+                    d.gaussian(m.alpha_u_um_per_m_k),
+                );
+                drawn = Options {
+                    machine_strain: m.strain_drawn(dt, da),
+                    ..options.clone()
+                };
+                &drawn
+            }
+            _ => options,
+        };
+        let r = evaluate(&rows, trial_options).ok()?;
         let mut f = figures(&r, &FIGURE_KEYS).ok()?;
         bound_ranges(report, &r, &nominal, &mut f);
         Some(f)
@@ -148,19 +196,29 @@ pub fn propagate(
     };
     let mut notes = vec![
         source(
-            SOURCES[CENTROIDS],
+            "centroids",
             "noise of each sphere image's centre (observations.csv covariance; independent between images)",
         ),
         source(
-            SOURCES[CALIBRATION],
+            "calibration",
             "the cameras' calibrated parameters (rig.json covariance, least-squares part; one draw per camera \
              and trial, shared by every instant)",
         ),
     ];
     if with_target {
         notes.push(source(
-            SOURCES[TARGET],
+            "target",
             "the calibration target's marker coordinates (rig.json covariance, target part; shared by every instant)",
+        ));
+    }
+    if let Some(m) = thermal {
+        notes.push(source(
+            "temperature",
+            &format!(
+                "the machine's temperature (u = {} °C) and expansion coefficient (u = {} µm/(m·K)) of the \
+                 correction to 20 °C (conditions file; Type B, normal; one draw per trial)",
+                m.temperature_u_c, m.alpha_u_um_per_m_k
+            ),
         ));
     }
     let statement = Statement {
@@ -169,10 +227,30 @@ pub fn propagate(
              of the trial figures (k = {COVERAGE_FACTOR}); budget: each source alone, standard uncertainty"
         ),
         sources: notes,
-        not_included: vec![
-            "temperature: the machine's and the target's thermal expansion (no test conditions given)".into(),
-            "the machine's own scatter is in the figures (R, s), not in U".into(),
-        ],
+        not_included: [
+            match (machine, thermal) {
+                (None, _) => Some(
+                    "temperature: the machine's thermal expansion (no machine temperature and expansion \
+                     coefficient given: --conditions)"
+                        .to_string(),
+                ),
+                (Some(_), None) => Some(
+                    "temperature: the uncertainty of the machine's temperature and expansion coefficient \
+                     (none given in the conditions)"
+                        .to_string(),
+                ),
+                (Some(_), Some(_)) => None,
+            },
+            (options.target_strain != 0.0).then(|| {
+                "the calibration target's temperature: its correction is made, its uncertainty not \
+                 included"
+                    .to_string()
+            }),
+            Some("the machine's own scatter is in the figures (R, s), not in U".to_string()),
+        ]
+        .into_iter()
+        .flatten()
+        .collect(),
         headline: nominal.keys().filter(|p| headline(p)).cloned().collect(),
     };
     Uncertainty::from_trials(result, &nominal, statement, propagation)
@@ -401,6 +479,7 @@ fn trial_points(
     points: &[PointRow],
     sighted: &[Sighted],
     cameras: &[CameraDraw<'_>],
+    target: Option<usize>,
 ) -> Option<Vec<PointRow>> {
     let mut drawn: BTreeMap<u8, Option<Camera>> = BTreeMap::new();
     for c in cameras {
@@ -410,7 +489,7 @@ fn trial_points(
             delta += c.fit.draw(d);
             moved = true;
         }
-        if let (Some(d), Some(t)) = (trial.draws(TARGET), &c.target) {
+        if let (Some(d), Some(t)) = (target.and_then(|i| trial.draws(i)), &c.target) {
             delta += t.draw(d);
             moved = true;
         }

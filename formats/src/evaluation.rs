@@ -42,6 +42,13 @@ pub struct Report {
     /// (`A_U_um`). Absent when not asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub uncertainty: Option<crate::uncertainty::Uncertainty>,
+    /// The test conditions given (`--conditions`), as read.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conditions: Option<crate::conditions::Conditions>,
+    /// The figures before the correction to 20 °C, by path; present when
+    /// the conditions asked for one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uncorrected: Option<std::collections::BTreeMap<String, f64>>,
 }
 
 impl Report {

@@ -81,6 +81,7 @@ mod blobs;
 mod campaign;
 mod capture;
 pub mod commissioning;
+pub mod conditions;
 pub mod created;
 pub mod evaluation;
 mod figures;

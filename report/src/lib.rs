@@ -17,6 +17,7 @@ mod page;
 
 #[cfg(feature = "browser")]
 pub mod browser;
+pub mod conditions;
 pub mod plot;
 pub mod uncertainty;
 

@@ -41,6 +41,11 @@ pub struct Args {
     /// beside the points, as `measure` writes it).
     #[arg(long)]
     observations: Option<PathBuf>,
+    /// Test conditions (`conditions.toml`, docs/formats.md): the machine and
+    /// the temperatures; with the machine's temperature and expansion
+    /// coefficient the positioning deviations are corrected to 20 °C.
+    #[arg(long)]
+    conditions: Option<PathBuf>,
     /// Monte Carlo trials of the uncertainty (0: figures without U).
     #[arg(long, default_value_t = evaluate::uncertainty::DEFAULT_TRIALS)]
     trials: usize,
@@ -55,6 +60,7 @@ fn uncertainty(
     args: &Args,
     report: &evaluate::Report,
     options: &evaluate::Options,
+    machine: Option<formats::conditions::MachineExpansion>,
 ) -> Result<formats::uncertainty::Uncertainty> {
     use formats::uncertainty::Uncertainty;
     let not_given = |reason: String| Ok(Uncertainty::NotGiven { reason });
@@ -81,6 +87,7 @@ fn uncertainty(
     Ok(inputs.propagate(
         report,
         options,
+        machine,
         evaluate::uncertainty::Propagation {
             trials: args.trials,
             seed: args.seed,
@@ -126,6 +133,7 @@ impl Propagated {
         &self,
         report: &evaluate::Report,
         options: &evaluate::Options,
+        machine: Option<formats::conditions::MachineExpansion>,
         propagation: evaluate::uncertainty::Propagation,
     ) -> formats::uncertainty::Uncertainty {
         evaluate::uncertainty::propagate(
@@ -137,6 +145,7 @@ impl Propagated {
                 covariance: &self.covariance,
             },
             options,
+            machine,
             propagation,
         )
     }
@@ -262,9 +271,10 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         times.sort();
         (times[times.len() / 2], last)
     };
-    let (all, u) = timed(&|| inputs.propagate(&report, &options, propagation));
+    let (all, u) = timed(&|| inputs.propagate(&report, &options, None, propagation));
     let one_pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let (one, _) = timed(&|| one_pool.install(|| inputs.propagate(&report, &options, propagation)));
+    let (one, _) =
+        timed(&|| one_pool.install(|| inputs.propagate(&report, &options, None, propagation)));
     let given = match &u {
         formats::uncertainty::Uncertainty::Given(p) => p,
         formats::uncertainty::Uncertainty::NotGiven { reason } => {
@@ -292,21 +302,77 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// What the correction to 20 °C did, as the report states it.
+fn correction_statement(t: &formats::conditions::Temperature) -> String {
+    let mut parts = Vec::new();
+    if let Some(m) = t.machine() {
+        parts.push(format!(
+            "positioning deviations corrected to 20 °C for the machine scale's nominal differential \
+             expansion (ISO 230-2): α = {} µm/(m·K), T = {} °C, deviation − α·(T − 20 °C)·(P − P₀) = \
+             deviation − {:.2} µm/m·(P − P₀), P₀ the line's first target",
+            m.alpha_um_per_m_k,
+            m.temperature_c,
+            m.strain() * 1e6
+        ));
+    }
+    if let (Some(tc), Some(a), Some(e)) =
+        (t.target_c, t.target_expansion_um_per_m_k, t.target_strain())
+    {
+        parts.push(format!(
+            "the rig's lengths scaled by 1 + {:.2} µm/m for the calibration target at {tc} °C \
+             (α = {a} µm/(m·K))",
+            e * 1e6
+        ));
+    }
+    format!(
+        "{}; the figures before it under `uncorrected`",
+        parts.join("; ")
+    )
+}
+
 /// Run the evaluation and write the report.
 pub fn run(args: &Args) -> Result<()> {
-    let options = evaluate::Options {
+    let conditions = args
+        .conditions
+        .as_deref()
+        .map(formats::conditions::Conditions::read)
+        .transpose()?;
+    let temperature = conditions.as_ref().map(|c| &c.temperature);
+    let machine = temperature.and_then(|t| t.machine());
+    let target_strain = temperature.and_then(|t| t.target_strain());
+    let uncorrected = evaluate::Options {
         sphere: args.sphere.clone(),
         vdi3441: args.vdi3441,
+        ..evaluate::Options::default()
     };
-    let report = evaluate::evaluate_file(&args.points, &options).map_err(|e| match e {
-        // --sphere naming a sphere the points do not have.
-        evaluate::EvaluateError::UnknownSphere { .. } => Usage::error(e),
-        e => e.into(),
-    })?;
-    let mut report = report;
-    report.uncertainty = Some(uncertainty(args, &report, &options)?);
+    let options = evaluate::Options {
+        machine_strain: machine.map_or(0.0, |m| m.strain()),
+        target_strain: target_strain.unwrap_or(0.0),
+        ..uncorrected.clone()
+    };
+    let evaluate = |options: &evaluate::Options| {
+        evaluate::evaluate_file(&args.points, options).map_err(|e| match e {
+            // --sphere naming a sphere the points do not have.
+            evaluate::EvaluateError::UnknownSphere { .. } => Usage::error(e),
+            e => e.into(),
+        })
+    };
+    let mut report = evaluate(&options)?;
+    if machine.is_some() || target_strain.is_some() {
+        let before = evaluate(&uncorrected)?;
+        report.uncorrected = Some(formats::uncertainty::figures(
+            &before,
+            &evaluate::uncertainty::FIGURE_KEYS,
+        )?);
+        report
+            .conventions
+            .extend(temperature.map(correction_statement));
+    }
+    report.conditions = conditions.clone();
+    report.uncertainty = Some(uncertainty(args, &report, &options, machine)?);
     let mut output = formats::OutputPlan::new(args.force);
     output.input(&args.points);
+    output.inputs(args.conditions.iter());
     output.inputs(args.rig.iter());
     output.inputs(args.observations.iter());
     let written = evaluate::write_outputs(&report, &args.out, &mut output)
