@@ -5,7 +5,8 @@
 //! differential expansion), E follows from the corrected means, the
 //! figures before the correction are kept under `uncorrected`; a target
 //! calibrated at 30 °C scales the lengths; bad conditions are refused with
-//! the file and key, nothing written.
+//! the file and key, nothing written. `--pdf` prints the archive copy
+//! (rasterised and read back with poppler's pdftoppm and pdftotext).
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -215,4 +216,117 @@ fn bad_conditions_are_refused_with_the_key_and_nothing_written() {
         );
         assert!(!out.exists(), "{text}: {} written", out.display());
     }
+}
+
+/// Run `tool` (poppler-utils) with `args`; `None` (with a notice) when it is
+/// not installed and the environment does not require it.
+fn poppler(tool: &str, args: &[&str]) -> Option<std::process::Output> {
+    match std::process::Command::new(tool).args(args).output() {
+        Ok(out) => {
+            assert!(
+                out.status.success(),
+                "{tool} {args:?}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            Some(out)
+        }
+        Err(_) if std::env::var("TRINOCULAR_REQUIRE_BROWSER").as_deref() != Ok("1") => {
+            eprintln!("NOTICE: {tool} not found (Debian poppler-utils): the PDF check is SKIPPED");
+            None
+        }
+        Err(e) => panic!("{tool}: {e} (install the Debian package poppler-utils)"),
+    }
+}
+
+#[test]
+fn the_archive_copy_is_printed_on_a4_with_page_numbers() {
+    if report::browser::browser_or_skip("the_archive_copy_is_printed")
+        .unwrap()
+        .is_none()
+    {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = tmp.path().join("conditions.toml");
+    std::fs::write(&cfg, WARM).unwrap();
+    evaluate(tmp.path(), "printed", &["--conditions", s(&cfg), "--pdf"]);
+    let pdf = tmp.path().join("printed/report.pdf");
+    let bytes = read(&pdf);
+    assert!(bytes.starts_with(b"%PDF-"), "not a PDF");
+    // Page 1 as text: the heading, the conditions and the page number.
+    let Some(text) = poppler(
+        "pdftotext",
+        &["-f", "1", "-l", "1", "-layout", s(&pdf), "-"],
+    ) else {
+        return;
+    };
+    let text = String::from_utf8_lossy(&text.stdout);
+    for want in [
+        "Machine geometric error report",
+        "Test conditions",
+        "VMC 800",
+        "page 1 of",
+    ] {
+        assert!(text.contains(want), "page 1 lacks {want:?}:\n{text}");
+    }
+    // Page 1 rasterised: A4 (1 : 1.414) and drawn, not blank.
+    let prefix = tmp.path().join("page");
+    poppler(
+        "pdftoppm",
+        &[
+            "-f",
+            "1",
+            "-l",
+            "1",
+            "-r",
+            "40",
+            "-png",
+            s(&pdf),
+            s(&prefix),
+        ],
+    )
+    .unwrap();
+    let png = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.file_name().unwrap().to_string_lossy().starts_with("page"))
+        .unwrap();
+    let img = image::open(&png).unwrap().to_luma8();
+    let ratio = f64::from(img.height()) / f64::from(img.width());
+    assert!(
+        (ratio - 297.0 / 210.0).abs() < 0.01,
+        "{}×{}",
+        img.width(),
+        img.height()
+    );
+    let inked = img.pixels().filter(|p| p.0[0] < 200).count();
+    assert!(
+        inked * 100 > img.pixels().len(),
+        "page 1 nearly blank: {inked} dark pixels"
+    );
+}
+
+#[test]
+fn pdf_without_a_browser_is_a_usage_error_and_nothing_is_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let points = tmp.path().join("points.csv");
+    formats::write_csv(&points, &rows()).unwrap();
+    let out = tmp.path().join("out");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_trinocular"))
+        .args([
+            "evaluate",
+            "--points",
+            s(&points),
+            "--pdf",
+            "--out",
+            s(&out),
+        ])
+        .env("PATH", tmp.path())
+        .env("TRINOCULAR_CHROMIUM", tmp.path().join("no-such-browser"))
+        .output()
+        .unwrap();
+    let (code, err) = failure(&run);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--pdf") && err.contains("Chromium"), "{err}");
+    assert!(!out.exists());
 }

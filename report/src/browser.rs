@@ -1,4 +1,5 @@
-//! A report page in a real browser, for tests: headless Chromium (Debian
+//! A report page in a real browser — for tests, and to print the archive
+//! copy ([`print_pdf`], `evaluate --pdf`): headless Chromium (Debian
 //! package `chromium`) driven over the DevTools protocol on a pipe
 //! (`--remote-debugging-pipe`) opens the page, lays it out at full height,
 //! takes a screenshot and collects console errors, exceptions and failed
@@ -42,11 +43,11 @@ fn fail(fault: BrowserFault) -> ReportError {
     ReportError::Browser(fault)
 }
 
-/// The browser to use: `TRINOCULAR_CHROMIUM`, else `chromium` or
-/// `chromium-browser` on the PATH.
+/// The browser to use: `TRINOCULAR_CHROMIUM` (when it names a file),
+/// else `chromium` or `chromium-browser` on the PATH.
 pub fn find_browser() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("TRINOCULAR_CHROMIUM") {
-        return Some(PathBuf::from(p));
+        return Some(PathBuf::from(p)).filter(|p| p.is_file());
     }
     let path = std::env::var_os("PATH")?;
     std::env::split_paths(&path)
@@ -277,7 +278,7 @@ impl Browser {
         let r = self.call("Page.captureScreenshot", json!({"format": "png"}))?;
         let data = r["data"]
             .as_str()
-            .ok_or_else(|| fail(BrowserFault::NoScreenshot))?;
+            .ok_or_else(|| fail(BrowserFault::NoData))?;
         let png = STANDARD
             .decode(data)
             .map_err(|e| fail(BrowserFault::NotBase64(e.to_string())))?;
@@ -394,8 +395,9 @@ fn px(v: &Value) -> u32 {
 /// Open the HTML file `page` in `browser`, lay it out at its full height
 /// (at most 16000 px) and return what was shown.
 pub fn render(browser: &Path, page: &Path) -> Result<Rendered> {
+    let url = file_url(page)?;
     let mut b = Browser::launch(browser)?;
-    b.open(&format!("file://{}", page.display()), 900)?;
+    b.open(&url, 900)?;
     let first = layout(&mut b)?;
     let height = first["height"].as_u64().unwrap_or(900).clamp(100, 16000) as u32;
     b.resize(height)?;
@@ -424,6 +426,76 @@ pub fn render(browser: &Path, page: &Path) -> Result<Rendered> {
         screenshot,
         errors,
     })
+}
+
+/// The `file://` URL of `page`: its absolute path, each byte outside
+/// RFC 3986's unreserved set and `/` percent-encoded.
+fn file_url(page: &Path) -> Result<String> {
+    let absolute = std::fs::canonicalize(page).map_err(|e| {
+        fail(BrowserFault::Start {
+            browser: page.to_path_buf(),
+            reason: format!("the page cannot be opened: {e}"),
+        })
+    })?;
+    let mut url = String::from("file://");
+    for b in absolute.as_os_str().as_encoded_bytes() {
+        match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'.' | b'_' | b'~' | b'/' => {
+                url.push(char::from(*b));
+            }
+            _ => url.push_str(&format!("%{b:02X}")),
+        }
+    }
+    Ok(url)
+}
+
+/// A4 in inches, as `Page.printToPDF` takes it.
+const A4_IN: (f64, f64) = (8.27, 11.69);
+
+/// The page footer of a printed report: "page n of m" (Chromium fills the
+/// `pageNumber` and `totalPages` spans).
+const FOOTER: &str = "<div style=\"font: 8px sans-serif; width: 100%; text-align: center;\">page \
+     <span class=\"pageNumber\"></span> of <span class=\"totalPages\"></span></div>";
+
+/// The HTML file `page` printed to PDF by `browser` (`Page.printToPDF`):
+/// A4, backgrounds printed (the verdict's colours), page numbers in the
+/// footer, scaled so that the page's width fits. The PDF's bytes.
+pub fn print_pdf(browser: &Path, page: &Path) -> Result<Vec<u8>> {
+    let url = file_url(page)?;
+    let mut b = Browser::launch(browser)?;
+    b.open(&url, 900)?;
+    let errors = b.errors();
+    if !errors.is_empty() {
+        b.close();
+        return Err(fail(BrowserFault::Refused {
+            method: format!("loading {url}"),
+            error: errors.join("; "),
+        }));
+    }
+    let printed = b.call(
+        "Page.printToPDF",
+        json!({
+            "paperWidth": A4_IN.0,
+            "paperHeight": A4_IN.1,
+            "marginTop": 0.4,
+            "marginBottom": 0.5,
+            "marginLeft": 0.4,
+            "marginRight": 0.4,
+            "scale": 0.8,
+            "printBackground": true,
+            "displayHeaderFooter": true,
+            "headerTemplate": "<span></span>",
+            "footerTemplate": FOOTER,
+        }),
+    );
+    b.close();
+    let data = printed?;
+    let data = data["data"]
+        .as_str()
+        .ok_or_else(|| fail(BrowserFault::NoData))?;
+    STANDARD
+        .decode(data)
+        .map_err(|e| fail(BrowserFault::NotBase64(e.to_string())))
 }
 
 /// Near `c` within `tol` per channel.

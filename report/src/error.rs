@@ -73,11 +73,11 @@ pub enum BrowserFault {
     /// The page session was not attached.
     #[error("no session id")]
     NoSession,
-    /// No screenshot in the answer.
-    #[error("no screenshot")]
-    NoScreenshot,
-    /// The screenshot is not base64.
-    #[error("screenshot: not base64: {0}")]
+    /// No data (screenshot or PDF) in the answer.
+    #[error("no data in the browser's answer (screenshot or PDF)")]
+    NoData,
+    /// The answer's data is not base64.
+    #[error("the browser's screenshot or PDF is not base64: {0}")]
     NotBase64(String),
     /// The screenshot is not an image.
     #[error("screenshot: {0}")]

@@ -33,18 +33,29 @@ fn decimals(u: f64) -> usize {
     }
 }
 
+/// What a figure within its own uncertainty of zero is called: the
+/// measurement cannot tell it from none.
+pub const NOT_SIGNIFICANT: &str = "not significant";
+
 /// `value ± U` with `decimals` decimals in the value and U with two
-/// significant digits, or the value alone without U.
+/// significant digits — followed by "(not significant)" when |value| < U —
+/// or the value alone without U.
 pub fn plus_minus(value: f64, expanded: Option<f64>, decimals: usize) -> String {
-    match expanded {
-        Some(u) => format!("{value:.decimals$} ± {}", significant(u)),
-        None => format!("{value:.decimals$}"),
-    }
+    plus_minus_in(value, expanded, decimals, "")
 }
 
-/// [`plus_minus`] followed by `unit` (`3.000 ± 0.046 µm`).
+/// [`plus_minus`] with `unit` after U (`3.000 ± 0.046 µm`, `3.0 ± 12 µm
+/// (not significant)`).
 pub fn plus_minus_in(value: f64, expanded: Option<f64>, decimals: usize, unit: &str) -> String {
-    with_unit(plus_minus(value, expanded, decimals), unit)
+    let shown = match expanded {
+        Some(u) => format!("{value:.decimals$} ± {}", significant(u)),
+        None => format!("{value:.decimals$}"),
+    };
+    let shown = with_unit(shown, unit);
+    match expanded {
+        Some(u) if value.abs() < u => format!("{shown} ({NOT_SIGNIFICANT})"),
+        _ => shown,
+    }
 }
 
 /// A figure as [`plus_minus`] with 3 decimals, or an em dash when absent.
@@ -125,7 +136,8 @@ fn given(page: &mut Page, p: &Propagated) {
 }
 
 /// One row of the budget: the figure, its value to the last digit of its U
-/// (GUM 7.2.6), U and each source's u, each with the figure's unit.
+/// (GUM 7.2.6), U and each source's u to one digit more (a negligible
+/// source reads 0), each with the figure's unit.
 fn budget_row(b: &BudgetEntry, sources: &[&String]) -> Vec<String> {
     let unit = unit_of(&b.figure);
     let value_decimals = if b.expanded.is_finite() && b.expanded > 0.0 {
@@ -138,10 +150,11 @@ fn budget_row(b: &BudgetEntry, sources: &[&String]) -> Vec<String> {
         with_unit(format!("{:.value_decimals$}", b.value), unit),
         with_unit(significant(b.expanded), unit),
     ];
+    let u_decimals = value_decimals + 1;
     row.extend(sources.iter().map(|s| {
         b.contributions
             .get(*s)
-            .map_or_else(|| "—".into(), |u| with_unit(significant(*u), unit))
+            .map_or_else(|| "—".into(), |u| with_unit(format!("{u:.u_decimals$}"), unit))
     }));
     row
 }
@@ -164,7 +177,11 @@ mod tests {
         assert_eq!(plus_minus(3.0, None, 3), "3.000");
         assert_eq!(plus_minus(3.0, Some(0.04567), 3), "3.000 ± 0.046");
         assert_eq!(num_u(None, Some(1.0)), "—");
-        assert_eq!(plus_minus_in(3.0, Some(12.34), 1, "µm"), "3.0 ± 12 µm");
+        assert_eq!(
+            plus_minus_in(3.0, Some(12.34), 1, "µm"),
+            "3.0 ± 12 µm (not significant)"
+        );
+        assert_eq!(plus_minus(-3.0, Some(2.5), 1), "-3.0 ± 2.5");
         assert_eq!(plus_minus_in(3.0, None, 1, "″"), "3.0″");
         assert_eq!(unit_of("a.max_dA_arcsec"), "″");
         assert_eq!(unit_of("axes.X.angular.roll_urad"), "µrad");
@@ -210,7 +227,7 @@ mod tests {
         assert!(
             html.contains(
                 "<td class=\"l\">x.max_dA_arcsec</td><td>1.235″</td><td>0.079″</td>\
-                 <td>0.031″</td><td>—</td>"
+                 <td>0.0312″</td><td>—</td>"
             ),
             "{html}"
         );

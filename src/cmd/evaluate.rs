@@ -46,6 +46,10 @@ pub struct Args {
     /// coefficient the positioning deviations are corrected to 20 °C.
     #[arg(long)]
     conditions: Option<PathBuf>,
+    /// Also print `report.pdf` beside `report.html` (A4, page numbers) with
+    /// headless Chromium (`chromium` on the PATH, or `TRINOCULAR_CHROMIUM`).
+    #[arg(long)]
+    pdf: bool,
     /// Monte Carlo trials of the uncertainty (0: figures without U).
     #[arg(long, default_value_t = evaluate::uncertainty::DEFAULT_TRIALS)]
     trials: usize,
@@ -332,6 +336,17 @@ fn correction_statement(t: &formats::conditions::Temperature) -> String {
 
 /// Run the evaluation and write the report.
 pub fn run(args: &Args) -> Result<()> {
+    // Found first, so that nothing is written when the PDF cannot be.
+    let browser = if args.pdf {
+        Some(report::browser::find_browser().ok_or_else(|| {
+            Usage::error(
+                "--pdf: no Chromium found to print report.pdf (install the Debian package `chromium`, \
+                 or name the browser in TRINOCULAR_CHROMIUM)",
+            )
+        })?)
+    } else {
+        None
+    };
     let conditions = args
         .conditions
         .as_deref()
@@ -377,6 +392,13 @@ pub fn run(args: &Args) -> Result<()> {
     output.inputs(args.observations.iter());
     let written = evaluate::write_outputs(&report, &args.out, &mut output)
         .with_context(|| format!("writing the report into {}", args.out.display()))?;
+    if let Some(browser) = browser {
+        let (html, pdf) = (args.out.join("report.html"), args.out.join("report.pdf"));
+        let bytes = report::browser::print_pdf(&browser, &html)
+            .with_context(|| format!("printing {} with {}", html.display(), browser.display()))?;
+        formats::write_atomic(&pdf, &bytes)?;
+        eprintln!("trinocular: printed {}", pdf.display());
+    }
     let u = |path: String| report.expanded(&path);
     for (axis, a) in report.axes.iter() {
         let p = &a.main.positioning;
