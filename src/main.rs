@@ -127,14 +127,23 @@ fn main() -> ExitCode {
         Command::Probe(args) => cmd::probe::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),
     };
-    if result
-        .as_ref()
-        .is_err_and(|e| e.downcast_ref::<cmd::Finished>().is_none())
-    {
+    let written = |e: &anyhow::Error| {
+        e.downcast_ref::<cmd::Finished>().is_some()
+            || e.downcast_ref::<cmd::evaluate::DoesNotConform>().is_some()
+    };
+    if result.as_ref().is_err_and(|e| !written(e)) {
         discard_created();
     }
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(err)
+            if err
+                .downcast_ref::<cmd::evaluate::DoesNotConform>()
+                .is_some() =>
+        {
+            eprintln!("trinocular: {err}");
+            ExitCode::from(cmd::evaluate::NONCONFORMANCE_EXIT_STATUS)
+        }
         Err(err) if err.downcast_ref::<cmd::Finished>().is_some() => {
             eprintln!("trinocular: finished with problems: {err}");
             ExitCode::from(cmd::Finished::EXIT_STATUS)

@@ -302,6 +302,24 @@ fn headline_u(report: &Value) -> BTreeMap<String, (f64, BTreeMap<String, f64>)> 
         .collect()
 }
 
+/// `evaluate` of the campaign in `dir` again (its points and rig) with
+/// `extra` options into `dir/name`; its report.json.
+fn evaluate_again(dir: &Path, name: &str, extra: &[&str]) -> Value {
+    let out = dir.join(name);
+    let mut args = vec![
+        "evaluate",
+        "--points",
+        s(&dir.join("points.csv")),
+        "--rig",
+        s(&dir.join("rig.json")),
+        "--out",
+        s(&out),
+    ];
+    args.extend(extra);
+    ok(&trinocular(&args));
+    serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap()
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -452,20 +470,7 @@ fn the_budget_follows_the_physics() {
          expansion_u_um_per_m_k = 1.0\n",
     )
     .unwrap();
-    let warm = dir.join("warm");
-    ok(&trinocular(&[
-        "evaluate",
-        "--points",
-        s(&dir.join("points.csv")),
-        "--rig",
-        s(&dir.join("rig.json")),
-        "--conditions",
-        s(&conditions),
-        "--out",
-        s(&warm),
-    ]));
-    let report: Value =
-        serde_json::from_slice(&std::fs::read(warm.join("report.json")).unwrap()).unwrap();
+    let report = evaluate_again(&dir, "warm", &["--conditions", s(&conditions)]);
     let budget = headline_u(&report);
     let temperature = |figure: &str| budget[figure].1["temperature"];
     let axes: Vec<&str> = ["X", "Y", "Z"]
@@ -480,4 +485,56 @@ fn the_budget_follows_the_physics() {
         assert!(e > 0.05, "{axis}: E {e}");
         assert!(r < 0.1 * e, "{axis}: R {r} against E {e}");
     }
+
+    // ISO 14253-1 with the propagated U: a limit beyond value + U
+    // conforms, one at the value is inconclusive, one below value − U
+    // does not conform.
+    let measured: Value =
+        serde_json::from_slice(&std::fs::read(dir.join("report/report.json")).unwrap()).unwrap();
+    let x = &measured["axes"]["X"]["positioning"];
+    let fig = |k: &str| {
+        (
+            x[k].as_f64().unwrap(),
+            x[k.replace("_um", "_U_um").as_str()].as_f64().unwrap(),
+        )
+    };
+    let ((e, ue), (a, _), (r, ur)) = (fig("E_um"), fig("A_um"), fig("R_um"));
+    let tol = dir.join("tol.toml");
+    std::fs::write(
+        &tol,
+        format!(
+            "[X]\nE_um = {}\nA_um = {a}\nR_um = {}\n",
+            e + ue * 1.01,
+            r - ur * 1.01
+        ),
+    )
+    .unwrap();
+    // The measured report's seed and trials, so that U is the same.
+    let extra = ["--tolerances", s(&tol), "--seed", "7", "--trials", TRIALS];
+    let report = evaluate_again(&dir, "judged", &extra);
+    let decisions: Vec<(&str, &str)> = report["conformance"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (
+                c["figure"].as_str().unwrap(),
+                c["decision"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        decisions,
+        [
+            ("A_um", "inconclusive"),
+            ("E_um", "conforms"),
+            ("R_um", "does not conform")
+        ]
+    );
+    assert_eq!(report["verdict"], "does not conform");
+    let html = String::from_utf8(std::fs::read(dir.join("judged/report.html")).unwrap()).unwrap();
+    assert!(
+        html.contains(&format!("{e:.3} ± ")),
+        "E ± U not on the page"
+    );
 }

@@ -23,6 +23,12 @@ pub fn render(report: &Report) -> Result<String> {
         escape(&report.spheres.join(", ")),
         escape(&report.sphere),
     ));
+    ::report::conformance::section(
+        &mut h,
+        report.conformance.as_deref(),
+        report.verdict,
+        report.decision_rule.as_deref(),
+    );
     ::report::conditions::section(&mut h, report.conditions.as_ref());
     summary(&mut h, report);
     ::report::uncertainty::section(&mut h, report.uncertainty.as_ref());

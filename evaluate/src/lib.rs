@@ -84,6 +84,7 @@ mod output;
 mod plot;
 mod points;
 mod straightness;
+pub mod tolerances;
 pub mod uncertainty;
 mod vdi3441;
 
@@ -219,6 +220,9 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
         uncertainty: None,
         conditions: None,
         uncorrected: None,
+        decision_rule: None,
+        conformance: None,
+        verdict: None,
     };
     let lines = lines::group(rows);
     let mut flat_points: Vec<(Axis, usize, u32, Point3<f64>)> = Vec::new();

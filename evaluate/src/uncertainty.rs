@@ -44,6 +44,7 @@ pub const FIGURE_KEYS: FigureKeys = FigureKeys {
         "uncertainty",
         "conditions",
         "uncorrected",
+        "conformance",
     ],
 };
 

@@ -49,6 +49,15 @@ pub struct Report {
     /// the conditions asked for one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub uncorrected: Option<std::collections::BTreeMap<String, f64>>,
+    /// The decision rule of `conformance` (`--tolerances`), in words.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decision_rule: Option<String>,
+    /// Each limited figure's decision (`--tolerances`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conformance: Option<Vec<crate::conformance::Judged>>,
+    /// The overall verdict: the worst decision.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<crate::conformance::Decision>,
 }
 
 impl Report {

@@ -82,6 +82,7 @@ mod campaign;
 mod capture;
 pub mod commissioning;
 pub mod conditions;
+pub mod conformance;
 pub mod created;
 pub mod evaluation;
 mod figures;

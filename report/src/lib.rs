@@ -18,6 +18,7 @@ mod page;
 #[cfg(feature = "browser")]
 pub mod browser;
 pub mod conditions;
+pub mod conformance;
 pub mod plot;
 pub mod uncertainty;
 

@@ -152,9 +152,10 @@ fn budget_row(b: &BudgetEntry, sources: &[&String]) -> Vec<String> {
     ];
     let u_decimals = value_decimals + 1;
     row.extend(sources.iter().map(|s| {
-        b.contributions
-            .get(*s)
-            .map_or_else(|| "—".into(), |u| with_unit(format!("{u:.u_decimals$}"), unit))
+        b.contributions.get(*s).map_or_else(
+            || "—".into(),
+            |u| with_unit(format!("{u:.u_decimals$}"), unit),
+        )
     }));
     row
 }

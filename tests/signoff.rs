@@ -1,4 +1,8 @@
-//! `trinocular evaluate --conditions conditions.toml`: the test conditions
+//! The sign-off report of `trinocular evaluate`: `--tolerances` judges each
+//! limited figure (ISO 14253-1 or the simple rule), states the verdict on
+//! the page, in report.json and on stderr, and exits 4 on nonconformance
+//! only when asked; bad tolerance files are refused with the file and key,
+//! nothing written. `--conditions conditions.toml`: the test conditions
 //! on the report, and the correction to 20 °C. With a machine temperature
 //! of 25 °C and α = 11.5 µm/(m·K) the mean deviations of a line tilt by
 //! −57.5 µm/m against the uncorrected report (ISO 230-2 nominal
@@ -181,39 +185,47 @@ fn a_target_calibrated_warm_scales_the_lengths() {
 
 #[test]
 fn bad_conditions_are_refused_with_the_key_and_nothing_written() {
+    refused_files(
+        "--conditions",
+        "conditions.toml",
+        &[
+            (
+                "[temperature]\nmachine_c = 65.0\nexpansion_um_per_m_k = 11.5\n",
+                "temperature.machine_c",
+            ),
+            (
+                "[temperature]\nmachine_c = 25.0\nexpansion_um_per_m_k = -11.5\n",
+                "temperature.expansion_um_per_m_k",
+            ),
+            ("[temperature]\nmachine_c = 25.0\n", "temperature.machine_c"),
+            ("[weather]\nsunny = true\n", "weather"),
+            ("machine_c = ", "conditions.toml"),
+        ],
+    );
+}
+
+/// Each `(file text, expected fragment)` given to `evaluate` as `option`
+/// (written as `file`) is refused with exit 1, the file and the fragment
+/// named, and nothing written.
+fn refused_files(option: &str, file: &str, cases: &[(&str, &str)]) {
     let tmp = tempfile::tempdir().unwrap();
     let points = tmp.path().join("points.csv");
     formats::write_csv(&points, &rows()).unwrap();
-    for (text, key) in [
-        (
-            "[temperature]\nmachine_c = 65.0\nexpansion_um_per_m_k = 11.5\n",
-            "temperature.machine_c",
-        ),
-        (
-            "[temperature]\nmachine_c = 25.0\nexpansion_um_per_m_k = -11.5\n",
-            "temperature.expansion_um_per_m_k",
-        ),
-        ("[temperature]\nmachine_c = 25.0\n", "temperature.machine_c"),
-        ("[weather]\nsunny = true\n", "weather"),
-        ("machine_c = ", "conditions.toml"),
-    ] {
-        let cfg = tmp.path().join("conditions.toml");
-        std::fs::write(&cfg, text).unwrap();
+    for (text, key) in cases {
+        let path = tmp.path().join(file);
+        std::fs::write(&path, text).unwrap();
         let out = tmp.path().join("out");
         let (code, err) = failure(&trinocular(&[
             "evaluate",
             "--points",
             s(&points),
-            "--conditions",
-            s(&cfg),
+            option,
+            s(&path),
             "--out",
             s(&out),
         ]));
         assert_eq!(code, 1, "{text}: {err}");
-        assert!(
-            err.contains("conditions.toml") && err.contains(key),
-            "{text}: {err}"
-        );
+        assert!(err.contains(file) && err.contains(key), "{text}: {err}");
         assert!(!out.exists(), "{text}: {} written", out.display());
     }
 }
@@ -249,7 +261,13 @@ fn the_archive_copy_is_printed_on_a4_with_page_numbers() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = tmp.path().join("conditions.toml");
     std::fs::write(&cfg, WARM).unwrap();
-    evaluate(tmp.path(), "printed", &["--conditions", s(&cfg), "--pdf"]);
+    let tol = tmp.path().join("tol.toml");
+    std::fs::write(&tol, "[X]\nA_um = 1.0\nR_um = 5.0\n").unwrap();
+    evaluate(
+        tmp.path(),
+        "printed",
+        &["--conditions", s(&cfg), "--tolerances", s(&tol), "--pdf"],
+    );
     let pdf = tmp.path().join("printed/report.pdf");
     let bytes = read(&pdf);
     assert!(bytes.starts_with(b"%PDF-"), "not a PDF");
@@ -329,4 +347,145 @@ fn pdf_without_a_browser_is_a_usage_error_and_nothing_is_written() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--pdf") && err.contains("Chromium"), "{err}");
     assert!(!out.exists());
+}
+
+/// The line's figures without U (no observations): decided by their value,
+/// said so; the verdict on stderr; exit 0, or 4 with
+/// `--fail-on-nonconformance` (the report written all the same).
+#[test]
+fn tolerances_give_decisions_a_verdict_and_exit_4_only_when_asked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (plain, _) = evaluate(tmp.path(), "plain", &[]);
+    let figure = |k: &str| plain["axes"]["X"]["positioning"][k].as_f64().unwrap();
+    let (e, r) = (figure("E_um"), figure("R_um"));
+    let tol = tmp.path().join("tol.toml");
+    std::fs::write(
+        &tol,
+        format!(
+            "[X]\nE_um = {}\nR_um = {}\nstraightness_Y_um = 1\n",
+            e + 0.5,
+            r - 0.5
+        ),
+    )
+    .unwrap();
+    let points = tmp.path().join("points.csv");
+    let run = |name: &str, extra: &[&str]| {
+        let out = tmp.path().join(name);
+        let mut args = vec![
+            "evaluate",
+            "--points",
+            s(&points),
+            "--tolerances",
+            s(&tol),
+            "--out",
+            s(&out),
+        ];
+        args.extend(extra);
+        let output = trinocular(&args);
+        let report: Value = serde_json::from_slice(&read(&out.join("report.json"))).unwrap();
+        let html = String::from_utf8(read(&out.join("report.html"))).unwrap();
+        (output, report, html)
+    };
+    let (output, report, html) = run("judged", &[]);
+    let err = ok(&output);
+    let decisions: Vec<(String, String)> = report["conformance"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            assert_eq!(c["axis"], "X");
+            (
+                c["figure"].as_str().unwrap().to_string(),
+                c["decision"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        decisions,
+        [
+            ("E_um".to_string(), "conforms".to_string()),
+            ("R_um".to_string(), "does not conform".to_string()),
+            ("straightness_Y_um".to_string(), "conforms".to_string()),
+        ]
+    );
+    assert_eq!(report["verdict"], "does not conform");
+    assert!(
+        report["decision_rule"]
+            .as_str()
+            .unwrap()
+            .contains("decided by their value alone")
+    );
+    let line = err
+        .lines()
+        .find(|l| l.contains("verdict:"))
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!(
+        line.contains("does not conform (X R_um")
+            && line.contains("2 conform, 0 inconclusive, 1 do not conform"),
+        "{line}"
+    );
+    // The page: the verdict first, each figure with its limit and decision.
+    let verdict_at = html.find("id=\"verdict\"").unwrap();
+    assert!(verdict_at < html.find("id=\"summary\"").unwrap());
+    assert!(html.contains("Verdict: does not conform"));
+    assert!(html.contains(&format!("{:.3} µm", e + 0.5)));
+    // --fail-on-nonconformance: exit 4, the report written.
+    let (output, report, _) = run("failing", &["--fail-on-nonconformance"]);
+    assert_eq!(
+        output.status.code(),
+        Some(4),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert_eq!(report["verdict"], "does not conform");
+    // The simple rule says so.
+    let (_, report, _) = run("simple", &["--decision-rule", "simple"]);
+    assert!(
+        report["decision_rule"]
+            .as_str()
+            .unwrap()
+            .starts_with("simple acceptance")
+    );
+    // Without --tolerances: no conformance at all.
+    assert!(plain.get("conformance").is_none() && plain.get("verdict").is_none());
+}
+
+#[test]
+fn bad_tolerance_files_are_refused_with_the_key_and_nothing_written() {
+    refused_files(
+        "--tolerances",
+        "tol.toml",
+        &[
+            ("[X]\nQ_um = 3.0\n", "[X] Q_um: not a figure"),
+            ("[W]\nA_um = 3.0\n", "[W]: not an axis"),
+            ("[X]\nA_um = -3.0\n", "[X] A_um: the limit -3"),
+            ("[X]\nA_um = nan\n", "[X] A_um: the limit NaN"),
+            ("[X]\nA_um = inf\n", "[X] A_um: the limit inf"),
+            ("[X]\nA_um = \"ten\"\n", "[X] A_um: \"ten\" is not a number"),
+            (
+                "[Y]\nA_um = 3.0\n",
+                "[Y] A_um: the report has no such figure",
+            ),
+            (
+                "flatness_um = 3.0\n",
+                "flatness_um: the report has no such figure",
+            ),
+            ("[X\nA_um = 3.0\n", "not a tolerance file"),
+        ],
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let points = tmp.path().join("points.csv");
+    formats::write_csv(&points, &rows()).unwrap();
+    // Options: a rule that does not exist, and the exit-4 flag without limits.
+    for args in [
+        vec!["--tolerances", "tol.toml", "--decision-rule", "lenient"],
+        vec!["--fail-on-nonconformance"],
+    ] {
+        let out = tmp.path().join("out");
+        let mut all = vec!["evaluate", "--points", s(&points), "--out", s(&out)];
+        all.extend(args.iter().copied());
+        let (code, err) = failure(&trinocular(&all));
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(!out.exists());
+    }
 }
