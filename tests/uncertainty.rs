@@ -305,13 +305,13 @@ fn headline_u(report: &Value) -> BTreeMap<String, (f64, BTreeMap<String, f64>)> 
 /// `evaluate` of the campaign in `dir` again (its points and rig) with
 /// `extra` options into `dir/name`; its report.json.
 fn evaluate_again(dir: &Path, name: &str, extra: &[&str]) -> Value {
-    let out = dir.join(name);
+    let (out, points, rig) = (dir.join(name), dir.join("points.csv"), dir.join("rig.json"));
     let mut args = vec![
         "evaluate",
         "--points",
-        s(&dir.join("points.csv")),
+        s(&points),
         "--rig",
-        s(&dir.join("rig.json")),
+        s(&rig),
         "--out",
         s(&out),
     ];
