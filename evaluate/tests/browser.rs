@@ -158,3 +158,86 @@ fn report_html_without_positioning_renders_in_chromium() {
     assert_eq!(section.matches("colspan=\"5\"").count(), 3, "{section}");
     assert!(html.contains(&format!("<td class=\"l warn\">{escaped}</td>")));
 }
+
+/// With limits, the page opens with the verdict: drawn in Chromium, the
+/// verdict line in the colour of its decision above the summary, and each
+/// limited figure with value ± U, its limit and its decision in words.
+#[test]
+fn the_verdict_table_is_shown_first_in_chromium() {
+    use formats::conformance::{Decision, Limit, Rule, judge, verdict};
+    use formats::uncertainty::{Propagated, Uncertainty};
+    let Some(chromium) = browser::browser_or_skip("the verdict in Chromium").unwrap() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut report =
+        evaluate::evaluate(&common::rows(&common::campaign()), &Default::default()).unwrap();
+    let figures =
+        formats::uncertainty::figures(&report, &evaluate::uncertainty::FIGURE_KEYS).unwrap();
+    // Every figure with U = 10 % of its value (at least 0.1).
+    let expanded: std::collections::BTreeMap<String, f64> = figures
+        .iter()
+        .map(|(k, v)| (k.clone(), (0.1 * v.abs()).max(0.1)))
+        .collect();
+    report.uncertainty = Some(Uncertainty::Given(Propagated {
+        method: "test".into(),
+        k: 2.0,
+        trials: 1,
+        seed: 1,
+        failed_trials: 0,
+        sources: Default::default(),
+        not_included: Vec::new(),
+        budget: Vec::new(),
+        expanded: expanded.clone(),
+    }));
+    let limit = |key: &str, factor: f64| {
+        let path = format!("axes.X.positioning.{key}");
+        Limit {
+            axis: Some("X".into()),
+            key: key.into(),
+            limit: figures[&path] * factor,
+            path,
+        }
+    };
+    // E well within, A at its value (inconclusive), R far beyond.
+    let limits = [limit("E_um", 2.0), limit("A_um", 1.0), limit("R_um", 0.5)];
+    let judged = judge(
+        std::path::Path::new("tol.toml"),
+        &limits,
+        &figures,
+        Some(&expanded),
+        Rule::Iso14253,
+    )
+    .unwrap();
+    report.verdict = verdict(&judged);
+    assert_eq!(report.verdict, Some(Decision::DoesNotConform));
+    report.conformance = Some(judged);
+    report.decision_rule = Some(Rule::Iso14253.describe().into());
+    let (html, shown) = shown(&chromium, &report, dir.path());
+    assert!(
+        shown.errors.is_empty(),
+        "console errors: {:#?}",
+        shown.errors
+    );
+    let verdict_at = html.find("id=\"verdict\"").unwrap();
+    assert!(verdict_at < html.find("id=\"summary\"").unwrap());
+    for (key, decision) in [
+        ("E_um", "conforms"),
+        ("A_um", "inconclusive"),
+        ("R_um", "does not conform"),
+    ] {
+        let path = format!("axes.X.positioning.{key}");
+        let value = report::plus_minus_in(figures[&path], expanded.get(&path).copied(), 3, "µm");
+        let row = format!("<td class=\"l\">{key}</td><td>{value}</td>");
+        let at = html.find(&row).unwrap_or_else(|| panic!("no row {row}"));
+        assert!(html[at..].split("</tr>").next().unwrap().contains(decision));
+    }
+    // The verdict's red band is drawn near the top of the page.
+    let red = [0xf8, 0xd4, 0xd4];
+    let img = &shown.screenshot;
+    let band = (0..img.height().min(400))
+        .flat_map(|y| (0..img.width()).map(move |x| (x, y)))
+        .filter(|&(x, y)| img.get_pixel(x, y).0[..3] == red)
+        .count();
+    assert!(band > 2000, "verdict band {band} px");
+}
