@@ -129,20 +129,16 @@ fn main() -> ExitCode {
     };
     let written = |e: &anyhow::Error| {
         e.downcast_ref::<cmd::Finished>().is_some()
-            || e.downcast_ref::<cmd::evaluate::DoesNotConform>().is_some()
+            || e.downcast_ref::<cmd::signoff::DoesNotConform>().is_some()
     };
     if result.as_ref().is_err_and(|e| !written(e)) {
         discard_created();
     }
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(err)
-            if err
-                .downcast_ref::<cmd::evaluate::DoesNotConform>()
-                .is_some() =>
-        {
+        Err(err) if err.downcast_ref::<cmd::signoff::DoesNotConform>().is_some() => {
             eprintln!("trinocular: {err}");
-            ExitCode::from(cmd::evaluate::NONCONFORMANCE_EXIT_STATUS)
+            ExitCode::from(cmd::signoff::NONCONFORMANCE_EXIT_STATUS)
         }
         Err(err) if err.downcast_ref::<cmd::Finished>().is_some() => {
             eprintln!("trinocular: finished with problems: {err}");

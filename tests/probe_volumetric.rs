@@ -842,7 +842,8 @@ fn from_report_of_an_xy_campaign_takes_the_chain_of_its_axes() {
     );
     // The same model as the explicit chain; only the note differs.
     let explicit = dir.path().join("explicit");
-    assert!(common::ok(&run(&explicit, &["--chain", "WXYFT"])).is_empty());
+    let err = common::ok(&run(&explicit, &["--chain", "WXYFT"]));
+    assert!(!err.contains("note:"), "{err}");
     let mut with_chain = read_json(&explicit.join("report.json"));
     let mut without = report.clone();
     without["campaign"]["notes"] = Value::Null;

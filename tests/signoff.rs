@@ -322,6 +322,13 @@ fn the_archive_copy_is_printed_on_a4_with_page_numbers() {
         inked * 100 > img.pixels().len(),
         "page 1 nearly blank: {inked} dark pixels"
     );
+    // The copy is part of the report's set: printed again with --force, and
+    // a report written without --pdf leaves no stale copy beside it.
+    let args = ["--tolerances", s(&tol), "--pdf", "--force"];
+    evaluate(tmp.path(), "printed", &args);
+    assert!(read(&pdf).starts_with(b"%PDF-"));
+    evaluate(tmp.path(), "printed", &["--force"]);
+    assert!(!pdf.exists(), "a stale report.pdf beside the new report");
 }
 
 #[test]
@@ -457,7 +464,7 @@ fn bad_tolerance_files_are_refused_with_the_key_and_nothing_written() {
         "tol.toml",
         &[
             ("[X]\nQ_um = 3.0\n", "[X] Q_um: not a figure"),
-            ("[W]\nA_um = 3.0\n", "[W]: not an axis"),
+            ("[W]\nA_um = 3.0\n", "[W]: not a table of figures"),
             ("[X]\nA_um = -3.0\n", "[X] A_um: the limit -3"),
             ("[X]\nA_um = nan\n", "[X] A_um: the limit NaN"),
             ("[X]\nA_um = inf\n", "[X] A_um: the limit inf"),
@@ -488,4 +495,253 @@ fn bad_tolerance_files_are_refused_with_the_key_and_nothing_written() {
         assert_eq!(code, 2, "{args:?}: {err}");
         assert!(!out.exists());
     }
+}
+
+/// Each probe method's inputs (the check data), the figures a limit is set
+/// on (their report paths: top level, a table, a nested table; a signed
+/// one among them) and the unit suffix of their U keys.
+fn probe_cases() -> Vec<(&'static str, Vec<String>, [&'static str; 2])> {
+    let data = |m: &str, f: &str| s(&common::probe_data(m, f)).to_string();
+    vec![
+        (
+            "rotary",
+            vec!["--centres".into(), data("rotary", "centres.csv")],
+            ["location.X0C_um", "ranges.errors.EXC_um"],
+        ),
+        (
+            "indexing",
+            vec!["--centres".into(), data("indexing", "centres.csv")],
+            ["max_dA_arcsec", "rms_dB_arcsec"],
+        ),
+        (
+            "tracer",
+            vec![
+                "--nominal".into(),
+                data("tracer", "grid.csv"),
+                "--readings".into(),
+                data("tracer", "readings.csv"),
+            ],
+            ["max_correction_um", "rms_correction_um"],
+        ),
+        (
+            "volumetric",
+            vec![
+                "--errors".into(),
+                data("volumetric", "errors.csv"),
+                "--at".into(),
+                data("volumetric", "at.csv"),
+                "--circle=-300,-200,50,100".into(),
+                // The curves' standard uncertainty, for U.
+                "--curve-u-um=0.5".into(),
+                "--curve-u-urad=1".into(),
+            ],
+            ["volumetric.max_um", "circle.radial_range_um"],
+        ),
+    ]
+}
+
+/// `trinocular probe METHOD INPUTS --out OUT --trials 50 EXTRA…`.
+fn probe(method: &str, inputs: &[String], out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["probe", method];
+    args.extend(inputs.iter().map(String::as_str));
+    args.extend(["--out", s(out), "--trials", "50"]);
+    args.extend(extra);
+    trinocular(&args)
+}
+
+/// The value at dotted `path` of a report and its U (`F_U_unit` beside it).
+fn value_and_u(report: &Value, path: &str) -> (f64, f64) {
+    let (table, key) = path.rsplit_once('.').unwrap_or(("", path));
+    let object = table
+        .split('.')
+        .filter(|t| !t.is_empty())
+        .fold(report, |v, t| &v[t]);
+    let (stem, unit) = key.rsplit_once('_').unwrap();
+    let u_key = format!("{stem}_U_{unit}");
+    (
+        object[key].as_f64().unwrap_or_else(|| panic!("{path}")),
+        object[&u_key].as_f64().unwrap_or_else(|| panic!("{u_key}")),
+    )
+}
+
+/// A tolerance file's line for `path` = `limit` (the table as its header).
+fn limit_line(path: &str, limit: f64) -> String {
+    match path.rsplit_once('.') {
+        Some((table, key)) => format!("[{table}]\n{key} = {limit}\n"),
+        None => format!("{path} = {limit}\n"),
+    }
+}
+
+/// Every probe method judges its figures named as in its report: the
+/// decisions are ISO 14253-1's on |value| and U as report.json states
+/// them (limits set on each side of the boundaries), the verdict is on
+/// stderr and the page opens with it and the conditions, exit 4 only with
+/// `--fail-on-nonconformance`.
+#[test]
+fn probe_reports_are_judged_by_their_figure_names() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cond = tmp.path().join("conditions.toml");
+    std::fs::write(&cond, WARM).unwrap();
+    for (method, inputs, [first, second]) in probe_cases() {
+        let plain = tmp.path().join(format!("{method}-plain"));
+        ok(&probe(method, &inputs, &plain, &[]));
+        let report: Value = serde_json::from_slice(&read(&plain.join("report.json"))).unwrap();
+        assert!(report.get("verdict").is_none() && report.get("conditions").is_none());
+        let (v1, u1) = value_and_u(&report, first);
+        let (v2, u2) = value_and_u(&report, second);
+        assert!(u1 > 0.0 && u2 > 0.0, "{method}: U {u1}, {u2}");
+        // The first conforms (limit beyond |v| + U), the second does not
+        // (limit below |v| − U), or is inconclusive when U reaches zero.
+        let l1 = v1.abs() + 1.01 * u1;
+        let l2 = (v2.abs() - 1.01 * u2).max(0.0) * 0.999;
+        let expected = |v: f64, u: f64, l: f64| {
+            if v.abs() + u <= l {
+                "conforms"
+            } else if v.abs() - u > l {
+                "does not conform"
+            } else {
+                "inconclusive"
+            }
+        };
+        let tol = tmp.path().join(format!("{method}.toml"));
+        // Tables after the top-level keys, as TOML requires.
+        let mut lines = [limit_line(first, l1), limit_line(second, l2)];
+        lines.sort_by_key(|l| l.starts_with('['));
+        std::fs::write(&tol, lines.concat()).unwrap();
+        let out = tmp.path().join(method);
+        let args = ["--tolerances", s(&tol), "--conditions", s(&cond)];
+        let err = ok(&probe(method, &inputs, &out, &args));
+        let judged: Value = serde_json::from_slice(&read(&out.join("report.json"))).unwrap();
+        let decisions = judged["conformance"].as_array().unwrap();
+        assert_eq!(decisions.len(), 2, "{method}");
+        for (path, v, u, l) in [(first, v1, u1, l1), (second, v2, u2, l2)] {
+            let key = path.rsplit('.').next().unwrap();
+            let d = decisions
+                .iter()
+                .find(|d| d["figure"] == key)
+                .unwrap_or_else(|| panic!("{method}: {key} not judged"));
+            // serde_json reads a float to within an ulp of what it wrote.
+            let near = |key: &str, want: f64| {
+                let got = d[key].as_f64().unwrap();
+                assert!(
+                    (got - want).abs() <= 1e-14 * want.abs(),
+                    "{method} {path} {key}: {got} against {want}"
+                );
+            };
+            near("value", v);
+            near("U", u);
+            near("limit", l);
+            assert_eq!(d["decision"], expected(v, u, l), "{method} {path}");
+        }
+        let verdict = judged["verdict"].as_str().unwrap();
+        assert_eq!(verdict, expected(v2, u2, l2), "{method}");
+        assert!(
+            err.contains(&format!("trinocular: verdict: {verdict}")),
+            "{method}: {err}"
+        );
+        assert_eq!(judged["conditions"]["machine"]["model"], "VMC 800");
+        assert!(
+            judged["decision_rule"]
+                .as_str()
+                .unwrap()
+                .contains("ISO 14253-1")
+        );
+        let page = String::from_utf8(read(&out.join("report.html"))).unwrap();
+        let (at_verdict, at_conditions) = (
+            page.find("id=\"verdict\"").unwrap(),
+            page.find("id=\"conditions\"").unwrap(),
+        );
+        assert!(
+            at_verdict < at_conditions,
+            "{method}: the verdict comes first"
+        );
+        assert!(page.contains("VMC 800"), "{method}");
+        // Exit 4 when asked, the report written all the same.
+        let again = tmp.path().join(format!("{method}-fail"));
+        let mut fail_args = args.to_vec();
+        fail_args.push("--fail-on-nonconformance");
+        let run = probe(method, &inputs, &again, &fail_args);
+        let want = if verdict == "does not conform" { 4 } else { 0 };
+        assert_eq!(
+            run.status.code(),
+            Some(want),
+            "{method}: {}",
+            common::stderr(&run)
+        );
+        assert!(again.join("report.json").exists());
+    }
+}
+
+/// A probe tolerance file naming what the report does not have is refused
+/// with the file, the key and the report's figures, before anything is
+/// written.
+#[test]
+fn probe_tolerance_files_name_the_known_figures() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (method, inputs, [first, _]) in probe_cases() {
+        for (text, says) in [
+            ("nonsense_um = 1\n".to_string(), "nonsense_um"),
+            ("[nowhere]\nmax_um = 1\n".to_string(), "[nowhere]"),
+            (limit_line(first, -1.0), "not a finite value ≥ 0"),
+        ] {
+            let tol = tmp.path().join("tol.toml");
+            std::fs::write(&tol, &text).unwrap();
+            let out = tmp.path().join(method);
+            let (code, err) = failure(&probe(method, &inputs, &out, &["--tolerances", s(&tol)]));
+            assert_eq!(code, 1, "{method} {text}: {err}");
+            assert!(
+                err.contains("tol.toml") && err.contains(says),
+                "{method}: {err}"
+            );
+            if !text.contains("-1") {
+                let key = first.rsplit('.').next().unwrap();
+                assert!(
+                    err.contains("known:") && err.contains(key),
+                    "{method}: {err}"
+                );
+            }
+            assert!(!out.exists(), "{method}: {} written", out.display());
+        }
+    }
+}
+
+/// `--pdf` on a probe report: report.pdf beside report.html, page 1 with
+/// the verdict.
+#[test]
+fn probe_reports_print_their_archive_copy() {
+    if report::browser::browser_or_skip("probe_reports_print_their_archive_copy")
+        .unwrap()
+        .is_none()
+    {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let (method, inputs, [first, _]) = probe_cases().swap_remove(1);
+    let tol = tmp.path().join("tol.toml");
+    std::fs::write(&tol, limit_line(first, 100.0)).unwrap();
+    let out = tmp.path().join("out");
+    let err = ok(&probe(
+        method,
+        &inputs,
+        &out,
+        &["--tolerances", s(&tol), "--pdf"],
+    ));
+    assert!(err.contains("printed"), "{err}");
+    let pdf = out.join("report.pdf");
+    assert!(read(&pdf).starts_with(b"%PDF-"));
+    let Some(text) = poppler("pdftotext", &["-f", "1", "-l", "1", s(&pdf), "-"]) else {
+        return;
+    };
+    let text = String::from_utf8_lossy(&text.stdout);
+    for want in [
+        "Probe-head indexing errors",
+        "Verdict: conforms",
+        "page 1 of",
+    ] {
+        assert!(text.contains(want), "page 1 lacks {want:?}:\n{text}");
+    }
+    // An existing archive copy is replaced only with --force.
+    let (code, again) = failure(&probe(method, &inputs, &out, &["--pdf"]));
+    assert_eq!(code, 1, "{again}");
+    assert!(again.contains("--force"), "{again}");
 }

@@ -23,13 +23,7 @@ pub fn render(report: &Report) -> Result<String> {
         escape(&report.spheres.join(", ")),
         escape(&report.sphere),
     ));
-    ::report::conformance::section(
-        &mut h,
-        report.conformance.as_deref(),
-        report.verdict,
-        report.decision_rule.as_deref(),
-    );
-    ::report::conditions::section(&mut h, report.conditions.as_ref());
+    ::report::conformance::header(&mut h, &report.signoff);
     summary(&mut h, report);
     ::report::uncertainty::section(&mut h, report.uncertainty.as_ref());
     for (axis, a) in report.axes.iter() {

@@ -105,7 +105,7 @@ pub use iso230_2::{
     TargetFigures, Unidirectional, iso230_2,
 };
 pub use lines::{LINE_TOLERANCE_MM, TARGET_TOLERANCE_MM};
-pub use output::{REPORT_FILES, write_outputs};
+pub use output::{Printer, REPORT_FILES, write_outputs};
 pub use points::{MAX_COORDINATE_MM, UNITS_TOLERANCE_MM, UNITS_TOLERANCE_OF_TRAVEL, read_points};
 
 use crate::points::Located;
@@ -218,11 +218,8 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
         conventions: conventions(&sphere),
         warnings: Vec::new(),
         uncertainty: None,
-        conditions: None,
         uncorrected: None,
-        decision_rule: None,
-        conformance: None,
-        verdict: None,
+        signoff: Default::default(),
     };
     let lines = lines::group(rows);
     let mut flat_points: Vec<(Axis, usize, u32, Point3<f64>)> = Vec::new();

@@ -38,7 +38,7 @@ fn shown(
     dir: &std::path::Path,
 ) -> (String, browser::Rendered) {
     let out = dir.join("report");
-    evaluate::write_outputs(report, &out, &mut formats::OutputPlan::new(false)).unwrap();
+    evaluate::write_outputs(report, &out, &mut formats::OutputPlan::new(false), None).unwrap();
     let page = out.join("report.html");
     let shown = browser::render(chromium, &page).unwrap();
     (std::fs::read_to_string(page).unwrap(), shown)
@@ -164,7 +164,7 @@ fn report_html_without_positioning_renders_in_chromium() {
 /// limited figure with value ± U, its limit and its decision in words.
 #[test]
 fn the_verdict_table_is_shown_first_in_chromium() {
-    use formats::conformance::{Decision, Limit, Rule, judge, verdict};
+    use formats::conformance::{Decision, Limit, Rule};
     use formats::uncertainty::{Propagated, Uncertainty};
     let Some(chromium) = browser::browser_or_skip("the verdict in Chromium").unwrap() else {
         return;
@@ -201,18 +201,17 @@ fn the_verdict_table_is_shown_first_in_chromium() {
     };
     // E well within, A at its value (inconclusive), R far beyond.
     let limits = [limit("E_um", 2.0), limit("A_um", 1.0), limit("R_um", 0.5)];
-    let judged = judge(
-        std::path::Path::new("tol.toml"),
-        &limits,
-        &figures,
-        Some(&expanded),
-        Rule::Iso14253,
-    )
-    .unwrap();
-    report.verdict = verdict(&judged);
-    assert_eq!(report.verdict, Some(Decision::DoesNotConform));
-    report.conformance = Some(judged);
-    report.decision_rule = Some(Rule::Iso14253.describe().into());
+    report
+        .signoff
+        .judge(
+            std::path::Path::new("tol.toml"),
+            &limits,
+            &figures,
+            Some(&expanded),
+            Rule::Iso14253,
+        )
+        .unwrap();
+    assert_eq!(report.signoff.verdict, Some(Decision::DoesNotConform));
     let (html, shown) = shown(&chromium, &report, dir.path());
     assert!(
         shown.errors.is_empty(),

@@ -12,7 +12,7 @@ fn every_text_of_every_plot_is_readable() {
         evaluate::evaluate(&common::rows(&common::campaign()), &Default::default()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
-    evaluate::write_outputs(&report, &out, &mut formats::OutputPlan::new(false)).unwrap();
+    evaluate::write_outputs(&report, &out, &mut formats::OutputPlan::new(false), None).unwrap();
     let page = std::fs::read_to_string(out.join("report.html")).unwrap();
     let (plots, small) = report::plot::small_texts(&page);
     // Positioning, straightness in two directions and angular per axis; flatness.

@@ -7,13 +7,22 @@
 //! value plus U is within the limit, §5.3 non-conformity when the value
 //! minus U is beyond it, and between the two no decision can be proven
 //! (inconclusive). The simple, shared-risk rule (ISO 14253-1 §6, ILAC-G8
-//! "simple acceptance") compares the value alone.
+//! "simple acceptance") compares the value alone. A signed figure (a
+//! location error, a deviation from a nominal) is judged by its magnitude:
+//! its limit L is the symmetric specification −L … +L, for which the same
+//! rule reads |value| + U ≤ L.
+//!
+//! [`SignOff`] is what a signed report adds to its figures: the test
+//! conditions, the rule, the decisions and the verdict; every report that
+//! takes `--conditions`/`--tolerances` (evaluate and each probe method)
+//! carries it flattened into its `report.json`.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde::Serialize;
 
+use crate::conditions::Conditions;
 use crate::{FormatError, Result};
 
 /// The decision rule (`--decision-rule`).
@@ -115,24 +124,25 @@ pub fn verdict(judged: &[Judged]) -> Option<Decision> {
     judged.iter().map(|j| j.decision).max()
 }
 
-/// What a report's tolerance file may hold: its tables (`axes`), the
+/// What a report's tolerance file may hold: its tables (`[X]`, or a
+/// report object's dotted path `[location]`, `[compensated.circle]`), the
 /// report path each key limits (`figure(table, key)`, `None` for an unknown
 /// key) and, for errors, the keys in words.
 #[derive(Clone, Copy)]
 pub struct Keys<'a> {
-    /// The tables (axes) a file may have.
-    pub axes: &'a [&'a str],
+    /// The tables a file may have (dotted for nested tables).
+    pub tables: &'a [&'a str],
     /// The figure a key limits.
     pub figure: &'a dyn Fn(Option<&str>, &str) -> Option<String>,
     /// Every key, in words.
     pub names: &'a str,
 }
 
-/// Read the tolerance file `path`: top-level keys and tables (axes) of
-/// numbers, each key one of `keys`.
+/// Read the tolerance file `path`: top-level keys and tables of numbers
+/// (nested tables by their dotted name), each key one of `keys`.
 pub fn read_tolerances(path: &Path, keys: Keys<'_>) -> Result<Vec<Limit>> {
     let Keys {
-        axes,
+        tables,
         figure: known,
         names,
     } = keys;
@@ -169,27 +179,87 @@ pub fn read_tolerances(path: &Path, keys: Keys<'_>) -> Result<Vec<Limit>> {
         });
         Ok(())
     };
-    for (key, value) in &table {
-        match value {
-            toml::Value::Table(t) => {
-                if !axes.contains(&key.as_str()) {
-                    return Err(bad(format!(
-                        "[{key}]: not an axis with limits; known: {names}"
-                    )));
+    // Depth first through the tables, in the file's key order.
+    let mut pending: Vec<(Option<String>, &toml::Table)> = vec![(None, &table)];
+    while let Some((prefix, table)) = pending.pop() {
+        let mut nested = Vec::new();
+        for (key, value) in table {
+            match value {
+                toml::Value::Table(t) => {
+                    let name = match &prefix {
+                        Some(p) => format!("{p}.{key}"),
+                        None => key.clone(),
+                    };
+                    if !tables.contains(&name.as_str()) {
+                        return Err(bad(format!(
+                            "[{name}]: not a table of figures with limits; known: {names}"
+                        )));
+                    }
+                    nested.push((Some(name), t));
                 }
-                for (k, v) in t {
-                    add(Some(key), k, v)?;
-                }
+                v => add(prefix.as_deref(), key, v)?,
             }
-            v => add(None, key, v)?,
         }
+        pending.extend(nested.into_iter().rev());
     }
     Ok(limits)
 }
 
+/// Read the tolerance file `path` of a report whose limits name its
+/// figures by their paths (the probe methods): a figure `a.b.F_um` is the
+/// key `F_um` of table `[a.b]`, a top-level figure a top-level key. Figures
+/// inside arrays (per-position tables) take no limit.
+pub fn read_tolerances_by_path(path: &Path, figures: &BTreeMap<String, f64>) -> Result<Vec<Limit>> {
+    let signed_off: Vec<&str> = figures
+        .keys()
+        .map(String::as_str)
+        .filter(|p| !p.split('.').any(|s| s.parse::<usize>().is_ok()))
+        .collect();
+    let mut by_table: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for p in &signed_off {
+        let (table, key) = p.rsplit_once('.').unwrap_or(("", p));
+        by_table.entry(table).or_default().push(key);
+    }
+    // Every table and the tables above it ([a] holds [a.b]).
+    let tables: Vec<&str> = by_table
+        .keys()
+        .filter(|t| !t.is_empty())
+        .flat_map(|t| t.match_indices('.').map(|(i, _)| &t[..i]).chain([*t]))
+        .collect();
+    let names = by_table
+        .iter()
+        .map(|(table, keys)| match *table {
+            "" => format!("top level {}", keys.join(", ")),
+            t => format!("[{t}] {}", keys.join(", ")),
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    let names = if names.is_empty() {
+        "none (this report has no figure that takes a limit)".to_string()
+    } else {
+        names
+    };
+    let figure = |table: Option<&str>, key: &str| {
+        let path = match table {
+            Some(t) => format!("{t}.{key}"),
+            None => key.to_string(),
+        };
+        signed_off.contains(&path.as_str()).then_some(path)
+    };
+    read_tolerances(
+        path,
+        Keys {
+            tables: &tables,
+            figure: &figure,
+            names: &names,
+        },
+    )
+}
+
 /// Judge each limit's figure in `figures` (value by path) with its U from
-/// `expanded` (by path) under `rule`; a limit whose figure the report does
-/// not have is an error naming the file and key.
+/// `expanded` (by path) under `rule`, a signed value by its magnitude; a
+/// limit whose figure the report does not have is an error naming the file
+/// and key.
 pub fn judge(
     path: &Path,
     limits: &[Limit],
@@ -219,10 +289,62 @@ pub fn judge(
                 value,
                 expanded: u,
                 limit: l.limit,
-                decision: decide(value, u, l.limit, rule),
+                decision: decide(value.abs(), u, l.limit, rule),
             })
         })
         .collect()
+}
+
+/// What a signed report adds to its figures (`report.json`, flattened):
+/// the test conditions given and, with a tolerance file, the decision rule
+/// in words, each limited figure's decision and the verdict.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct SignOff {
+    /// The test conditions given (`--conditions`), as read.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conditions: Option<Conditions>,
+    /// The decision rule of `conformance` (`--tolerances`), in words.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decision_rule: Option<String>,
+    /// Each limited figure's decision (`--tolerances`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conformance: Option<Vec<Judged>>,
+    /// The overall verdict: the worst decision.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<Decision>,
+}
+
+impl SignOff {
+    /// Judge the `limits` of tolerance file `path` on the report's
+    /// `figures` with their U (`expanded`) under `rule`: fills the rule,
+    /// the decisions and the verdict.
+    pub fn judge(
+        &mut self,
+        path: &Path,
+        limits: &[Limit],
+        figures: &BTreeMap<String, f64>,
+        expanded: Option<&BTreeMap<String, f64>>,
+        rule: Rule,
+    ) -> Result<()> {
+        let judged = judge(path, limits, figures, expanded, rule)?;
+        let without_u = rule == Rule::Iso14253 && judged.iter().any(|j| j.expanded.is_none());
+        self.decision_rule = Some(if without_u {
+            format!(
+                "{}; figures without U (no uncertainty given) decided by their value alone",
+                rule.describe()
+            )
+        } else {
+            rule.describe().to_string()
+        });
+        self.verdict = verdict(&judged);
+        self.conformance = Some(judged);
+        Ok(())
+    }
+
+    /// Whether a figure was proven beyond its limit.
+    pub fn fails(&self) -> bool {
+        self.verdict == Some(Decision::DoesNotConform)
+    }
 }
 
 #[cfg(test)]
@@ -257,6 +379,62 @@ mod tests {
         assert_eq!(simple(10.0 - e), Conforms);
         assert_eq!(simple(10.0), Conforms);
         assert_eq!(simple(10.0 + e), DoesNotConform);
+    }
+
+    /// A tolerance file in `dir` with `text`.
+    fn file(dir: &tempfile::TempDir, text: &str) -> std::path::PathBuf {
+        let p = dir.path().join("tol.toml");
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    /// Probe reports' keys are their figures' paths: nested tables by
+    /// their dotted names, array entries not limited, unknown keys and
+    /// tables refused with the known ones listed.
+    #[test]
+    fn tolerances_by_path_name_figures_in_nested_tables() {
+        let figures: BTreeMap<String, f64> = [
+            ("max_dA_arcsec", 3.0),
+            ("location.X0C_um", -4.0),
+            ("ranges.errors.EXC_um", 2.0),
+            ("errors.0.EXC_um", 1.0),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let text = "max_dA_arcsec = 5\n[location]\nX0C_um = 3.5\n[ranges.errors]\nEXC_um = 2.5\n";
+        let limits = read_tolerances_by_path(&file(&dir, text), &figures).unwrap();
+        let paths: Vec<(&str, f64)> = limits.iter().map(|l| (l.path.as_str(), l.limit)).collect();
+        assert_eq!(
+            paths,
+            [
+                ("max_dA_arcsec", 5.0),
+                ("location.X0C_um", 3.5),
+                ("ranges.errors.EXC_um", 2.5)
+            ]
+        );
+        // A signed figure is judged by its magnitude: |−4| > 3.5.
+        let judged = judge(Path::new("t"), &limits, &figures, None, Rule::Simple).unwrap();
+        assert_eq!(judged[1].value, -4.0);
+        assert_eq!(judged[1].decision, Decision::DoesNotConform);
+        for bad in [
+            "[errors.0]\nEXC_um = 1\n",
+            "[location]\nEXC_um = 1\n",
+            "[nowhere]\nEXC_um = 1\n",
+            "X0C_um = 1\n",
+        ] {
+            let e = read_tolerances_by_path(&file(&dir, bad), &figures)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("tol.toml"), "{e}");
+            assert!(
+                e.contains(
+                    "known: top level max_dA_arcsec; [location] X0C_um; [ranges.errors] EXC_um"
+                ),
+                "{e}"
+            );
+        }
     }
 
     #[test]

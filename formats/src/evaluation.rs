@@ -42,22 +42,14 @@ pub struct Report {
     /// (`A_U_um`). Absent when not asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub uncertainty: Option<crate::uncertainty::Uncertainty>,
-    /// The test conditions given (`--conditions`), as read.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub conditions: Option<crate::conditions::Conditions>,
     /// The figures before the correction to 20 °C, by path; present when
     /// the conditions asked for one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub uncorrected: Option<std::collections::BTreeMap<String, f64>>,
-    /// The decision rule of `conformance` (`--tolerances`), in words.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub decision_rule: Option<String>,
-    /// Each limited figure's decision (`--tolerances`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub conformance: Option<Vec<crate::conformance::Judged>>,
-    /// The overall verdict: the worst decision.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub verdict: Option<crate::conformance::Decision>,
+    /// The test conditions, decisions and verdict (`--conditions`,
+    /// `--tolerances`).
+    #[serde(flatten)]
+    pub signoff: crate::conformance::SignOff,
 }
 
 impl Report {

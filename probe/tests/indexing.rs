@@ -257,13 +257,44 @@ fn report_figures_follow_the_angles() {
     assert!((r.rms_d_b_arcsec - rms(&d_b)).abs() < 1e-12);
     assert!((r.radius_deviation_um.unwrap() - (ind.radius_mm - 116.99) * 1e3).abs() < 1e-9);
     let t = r.tolerance.as_ref().unwrap();
-    let beyond = ind
+    // Beyond by more than U = 2u (ISO 14253-1), and undecided within U.
+    let beyond = |d: f64, u: f64| d.abs() - 2.0 * u > 2.5;
+    let undecided = |d: f64, u: f64| !beyond(d, u) && d.abs() + 2.0 * u > 2.5;
+    let listed = ind
         .angles
         .iter()
-        .filter(|p| p.d_a_arcsec.abs() > 2.5 || p.d_b_arcsec.is_some_and(|d| d.abs() > 2.5))
+        .filter(|p| {
+            beyond(p.d_a_arcsec, p.u_d_a_arcsec)
+                || p.d_b_arcsec
+                    .zip(p.u_d_b_arcsec)
+                    .is_some_and(|(d, u)| beyond(d, u))
+        })
         .count();
-    assert_eq!(t.exceeding.len(), beyond);
-    assert!(beyond > 0);
+    assert_eq!(t.exceeding.len(), listed);
+    assert!(listed > 0);
+    let count = |f: &dyn Fn(f64, f64) -> bool, b: bool| {
+        ind.angles
+            .iter()
+            .filter(|p| match b {
+                false => f(p.d_a_arcsec, p.u_d_a_arcsec),
+                true => p
+                    .d_b_arcsec
+                    .zip(p.u_d_b_arcsec)
+                    .is_some_and(|(d, u)| f(d, u)),
+            })
+            .count()
+    };
+    assert_eq!(t.count_d_a, count(&beyond, false));
+    assert_eq!(t.count_d_b, count(&beyond, true));
+    assert_eq!(t.inconclusive_d_a, count(&undecided, false));
+    assert_eq!(t.inconclusive_d_b, count(&undecided, true));
+    // Noise alone is not counted: at most as many as by the value alone.
+    let by_value = ind
+        .angles
+        .iter()
+        .filter(|p| p.d_a_arcsec.abs() > 2.5)
+        .count();
+    assert!(t.count_d_a <= by_value);
     assert_eq!(r.a_detents.len(), 15);
     assert_eq!(r.b_detents.len(), 48);
     // The JSON keys of the contract.

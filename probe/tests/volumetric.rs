@@ -424,3 +424,78 @@ fn order_auto_chooses_per_curve_and_reports_the_scores() {
         }
     }
 }
+
+/// Fits that explain little of their curve are flagged (R² < 0.8) with
+/// the order leave-one-out chooses: a wave of five periods that order 3
+/// cannot follow (auto chooses 5 and fits it), a curve of noise alone
+/// (no order explains it: said to be noise); the smooth curves are not.
+#[test]
+fn poor_fits_are_flagged_with_the_order_cross_validation_chooses() {
+    let l = 600.0;
+    let w = std::f64::consts::TAU / l;
+    // A deterministic stand-in for noise: the fractional part of a fast
+    // irrational sequence, centred (independent of any series' basis).
+    let noise = |k: usize| ((k as f64 * 0.754_877_666_2).fract() - 0.5) * 2e-3;
+    let curves: Vec<MeasuredAxis> = [(Axis::X, l), (Axis::Y, 400.0), (Axis::Z, 300.0)]
+        .into_iter()
+        .map(|(axis, len)| {
+            let rows: Vec<[f64; 7]> = (0..=40)
+                .map(|k| {
+                    let q = len * k as f64 / 40.0;
+                    let mut r = [q, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+                    // Straightness zero: its removed line would leave a
+                    // curve no series of the travel's period follows.
+                    for m in Motion::ALL.into_iter().filter(|m| !m.is_straightness(axis)) {
+                        let a = if m.is_rotation() { 5e-6 } else { 2e-3 };
+                        r[m.index() + 1] = a * (w * q * l / len).sin();
+                    }
+                    if axis == Axis::X {
+                        r[Motion::ALL[0].index() + 1] = 2e-3 * (5.0 * w * q).sin();
+                        r[Motion::ALL[1].index() + 1] = noise(k);
+                    }
+                    r
+                })
+                .collect();
+            MeasuredAxis::from_rows(axis, &rows)
+        })
+        .collect();
+    let setup = |order| Setup {
+        chain: Chain::parse("WXYFZT").unwrap(),
+        squareness: Squareness {
+            ec0y: 0.0,
+            eb0z: 0.0,
+            ea0z: 0.0,
+        },
+        tool: [0.0, 0.0, -100.0],
+        model: Model::Fourier,
+        order,
+        at: vec![],
+        circle: None,
+        source: "analytic".into(),
+    };
+    let fixed = analyse(curves.clone(), &setup(Order::Fixed(3)), None).unwrap();
+    let w = &fixed.report.warnings;
+    println!("{w:#?}");
+    let [wave, noisy] = [0, 1].map(|i| Motion::ALL[i].symbol(Axis::X));
+    assert_eq!([wave.as_str(), noisy.as_str()], ["EXX", "EYX"]);
+    assert_eq!(w.len(), 2, "{w:?}");
+    assert!(
+        w[0].starts_with(&wave) && w[0].contains("chooses N = 5 for it, R² 1.000"),
+        "{}",
+        w[0]
+    );
+    assert!(
+        w[1].starts_with(&noisy) && w[1].contains("not significant"),
+        "{}",
+        w[1]
+    );
+    // Chosen by cross-validation, the wave is fitted; the noise stays flagged.
+    let auto = analyse(curves, &setup(Order::Auto), None).unwrap();
+    let w = &auto.report.warnings;
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].starts_with(&noisy) && w[0].contains("not significant"),
+        "{}",
+        w[0]
+    );
+}

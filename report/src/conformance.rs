@@ -1,11 +1,12 @@
 //! The page's verdict (`#verdict`): the overall decision in words and
 //! colour, the decision rule, and each limited figure with value ± U, its
-//! limit and its decision (ISO 14253-1; `formats::conformance`). The same
-//! on every page that has tolerances; it comes first, before anything else.
+//! limit and its decision (ISO 14253-1; `formats::conformance`), then the
+//! test conditions (`crate::conditions`). The same on every page that has
+//! them; it comes first, before anything else.
 
 use std::fmt::Write;
 
-use formats::conformance::{Decision, Judged};
+use formats::conformance::{Decision, SignOff};
 
 use crate::uncertainty::{plus_minus_in, unit_of};
 use crate::{Page, escape};
@@ -30,16 +31,19 @@ fn badge(d: Decision) -> String {
     )
 }
 
-/// The section, nothing without tolerances.
-pub fn section(
-    h: &mut Page,
-    judged: Option<&[Judged]>,
-    verdict: Option<Decision>,
-    rule: Option<&str>,
-) {
-    let (Some(judged), Some(verdict)) = (judged, verdict) else {
+/// The verdict (nothing without tolerances), then the test conditions
+/// (nothing without them).
+pub fn header(h: &mut Page, signoff: &SignOff) {
+    verdict(h, signoff);
+    crate::conditions::section(h, signoff.conditions.as_ref());
+}
+
+/// The verdict section, nothing without tolerances.
+fn verdict(h: &mut Page, signoff: &SignOff) {
+    let (Some(judged), Some(verdict)) = (&signoff.conformance, signoff.verdict) else {
         return;
     };
+    let rule = signoff.decision_rule.as_deref();
     let (bg, fg) = colours(verdict);
     let mut html = format!(
         "<h2 id=\"verdict\">Verdict</h2>\n<p id=\"verdict-line\" style=\"background:{bg};color:{fg};\

@@ -41,26 +41,8 @@ pub struct Args {
     /// beside the points, as `measure` writes it).
     #[arg(long)]
     observations: Option<PathBuf>,
-    /// Test conditions (`conditions.toml`, docs/formats.md): the machine and
-    /// the temperatures; with the machine's temperature and expansion
-    /// coefficient the positioning deviations are corrected to 20 °C.
-    #[arg(long)]
-    conditions: Option<PathBuf>,
-    /// Limits per figure (`tol.toml`, docs/formats.md): each figure judged by
-    /// the decision rule, the verdict on the report and on stderr.
-    #[arg(long)]
-    tolerances: Option<PathBuf>,
-    /// How a figure is judged against its limit: `iso14253` (value ± U
-    /// against the limit; inconclusive between) or `simple` (the value alone).
-    #[arg(long, value_enum, default_value_t = DecisionRule::Iso14253, requires = "tolerances")]
-    decision_rule: DecisionRule,
-    /// Exit with status 4 when a figure does not conform (default: 0).
-    #[arg(long, requires = "tolerances")]
-    fail_on_nonconformance: bool,
-    /// Also print `report.pdf` beside `report.html` (A4, page numbers) with
-    /// headless Chromium (`chromium` on the PATH, or `TRINOCULAR_CHROMIUM`).
-    #[arg(long)]
-    pdf: bool,
+    #[command(flatten)]
+    signoff: super::signoff::SignoffArgs,
     /// Monte Carlo trials of the uncertainty (0: figures without U).
     #[arg(long, default_value_t = evaluate::uncertainty::DEFAULT_TRIALS)]
     trials: usize,
@@ -69,97 +51,12 @@ pub struct Args {
     seed: u64,
 }
 
-/// `--decision-rule`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum DecisionRule {
-    /// ISO 14253-1: conforms when value + U ≤ limit, does not when value − U > limit.
-    Iso14253,
-    /// Shared risk: conforms when value ≤ limit.
-    Simple,
-}
-
-impl From<DecisionRule> for formats::conformance::Rule {
-    fn from(r: DecisionRule) -> Self {
-        match r {
-            DecisionRule::Iso14253 => Self::Iso14253,
-            DecisionRule::Simple => Self::Simple,
-        }
-    }
-}
-
-/// Exit status when a figure does not conform and `--fail-on-nonconformance`.
-pub const NONCONFORMANCE_EXIT_STATUS: u8 = 4;
-
-/// A run whose report was written and one of whose figures does not
-/// conform, under `--fail-on-nonconformance`.
-#[derive(Debug)]
-pub struct DoesNotConform(pub String);
-
-impl std::fmt::Display for DoesNotConform {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for DoesNotConform {}
-
-/// Judge `report`'s figures against the limits of `path` under `rule`:
-/// fills `conformance`, `verdict` and `decision_rule`.
-fn judge(report: &mut evaluate::Report, path: &Path, rule: DecisionRule) -> Result<()> {
-    use formats::conformance::{Keys, Rule, judge, read_tolerances, verdict};
-    let keys = Keys {
-        axes: &["X", "Y", "Z"],
-        figure: &evaluate::tolerances::figure,
-        names: evaluate::tolerances::KNOWN,
-    };
-    let limits = read_tolerances(path, keys)?;
-    let figures = formats::uncertainty::figures(&*report, &evaluate::uncertainty::FIGURE_KEYS)?;
-    let expanded = report.uncertainty.as_ref().and_then(|u| u.expanded());
-    let rule: Rule = rule.into();
-    let judged = judge(path, &limits, &figures, expanded, rule)?;
-    let without_u = rule == Rule::Iso14253 && judged.iter().any(|j| j.expanded.is_none());
-    report.decision_rule = Some(if without_u {
-        format!(
-            "{}; figures without U (no uncertainty given) decided by their value alone",
-            rule.describe()
-        )
-    } else {
-        rule.describe().to_string()
-    });
-    report.verdict = verdict(&judged);
-    report.conformance = Some(judged);
-    Ok(())
-}
-
-/// The one-line verdict for stderr: the verdict, the first figure that
-/// does not conform (or is inconclusive), and the counts.
-fn verdict_line(report: &evaluate::Report) -> Option<String> {
-    use formats::conformance::Decision;
-    let judged = report.conformance.as_ref()?;
-    let verdict = report.verdict?;
-    let count = |d: Decision| judged.iter().filter(|j| j.decision == d).count();
-    let worst = judged
-        .iter()
-        .find(|j| j.decision == verdict && verdict != Decision::Conforms);
-    let detail = worst.map(|j| {
-        let unit = report::uncertainty::unit_of(&j.figure);
-        format!(
-            " ({}{} {} against {})",
-            j.axis.as_ref().map(|a| format!("{a} ")).unwrap_or_default(),
-            j.figure,
-            report::uncertainty::plus_minus_in(j.value, j.expanded, 3, unit),
-            report::uncertainty::plus_minus_in(j.limit, None, 3, unit)
-        )
-    });
-    Some(format!(
-        "trinocular: verdict: {}{}; {} conform, {} inconclusive, {} do not conform",
-        verdict.words(),
-        detail.unwrap_or_default(),
-        count(Decision::Conforms),
-        count(Decision::Inconclusive),
-        count(Decision::DoesNotConform)
-    ))
-}
+/// The keys of evaluate's tolerance file.
+const KEYS: formats::conformance::Keys<'static> = formats::conformance::Keys {
+    tables: &["X", "Y", "Z"],
+    figure: &evaluate::tolerances::figure,
+    names: evaluate::tolerances::KNOWN,
+};
 
 /// The figures' uncertainty: propagated from the observations beside the
 /// points and the rig, or why there is none.
@@ -439,22 +336,11 @@ fn correction_statement(t: &formats::conditions::Temperature) -> String {
 
 /// Run the evaluation and write the report.
 pub fn run(args: &Args) -> Result<()> {
-    // Found first, so that nothing is written when the PDF cannot be.
-    let browser = if args.pdf {
-        Some(report::browser::find_browser().ok_or_else(|| {
-            Usage::error(
-                "--pdf: no Chromium found to print report.pdf (install the Debian package `chromium`, \
-                 or name the browser in TRINOCULAR_CHROMIUM)",
-            )
-        })?)
-    } else {
-        None
-    };
-    let conditions = args
-        .conditions
-        .as_deref()
-        .map(formats::conditions::Conditions::read)
-        .transpose()?;
+    // Found and read first, so that nothing is computed or written when
+    // they fail.
+    let browser = args.signoff.browser()?;
+    let conditions = args.signoff.read_conditions()?;
+    let limits = args.signoff.read_limits(KEYS)?;
     let temperature = conditions.as_ref().map(|c| &c.temperature);
     let machine = temperature.and_then(|t| t.machine());
     let target_strain = temperature.and_then(|t| t.target_strain());
@@ -486,25 +372,32 @@ pub fn run(args: &Args) -> Result<()> {
             .conventions
             .extend(temperature.map(correction_statement));
     }
-    report.conditions = conditions.clone();
+    report.signoff.conditions = conditions.clone();
     report.uncertainty = Some(uncertainty(args, &report, &options, machine)?);
-    if let Some(path) = &args.tolerances {
-        judge(&mut report, path, args.decision_rule)?;
-    }
+    let figures = formats::uncertainty::figures(&report, &evaluate::uncertainty::FIGURE_KEYS)?;
+    let expanded = report.uncertainty.as_ref().and_then(|u| u.expanded());
+    args.signoff
+        .judge(&mut report.signoff, limits.as_deref(), &figures, expanded)?;
     let mut output = formats::OutputPlan::new(args.force);
     output.input(&args.points);
-    output.inputs(args.conditions.iter());
-    output.inputs(args.tolerances.iter());
+    output.inputs(args.signoff.inputs());
     output.inputs(args.rig.iter());
     output.inputs(args.observations.iter());
-    let written = evaluate::write_outputs(&report, &args.out, &mut output)
-        .with_context(|| format!("writing the report into {}", args.out.display()))?;
-    if let Some(browser) = browser {
-        let (html, pdf) = (args.out.join("report.html"), args.out.join("report.pdf"));
-        let bytes = report::browser::print_pdf(&browser, &html)
-            .with_context(|| format!("printing {} with {}", html.display(), browser.display()))?;
-        formats::write_atomic(&pdf, &bytes)?;
-        eprintln!("trinocular: printed {}", pdf.display());
+    let print = browser
+        .as_deref()
+        .map(|b| move |html: &Path| report::browser::print_pdf(b, html));
+    let written = evaluate::write_outputs(
+        &report,
+        &args.out,
+        &mut output,
+        print.as_ref().map(|p| p as evaluate::Printer<'_>),
+    )
+    .with_context(|| format!("writing the report into {}", args.out.display()))?;
+    if browser.is_some() {
+        eprintln!(
+            "trinocular: printed {}",
+            args.out.join("report.pdf").display()
+        );
     }
     let u = |path: String| report.expanded(&path);
     for (axis, a) in report.axes.iter() {
@@ -565,16 +458,5 @@ pub fn run(args: &Args) -> Result<()> {
         eprintln!("trinocular: warning: {w}");
     }
     println!("wrote {} files into {}", written.len(), args.out.display());
-    if let Some(line) = verdict_line(&report) {
-        eprintln!("{line}");
-    }
-    if args.fail_on_nonconformance
-        && report.verdict == Some(formats::conformance::Decision::DoesNotConform)
-    {
-        return Err(anyhow::Error::new(DoesNotConform(format!(
-            "a figure does not conform (the report is written: {})",
-            args.out.display()
-        ))));
-    }
-    Ok(())
+    args.signoff.finish(&report.signoff, &args.out)
 }

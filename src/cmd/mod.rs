@@ -12,6 +12,7 @@ pub mod measure;
 pub mod probe;
 pub mod progress;
 pub mod sensor;
+pub mod signoff;
 pub mod synth;
 pub mod values;
 

@@ -13,8 +13,12 @@ use crate::Result;
 const EXCEEDING_SHOWN: usize = 40;
 
 /// Render the page of `r` with the positions' `angles` (the rows of
-/// `indexing.csv`).
-pub fn render(r: &Report, angles: &[Angles]) -> Result<String> {
+/// `indexing.csv`), the verdict and test conditions of `signoff` first.
+pub fn render(
+    r: &Report,
+    angles: &[Angles],
+    signoff: &formats::conformance::SignOff,
+) -> Result<String> {
     let mut h = Page::new(
         "trinocular — probe-head indexing errors",
         "Probe-head indexing errors",
@@ -28,6 +32,7 @@ pub fn render(r: &Report, angles: &[Angles]) -> Result<String> {
         r.axes.b_turn_positions,
         r.axes.b_turn_step_deg,
     ));
+    report::conformance::header(&mut h, signoff);
     summary(&mut h, r);
     report::uncertainty::section(&mut h, r.uncertainty.as_ref());
     maps(&mut h, r, angles)?;
@@ -150,9 +155,16 @@ fn summary(h: &mut Page, r: &Report) {
     ]);
     if let Some(t) = &r.tolerance {
         rows.push([
-            format!("positions beyond ±{}″", t.tolerance_arcsec),
+            format!("positions beyond ±{}″ by more than U", t.tolerance_arcsec),
             format!("{}", t.exceeding.len()),
-            format!("{} in ΔθA, {} in ΔθB", t.count_d_a, t.count_d_b),
+            format!(
+                "{} in ΔθA, {} in ΔθB; undecided (within U of ±{}″): {} in ΔθA, {} in ΔθB",
+                t.count_d_a,
+                t.count_d_b,
+                t.tolerance_arcsec,
+                t.inconclusive_d_a,
+                t.inconclusive_d_b
+            ),
         ]);
     }
     let rows: Vec<Vec<String>> = rows.into_iter().map(Vec::from).collect();
@@ -164,7 +176,7 @@ fn maps(h: &mut Page, r: &Report, angles: &[Angles]) -> Result<()> {
     let levels = (r.grid.a_deg.as_slice(), r.grid.b_deg.as_slice());
     let tolerance = r.tolerance.as_ref().map(|t| t.tolerance_arcsec);
     let outlined = if tolerance.is_some() {
-        " Outlined: beyond the tolerance."
+        " Outlined: beyond the tolerance by more than the position's U (2u)."
     } else {
         ""
     };
@@ -174,6 +186,7 @@ fn maps(h: &mut Page, r: &Report, angles: &[Angles]) -> Result<()> {
             "ΔθA = θA − A over the head positions",
             angles,
             |p| Some(p.d_a_arcsec),
+            |p| Some(p.u_d_a_arcsec),
             levels,
             tolerance,
             ["ΔθA", "(arc-seconds)"],
@@ -186,6 +199,7 @@ fn maps(h: &mut Page, r: &Report, angles: &[Angles]) -> Result<()> {
             "ΔθB = θB − B over the head positions",
             angles,
             |p| p.d_b_arcsec,
+            |p| p.u_d_b_arcsec,
             levels,
             tolerance,
             ["ΔθB", "(arc-seconds)"],
@@ -309,8 +323,13 @@ fn exceeding(h: &mut Page, r: &Report) {
         "tolerance",
         &format!("Positions beyond ±{}″", t.tolerance_arcsec),
     );
+    h.paragraph(&format!(
+        "Beyond by more than the position's U = 2u (ISO 14253-1: non-conformance proven); {} ΔθA and {} \
+         ΔθB lie within U of the tolerance and are not counted either way.",
+        t.inconclusive_d_a, t.inconclusive_d_b
+    ));
     if t.exceeding.is_empty() {
-        h.paragraph("None: every |ΔθA| and |ΔθB| is within the tolerance.");
+        h.paragraph("None: no |ΔθA| or |ΔθB| is beyond the tolerance by more than its U.");
         return;
     }
     let rows: Vec<Vec<String>> = t
@@ -321,16 +340,18 @@ fn exceeding(h: &mut Page, r: &Report) {
             vec![
                 format!("{}", e.a_deg),
                 format!("{}", e.b_deg),
-                format!("{:+.3}", e.d_a_arcsec),
-                e.d_b_arcsec
-                    .map_or_else(|| "—".into(), |d| format!("{d:+.3}")),
+                report::uncertainty::plus_minus(e.d_a_arcsec, Some(e.expanded_d_a_arcsec), 3),
+                e.d_b_arcsec.map_or_else(
+                    || "—".into(),
+                    |d| report::uncertainty::plus_minus(d, e.expanded_d_b_arcsec, 3),
+                ),
                 e.exceeds.clone(),
             ]
         })
         .collect();
     h.table(
         Some("exceeding"),
-        &["A (°)", "B (°)", "ΔθA (″)", "ΔθB (″)", "beyond"],
+        &["A (°)", "B (°)", "ΔθA ± U (″)", "ΔθB ± U (″)", "beyond"],
         &rows,
     );
     if t.exceeding.len() > EXCEEDING_SHOWN {

@@ -55,11 +55,14 @@ fn nearest(levels: &[f64], v: f64) -> usize {
 /// |value| within 4 × the 90th percentile of |value|), so that one extreme
 /// value does not wash out the others; a value beyond ±L is drawn at the
 /// scale's end with a triangle (▲ above, ▼ below), counted under the colour
-/// bar. Grey where undefined, outlined where |value| exceeds `tolerance`.
+/// bar. Grey where undefined, outlined where |value| exceeds `tolerance` by
+/// more than its U = 2·`u` (`super::summary::decision`).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn map(
     title: &str,
     angles: &[Angles],
     value: impl Fn(&Angles) -> Option<f64>,
+    u: impl Fn(&Angles) -> Option<f64>,
     (a_levels, b_levels): (&[f64], &[f64]),
     tolerance: Option<f64>,
     caption: [&str; 2],
@@ -106,7 +109,12 @@ pub(crate) fn map(
                 .draw_series(
                     angles
                         .iter()
-                        .filter(|p| value(p).is_some_and(|v| v.abs() > t))
+                        .filter(|p| {
+                            value(p).zip(u(p)).is_some_and(|(v, u)| {
+                                super::summary::decision(v, u, t)
+                                    == formats::conformance::Decision::DoesNotConform
+                            })
+                        })
                         .map(|p| Rectangle::new(cell(p), BEYOND.stroke_width(2))),
                 )
                 .map_err(|e| e.to_string())?;

@@ -8,6 +8,8 @@ pub use formats::probe::indexing::report::{
     ToleranceReport,
 };
 
+use formats::conformance::{Decision, Rule, decide};
+
 use super::{Angles, Indexing, UM_PER_MM, layout};
 use crate::{ProbeError, Result, Unsolvable};
 
@@ -16,7 +18,8 @@ use crate::{ProbeError, Result, Unsolvable};
 pub struct Options {
     /// Nominal head-centre-to-stylus-ball length (mm), to compare the radius with.
     pub nominal_radius_mm: Option<f64>,
-    /// Tolerance on |ΔθA| and |ΔθB| (arc-seconds): positions beyond it are listed.
+    /// Tolerance on |ΔθA| and |ΔθB| (arc-seconds): positions beyond it by
+    /// more than their U are counted and listed.
     pub tolerance_arcsec: Option<f64>,
     /// Where the centres came from (a file name), for the page.
     pub source: String,
@@ -211,13 +214,32 @@ fn b_detents(ind: &Indexing) -> Vec<BDetent> {
         .collect()
 }
 
-/// The positions whose |ΔθA| or |ΔθB| exceed `t`, worst first.
+/// The decision on a position's error `d` with standard uncertainty `u`
+/// against the tolerance ±`t` (ISO 14253-1 with U = 2u).
+pub(crate) fn decision(d: f64, u: f64, t: f64) -> Decision {
+    decide(d.abs(), Some(2.0 * u), t, Rule::Iso14253)
+}
+
+/// The decisions on ΔθA and ΔθB (none at A = 0°) of position `p`.
+fn decisions(p: &Angles, t: f64) -> (Decision, Option<Decision>) {
+    (
+        decision(p.d_a_arcsec, p.u_d_a_arcsec, t),
+        p.d_b_arcsec
+            .zip(p.u_d_b_arcsec)
+            .map(|(d, u)| decision(d, u, t)),
+    )
+}
+
+/// The positions whose |ΔθA| or |ΔθB| exceed `t` by more than U, worst
+/// first, and the counts of those beyond and of those undecided.
 fn tolerance(angles: &[Angles], t: f64) -> ToleranceReport {
+    let beyond = Decision::DoesNotConform;
     let mut exceeding: Vec<(f64, Exceedance)> = angles
         .iter()
         .filter_map(|p| {
-            let over_a = p.d_a_arcsec.abs() > t;
-            let over_b = p.d_b_arcsec.is_some_and(|d| d.abs() > t);
+            let (a, b) = decisions(p, t);
+            let over_a = a == beyond;
+            let over_b = b == Some(beyond);
             let exceeds = match (over_a, over_b) {
                 (true, true) => "A+B",
                 (true, false) => "A",
@@ -232,19 +254,24 @@ fn tolerance(angles: &[Angles], t: f64) -> ToleranceReport {
                     b_deg: p.b_deg,
                     d_a_arcsec: p.d_a_arcsec,
                     d_b_arcsec: p.d_b_arcsec,
+                    expanded_d_a_arcsec: 2.0 * p.u_d_a_arcsec,
+                    expanded_d_b_arcsec: p.u_d_b_arcsec.map(|u| 2.0 * u),
                     exceeds: exceeds.into(),
                 },
             ))
         })
         .collect();
     exceeding.sort_by(|p, q| q.0.total_cmp(&p.0));
+    let decided: Vec<(Decision, Option<Decision>)> =
+        angles.iter().map(|p| decisions(p, t)).collect();
+    let count_a = |d: Decision| decided.iter().filter(|x| x.0 == d).count();
+    let count_b = |d: Decision| decided.iter().filter(|x| x.1 == Some(d)).count();
     ToleranceReport {
         tolerance_arcsec: t,
-        count_d_a: angles.iter().filter(|p| p.d_a_arcsec.abs() > t).count(),
-        count_d_b: angles
-            .iter()
-            .filter(|p| p.d_b_arcsec.is_some_and(|d| d.abs() > t))
-            .count(),
+        count_d_a: count_a(beyond),
+        count_d_b: count_b(beyond),
+        inconclusive_d_a: count_a(Decision::Inconclusive),
+        inconclusive_d_b: count_b(Decision::Inconclusive),
         exceeding: exceeding.into_iter().map(|(_, e)| e).collect(),
     }
 }
@@ -277,22 +304,26 @@ mod tests {
             theta_b_deg: b_deg,
             d_a_arcsec: d_a,
             d_b_arcsec: d_b,
-            u_d_a_arcsec: 0.5,
-            u_d_b_arcsec: d_b.map(|_| 0.5),
+            u_d_a_arcsec: 0.1,
+            u_d_b_arcsec: d_b.map(|_| 0.1),
             residual_um: 0.0,
         }
     }
 
+    /// Beyond the tolerance means beyond by more than U = 2u = 0.2″ here:
+    /// 2.15″ and 2.1″ against 2″ are inconclusive, not counted.
     #[test]
     fn tolerance_lists_the_worst_first() {
         let angles = [
             angle(0.0, 0.0, 2.5, None),
             angle(15.0, 0.0, 0.1, Some(-3.0)),
-            angle(15.0, 90.0, 2.2, Some(2.1)),
-            angle(30.0, 90.0, 1.0, Some(1.0)),
+            angle(15.0, 90.0, 2.3, Some(2.25)),
+            angle(30.0, 90.0, 2.15, Some(2.1)),
+            angle(30.0, 0.0, 1.0, Some(1.0)),
         ];
         let t = tolerance(&angles, 2.0);
         assert_eq!((t.count_d_a, t.count_d_b), (2, 2));
+        assert_eq!((t.inconclusive_d_a, t.inconclusive_d_b), (1, 1));
         let order: Vec<(f64, &str)> = t
             .exceeding
             .iter()

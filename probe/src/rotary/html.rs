@@ -98,8 +98,9 @@ fn angle_plots(
     Ok(())
 }
 
-/// Render the whole page.
-pub fn render(report: &Report) -> Result<String> {
+/// Render the whole page, the verdict and test conditions of `signoff`
+/// first.
+pub fn render(report: &Report, signoff: &formats::conformance::SignOff) -> Result<String> {
     let mut h = Page::new(
         "trinocular — rotary table error report",
         "Rotary table errors (C axis, standard ball)",
@@ -129,6 +130,7 @@ pub fn render(report: &Report) -> Result<String> {
         report.condition_limit,
         report.residual_rms_um
     ));
+    report::conformance::header(&mut h, signoff);
     summary(&mut h, report);
     report::uncertainty::section(&mut h, report.uncertainty.as_ref());
 

@@ -207,8 +207,15 @@ fn uncertainty_plot(net: &Network, s: &Solution) -> Result<String> {
     })?)
 }
 
-/// `report.html`: figures, plots and tables of a solution of `net`.
-pub fn html(net: &Network, s: &Solution, r: &TracerReport, u: &Uncertainty) -> Result<String> {
+/// `report.html`: figures, plots and tables of a solution of `net`, the
+/// verdict and test conditions of `signoff` first.
+pub fn html(
+    net: &Network,
+    s: &Solution,
+    r: &TracerReport,
+    u: &Uncertainty,
+    signoff: &formats::conformance::SignOff,
+) -> Result<String> {
     let mut page = Page::new(
         "trinocular — laser-tracer multilateration",
         "CMM volumetric correction by laser-tracer multilateration",
@@ -217,6 +224,7 @@ pub fn html(net: &Network, s: &Solution, r: &TracerReport, u: &Uncertainty) -> R
         "{} grid points, {} stations, {} readings; {} unknowns after the datum, redundancy {}",
         r.points, r.stations, r.equations, r.unknowns, r.redundancy
     ));
+    report::conformance::header(&mut page, signoff);
     figures_section(&mut page, net, s, r, u)?;
     report::uncertainty::section(&mut page, Some(u));
     stations_table(&mut page, r);

@@ -18,12 +18,18 @@ fn fig(v: Option<f64>, digits: usize) -> String {
 }
 
 /// Render the page: set-up, predicted circle, fit table, the curves of each
-/// axis, volumetric errors, compensation tables, the campaign's sweeps.
-pub fn render(a: &Analysis, u: &Uncertainty) -> Result<String> {
+/// axis, volumetric errors, compensation tables, the campaign's sweeps; the
+/// verdict and test conditions of `signoff` first.
+pub fn render(
+    a: &Analysis,
+    u: &Uncertainty,
+    signoff: &formats::conformance::SignOff,
+) -> Result<String> {
     let mut h = Page::new(
         "trinocular — 21-error volumetric model",
         "21-error volumetric model",
     );
+    report::conformance::header(&mut h, signoff);
     setup_section(&mut h, &a.report);
     circle_section(&mut h, a, u)?;
     fit_table(&mut h, &a.report);
@@ -32,6 +38,7 @@ pub fn render(a: &Analysis, u: &Uncertainty) -> Result<String> {
     report::uncertainty::section(&mut h, Some(u));
     compensation_section(&mut h, &a.report);
     campaign_section(&mut h, &a.report);
+    h.notes("Warnings", &a.report.warnings, true);
     h.notes("Conventions", &a.report.conventions, false);
     Ok(h.finish())
 }
@@ -143,7 +150,12 @@ fn fit_table(h: &mut Page, r: &Report) {
                 rows.push(vec![
                     format!("{} {}", c.symbol, c.error.name()),
                     format!("{name} N={}", s.order),
-                    fig(s.r2, 6),
+                    match s.r2 {
+                        Some(r) if r < super::report::POOR_R2 => {
+                            format!("{r:.6} (< {})", super::report::POOR_R2)
+                        }
+                        r => fig(r, 6),
+                    },
                     format!("{:.4e} {u}²", s.sse),
                     format!("{:.4} {u}", s.rmse),
                     format!("{:.4} {u}", s.emax),

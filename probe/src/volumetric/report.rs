@@ -333,7 +333,66 @@ fn report(
         circle,
         campaign,
         conventions: conventions(),
+        warnings: poor_fits(model, setup),
     }
+}
+
+/// R² below which a series fit is flagged: it explains less than 80 % of
+/// its curve's variance, so that its figures describe noise (or an order
+/// that does not suit the curve) more than the machine.
+pub const POOR_R2: f64 = 0.8;
+
+/// A warning for each fit with R² < [`POOR_R2`] of a series the model
+/// uses (both under `raw`: compensation is by either), with the order
+/// leave-one-out cross-validation chooses (`--order auto`) and its R².
+fn poor_fits(model: &ErrorModel, setup: &Setup) -> Vec<String> {
+    let used: &[Series] = match setup.model {
+        Model::Fourier => &[Series::Fourier],
+        Model::Polynomial => &[Series::Polynomial],
+        Model::Raw => &Series::BOTH,
+    };
+    let mut warnings = Vec::new();
+    for a in &model.axes {
+        let c = &a.curves;
+        for m in Motion::ALL {
+            let what = format!("axis {} curve {}", c.axis, m.name());
+            for &s in used {
+                let fit = a.fits[m.index()].get(s);
+                let Some(r2) = fit.figures.r2.filter(|r| *r < POOR_R2) else {
+                    continue;
+                };
+                let (p, v) = (&c.positions, c.curve(m));
+                let better = super::series::choose_order(s, p, v, &what)
+                    .and_then(|(n, _)| Ok((n, SeriesFit::fit(s, n, p, v, &what)?.figures.r2)));
+                const NOISE: &str = "the series does not describe the curve (noise against its \
+                     range, or a shape it cannot follow): its fitted shape is not significant, the raw \
+                     model keeps the measured values";
+                let advice = match (setup.order, better) {
+                    (Order::Fixed(_), Ok((n, r))) if n != fit.order => format!(
+                        "--order auto (leave-one-out) chooses N = {n} for it, R² {}{}",
+                        r.map_or_else(|| "—".into(), |r| format!("{r:.3}")),
+                        if r.is_some_and(|r| r >= POOR_R2) {
+                            String::new()
+                        } else {
+                            format!(": {NOISE}")
+                        }
+                    ),
+                    (_, Ok(_)) => {
+                        format!("it is the order leave-one-out cross-validation chooses: {NOISE}")
+                    }
+                    (_, Err(_)) => "too few points to cross-validate another order".into(),
+                };
+                warnings.push(format!(
+                    "{} {}: the {} fit of order {} has R² {r2:.3} < {POOR_R2}; {advice}",
+                    m.symbol(a.axis()),
+                    m.name(),
+                    s.name(),
+                    fit.order
+                ));
+            }
+        }
+    }
+    warnings
 }
 
 /// The conventions written into every report.

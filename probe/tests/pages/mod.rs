@@ -31,7 +31,11 @@ pub fn rotary() -> String {
     let m = Measurement::from_points(input.angles_deg.clone(), input.points()).unwrap();
     let s = rotary::solve(&m).unwrap();
     let at = [s.at(15.0).unwrap(), s.at(345.0).unwrap()];
-    rotary::html(&rotary::report::report(&s, "points.csv", &at)).unwrap()
+    rotary::html(
+        &rotary::report::report(&s, "points.csv", &at),
+        &Default::default(),
+    )
+    .unwrap()
 }
 
 /// The generator's PH10 positions.
@@ -56,7 +60,7 @@ pub fn indexing(positions: &[Position]) -> String {
         },
     )
     .unwrap();
-    indexing::html(&r, &solved.angles).unwrap()
+    indexing::html(&r, &solved.angles, &Default::default()).unwrap()
 }
 
 /// The tracer report of the generator's network with one gross error (so
@@ -78,7 +82,7 @@ pub fn tracer() -> String {
         },
     )
     .unwrap();
-    tracer::html(&net, &solution, &report, &u).unwrap()
+    tracer::html(&net, &solution, &report, &u, &Default::default()).unwrap()
 }
 
 /// The volumetric report of the check data with its circle and one
@@ -120,5 +124,5 @@ pub fn volumetric() -> String {
             seed: 1,
         },
     );
-    volumetric::html(&a, &u).unwrap()
+    volumetric::html(&a, &u, &Default::default()).unwrap()
 }

@@ -32,6 +32,8 @@ pub struct Args {
     tolerance: Option<f64>,
     #[command(flatten)]
     propagation: super::PropagationArgs,
+    #[command(flatten)]
+    signoff: crate::cmd::signoff::SignoffArgs,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
@@ -107,12 +109,12 @@ fn positions(path: &Path) -> Result<Vec<Position>> {
 
 /// Run the method.
 pub fn run(args: &Args) -> Result<()> {
-    let (output, [csv, json_path, html]) = super::outputs_n(
-        &args.out,
-        ["indexing.csv", "report.json", "report.html"],
-        [&args.centres],
-        args.force,
-    )?;
+    let mut signing = super::Signing::start(&args.signoff)?;
+    let mut names = vec!["indexing.csv", "report.json", "report.html"];
+    names.extend(signing.names());
+    let inputs = std::iter::once(&args.centres).chain(signing.inputs());
+    let (output, files) = super::outputs(&args.out, &names, inputs, args.force)?;
+    let [csv, json_path, html] = [&files[0], &files[1], &files[2]];
     let positions = positions(&args.centres)?;
     let solved = method::solve(&positions)
         .with_context(|| format!("{}: the construction failed", args.centres.display()))?;
@@ -122,6 +124,7 @@ pub fn run(args: &Args) -> Result<()> {
         source: args.centres.display().to_string(),
     };
     let mut report = method::report(&solved, &options)?;
+    signing.read_limits(&probe::uncertainty::report_figures(&report, &FIGURES))?;
     let propagation = args.propagation.options();
     report.uncertainty = Some(method::uncertainty::propagate(
         &positions,
@@ -130,8 +133,8 @@ pub fn run(args: &Args) -> Result<()> {
         &options,
         propagation,
     ));
-    let json = probe::uncertainty::report_json(&report, report.uncertainty.as_ref(), &FIGURES)?;
-    let page = method::html(&report, &solved.angles)?;
+    let json = signing.judge(&report, report.uncertainty.as_ref(), &FIGURES)?;
+    let page = method::html(&report, &solved.angles, &signing.signoff)?;
     let rows: Vec<IndexingRow> = solved
         .angles
         .iter()
@@ -147,9 +150,10 @@ pub fn run(args: &Args) -> Result<()> {
             residual_um: p.residual_um,
         })
         .collect();
-    output.write_records(&csv, &rows)?;
-    output.write_json(&json_path, &json)?;
-    output.write_bytes(&html, page.as_bytes())?;
+    output.write_records(csv, &rows)?;
+    output.write_json(json_path, &json)?;
+    output.write_bytes(html, page.as_bytes())?;
+    signing.print(&args.out)?;
 
     let c = report.rotation_centre;
     println!(
@@ -183,11 +187,14 @@ pub fn run(args: &Args) -> Result<()> {
     );
     if let Some(t) = &report.tolerance {
         println!(
-            "beyond ±{}″: {} positions ({} in ΔθA, {} in ΔθB)",
+            "beyond ±{}″ by more than U: {} positions ({} in ΔθA, {} in ΔθB); within U of it, \
+             undecided: {} in ΔθA, {} in ΔθB",
             t.tolerance_arcsec,
             t.exceeding.len(),
             t.count_d_a,
-            t.count_d_b
+            t.count_d_b,
+            t.inconclusive_d_a,
+            t.inconclusive_d_b
         );
     }
     if let Some(u) = &report.uncertainty {
@@ -203,7 +210,7 @@ pub fn run(args: &Args) -> Result<()> {
         json_path.display(),
         html.display()
     );
-    Ok(())
+    signing.finish(&args.out)
 }
 
 /// Run the generator.

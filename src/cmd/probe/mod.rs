@@ -10,8 +10,16 @@ pub mod volumetric;
 
 use std::path::{Path, PathBuf};
 
+use std::collections::BTreeMap;
+
 use anyhow::Result;
 use formats::OutputPlan;
+use formats::conformance::{Limit, SignOff, read_tolerances_by_path};
+use formats::uncertainty::{FigureKeys, Uncertainty};
+use serde::Serialize;
+use serde_json::Value;
+
+use super::signoff;
 
 /// Arguments of `trinocular probe`.
 #[derive(Debug, clap::Args)]
@@ -70,6 +78,95 @@ impl PropagationArgs {
 fn print_uncertainty(u: &formats::uncertainty::Uncertainty) {
     for line in probe::uncertainty::summary(u) {
         println!("{line}");
+    }
+}
+
+/// A probe report's sign-off through its run (`--conditions`,
+/// `--tolerances`, `--pdf`; docs/formats.md): the tolerance file's keys are
+/// the report's figures by their paths (`[location] X0C_um`).
+struct Signing<'a> {
+    args: &'a signoff::SignoffArgs,
+    browser: Option<PathBuf>,
+    limits: Option<Vec<Limit>>,
+    signoff: SignOff,
+}
+
+impl<'a> Signing<'a> {
+    /// Find the browser and read the conditions, before anything is
+    /// computed.
+    fn start(args: &'a signoff::SignoffArgs) -> Result<Self> {
+        Ok(Signing {
+            args,
+            browser: args.browser()?,
+            limits: None,
+            signoff: SignOff {
+                conditions: args.read_conditions()?,
+                ..SignOff::default()
+            },
+        })
+    }
+
+    /// Read the tolerance file against the report's `figures` (by path),
+    /// before their uncertainty is propagated.
+    fn read_limits(&mut self, figures: &BTreeMap<String, f64>) -> Result<()> {
+        if let Some(path) = &self.args.tolerances {
+            self.limits = Some(read_tolerances_by_path(path, figures)?);
+        }
+        Ok(())
+    }
+
+    /// Judge the limits on `report`'s figures (`keys`) with their U, and
+    /// return `report.json`: the report with each figure's U beside it
+    /// (`probe::uncertainty::report_json`) and the sign-off's keys
+    /// (`conditions`, `conformance`, `verdict`, `decision_rule`) added at
+    /// the top level.
+    fn judge<R: Serialize>(
+        &mut self,
+        report: &R,
+        uncertainty: Option<&Uncertainty>,
+        keys: &FigureKeys,
+    ) -> Result<Value> {
+        let figures = probe::uncertainty::report_figures(report, keys);
+        let expanded = uncertainty.and_then(Uncertainty::expanded);
+        self.args.judge(
+            &mut self.signoff,
+            self.limits.as_deref(),
+            &figures,
+            expanded,
+        )?;
+        let mut json = probe::uncertainty::report_json(report, uncertainty, keys)?;
+        if let (Value::Object(report), Value::Object(signed)) =
+            (&mut json, serde_json::to_value(&self.signoff)?)
+        {
+            report.extend(signed);
+        }
+        Ok(json)
+    }
+
+    /// The output names the sign-off adds (`report.pdf` with `--pdf`).
+    fn names(&self) -> Vec<&'static str> {
+        self.browser.iter().map(|_| "report.pdf").collect()
+    }
+
+    /// The files it reads, inputs of the output plan.
+    fn inputs(&self) -> impl Iterator<Item = &PathBuf> {
+        self.args.inputs()
+    }
+
+    /// With `--pdf`, print the `report.html` written into `out` beside it.
+    fn print(&self, out: &Path) -> Result<()> {
+        match &self.browser {
+            Some(browser) => {
+                signoff::print_pdf(browser, &out.join("report.html"), &out.join("report.pdf"))
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// The last word of a run: the verdict line and the exit status
+    /// ([`signoff::SignoffArgs::finish`]).
+    fn finish(&self, out: &Path) -> Result<()> {
+        self.args.finish(&self.signoff, out)
     }
 }
 

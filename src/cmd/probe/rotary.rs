@@ -45,6 +45,8 @@ pub struct Args {
     at: Vec<f64>,
     #[command(flatten)]
     propagation: super::PropagationArgs,
+    #[command(flatten)]
+    signoff: crate::cmd::signoff::SignoffArgs,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
@@ -174,6 +176,7 @@ pub fn run(args: &Args) -> Result<()> {
         (None, Some(p)) => (p, true),
         _ => return Err(Usage::error("give exactly one of --centres and --points")),
     };
+    let mut signing = super::Signing::start(&args.signoff)?;
     let input = if points {
         read_points(path)?
     } else {
@@ -200,6 +203,7 @@ pub fn run(args: &Args) -> Result<()> {
         |n| n.to_string_lossy().into_owned(),
     );
     let mut report = report(&solution, &source, &at);
+    signing.read_limits(&probe::uncertainty::report_figures(&report, &FIGURES))?;
     let probed = if points { input.points() } else { Vec::new() };
     let measured = if points {
         Measured::Points {
@@ -216,8 +220,8 @@ pub fn run(args: &Args) -> Result<()> {
         &report,
         propagation,
     ));
-    let json = probe::uncertainty::report_json(&report, report.uncertainty.as_ref(), &FIGURES)?;
-    let html = probe::rotary::html(&report)?;
+    let json = signing.judge(&report, report.uncertainty.as_ref(), &FIGURES)?;
+    let html = probe::rotary::html(&report, &signing.signoff)?;
 
     let mut names = vec!["rotary.csv", "report.json", "report.html"];
     if !at.is_empty() {
@@ -226,7 +230,9 @@ pub fn run(args: &Args) -> Result<()> {
     if points {
         names.push("spheres.csv");
     }
-    let (output, files) = super::outputs(&args.out, &names, [path], args.force)?;
+    names.extend(signing.names());
+    let inputs = std::iter::once(path).chain(signing.inputs());
+    let (output, files) = super::outputs(&args.out, &names, inputs, args.force)?;
     let rows: Vec<ErrorRow> = solution
         .errors
         .iter()
@@ -264,6 +270,7 @@ pub fn run(args: &Args) -> Result<()> {
             .collect();
         output.write_records(&files[next], &rows)?;
     }
+    signing.print(&args.out)?;
     print_summary(&solution, &report);
     for i in &at {
         let parts: Vec<String> = (0..6)
@@ -275,7 +282,7 @@ pub fn run(args: &Args) -> Result<()> {
         println!("at {}°: {}", i.angle_deg, parts.join(", "));
     }
     println!("wrote {} files into {}", files.len(), args.out.display());
-    Ok(())
+    signing.finish(&args.out)
 }
 
 /// Run the generator and write its files.

@@ -49,6 +49,8 @@ pub struct Args {
     sigma_um: Option<f64>,
     #[command(flatten)]
     propagation: super::PropagationArgs,
+    #[command(flatten)]
+    signoff: crate::cmd::signoff::SignoffArgs,
     /// Replace output files that already exist.
     #[arg(long)]
     force: bool,
@@ -159,6 +161,7 @@ struct Tables {
 /// refused before solving), refuse outputs that exist, solve, tabulate,
 /// write, print the summary.
 pub fn run(args: &Args) -> Result<()> {
+    let mut signing = super::Signing::start(&args.signoff)?;
     let grid = read_grid(&args.nominal)?;
     let readings = read_readings(&args.readings, &grid, &args.nominal)?;
     let query = args.query.as_deref().map(read_query).transpose()?;
@@ -178,6 +181,8 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let mut inputs = vec![args.nominal.as_path(), args.readings.as_path()];
     inputs.extend(args.query.as_deref());
+    inputs.extend(signing.inputs().map(PathBuf::as_path));
+    names.extend(signing.names());
     let (output, _) = super::outputs(&args.out, &names, inputs, args.force)?;
 
     let options = Options {
@@ -192,10 +197,11 @@ pub fn run(args: &Args) -> Result<()> {
             args.nominal.display()
         )
     })?;
-    let uncertainty = tracer::uncertainty(&net, &solution, &options, args.propagation.options())?;
     let report = tracer::report(&net, &solution);
-    let json = probe::uncertainty::report_json(&report, Some(&uncertainty), &FIGURES)?;
-    let page = tracer::html(&net, &solution, &report, &uncertainty)?;
+    signing.read_limits(&probe::uncertainty::report_figures(&report, &FIGURES))?;
+    let uncertainty = tracer::uncertainty(&net, &solution, &options, args.propagation.options())?;
+    let json = signing.judge(&report, Some(&uncertainty), &FIGURES)?;
+    let page = tracer::html(&net, &solution, &report, &uncertainty, &signing.signoff)?;
     let tables = tables(&net, &solution, &readings, query.as_deref())?;
 
     let out = &args.out;
@@ -207,11 +213,12 @@ pub fn run(args: &Args) -> Result<()> {
     }
     output.write_json(&out.join("report.json"), &json)?;
     output.write_bytes(&out.join("report.html"), page.as_bytes())?;
+    signing.print(out)?;
 
     print_summary(&report, tables.corrected.as_ref().map(Vec::len));
     super::print_uncertainty(&uncertainty);
     println!("wrote {} files into {}", names.len(), out.display());
-    Ok(())
+    signing.finish(out)
 }
 
 /// The solution as tables: corrections and stations with their
@@ -463,7 +470,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     let start = Instant::now();
     let report = tracer::report(&net, &solution);
     let none = probe::uncertainty::not_given("not computed by the benchmark");
-    let page = tracer::html(&net, &solution, &report, &none)?;
+    let page = tracer::html(&net, &solution, &report, &none, &Default::default())?;
     let html = start.elapsed();
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     println!(

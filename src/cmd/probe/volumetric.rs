@@ -79,6 +79,8 @@ pub struct Args {
     squareness_u_urad: Option<f64>,
     #[command(flatten)]
     propagation: super::PropagationArgs,
+    #[command(flatten)]
+    signoff: crate::cmd::signoff::SignoffArgs,
     /// Overwrite output files that exist.
     #[arg(long)]
     force: bool,
@@ -169,6 +171,7 @@ struct Curves {
 /// Run the method: gather the curves, set up the model, analyse, write the
 /// outputs (refusing before anything is written), print the summary.
 pub fn run(args: &Args) -> Result<()> {
+    let mut signing = super::Signing::start(&args.signoff)?;
     let given = args
         .chain
         .as_deref()
@@ -208,6 +211,10 @@ pub fn run(args: &Args) -> Result<()> {
     let setup = setup(args, chain, &curves)?;
     let analysis = analyse(curves.axes.clone(), &setup, curves.campaign.as_ref())
         .with_context(|| format!("volumetric model from {}", setup.source))?;
+    signing.read_limits(&probe::uncertainty::report_figures(
+        &analysis.report,
+        &FIGURES,
+    ))?;
     let inputs = UncertaintyInputs {
         translation_mm: args.curve_u_um.map(|u| u * 1e-3),
         rotation_rad: args.curve_u_urad.map(|u| u * 1e-6),
@@ -221,13 +228,17 @@ pub fn run(args: &Args) -> Result<()> {
         &inputs,
         args.propagation.options(),
     );
-    let page = html(&analysis, &u)?;
-    let json = probe::uncertainty::report_json(&analysis.report, Some(&u), &FIGURES)?;
-    let written = write_outputs(args, &analysis, &json, &page, &curves.inputs)?;
+    let json = signing.judge(&analysis.report, Some(&u), &FIGURES)?;
+    let page = html(&analysis, &u, &signing.signoff)?;
+    let written = write_outputs(args, &analysis, &json, &page, &curves.inputs, &signing)?;
+    signing.print(&args.out)?;
     print_summary(&analysis, &setup);
     super::print_uncertainty(&u);
+    for w in &analysis.report.warnings {
+        eprintln!("trinocular: warning: {w}");
+    }
     println!("wrote {written} files into {}", args.out.display());
-    Ok(())
+    signing.finish(&args.out)
 }
 
 /// How errors name the report of `--from-report DIR`.
@@ -359,6 +370,7 @@ fn write_outputs(
     json: &serde_json::Value,
     page: &str,
     inputs: &[PathBuf],
+    signing: &super::Signing<'_>,
 ) -> Result<usize> {
     let out = &args.out;
     let mut names: Vec<String> = vec![
@@ -375,7 +387,9 @@ fn write_outputs(
     for (axis, _) in &analysis.compensation {
         names.push(comp_name(*axis));
     }
-    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let mut names: Vec<&str> = names.iter().map(String::as_str).collect();
+    names.extend(signing.names());
+    let inputs = inputs.iter().chain(signing.inputs());
     let (output, _) = super::outputs(out, &names, inputs, args.force)?;
 
     let fits: Vec<FitRow> = analysis

@@ -184,18 +184,26 @@ pub struct BDetent {
     pub u_mean_d_b_arcsec: f64,
 }
 
-/// The positions beyond a tolerance.
+/// The positions beyond a tolerance by more than their expanded
+/// uncertainty U = 2u (ISO 14253-1: beyond, proven), and how many more
+/// cannot be decided (within U of the tolerance, either side).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ToleranceReport {
     /// The tolerance on |ΔθA| and |ΔθB| (arc-seconds).
     pub tolerance_arcsec: f64,
-    /// How many positions exceed it in ΔθA.
+    /// How many positions exceed it in ΔθA by more than U.
     #[serde(rename = "count_dA")]
     pub count_d_a: usize,
-    /// How many positions exceed it in ΔθB.
+    /// How many positions exceed it in ΔθB by more than U.
     #[serde(rename = "count_dB")]
     pub count_d_b: usize,
-    /// The positions, worst first.
+    /// How many positions have |ΔθA| within U of it (inconclusive).
+    #[serde(rename = "inconclusive_dA")]
+    pub inconclusive_d_a: usize,
+    /// How many positions have |ΔθB| within U of it (inconclusive).
+    #[serde(rename = "inconclusive_dB")]
+    pub inconclusive_d_b: usize,
+    /// The positions beyond by more than U, worst first.
     pub exceeding: Vec<Exceedance>,
 }
 
@@ -212,7 +220,13 @@ pub struct Exceedance {
     /// ΔθB (arc-seconds), absent at A = 0°.
     #[serde(rename = "dB_arcsec")]
     pub d_b_arcsec: Option<f64>,
-    /// Which errors exceed: `A`, `B` or `A+B`.
+    /// U (k = 2) of ΔθA (arc-seconds).
+    #[serde(rename = "U_dA_arcsec")]
+    pub expanded_d_a_arcsec: f64,
+    /// U (k = 2) of ΔθB (arc-seconds), absent at A = 0°.
+    #[serde(rename = "U_dB_arcsec")]
+    pub expanded_d_b_arcsec: Option<f64>,
+    /// Which errors exceed by more than U: `A`, `B` or `A+B`.
     pub exceeds: String,
 }
 

@@ -57,6 +57,9 @@ pub struct Report {
     pub campaign: Option<CampaignReport>,
     /// Conventions of the figures.
     pub conventions: Vec<String>,
+    /// Things worth knowing about the figures: fits that explain little of
+    /// their curve (R² < 0.8), with the order cross-validation chooses.
+    pub warnings: Vec<String>,
 }
 
 /// One axis: its curves.
