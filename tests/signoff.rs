@@ -745,3 +745,86 @@ fn probe_reports_print_their_archive_copy() {
     assert_eq!(code, 1, "{again}");
     assert!(again.contains("--force"), "{again}");
 }
+
+/// The conditions' date and equipment default to what the campaign and the
+/// rig record: the images' capture times (earliest – latest, through the
+/// manifest; the renderer's clock starts at its configured start time) and
+/// each camera's make, model and serial with the calibration's time
+/// (rig.json, from the calibration images' metadata); given ones are kept.
+#[test]
+fn date_and_equipment_default_to_the_images_and_the_rig() {
+    let tmp = tempfile::tempdir().unwrap();
+    let demo = tmp.path().join("demo");
+    ok(&trinocular(&["demo", "--out", s(&demo)]));
+    let config: toml::Table =
+        toml::from_str(&std::fs::read_to_string(demo.join("campaign/config.toml")).unwrap())
+            .unwrap();
+    let start = config["procedure"]["start_time"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let images = formats::read_csv::<formats::ManifestRow>(&demo.join("campaign/manifest.csv"))
+        .unwrap()
+        .len();
+    let cond = tmp.path().join("conditions.toml");
+    let run = |conditions: &str, name: &str| -> Value {
+        std::fs::write(&cond, conditions).unwrap();
+        let out = tmp.path().join(name);
+        ok(&trinocular(&[
+            "evaluate",
+            "--points",
+            s(&demo.join("points.csv")),
+            "--rig",
+            s(&demo.join("rig.json")),
+            "--manifest",
+            s(&demo.join("campaign/manifest.csv")),
+            "--conditions",
+            s(&cond),
+            "--trials",
+            "0",
+            "--out",
+            s(&out),
+        ]));
+        let report: Value = serde_json::from_slice(&read(&out.join("report.json"))).unwrap();
+        let page = String::from_utf8(read(&out.join("report.html"))).unwrap();
+        let machine = report["conditions"]["machine"].clone();
+        for key in ["date", "equipment"] {
+            let text = machine[key].as_str().unwrap();
+            assert!(
+                page.contains(&report::escape(text)),
+                "{key} not on the page"
+            );
+        }
+        machine
+    };
+    let machine = run(WARM, "defaults");
+    let date = machine["date"].as_str().unwrap();
+    let (first, last) = date.split_once(" – ").unwrap();
+    assert!(first.starts_with(&start) && first <= last, "{date}");
+    assert!(
+        date.contains(&format!("capture times of {images} images")),
+        "{date}"
+    );
+    let equipment = machine["equipment"].as_str().unwrap();
+    for camera in config["rig"]["cameras"].as_array().unwrap() {
+        let serial = camera["serial"].as_str().unwrap();
+        assert!(
+            equipment.contains(&format!("serial {serial}")),
+            "{equipment}"
+        );
+    }
+    let make = config["output"]["make"].as_str().unwrap();
+    assert!(equipment.contains(make), "{equipment}");
+    assert!(
+        equipment.contains(&format!("calibrated {}", &start[..10])),
+        "{equipment}"
+    );
+    // What the file says is kept.
+    let given = WARM.replace(
+        "[temperature]",
+        "date = \"2026-11-28\"\nequipment = \"rig B\"\n[temperature]",
+    );
+    let machine = run(&given, "given");
+    assert_eq!(machine["date"], "2026-11-28");
+    assert_eq!(machine["equipment"], "rig B");
+}

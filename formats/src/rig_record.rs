@@ -68,6 +68,20 @@ pub struct CalibrationRecord {
     pub source: String,
     /// How the image points were found.
     pub matching: Matching,
+    /// The camera as the calibration image's metadata names it (TIFF/EXIF
+    /// Make, Model, serial), when the image says.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_make: Option<String>,
+    /// Its model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_model: Option<String>,
+    /// Its serial number.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_serial: Option<String>,
+    /// When the calibration image was taken (its EXIF time, ISO 8601):
+    /// the calibration's date on the reports that use the rig.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub captured: Option<String>,
 }
 
 impl CalibrationRecord {

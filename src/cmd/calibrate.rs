@@ -739,6 +739,12 @@ fn record(
     spheres: bool,
     matching: Matching,
 ) -> CalibrationRecord {
+    // The camera and the time from the image's own metadata (a
+    // correspondence file has none; an image without tags names nothing).
+    let meta = match matching {
+        Matching::Detected { .. } => ingest::read_metadata(source).unwrap_or_default(),
+        Matching::Given { .. } => Default::default(),
+    };
     CalibrationRecord {
         model: cal.options.model.name(),
         k3_estimated: cal.options.k3,
@@ -755,6 +761,10 @@ fn record(
         outlier_k: cal.options.outlier_k,
         source: source.display().to_string(),
         matching,
+        camera_make: meta.make,
+        camera_model: meta.model,
+        camera_serial: meta.serial,
+        captured: meta.datetime,
     }
 }
 

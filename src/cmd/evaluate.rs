@@ -41,6 +41,10 @@ pub struct Args {
     /// beside the points, as `measure` writes it).
     #[arg(long)]
     observations: Option<PathBuf>,
+    /// The campaign's manifest: the test conditions' date defaults to the
+    /// earliest–latest capture time of its images (their EXIF times).
+    #[arg(long, value_name = "FILE")]
+    manifest: Option<PathBuf>,
     #[command(flatten)]
     signoff: super::signoff::SignoffArgs,
     /// Monte Carlo trials of the uncertainty (0: figures without U).
@@ -306,6 +310,88 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// The test's date from the capture times of the images `manifest` lists
+/// (their metadata, read without the pixels): `earliest – latest`, with the
+/// images whose time could not be read counted; `None` when none has one.
+fn capture_dates(manifest: &Path) -> Result<Option<String>> {
+    let rows: Vec<formats::Row<formats::ManifestRow>> = formats::read_csv(manifest)?;
+    let dir = manifest.parent().unwrap_or(Path::new("."));
+    let mut times = Vec::new();
+    for r in &rows {
+        let time = ingest::read_metadata(&dir.join(&r.record.image))
+            .ok()
+            .and_then(|m| m.datetime)
+            .and_then(|t| ingest::parse_time(&t).ok());
+        times.extend(time);
+    }
+    let (Some(first), Some(last)) = (
+        times.iter().min_by_key(|t| t.ns),
+        times.iter().max_by_key(|t| t.ns),
+    ) else {
+        return Ok(None);
+    };
+    let missing = rows.len() - times.len();
+    Ok(Some(format!(
+        "{} – {} (capture times of {} images of {}{})",
+        first.text,
+        last.text,
+        times.len(),
+        manifest.display(),
+        if missing > 0 {
+            format!("; {missing} without a readable time")
+        } else {
+            String::new()
+        }
+    )))
+}
+
+/// The measuring equipment as `rig.json` records it: each camera's make,
+/// model and serial (from its calibration image) and when the rig was
+/// calibrated; `None` when it records none of them.
+fn rig_equipment(path: &Path) -> Result<Option<String>> {
+    let rig = formats::read_rig(path)?;
+    let text = |c: &formats::RigCamera, key: &str| {
+        c.extra
+            .get(key)
+            .and_then(|v| v.as_str())
+            .map(str::to_string)
+    };
+    let mut cameras = Vec::new();
+    let mut captured = Vec::new();
+    for c in &rig.cameras {
+        let named: Vec<String> = [
+            text(c, "camera_make"),
+            text(c, "camera_model"),
+            text(c, "camera_serial").map(|s| format!("serial {s}")),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        if !named.is_empty() {
+            cameras.push(format!("camera {}: {}", c.model.id, named.join(" ")));
+        }
+        captured.extend(text(c, "captured"));
+    }
+    captured.sort();
+    let calibrated = match (captured.first(), captured.last()) {
+        (Some(a), Some(b)) if a == b => Some(format!("calibrated {a}")),
+        (Some(a), Some(b)) => Some(format!("calibrated {a} – {b}")),
+        _ => None,
+    };
+    if cameras.is_empty() && calibrated.is_none() {
+        return Ok(None);
+    }
+    Ok(Some(format!(
+        "trinocular rig {}: {}",
+        path.display(),
+        cameras
+            .into_iter()
+            .chain(calibrated)
+            .collect::<Vec<_>>()
+            .join("; ")
+    )))
+}
+
 /// What the correction to 20 °C did, as the report states it.
 fn correction_statement(t: &formats::conditions::Temperature) -> String {
     let mut parts = Vec::new();
@@ -339,7 +425,24 @@ pub fn run(args: &Args) -> Result<()> {
     // Found and read first, so that nothing is computed or written when
     // they fail.
     let browser = args.signoff.browser()?;
-    let conditions = args.signoff.read_conditions()?;
+    let mut conditions = args.signoff.read_conditions()?;
+    if args.manifest.is_some() && conditions.is_none() {
+        conditions = Some(Default::default());
+    }
+    if let Some(c) = conditions.as_mut() {
+        // Defaults for what the file does not say: the date from the
+        // images, the equipment from the rig.
+        if c.machine.date.is_none()
+            && let Some(manifest) = &args.manifest
+        {
+            c.machine.date = capture_dates(manifest)?;
+        }
+        if c.machine.equipment.is_none()
+            && let Some(rig) = &args.rig
+        {
+            c.machine.equipment = rig_equipment(rig)?;
+        }
+    }
     let limits = args.signoff.read_limits(KEYS)?;
     let temperature = conditions.as_ref().map(|c| &c.temperature);
     let machine = temperature.and_then(|t| t.machine());
@@ -383,6 +486,7 @@ pub fn run(args: &Args) -> Result<()> {
     output.inputs(args.signoff.inputs());
     output.inputs(args.rig.iter());
     output.inputs(args.observations.iter());
+    output.inputs(args.manifest.iter());
     let print = browser
         .as_deref()
         .map(|b| move |html: &Path| report::browser::print_pdf(b, html));
