@@ -828,3 +828,121 @@ fn date_and_equipment_default_to_the_images_and_the_rig() {
     assert_eq!(machine["date"], "2026-11-28");
     assert_eq!(machine["equipment"], "rig B");
 }
+
+/// A manifest of the line's instants (one image each) with the machine's
+/// temperature per instant from `t(row)`.
+fn manifest_with_temperatures(path: &Path, t: impl Fn(&PointRow) -> f64) {
+    let mut text = String::from(
+        "image,camera,axis,direction,run,target,capture,nominal_x,nominal_y,nominal_z,machine_c\n",
+    );
+    for r in rows() {
+        let d = if r.direction == Direction::Up {
+            "+"
+        } else {
+            "-"
+        };
+        text.push_str(&format!(
+            "img_{}{}{}.tif,1,X,{d},{},{},{},{},0,0,{}\n",
+            r.run,
+            d,
+            r.target,
+            r.run,
+            r.target,
+            r.capture,
+            r.nominal_x,
+            t(&r)
+        ));
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+/// Temperatures per instant (the manifest's `machine_c`): each capture is
+/// corrected at its own temperature, so a mean moves by α·(mean T of its
+/// captures − 20 °C)·(P − P₀); a constant column gives what the
+/// conditions' single temperature gives. Without α, a disagreeing
+/// instant, a value out of range or an instant without a temperature:
+/// refused, naming the file.
+#[test]
+fn temperatures_per_instant_correct_each_capture() {
+    let tmp = tempfile::tempdir().unwrap();
+    let alpha_only = tmp.path().join("alpha.toml");
+    std::fs::write(
+        &alpha_only,
+        "[temperature]\nmachine_u_c = 0.2\nexpansion_um_per_m_k = 11.5\n",
+    )
+    .unwrap();
+    let manifest = tmp.path().join("manifest.csv");
+    let (plain, _) = evaluate(tmp.path(), "plain", &[]);
+    // A constant 25 °C column, the same as the conditions' 25 °C.
+    manifest_with_temperatures(&manifest, |_| 25.0);
+    let args = ["--conditions", s(&alpha_only), "--manifest", s(&manifest)];
+    let (constant, _) = evaluate(tmp.path(), "constant", &args);
+    let warm_cfg = tmp.path().join("warm.toml");
+    std::fs::write(&warm_cfg, WARM).unwrap();
+    let (warm, _) = evaluate(tmp.path(), "warm", &["--conditions", s(&warm_cfg)]);
+    for ((_, u0, d0), (_, u1, d1)) in means(&constant).iter().zip(&means(&warm)) {
+        assert!((u0 - u1).abs() < 1e-9 && (d0 - d1).abs() < 1e-9);
+    }
+    // A drift: the machine warms by 0.5 °C a run, and 0.1 °C per target.
+    let t = |r: &PointRow| 22.0 + 0.5 * f64::from(r.run) + 0.1 * f64::from(r.target);
+    manifest_with_temperatures(&manifest, t);
+    let (drift, _) = evaluate(tmp.path(), "drift", &{
+        let mut a = args.to_vec();
+        a.push("--force");
+        a
+    });
+    let mean_t = |k: usize, d: Direction| {
+        let all: Vec<f64> = rows()
+            .iter()
+            .filter(|r| r.target as usize == k && r.direction == d)
+            .map(t)
+            .collect();
+        all.iter().sum::<f64>() / all.len() as f64
+    };
+    for (k, ((p, u0, d0), (_, u1, d1))) in means(&plain).iter().zip(&means(&drift)).enumerate() {
+        let shift = |d| -11.5e-3 * (mean_t(k, d) - 20.0) * p;
+        assert!((u1 - u0 - shift(Direction::Up)).abs() < 1e-9, "↑ {p}");
+        assert!((d1 - d0 - shift(Direction::Down)).abs() < 1e-9, "↓ {p}");
+    }
+    let said = drift["conventions"].to_string();
+    assert!(
+        said.contains("T per instant") && said.contains("(22.5–24 °C)"),
+        "{said}"
+    );
+    // Refused: the column without α (a usage error), a disagreeing
+    // instant, a value out of range, an instant without a temperature.
+    let points = tmp.path().join("points.csv");
+    let refuse = |manifest_text: Option<&str>, conditions: &Path, code: i32, says: &str| {
+        if let Some(text) = manifest_text {
+            std::fs::write(&manifest, text).unwrap();
+        }
+        let out = tmp.path().join("refused");
+        let (got, err) = failure(&trinocular(&[
+            "evaluate",
+            "--points",
+            s(&points),
+            "--conditions",
+            s(conditions),
+            "--manifest",
+            s(&manifest),
+            "--out",
+            s(&out),
+        ]));
+        assert_eq!(got, code, "{err}");
+        assert!(err.contains(says), "{err}");
+        assert!(!out.exists());
+    };
+    let no_alpha = tmp.path().join("no_alpha.toml");
+    std::fs::write(&no_alpha, "[machine]\nmaker = \"ACME\"\n").unwrap();
+    refuse(None, &no_alpha, 2, "expansion_um_per_m_k");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let header = text.lines().next().unwrap();
+    let first = text.lines().nth(1).unwrap();
+    let (stem, _) = first.rsplit_once(',').unwrap();
+    let twice = format!("{header}\n{first}\n{stem},30\n");
+    refuse(Some(&twice), &alpha_only, 1, "line 3");
+    let hot = format!("{header}\n{stem},80\n");
+    refuse(Some(&hot), &alpha_only, 1, "machine_c");
+    let one = format!("{header}\n{first}\n");
+    refuse(Some(&one), &alpha_only, 1, "has no machine temperature");
+}

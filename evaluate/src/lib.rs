@@ -118,10 +118,11 @@ pub struct Options {
     pub sphere: Option<String>,
     /// Also compute the VDI/DGQ 3441 figures (P, Ps, U, Pa).
     pub vdi3441: bool,
-    /// The machine scale's nominal differential expansion α·(T − 20 °C)
-    /// (dimensionless; 0: no correction): each positioning deviation is
-    /// corrected by −ε·(P − P₀) (`formats::conditions`).
-    pub machine_strain: f64,
+    /// The machine scale's expansion coefficient and temperature (the
+    /// test's or per instant; `None`: no correction): each positioning
+    /// deviation is corrected by −ε·(P − P₀), ε = α·(T − 20 °C) at its
+    /// instant (`formats::conditions`).
+    pub machine: Option<formats::conditions::MachineExpansion>,
     /// The calibration target's expansion α_t·(T_t − 20 °C) during the
     /// calibration (0: none): the rig's lengths are scaled by (1 + ε_t), a
     /// scaling of every centre about the rig's origin.

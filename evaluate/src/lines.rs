@@ -139,7 +139,7 @@ pub(crate) struct LineResult {
 /// frame through the sphere's per-target means, then positioning (ISO 230-2,
 /// the seed's 3σ, VDI/DGQ 3441), straightness and angular errors; the
 /// positioning deviations corrected for the machine's expansion
-/// (`options.machine_strain`).
+/// (`options.machine`).
 pub(crate) fn evaluate_line(
     line: &Line<'_>,
     index: usize,
@@ -189,7 +189,7 @@ pub(crate) fn evaluate_line(
         commanded: &commanded,
         frame: &frame,
         what,
-        machine_strain: options.machine_strain,
+        strains: strains(line, options.machine.as_ref()),
     };
     let positioning = sweep.positioning(options.vdi3441)?;
     let straightness = sweep.straightness(&means)?;
@@ -282,18 +282,41 @@ struct Sweep<'a> {
     frame: &'a AxisFrame,
     /// The line, for messages.
     what: LineName,
-    /// The machine scale's nominal differential expansion α·(T − 20 °C).
-    machine_strain: f64,
+    /// The machine scale's nominal differential expansion α·(T − 20 °C) of
+    /// each capture, by its line in the points (none: no correction).
+    strains: BTreeMap<u64, f64>,
+}
+
+/// The strain α·(T − 20 °C) of each row of `line` at its instant's
+/// temperature, by the row's line; empty without an expansion.
+fn strains(
+    line: &Line<'_>,
+    machine: Option<&formats::conditions::MachineExpansion>,
+) -> BTreeMap<u64, f64> {
+    let Some(m) = machine else {
+        return BTreeMap::new();
+    };
+    line.rows
+        .iter()
+        .filter_map(|r| m.strain_at(&r.row.instant()).map(|e| (r.line, e)))
+        .collect()
 }
 
 impl Sweep<'_> {
-    /// Positional deviation of a measured point at target index k (µm),
-    /// corrected to 20 °C for the machine scale's nominal differential
-    /// expansion ε = α·(T − 20 °C) (ISO 230-2:2014 §3.3, 5.3): the
-    /// deviation less ε·(P − P₀), P₀ the line's first target.
-    fn deviation(&self, k: usize, p: &Point3<f64>) -> f64 {
+    /// Positional deviation of the mean of `captures` at target index k
+    /// (µm), corrected to 20 °C for the machine scale's nominal
+    /// differential expansion ε = α·(T − 20 °C) (ISO 230-2:2014 §3.3, 5.3):
+    /// the deviation less ε·(P − P₀), P₀ the line's first target, ε the
+    /// captures' mean (the correction is linear in it).
+    fn deviation(&self, k: usize, captures: &[(u64, Point3<f64>)]) -> f64 {
         let travel = self.commanded[k] - self.commanded[0];
-        um(self.frame.along(p) - travel - self.machine_strain * travel)
+        let p = mean_point(captures.iter().map(|(_, p)| p));
+        let strain = captures
+            .iter()
+            .map(|(line, _)| self.strains.get(line).copied().unwrap_or(0.0))
+            .sum::<f64>()
+            / captures.len().max(1) as f64;
+        um(self.frame.along(&p) - travel - strain * travel)
     }
 
     /// Per target: the deviation of each approach (its captures averaged) by
@@ -305,7 +328,7 @@ impl Sweep<'_> {
             .map(|(k, runs)| {
                 let mut dev = TargetDeviations::default();
                 for ((direction, _), captures) in runs {
-                    let value = self.deviation(k, &mean_point(captures.iter().map(|(_, p)| p)));
+                    let value = self.deviation(k, captures);
                     match direction {
                         Direction::Up => dev.up.push(value),
                         Direction::Down => dev.down.push(value),
@@ -326,7 +349,7 @@ impl Sweep<'_> {
                 let all: Vec<f64> = runs
                     .values()
                     .flatten()
-                    .map(|(_, p)| self.deviation(k, p))
+                    .map(|c| self.deviation(k, std::slice::from_ref(c)))
                     .collect();
                 let m = geom::stats::mean(&all).map_err(|e| positioning_error(self.what, e))?;
                 let s =

@@ -17,7 +17,6 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use formats::conditions::MachineExpansion;
 use formats::evaluation::{AngularTarget, LineReport};
 use formats::uncertainty::{
     BoundKind, FigureKeys, Source, Statement, TRIALS_OFF, Uncertainty, bounded, figures,
@@ -140,16 +139,16 @@ fn not_given(reason: impl Into<String>) -> Uncertainty {
 
 /// The report's uncertainty: U of every figure of `report` (evaluated from
 /// `points` with `options`) from the images' `observations`, the
-/// `instrument` and, when the test conditions give them, the machine's
-/// temperature and expansion coefficient (Type B, normal, one draw per
-/// trial), or why there is none. `propagation.trials == 0` turns it off.
+/// `instrument` and, when the options' correction to 20 °C gives them, the
+/// uncertainties of the machine's temperature and expansion coefficient
+/// (Type B, normal, one draw per trial, the temperature's common to every
+/// instant), or why there is none. `propagation.trials == 0` turns it off.
 pub fn propagate(
     report: &Report,
     points: &[PointRow],
     observations: &[ObservationRow],
     instrument: Instrument<'_>,
     options: &Options,
-    machine: Option<MachineExpansion>,
     propagation: Propagation,
 ) -> Uncertainty {
     if propagation.trials == 0 {
@@ -167,6 +166,7 @@ pub fn propagate(
         return not_given("the report's figures cannot be listed");
     };
     let with_target = cameras.iter().any(|c| c.target.is_some());
+    let machine = options.machine.as_ref();
     let thermal = machine.filter(|m| m.temperature_u_c > 0.0 || m.alpha_u_um_per_m_k > 0.0);
     let sources = Sources::new(with_target, thermal.is_some());
     let result = monte_carlo(&nominal, &sources.names, propagation, |trial| {
@@ -179,7 +179,7 @@ pub fn propagate(
                     d.gaussian(m.alpha_u_um_per_m_k),
                 );
                 drawn = Options {
-                    machine_strain: m.strain_drawn(dt, da),
+                    machine: Some(m.drawn(dt, da)),
                     ..options.clone()
                 };
                 &drawn

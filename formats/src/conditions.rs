@@ -4,11 +4,13 @@
 //! report to state and that the nominal differential expansion (NDE)
 //! correction to 20 °C needs (ISO 230-2 §3.3, ISO 1: 20 °C reference).
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::{FormatError, Result};
+use crate::table::{Invalid, Record};
+use crate::{FormatError, InstantKey, Result};
 
 /// Temperatures a machine hall can have (°C); outside, a value is a typo or
 /// in the wrong unit.
@@ -112,11 +114,15 @@ pub struct Temperature {
 
 /// The machine's temperature and expansion coefficient with their standard
 /// uncertainties: what the NDE correction and its Type B uncertainty need.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The temperature is one for the whole test, or one per instant (the
+/// `machine_c` column of `manifest.csv`, [`read_instant_temperatures`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct MachineExpansion {
-    /// T (°C).
-    pub temperature_c: f64,
-    /// u(T) (°C).
+    /// T (°C) of the whole test, when given.
+    pub temperature_c: Option<f64>,
+    /// T (°C) per instant, in place of `temperature_c` (empty: none).
+    pub instants: BTreeMap<InstantKey, f64>,
+    /// u(T) (°C), the thermometer's: common to every instant.
     pub temperature_u_c: f64,
     /// α (µm/(m·K)).
     pub alpha_um_per_m_k: f64,
@@ -125,15 +131,37 @@ pub struct MachineExpansion {
 }
 
 impl MachineExpansion {
-    /// The nominal differential expansion strain α·(T − 20 °C) of the
-    /// machine's scale (dimensionless).
-    pub fn strain(&self) -> f64 {
-        strain(self.alpha_um_per_m_k, self.temperature_c)
+    /// The temperature at `instant`: its own, else the test's.
+    pub fn temperature_at(&self, instant: &InstantKey) -> Option<f64> {
+        self.instants.get(instant).copied().or(self.temperature_c)
     }
 
-    /// The strain of drawn values `T + δT`, `α + δα`.
-    pub fn strain_drawn(&self, dt_c: f64, dalpha: f64) -> f64 {
-        strain(self.alpha_um_per_m_k + dalpha, self.temperature_c + dt_c)
+    /// The nominal differential expansion strain α·(T − 20 °C) of the
+    /// machine's scale at `instant` (dimensionless); `None` without a
+    /// temperature there.
+    pub fn strain_at(&self, instant: &InstantKey) -> Option<f64> {
+        self.temperature_at(instant)
+            .map(|t| strain(self.alpha_um_per_m_k, t))
+    }
+
+    /// The expansion of drawn values `T + δT` (every instant: the
+    /// thermometer's error is common to them) and `α + δα`.
+    pub fn drawn(&self, dt_c: f64, dalpha: f64) -> MachineExpansion {
+        MachineExpansion {
+            temperature_c: self.temperature_c.map(|t| t + dt_c),
+            instants: self.instants.iter().map(|(k, t)| (*k, t + dt_c)).collect(),
+            alpha_um_per_m_k: self.alpha_um_per_m_k + dalpha,
+            ..self.clone()
+        }
+    }
+
+    /// The lowest and highest temperature it holds (°C).
+    pub fn range_c(&self) -> Option<(f64, f64)> {
+        let all = self.instants.values().copied().chain(self.temperature_c);
+        all.fold(None, |r, t| match r {
+            None => Some((t, t)),
+            Some((lo, hi)) => Some((f64::min(lo, t), f64::max(hi, t))),
+        })
     }
 }
 
@@ -147,11 +175,13 @@ impl Temperature {
         *self == Temperature::default()
     }
 
-    /// The machine's temperature and α, when both are given (checked by
-    /// [`Conditions::read`]).
-    pub fn machine(&self) -> Option<MachineExpansion> {
+    /// The machine's temperature (the test's, or per instant from
+    /// `instants`) and α, when α and a temperature are given.
+    pub fn machine(&self, instants: BTreeMap<InstantKey, f64>) -> Option<MachineExpansion> {
+        (self.machine_c.is_some() || !instants.is_empty()).then_some(())?;
         Some(MachineExpansion {
-            temperature_c: self.machine_c?,
+            temperature_c: self.machine_c,
+            instants,
             temperature_u_c: self.machine_u_c.unwrap_or(0.0),
             alpha_um_per_m_k: self.expansion_um_per_m_k?,
             alpha_u_um_per_m_k: self.expansion_u_um_per_m_k.unwrap_or(0.0),
@@ -213,12 +243,13 @@ impl Temperature {
                 self.target_expansion_um_per_m_k.is_some(),
             ),
         ];
+        // A temperature needs its coefficient; the machine's α alone is
+        // for temperatures per instant (manifest.csv's `machine_c`).
         for (a, has_a, b, has_b) in pairs {
-            if has_a != has_b {
-                let (given, missing) = if has_a { (a, b) } else { (b, a) };
+            if has_a && !has_b {
                 return Err((
-                    given,
-                    format!("needs `temperature.{missing}` too: the correction to 20 °C uses both"),
+                    a,
+                    format!("needs `temperature.{b}` too: the correction to 20 °C uses both"),
                 ));
             }
         }
@@ -245,6 +276,82 @@ impl Conditions {
     }
 }
 
+instant_row! {
+    /// A row of `manifest.csv` with its optional `machine_c` column: the
+    /// machine's temperature at the row's instant (°C).
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    pub struct InstantTemperatureRow {
+        ..InstantKey,
+        /// The machine's temperature at its scale at this instant (°C).
+        pub machine_c: f64,
+    }
+}
+
+impl Record for InstantTemperatureRow {
+    const COLUMNS: &'static [&'static str] = &[
+        "axis",
+        "direction",
+        "run",
+        "target",
+        "capture",
+        "nominal_x",
+        "nominal_y",
+        "nominal_z",
+        "machine_c",
+    ];
+
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        let (lo, hi) = TEMPERATURE_RANGE_C;
+        if !(lo..=hi).contains(&self.machine_c) {
+            return Err(Invalid::new(
+                "machine_c",
+                format!(
+                    "{} °C is outside {lo}–{hi} °C (a temperature in °C is expected)",
+                    self.machine_c
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The machine's temperature per instant from the optional `machine_c`
+/// column of `manifest` (empty without the column). The images of one
+/// instant must agree on it; a row that disagrees, an empty cell or a value
+/// outside 0–50 °C is an error naming the file, line and column.
+pub fn read_instant_temperatures(manifest: &Path) -> Result<BTreeMap<InstantKey, f64>> {
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_path(manifest)
+        .map_err(|e| FormatError::file(manifest, e.to_string()))?;
+    let has_column = reader
+        .headers()
+        .map_err(|e| FormatError::file(manifest, e.to_string()))?
+        .iter()
+        .any(|h| h == "machine_c");
+    let mut instants: BTreeMap<InstantKey, (f64, u64)> = BTreeMap::new();
+    if has_column {
+        for row in crate::read_csv::<InstantTemperatureRow>(manifest)? {
+            let t = row.record.machine_c;
+            let (seen, line) = *instants
+                .entry(row.record.instant())
+                .or_insert((t, row.line));
+            if seen != t {
+                return Err(FormatError::Row {
+                    path: manifest.to_path_buf(),
+                    line: row.line,
+                    column: Some("machine_c".into()),
+                    message: format!(
+                        "{t} °C, where line {line} of the same instant says {seen} °C: the images \
+                         of one instant share its temperature"
+                    ),
+                });
+            }
+        }
+    }
+    Ok(instants.into_iter().map(|(k, (t, _))| (k, t)).collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -267,12 +374,17 @@ mod tests {
             c.machine.fields(),
             vec![("maker", "ACME"), ("serial", "42")]
         );
-        let m = c.temperature.machine().ok_or(FormatError::File {
-            path: "c".into(),
-            message: "no machine".into(),
-        })?;
-        // 11.5 µm/(m·K) × 5 K = 57.5 µm/m.
-        assert!((m.strain() - 57.5e-6).abs() < 1e-15);
+        let m = c
+            .temperature
+            .machine(BTreeMap::new())
+            .ok_or(FormatError::File {
+                path: "c".into(),
+                message: "no machine".into(),
+            })?;
+        // 11.5 µm/(m·K) × 5 K = 57.5 µm/m, at every instant.
+        let instant = InstantKey::new((crate::Axis::X, crate::Direction::Up), [1, 0, 1], [0.0; 3]);
+        let at = m.strain_at(&instant).unwrap_or(f64::NAN);
+        assert!((at - 57.5e-6).abs() < 1e-15);
         assert_eq!(c.temperature.target_strain(), Some(0.0));
         Ok(())
     }

@@ -68,7 +68,6 @@ fn uncertainty(
     args: &Args,
     report: &evaluate::Report,
     options: &evaluate::Options,
-    machine: Option<formats::conditions::MachineExpansion>,
 ) -> Result<formats::uncertainty::Uncertainty> {
     use formats::uncertainty::Uncertainty;
     let not_given = |reason: String| Ok(Uncertainty::NotGiven { reason });
@@ -95,7 +94,6 @@ fn uncertainty(
     Ok(inputs.propagate(
         report,
         options,
-        machine,
         evaluate::uncertainty::Propagation {
             trials: args.trials,
             seed: args.seed,
@@ -141,7 +139,6 @@ impl Propagated {
         &self,
         report: &evaluate::Report,
         options: &evaluate::Options,
-        machine: Option<formats::conditions::MachineExpansion>,
         propagation: evaluate::uncertainty::Propagation,
     ) -> formats::uncertainty::Uncertainty {
         evaluate::uncertainty::propagate(
@@ -153,7 +150,6 @@ impl Propagated {
                 covariance: &self.covariance,
             },
             options,
-            machine,
             propagation,
         )
     }
@@ -279,10 +275,9 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         times.sort();
         (times[times.len() / 2], last)
     };
-    let (all, u) = timed(&|| inputs.propagate(&report, &options, None, propagation));
+    let (all, u) = timed(&|| inputs.propagate(&report, &options, propagation));
     let one_pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let (one, _) =
-        timed(&|| one_pool.install(|| inputs.propagate(&report, &options, None, propagation)));
+    let (one, _) = timed(&|| one_pool.install(|| inputs.propagate(&report, &options, propagation)));
     let given = match &u {
         formats::uncertainty::Uncertainty::Given(p) => p,
         formats::uncertainty::Uncertainty::NotGiven { reason } => {
@@ -393,16 +388,27 @@ fn rig_equipment(path: &Path) -> Result<Option<String>> {
 }
 
 /// What the correction to 20 °C did, as the report states it.
-fn correction_statement(t: &formats::conditions::Temperature) -> String {
+fn correction_statement(
+    t: &formats::conditions::Temperature,
+    machine: Option<&formats::conditions::MachineExpansion>,
+) -> String {
     let mut parts = Vec::new();
-    if let Some(m) = t.machine() {
+    if let Some(m) = machine {
+        let a = m.alpha_um_per_m_k;
+        let applied = match (m.instants.is_empty(), m.temperature_c, m.range_c()) {
+            (true, Some(tc), _) => format!(
+                "T = {tc} °C, deviation − α·(T − 20 °C)·(P − P₀) = deviation − {:.2} µm/m·(P − P₀)",
+                a * (tc - formats::conditions::REFERENCE_C)
+            ),
+            (_, _, Some((lo, hi))) => format!(
+                "T per instant from the manifest's machine_c column ({lo}–{hi} °C), deviation − \
+                 α·(T − 20 °C)·(P − P₀) with each capture's T"
+            ),
+            _ => String::new(),
+        };
         parts.push(format!(
             "positioning deviations corrected to 20 °C for the machine scale's nominal differential \
-             expansion (ISO 230-2): α = {} µm/(m·K), T = {} °C, deviation − α·(T − 20 °C)·(P − P₀) = \
-             deviation − {:.2} µm/m·(P − P₀), P₀ the line's first target",
-            m.alpha_um_per_m_k,
-            m.temperature_c,
-            m.strain() * 1e6
+             expansion (ISO 230-2): α = {a} µm/(m·K), {applied}, P₀ the line's first target"
         ));
     }
     if let (Some(tc), Some(a), Some(e)) =
@@ -418,6 +424,50 @@ fn correction_statement(t: &formats::conditions::Temperature) -> String {
         "{}; the figures before it under `uncorrected`",
         parts.join("; ")
     )
+}
+
+/// The machine's expansion for the correction to 20 °C: α from the
+/// conditions, the temperature from them or per instant from the
+/// `machine_c` column of `--manifest` (every instant of the points must
+/// then have one).
+fn machine_expansion(
+    args: &Args,
+    temperature: Option<&formats::conditions::Temperature>,
+) -> Result<Option<formats::conditions::MachineExpansion>> {
+    let instants = match &args.manifest {
+        Some(m) => formats::conditions::read_instant_temperatures(m)?,
+        None => Default::default(),
+    };
+    let machine = temperature.and_then(|t| t.machine(instants.clone()));
+    if let (Some(manifest), false, None) = (&args.manifest, instants.is_empty(), &machine) {
+        return Err(Usage::error(format!(
+            "{}: its machine_c column gives the machine's temperature per instant; the correction to \
+             20 °C needs the machine's expansion coefficient too (--conditions with \
+             temperature.expansion_um_per_m_k)",
+            manifest.display()
+        )));
+    }
+    if let (Some(m), Some(manifest)) = (&machine, &args.manifest)
+        && !m.instants.is_empty()
+    {
+        for row in evaluate::read_points(&args.points)? {
+            if m.temperature_at(&row.record.instant()).is_none() {
+                return Err(formats::FormatError::Row {
+                    path: args.points.clone(),
+                    line: row.line,
+                    column: None,
+                    message: format!(
+                        "instant {} has no machine temperature: it is not in {} (machine_c) and the \
+                         conditions give no temperature.machine_c",
+                        row.record.instant(),
+                        manifest.display()
+                    ),
+                }
+                .into());
+            }
+        }
+    }
+    Ok(machine)
 }
 
 /// Run the evaluation and write the report.
@@ -445,7 +495,7 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let limits = args.signoff.read_limits(KEYS)?;
     let temperature = conditions.as_ref().map(|c| &c.temperature);
-    let machine = temperature.and_then(|t| t.machine());
+    let machine = machine_expansion(args, temperature)?;
     let target_strain = temperature.and_then(|t| t.target_strain());
     let uncorrected = evaluate::Options {
         sphere: args.sphere.clone(),
@@ -453,7 +503,7 @@ pub fn run(args: &Args) -> Result<()> {
         ..evaluate::Options::default()
     };
     let options = evaluate::Options {
-        machine_strain: machine.map_or(0.0, |m| m.strain()),
+        machine: machine.clone(),
         target_strain: target_strain.unwrap_or(0.0),
         ..uncorrected.clone()
     };
@@ -473,10 +523,17 @@ pub fn run(args: &Args) -> Result<()> {
         )?);
         report
             .conventions
-            .extend(temperature.map(correction_statement));
+            .extend(temperature.map(|t| correction_statement(t, machine.as_ref())));
+    }
+    if machine.is_none() && temperature.is_some_and(|t| t.expansion_um_per_m_k.is_some()) {
+        report.warnings.push(
+            "the machine's expansion coefficient is given without a machine temperature (conditions' \
+             temperature.machine_c, or a machine_c column in --manifest): nothing is corrected to 20 °C"
+                .into(),
+        );
     }
     report.signoff.conditions = conditions.clone();
-    report.uncertainty = Some(uncertainty(args, &report, &options, machine)?);
+    report.uncertainty = Some(uncertainty(args, &report, &options)?);
     let figures = formats::uncertainty::figures(&report, &evaluate::uncertainty::FIGURE_KEYS)?;
     let expanded = report.uncertainty.as_ref().and_then(|u| u.expanded());
     args.signoff
