@@ -7,7 +7,8 @@
 use plotters::prelude::*;
 use report::plot::{
     DOWN, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, SIX, UP, WIDTH, ZONE, chart_builder, colour_bar,
-    diverging, mesh, padded, percentile, svg, with_legend_room,
+    diverging, mesh, outlier_key, outlier_mark, padded, percentile, robust_limit, svg,
+    with_legend_room,
 };
 use report::{Page, plus_minus_in};
 
@@ -178,18 +179,24 @@ fn corrections_plot(net: &Network, s: &Solution) -> Result<String> {
 }
 
 /// Uncertainty map: each point coloured by its largest standard uncertainty
-/// against the median (blue: better determined, red: worse).
+/// against the median (blue: better determined, red: worse), on a scale ±L
+/// robust to outliers ([`robust_limit`]): a few weakly determined points
+/// are drawn at the scale's end and marked, not allowed to wash out the rest.
 fn uncertainty_plot(net: &Network, s: &Solution) -> Result<String> {
     let r = ranges(net);
     let u: Vec<f64> = s.corrections.iter().map(|c| c.u.max() * UM).collect();
     let mut sorted = u.clone();
     sorted.sort_by(f64::total_cmp);
     let median = percentile(&sorted, 0.5);
-    let spread = u
+    let spread = robust_limit(u.iter().map(|v| v - median)).max(1e-6);
+    let beyond: Vec<_> = net
+        .points
         .iter()
-        .map(|v| (v - median).abs())
-        .fold(0.0, f64::max)
-        .max(1e-6);
+        .zip(&u)
+        .filter(|(_, v)| (*v - median).abs() > spread)
+        .map(|(p, v)| (p, *v > median))
+        .collect();
+    let above = beyond.iter().filter(|(_, up)| *up).count();
     let title = format!("Standard uncertainty of the corrections (median {median:.3} µm)");
     // Smaller marks where the grid is dense.
     let radius = if u.len() > DENSE_GRID { 3 } else { 5 };
@@ -203,7 +210,21 @@ fn uncertainty_plot(net: &Network, s: &Solution) -> Result<String> {
                     + Circle::new((0, 0), radius, RGBColor(90, 90, 90).stroke_width(1))
             }))
             .map_err(|e| e.to_string())?;
-        colour_bar(&bar, MAP_HEIGHT, spread, "µm", ["largest u", "− median"])
+        chart
+            .draw_series(
+                beyond
+                    .iter()
+                    .map(|(p, up)| outlier_mark((p.x, p.z, p.y), *up)),
+            )
+            .map_err(|e| e.to_string())?;
+        colour_bar(&bar, MAP_HEIGHT, spread, "µm", ["largest u", "− median"])?;
+        outlier_key(
+            &bar,
+            MAP_HEIGHT,
+            spread,
+            "µm",
+            (above, beyond.len() - above),
+        )
     })?)
 }
 
