@@ -336,42 +336,36 @@ pub fn mapped_light(
     let background = background_fit(frame, blob, level)?;
     // Buffers kept per thread between blobs: a blob of 10⁵ pixels would
     // otherwise cost fresh pages (and their faults) every time.
-    SCRATCH.with(|scratch| match scratch.try_borrow_mut() {
-        Ok(mut s) => {
-            let Scratch {
-                pixels,
-                weights,
-                mapped,
-            } = &mut *s;
-            light_of(
-                frame,
-                blob,
-                level,
-                weighting,
-                map,
-                gain_dn_per_e,
-                &background,
-                pixels,
-                weights,
-                mapped,
-            )
-        }
-        Err(_) => light_of(
+    SCRATCH.with(|scratch| {
+        let mut fresh = Scratch::default();
+        let mut held = scratch.try_borrow_mut();
+        let buffers = match held.as_mut() {
+            Ok(s) => &mut **s,
+            Err(_) => &mut fresh,
+        };
+        let light = Light {
             frame,
             blob,
             level,
             weighting,
             map,
             gain_dn_per_e,
-            &background,
-            &mut Vec::new(),
-            &mut Vec::new(),
-            &mut Vec::new(),
-        ),
+        };
+        light.of(&background, buffers)
     })
 }
 
-/// The buffers of [`light_of`].
+/// What [`mapped_light`] was given.
+struct Light<'a, 'f> {
+    frame: &'a FrameView<'f>,
+    blob: &'a Blob,
+    level: &'a Level,
+    weighting: Weighting,
+    map: &'a dyn PixelMap,
+    gain_dn_per_e: Option<f64>,
+}
+
+/// The buffers of [`Light::of`].
 #[derive(Default)]
 struct Scratch {
     pixels: Vec<WeightedPixel>,
@@ -383,89 +377,84 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::default();
 }
 
-/// [`mapped_light`] over `background`, in the given buffers.
-#[allow(clippy::too_many_arguments)]
-fn light_of(
-    frame: &FrameView<'_>,
-    blob: &Blob,
-    level: &Level,
-    weighting: Weighting,
-    map: &dyn PixelMap,
-    gain_dn_per_e: Option<f64>,
-    background: &Background,
-    pixels: &mut Vec<WeightedPixel>,
-    weights: &mut Vec<f64>,
-    mapped: &mut Vec<Mapped>,
-) -> Option<MappedLight> {
-    let [c, a, b] = background.plane;
-    pixels.clear();
-    let mut t_max = f64::NEG_INFINITY;
-    // Observed position and RI of the pixel that sets T′.
-    let mut t_at = ([0.0, 0.0], 1.0);
-    for run in &blob.runs {
-        let row = frame.row(run.y);
-        let v = f64::from(run.y);
-        map.map_run(run.y, run.x0, run.x1, mapped)?;
-        for (x, &m) in (run.x0..=run.x1).zip(mapped.iter()) {
-            let u = f64::from(x);
-            if !(m.illumination > 0.0 && m.jacobian > 0.0) {
-                return None;
+impl Light<'_, '_> {
+    /// [`mapped_light`] over `background`, in the given buffers.
+    fn of(&self, background: &Background, scratch: &mut Scratch) -> Option<MappedLight> {
+        let Scratch {
+            pixels,
+            weights,
+            mapped,
+        } = scratch;
+        let [c, a, b] = background.plane;
+        pixels.clear();
+        let mut t_max = f64::NEG_INFINITY;
+        // Observed position and RI of the pixel that sets T′.
+        let mut t_at = ([0.0, 0.0], 1.0);
+        for run in &self.blob.runs {
+            let row = self.frame.row(run.y);
+            let v = f64::from(run.y);
+            self.map.map_run(run.y, run.x0, run.x1, mapped)?;
+            for (x, &m) in (run.x0..=run.x1).zip(mapped.iter()) {
+                let u = f64::from(x);
+                if !(m.illumination > 0.0 && m.jacobian > 0.0) {
+                    return None;
+                }
+                let bg = c + a * u + b * v;
+                let t = f64::from(self.level.at(x, run.y, self.frame.width));
+                let t_pixel = (t - bg) / m.illumination;
+                if t_pixel > t_max {
+                    t_at = ([u, v], m.illumination);
+                }
+                t_max = t_max.max(t_pixel);
+                let signal = f64::from(row[x as usize]) - bg;
+                pixels.push(WeightedPixel {
+                    observed: [u, v],
+                    mapped: m,
+                    signal_dn: signal,
+                });
             }
-            let bg = c + a * u + b * v;
-            let t = f64::from(level.at(x, run.y, frame.width));
-            let t_pixel = (t - bg) / m.illumination;
-            if t_pixel > t_max {
-                t_at = ([u, v], m.illumination);
+        }
+        // The pixels that carry weight (kept in place), with their weights.
+        weights.clear();
+        pixels.retain(|p| {
+            let f = p.signal_dn / p.mapped.illumination;
+            match corrected_weight(self.weighting, f, t_max) {
+                Some(w) => {
+                    weights.push(w * p.mapped.jacobian);
+                    true
+                }
+                None => false,
             }
-            t_max = t_max.max(t_pixel);
-            let signal = f64::from(row[x as usize]) - bg;
-            pixels.push(WeightedPixel {
-                observed: [u, v],
-                mapped: m,
-                signal_dn: signal,
-            });
+        });
+        let (mut su, mut sv, mut sw) = (0.0f64, 0.0f64, 0.0f64);
+        for (p, &w) in pixels.iter().zip(weights.iter()) {
+            su += p.mapped.position[0] * w;
+            sv += p.mapped.position[1] * w;
+            sw += w;
         }
-    }
-    // The pixels that carry weight (kept in place), with their weights.
-    weights.clear();
-    pixels.retain(|p| {
-        let f = p.signal_dn / p.mapped.illumination;
-        match corrected_weight(weighting, f, t_max) {
-            Some(w) => {
-                weights.push(w * p.mapped.jacobian);
-                true
+        let centroid = (sw > 0.0).then(|| [su / sw, sv / sw])?;
+        let (mut suu, mut svv, mut suv) = (0.0f64, 0.0f64, 0.0f64);
+        for (p, &w) in pixels.iter().zip(weights.iter()) {
+            let (du, dv) = (
+                p.mapped.position[0] - centroid[0],
+                p.mapped.position[1] - centroid[1],
+            );
+            suu += du * du * w;
+            svv += dv * dv * w;
+            suv += du * dv * w;
+        }
+        let covariance = match (self.gain_dn_per_e, self.weighting) {
+            (Some(k), Weighting::Subtracted) => {
+                centroid_covariance(pixels, centroid, sw, background, t_at, k)
             }
-            None => false,
-        }
-    });
-    let (mut su, mut sv, mut sw) = (0.0f64, 0.0f64, 0.0f64);
-    for (p, &w) in pixels.iter().zip(weights.iter()) {
-        su += p.mapped.position[0] * w;
-        sv += p.mapped.position[1] * w;
-        sw += w;
+            _ => None,
+        };
+        Some(MappedLight {
+            centroid,
+            central: (suu / sw, svv / sw, suv / sw),
+            covariance,
+        })
     }
-    let centroid = (sw > 0.0).then(|| [su / sw, sv / sw])?;
-    let (mut suu, mut svv, mut suv) = (0.0f64, 0.0f64, 0.0f64);
-    for (p, &w) in pixels.iter().zip(weights.iter()) {
-        let (du, dv) = (
-            p.mapped.position[0] - centroid[0],
-            p.mapped.position[1] - centroid[1],
-        );
-        suu += du * du * w;
-        svv += dv * dv * w;
-        suv += du * dv * w;
-    }
-    let covariance = match (gain_dn_per_e, weighting) {
-        (Some(k), Weighting::Subtracted) => {
-            centroid_covariance(pixels, centroid, sw, background, t_at, k)
-        }
-        _ => None,
-    };
-    Some(MappedLight {
-        centroid,
-        central: (suu / sw, svv / sw, suv / sw),
-        covariance,
-    })
 }
 
 /// The blob's corrected centroid: that of its [`mapped_light`].
