@@ -63,93 +63,121 @@ pub trait PixelMap {
     }
 }
 
-/// Spacing (px) of the exactly mapped nodes of a run in
-/// [`CameraMap::map_run`]: between them the map is the cubic through the
-/// four nearest nodes. The undistortion, its area Jacobian and the relative
-/// illumination are smooth over the field, so the interpolation's error,
-/// ≈ (3/128)·h⁴·|f⁗| at mid-interval, is small: 4e-7 px in the corner of
-/// a wide-angle lens whose distortion shifts it by 570 px, 1e-10 px on the
-/// campaigns' lenses, against the 1e-4 px a centroid may move
-/// (`docs/performance.md`).
+/// Spacing (px) of the lattice of exactly mapped nodes of
+/// [`CameraMap::map_run`]: between them the map is the bicubic (tensor
+/// Lagrange cubic) through the 4 × 4 nearest nodes. The undistortion, its
+/// area Jacobian and the relative illumination are smooth over the field,
+/// so the interpolation's error, ≈ (3/128)·h⁴·|f⁗| per direction at
+/// mid-interval, is small: ≤ 5e-7 px in the corner of a wide-angle lens
+/// whose distortion shifts it by 570 px, 1e-10 px on the campaigns'
+/// lenses, against the 1e-4 px a centroid may move (`docs/performance.md`).
 pub const NODE_SPACING_PX: u32 = 8;
 
-/// Runs shorter than this many nodes are mapped pixel by pixel.
-const MIN_NODES: u32 = 4;
+/// Runs shorter than this many node intervals are mapped pixel by pixel.
+const MIN_INTERVALS: u32 = 4;
+
+/// A node's shift p − (u, v), J and RI.
+type Node = [f64; 4];
+
+/// Lagrange weights of the nodes at −1, 0, 1, 2 (in node spacings) at
+/// `t` ∈ [0, 1).
+fn cubic_weights(t: f64) -> [f64; 4] {
+    [
+        -t * (t - 1.0) * (t - 2.0) / 6.0,
+        (t + 1.0) * (t - 1.0) * (t - 2.0) / 2.0,
+        -(t + 1.0) * t * (t - 2.0) / 2.0,
+        (t + 1.0) * t * (t - 1.0) / 6.0,
+    ]
+}
 
 /// Observed pixels of a calibrated camera → ideal (undistorted) pixels, with
-/// the area Jacobian and the camera's relative illumination. Pixels come run
-/// by run, so each is solved starting from the previous pixel's solution: one
-/// or two Newton steps instead of several, converged to the same tolerance.
+/// the area Jacobian and the camera's relative illumination. A single pixel
+/// is solved by Newton's method started from the previous one's solution
+/// (one or two steps); runs go through a lattice of such exact nodes every
+/// [`NODE_SPACING_PX`], each solved once per map and kept.
 pub struct CameraMap<'a> {
     camera: &'a Camera,
     illumination: &'a Illumination,
     last: Cell<Option<(Point2<f64>, geom::Vector2<f64>)>>,
+    /// The lattice over the sensor (node (i, j) at index (j + 1)·columns
+    /// + i + 1, i from −1): all zero until solved (a solved node has J > 0;
+    /// J = NaN where the model cannot map it). Zeroed pages cost nothing
+    /// until touched, so only the nodes near the blobs take memory.
+    lattice: std::cell::RefCell<Vec<Node>>,
+    /// Nodes per lattice row.
+    columns: usize,
 }
 
 impl<'a> CameraMap<'a> {
     /// The map of `camera` with its lens's `illumination`.
     pub fn new(camera: &'a Camera, illumination: &'a Illumination) -> Self {
+        // Nodes −1 ..= ⌊(size − 1)/h⌋ + 2 along each side.
+        let count = |size: u32| (size.saturating_sub(1) / NODE_SPACING_PX) as usize + 4;
+        let (columns, rows) = (count(camera.width), count(camera.height));
         Self {
             camera,
             illumination,
             last: Cell::new(None),
+            lattice: std::cell::RefCell::new(vec![[0.0; 4]; columns * rows]),
+            columns,
         }
     }
-}
 
-impl PixelMap for CameraMap<'_> {
-    /// Exactly at nodes every [`NODE_SPACING_PX`] (from x0 − h to past x1 +
-    /// h), cubic between them: the Lagrange cubic through the two nodes on
-    /// each side of the pixel, applied to the shift p − (u, v), J and RI.
-    fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
+    /// The lattice node (i·h, j·h), solved on first use; `None` outside the
+    /// sensor's lattice or where the model cannot map it.
+    fn node(&self, i: i64, j: i64) -> Option<Node> {
+        let (c, r) = (usize::try_from(i + 1).ok()?, usize::try_from(j + 1).ok()?);
+        if c >= self.columns {
+            return None;
+        }
+        let index = r * self.columns + c;
+        let known = *self.lattice.try_borrow().ok()?.get(index)?;
+        if known[2] != 0.0 {
+            return (!known[2].is_nan()).then_some(known);
+        }
+        let h = f64::from(NODE_SPACING_PX);
+        let (u, v) = (i as f64 * h, j as f64 * h);
+        let node = self.map(u, v).map(|m| {
+            [
+                m.position[0] - u,
+                m.position[1] - v,
+                m.jacobian,
+                m.illumination,
+            ]
+        });
+        self.lattice.try_borrow_mut().ok()?[index] = node.unwrap_or([0.0, 0.0, f64::NAN, 0.0]);
+        node
+    }
+
+    /// The pixels `x0..=x1` of row `y` through the lattice; `None` when a
+    /// node cannot be mapped.
+    fn lattice_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
         let h = NODE_SPACING_PX;
-        let intervals = (x1 - x0) / h + 1;
-        let v = f64::from(y);
-        // Nodes at x0 + (k − 1)·h, k = 0 ..= intervals + 2; a run too short
-        // for them, or with a node the model cannot map (beyond the lens
-        // model's reach), is mapped pixel by pixel.
-        let start = f64::from(x0) - f64::from(h);
-        let nodes: Option<Vec<[f64; 4]>> = (intervals >= MIN_NODES)
-            .then(|| {
-                (0..=intervals + 2)
-                    .map(|k| {
-                        let u = start + f64::from(k * h);
-                        self.map(u, v).map(|m| {
-                            [
-                                m.position[0] - u,
-                                m.position[1] - v,
-                                m.jacobian,
-                                m.illumination,
-                            ]
-                        })
-                    })
-                    .collect()
-            })
-            .flatten();
-        let Some(nodes) = nodes else {
-            out.clear();
-            for x in x0..=x1 {
-                out.push(self.map(f64::from(x), v)?);
-            }
-            return Some(());
-        };
-        out.clear();
-        let hf = f64::from(h);
-        for x in x0..=x1 {
-            // Interval i between nodes i + 1 and i + 2 (node 1 is at x0).
-            let i = ((x - x0) / h) as usize;
-            let t = f64::from((x - x0) % h) / hf;
-            // Lagrange weights of nodes i, i+1, i+2, i+3 at i + 1 + t.
-            let w = [
-                -t * (t - 1.0) * (t - 2.0) / 6.0,
-                (t + 1.0) * (t - 1.0) * (t - 2.0) / 2.0,
-                -(t + 1.0) * t * (t - 2.0) / 2.0,
-                (t + 1.0) * t * (t - 1.0) / 6.0,
-            ];
+        let (j, ty) = (i64::from(y / h), f64::from(y % h) / f64::from(h));
+        let wy = cubic_weights(ty);
+        // The run's node columns, each interpolated to row y.
+        let (i0, i1) = (i64::from(x0 / h) - 1, i64::from(x1 / h) + 2);
+        let mut columns: Vec<Node> = Vec::with_capacity((i1 - i0 + 1) as usize);
+        for i in i0..=i1 {
             let mut f = [0.0f64; 4];
-            for (node, wk) in nodes[i..i + 4].iter().zip(w) {
-                for (fc, nc) in f.iter_mut().zip(node) {
-                    *fc += wk * nc;
+            for (dj, w) in (-1..=2).zip(wy) {
+                let n = self.node(i, j + dj)?;
+                for (fc, nc) in f.iter_mut().zip(n) {
+                    *fc += w * nc;
+                }
+            }
+            columns.push(f);
+        }
+        out.clear();
+        let v = f64::from(y);
+        for x in x0..=x1 {
+            // Columns k − 1 ..= k + 2 around x, k = x / h (index from i0).
+            let k = (i64::from(x / h) - i0) as usize;
+            let wx = cubic_weights(f64::from(x % h) / f64::from(h));
+            let mut f = [0.0f64; 4];
+            for (c, w) in columns[k - 1..k + 3].iter().zip(wx) {
+                for (fc, nc) in f.iter_mut().zip(c) {
+                    *fc += w * nc;
                 }
             }
             let u = f64::from(x);
@@ -158,6 +186,26 @@ impl PixelMap for CameraMap<'_> {
                 jacobian: f[2],
                 illumination: f[3],
             });
+        }
+        Some(())
+    }
+}
+
+impl PixelMap for CameraMap<'_> {
+    /// Through the lattice of exact nodes ([`NODE_SPACING_PX`]): each pixel
+    /// the bicubic of the shift p − (u, v), J and RI; a run shorter than
+    /// [`MIN_INTERVALS`] node spacings, or one near a node the model cannot
+    /// map (beyond the lens model's reach), pixel by pixel.
+    fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
+        if (x1 - x0) / NODE_SPACING_PX + 1 >= MIN_INTERVALS
+            && self.lattice_run(y, x0, x1, out).is_some()
+        {
+            return Some(());
+        }
+        out.clear();
+        let v = f64::from(y);
+        for x in x0..=x1 {
+            out.push(self.map(f64::from(x), v)?);
         }
         Some(())
     }
@@ -581,7 +629,7 @@ mod tests {
                 worst[2] = worst[2].max((m.illumination / exact.illumination - 1.0).abs());
             }
         }
-        // 3.6e-7 px here, against the 1e-4 px centroids must agree to.
+        // 4.6e-7 px here, against the 1e-4 px centroids must agree to.
         println!("worst: {worst:?}");
         assert!(worst[0] < 1e-6, "position {:e} px", worst[0]);
         assert!(worst[1] < 1e-8 && worst[2] < 1e-8, "{worst:?}");
