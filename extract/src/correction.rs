@@ -99,10 +99,10 @@ pub struct CameraMap<'a> {
     camera: &'a Camera,
     illumination: &'a Illumination,
     last: Cell<Option<(Point2<f64>, geom::Vector2<f64>)>>,
-    /// The lattice over the sensor (node (i, j) at index (j + 1)·columns
-    /// + i + 1, i from −1): all zero until solved (a solved node has J > 0;
-    /// J = NaN where the model cannot map it). Zeroed pages cost nothing
-    /// until touched, so only the nodes near the blobs take memory.
+    /// The lattice over the sensor, node (i, j) (i, j from −1) at index
+    /// `(j + 1)·columns + i + 1`: zero until solved (a solved node has
+    /// J > 0; J = NaN where the model cannot map it). Allocated zeroed, so
+    /// pages of nodes never used are never touched.
     lattice: std::cell::RefCell<Vec<Node>>,
     /// Nodes per lattice row.
     columns: usize,
