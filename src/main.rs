@@ -127,6 +127,7 @@ fn main() -> ExitCode {
         Command::Probe(args) => cmd::probe::run(&args),
         Command::Synth(args) => cmd::synth::run(&args),
     };
+    cmd::bench_measure::record_peak();
     let written = |e: &anyhow::Error| {
         e.downcast_ref::<cmd::Finished>().is_some()
             || e.downcast_ref::<cmd::signoff::DoesNotConform>().is_some()

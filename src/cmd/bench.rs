@@ -37,6 +37,11 @@ enum What {
     Manifest(crate::cmd::manifest::BenchArgs),
     /// `evaluate`'s Monte Carlo: 108 instants × 3 spheres × 200 trials.
     Uncertainty(crate::cmd::evaluate::BenchArgs),
+    /// `measure` beside decode only and decode + extract, per image format, with peak memory.
+    Measure(crate::cmd::bench_measure::MeasureArgs),
+    /// Decode every image of a manifest and nothing else (a phase of `bench measure`).
+    #[command(hide = true)]
+    Decode(crate::cmd::bench_measure::DecodeArgs),
 }
 
 /// Arguments of `trinocular bench extract`.
@@ -267,5 +272,7 @@ pub fn run(args: &Args) -> Result<()> {
         What::Tracer(a) => crate::cmd::probe::tracer::bench(a),
         What::Manifest(a) => crate::cmd::manifest::bench(a),
         What::Uncertainty(a) => crate::cmd::evaluate::bench(a),
+        What::Measure(a) => crate::cmd::bench_measure::bench(a),
+        What::Decode(a) => crate::cmd::bench_measure::decode(a),
     }
 }

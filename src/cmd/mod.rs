@@ -2,6 +2,7 @@
 
 pub mod backend;
 pub mod bench;
+pub mod bench_measure;
 pub mod calibrate;
 pub mod demo;
 pub mod evaluate;
