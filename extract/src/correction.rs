@@ -90,63 +90,96 @@ fn cubic_weights(t: f64) -> [f64; 4] {
     ]
 }
 
-/// Observed pixels of a calibrated camera → ideal (undistorted) pixels, with
-/// the area Jacobian and the camera's relative illumination. A single pixel
-/// is solved by Newton's method started from the previous one's solution
-/// (one or two steps); runs go through a lattice of such exact nodes every
-/// [`NODE_SPACING_PX`], each solved once per map and kept.
-pub struct CameraMap<'a> {
-    camera: &'a Camera,
-    illumination: &'a Illumination,
-    last: Cell<Option<(Point2<f64>, geom::Vector2<f64>)>>,
-    /// The lattice over the sensor, node (i, j) (i, j from −1) at index
-    /// `(j + 1)·columns + i + 1`: zero until solved (a solved node has
-    /// J > 0; J = NaN where the model cannot map it). Allocated zeroed, so
-    /// pages of nodes never used are never touched.
-    lattice: std::cell::RefCell<Vec<Node>>,
-    /// Nodes per lattice row.
+/// The lattice of a camera's exactly mapped nodes every
+/// [`NODE_SPACING_PX`] over its sensor, node (i, j) (i, j from −1) at
+/// index `(j + 1)·columns + i + 1`, each solved on first use and kept for
+/// the whole run, shared by every frame and thread. A node is solved from
+/// the same start whoever needs it first, so results do not depend on the
+/// order of frames or the number of threads.
+pub struct Lattice {
     columns: usize,
+    nodes: Vec<std::sync::OnceLock<Option<Node>>>,
 }
 
-impl<'a> CameraMap<'a> {
-    /// The map of `camera` with its lens's `illumination`.
-    pub fn new(camera: &'a Camera, illumination: &'a Illumination) -> Self {
+impl Lattice {
+    /// The (unsolved) lattice of `camera`'s sensor.
+    pub fn new(camera: &Camera) -> Self {
         // Nodes −1 ..= ⌊(size − 1)/h⌋ + 2 along each side.
         let count = |size: u32| (size.saturating_sub(1) / NODE_SPACING_PX) as usize + 4;
         let (columns, rows) = (count(camera.width), count(camera.height));
         Self {
+            columns,
+            nodes: (0..columns * rows)
+                .map(|_| std::sync::OnceLock::new())
+                .collect(),
+        }
+    }
+}
+
+/// Observed pixels of a calibrated camera → ideal (undistorted) pixels, with
+/// the area Jacobian and the camera's relative illumination. A single pixel
+/// is solved by Newton's method started from the previous one's solution
+/// (one or two steps); runs go through the camera's [`Lattice`] of exact
+/// nodes every [`NODE_SPACING_PX`].
+pub struct CameraMap<'a> {
+    camera: &'a Camera,
+    illumination: &'a Illumination,
+    last: Cell<Option<(Point2<f64>, geom::Vector2<f64>)>>,
+    lattice: Nodes<'a>,
+}
+
+/// A map's lattice: its own, or a run's.
+enum Nodes<'a> {
+    Own(Lattice),
+    Shared(&'a Lattice),
+}
+
+impl<'a> CameraMap<'a> {
+    /// The map of `camera` with its lens's `illumination`, with a lattice
+    /// of its own.
+    pub fn new(camera: &'a Camera, illumination: &'a Illumination) -> Self {
+        Self {
             camera,
             illumination,
             last: Cell::new(None),
-            lattice: std::cell::RefCell::new(vec![[0.0; 4]; columns * rows]),
-            columns,
+            lattice: Nodes::Own(Lattice::new(camera)),
         }
     }
 
-    /// The lattice node (i·h, j·h), solved on first use; `None` outside the
-    /// sensor's lattice or where the model cannot map it.
+    /// The map through `lattice`, the camera's for the whole run
+    /// ([`Lattice::new`] of the same camera).
+    pub fn with_lattice(
+        camera: &'a Camera,
+        illumination: &'a Illumination,
+        lattice: &'a Lattice,
+    ) -> Self {
+        Self {
+            camera,
+            illumination,
+            last: Cell::new(None),
+            lattice: Nodes::Shared(lattice),
+        }
+    }
+
+    /// The lattice node (i·h, j·h), solved on first use (Newton from the
+    /// model's own start); `None` outside the sensor's lattice or where the
+    /// model cannot map it.
     fn node(&self, i: i64, j: i64) -> Option<Node> {
+        let lattice = match &self.lattice {
+            Nodes::Own(l) => l,
+            Nodes::Shared(l) => l,
+        };
         let (c, r) = (usize::try_from(i + 1).ok()?, usize::try_from(j + 1).ok()?);
-        if c >= self.columns {
+        if c >= lattice.columns {
             return None;
         }
-        let index = r * self.columns + c;
-        let known = *self.lattice.try_borrow().ok()?.get(index)?;
-        if known[2] != 0.0 {
-            return (!known[2].is_nan()).then_some(known);
-        }
-        let h = f64::from(NODE_SPACING_PX);
-        let (u, v) = (i as f64 * h, j as f64 * h);
-        let node = self.map(u, v).map(|m| {
-            [
-                m.position[0] - u,
-                m.position[1] - v,
-                m.jacobian,
-                m.illumination,
-            ]
-        });
-        self.lattice.try_borrow_mut().ok()?[index] = node.unwrap_or([0.0, 0.0, f64::NAN, 0.0]);
-        node
+        *lattice.nodes.get(r * lattice.columns + c)?.get_or_init(|| {
+            let h = f64::from(NODE_SPACING_PX);
+            let (u, v) = (i as f64 * h, j as f64 * h);
+            let (p, jac) = self.camera.undistort_pixel_area(Point2::new(u, v)).ok()?;
+            let n = self.camera.intrinsics.to_normalized(p);
+            Some([p.x - u, p.y - v, jac, self.illumination.at([u, v], n, jac)])
+        })
     }
 
     /// The pixels `x0..=x1` of row `y` through the lattice; `None` when a

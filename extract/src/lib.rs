@@ -37,7 +37,7 @@ pub use background::MIN_MESH_PX;
 pub use batch::{FrameBlobs, Radiometry, extract_file, extract_files, extract_files_flat};
 pub use blob::{Blob, BoundingBox, MomentEllipse, Moments};
 pub use correction::{
-    CameraMap, FlatFieldMap, Mapped, MappedLight, PixelMap, mapped_centroid, mapped_light,
+    CameraMap, FlatFieldMap, Lattice, Mapped, MappedLight, PixelMap, mapped_centroid, mapped_light,
     observed_centroids,
 };
 pub use decode::FrameReader;

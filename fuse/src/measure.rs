@@ -270,6 +270,9 @@ struct Context<'a> {
     sensor: &'a BTreeMap<u8, sensor::SensorMaps>,
     /// Each camera's noise model (the centroids' covariances).
     noise: BTreeMap<u8, CameraNoise>,
+    /// Each camera's lattice of exactly mapped nodes, solved once a run
+    /// (`extract::Lattice`).
+    lattices: BTreeMap<u8, extract::Lattice>,
 }
 
 impl<'a> Context<'a> {
@@ -282,7 +285,13 @@ impl<'a> Context<'a> {
     ) -> Self {
         let noise = noise_models(inputs.rig, plans, options.extract.max_pixels);
         let spheres = inputs.spheres;
+        let lattices = rig
+            .cameras
+            .iter()
+            .map(|(&id, camera)| (id, extract::Lattice::new(camera)))
+            .collect();
         Self {
+            lattices,
             reach_mm: 0.5 * extent(plans) + SPHERE_LAYOUT_MM,
             rig,
             spheres,
@@ -372,11 +381,12 @@ impl Context<'_> {
             )
         })?;
         let fail = |reason: String| Self::failure(key, Some(camera), Some(path), reason);
-        let (cam, illumination) = self
+        let ((cam, illumination), lattice) = self
             .rig
             .cameras
             .get(&camera)
             .zip(self.rig.illumination.get(&camera))
+            .zip(self.lattices.get(&camera))
             .ok_or_else(|| fail(format!("camera {camera} is not in the rig")))?;
         let mut reader = self
             .readers
@@ -397,6 +407,7 @@ impl Context<'_> {
             let cands = candidates(
                 cam,
                 illumination,
+                lattice,
                 &frame,
                 &extraction,
                 self.options.extract.weighting,

@@ -17,7 +17,7 @@
 //! however strongly the lens distorts the observed one.
 
 use extract::{
-    Blob, CameraMap, CentroidCovariance, Extraction, FrameView, MappedLight, Weighting,
+    Blob, CameraMap, CentroidCovariance, Extraction, FrameView, Lattice, MappedLight, Weighting,
     mapped_light,
 };
 use geom::{Camera, Illumination, Point2};
@@ -66,19 +66,22 @@ fn rejection(camera: &Camera, blob: &Blob, light: Option<&MappedLight>) -> Optio
 
 /// Candidates of one frame: every blob with its corrected centroid and
 /// diameter in ideal pixels (camera `camera`, its lens's relative
-/// illumination `illumination`); with the camera's system gain
+/// illumination `illumination`, the camera's `lattice` for the run); with
+/// the camera's system gain
 /// `gain_dn_per_e` (K, DN/e⁻), each centroid's covariance from the image
 /// noise. `frame` must be the frame the extraction came from (not denoised
 /// when K is given: the covariance assumes independent pixels).
+#[allow(clippy::too_many_arguments)]
 pub fn candidates(
     camera: &Camera,
     illumination: &Illumination,
+    lattice: &Lattice,
     frame: &FrameView<'_>,
     extraction: &Extraction,
     weighting: Weighting,
     gain_dn_per_e: Option<f64>,
 ) -> Vec<Candidate> {
-    let map = CameraMap::new(camera, illumination);
+    let map = CameraMap::with_lattice(camera, illumination, lattice);
     extraction
         .blobs
         .iter()
@@ -179,6 +182,7 @@ mod tests {
                         candidates(
                             &cam.camera,
                             &Illumination::Ideal,
+                            &Lattice::new(&cam.camera),
                             &frame,
                             &extraction,
                             params.weighting,
