@@ -91,28 +91,51 @@ fn cubic_weights(t: f64) -> [f64; 4] {
 }
 
 /// The lattice of a camera's exactly mapped nodes every
-/// [`NODE_SPACING_PX`] over its sensor, node (i, j) (i, j from −1) at
-/// index `(j + 1)·columns + i + 1`, each solved on first use and kept for
-/// the whole run, shared by every frame and thread. A node is solved from
-/// the same start whoever needs it first, so results do not depend on the
-/// order of frames or the number of threads.
+/// [`NODE_SPACING_PX`] over its sensor, node (i, j) from (−1, −1), each
+/// solved on first use and kept for the whole run, shared by every frame
+/// and thread. A node is solved from the same start whoever needs it first,
+/// so results do not depend on the order of frames or the number of
+/// threads. Nodes are held in tiles of [`TILE_NODES`]² made on first use:
+/// only the parts of the sensor the spheres cross take memory.
 pub struct Lattice {
-    columns: usize,
-    nodes: Vec<std::sync::OnceLock<Option<Node>>>,
+    /// Nodes per lattice row and column.
+    size: [usize; 2],
+    /// Tiles per lattice row.
+    tile_columns: usize,
+    tiles: Vec<std::sync::OnceLock<Box<[std::sync::OnceLock<Option<Node>>]>>>,
 }
+
+/// Nodes along a side of a tile of a [`Lattice`].
+pub const TILE_NODES: usize = 16;
 
 impl Lattice {
     /// The (unsolved) lattice of `camera`'s sensor.
     pub fn new(camera: &Camera) -> Self {
         // Nodes −1 ..= ⌊(size − 1)/h⌋ + 2 along each side.
         let count = |size: u32| (size.saturating_sub(1) / NODE_SPACING_PX) as usize + 4;
-        let (columns, rows) = (count(camera.width), count(camera.height));
+        let size = [count(camera.width), count(camera.height)];
+        let [tc, tr] = size.map(|n| n.div_ceil(TILE_NODES));
         Self {
-            columns,
-            nodes: (0..columns * rows)
-                .map(|_| std::sync::OnceLock::new())
-                .collect(),
+            size,
+            tile_columns: tc,
+            tiles: (0..tc * tr).map(|_| std::sync::OnceLock::new()).collect(),
         }
+    }
+
+    /// The cell of node (c, r) (from 0), its tile made on first use.
+    fn cell(&self, c: usize, r: usize) -> Option<&std::sync::OnceLock<Option<Node>>> {
+        if c >= self.size[0] || r >= self.size[1] {
+            return None;
+        }
+        let tile = self
+            .tiles
+            .get((r / TILE_NODES) * self.tile_columns + c / TILE_NODES)?
+            .get_or_init(|| {
+                (0..TILE_NODES * TILE_NODES)
+                    .map(|_| std::sync::OnceLock::new())
+                    .collect()
+            });
+        tile.get((r % TILE_NODES) * TILE_NODES + c % TILE_NODES)
     }
 }
 
@@ -170,10 +193,7 @@ impl<'a> CameraMap<'a> {
             Nodes::Shared(l) => l,
         };
         let (c, r) = (usize::try_from(i + 1).ok()?, usize::try_from(j + 1).ok()?);
-        if c >= lattice.columns {
-            return None;
-        }
-        *lattice.nodes.get(r * lattice.columns + c)?.get_or_init(|| {
+        *lattice.cell(c, r)?.get_or_init(|| {
             let h = f64::from(NODE_SPACING_PX);
             let (u, v) = (i as f64 * h, j as f64 * h);
             let (p, jac) = self.camera.undistort_pixel_area(Point2::new(u, v)).ok()?;
