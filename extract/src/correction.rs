@@ -102,8 +102,15 @@ pub struct Lattice {
     size: [usize; 2],
     /// Tiles per lattice row.
     tile_columns: usize,
-    tiles: Vec<std::sync::OnceLock<Box<[std::sync::OnceLock<Option<Node>>]>>>,
+    tiles: Vec<std::sync::OnceLock<Tile>>,
 }
+
+/// A node of a [`Lattice`]: unsolved, or solved (`None` where the model
+/// cannot map it).
+type NodeCell = std::sync::OnceLock<Option<Node>>;
+
+/// A tile of [`TILE_NODES`]² nodes, row by row.
+type Tile = Box<[NodeCell]>;
 
 /// Nodes along a side of a tile of a [`Lattice`].
 pub const TILE_NODES: usize = 16;
@@ -123,7 +130,7 @@ impl Lattice {
     }
 
     /// The cell of node (c, r) (from 0), its tile made on first use.
-    fn cell(&self, c: usize, r: usize) -> Option<&std::sync::OnceLock<Option<Node>>> {
+    fn cell(&self, c: usize, r: usize) -> Option<&NodeCell> {
         if c >= self.size[0] || r >= self.size[1] {
             return None;
         }
@@ -132,7 +139,7 @@ impl Lattice {
             .get((r / TILE_NODES) * self.tile_columns + c / TILE_NODES)?
             .get_or_init(|| {
                 (0..TILE_NODES * TILE_NODES)
-                    .map(|_| std::sync::OnceLock::new())
+                    .map(|_| NodeCell::new())
                     .collect()
             });
         tile.get((r % TILE_NODES) * TILE_NODES + c % TILE_NODES)
