@@ -2,11 +2,13 @@
 //!
 //! Decoding into a fresh 25 MB buffer per frame costs several times the decode
 //! itself (allocation and page faults), so a [`FrameReader`] keeps the file
-//! bytes and the pixel buffer between frames. The file is read once; the
-//! pixels and the metadata tags are both parsed from that one buffer. TIFF is
-//! decoded with the `tiff` crate straight into the reused pixel buffer (the
-//! `image` crate's TIFF decoder would decode into a fresh buffer and copy);
-//! PNG through the `image` crate.
+//! bytes and the pixel buffer between frames. A TIFF file is decoded with the
+//! `tiff` crate from the file straight into the reused pixel buffer (its
+//! tags read by seeking, `crate::tiff_fields`): the pixels are copied once,
+//! from the page cache into the frame, and no buffer holds the file (the
+//! `image` crate's TIFF decoder would decode into a fresh buffer and copy).
+//! A PNG file is read once into the byte buffer and decoded from it through
+//! the `image` crate, its metadata from the same bytes.
 //!
 //! Nothing is allocated from what a file claims before it is checked: the
 //! file's size against the largest frame allowed, the dimensions in its
@@ -14,7 +16,7 @@
 //! [`FrameReader::limit_pixels`] pixels, [`MAX_IMAGE_SIDE_PX`] a side), and
 //! the decoders run under the same limits.
 
-use std::io::{Cursor, Read};
+use std::io::{BufReader, Cursor, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use formats::limits::{DEFAULT_MAX_PIXELS, MAX_IMAGE_SIDE_PX, SizeError, check_image_size};
@@ -103,6 +105,31 @@ impl FrameReader {
                 ),
             ));
         }
+        // Classic TIFF (the signature `image` recognises): straight from
+        // the file.
+        let mut file = BufReader::new(file);
+        let mut magic = [0u8; 4];
+        let tiff = len >= 8
+            && file.read_exact(&mut magic).is_ok()
+            && matches!(magic, [b'I', b'I', 42, 0] | [b'M', b'M', 0, 42]);
+        file.seek(SeekFrom::Start(0)).map_err(io)?;
+        if tiff {
+            // An unreadable tag block gives empty metadata, as for any file.
+            let metadata = crate::tiff_fields(&mut file)
+                .map(|f| FrameMetadata::from_fields(&f))
+                .unwrap_or_default();
+            file.seek(SeekFrom::Start(0)).map_err(io)?;
+            let mut buffers = Buffers {
+                pixels: &mut self.pixels,
+                narrow: &mut self.narrow,
+                expected_depth: self.expected_depth,
+                max_pixels: self.max_pixels,
+            };
+            let (width, height, depth) = buffers.decode_tiff(file, path)?;
+            let view =
+                FrameView::new(width, height, depth, &self.pixels).map_err(|e| e.in_file(path))?;
+            return Ok((view, metadata));
+        }
         // The file may grow while it is read: never read past the limit.
         file.take(limit.saturating_add(1))
             .read_to_end(&mut self.bytes)
@@ -149,7 +176,7 @@ impl FrameReader {
             max_pixels: self.max_pixels,
         };
         let (width, height, depth) = match format {
-            ImageFormat::Tiff => buffers.decode_tiff(&self.bytes, path)?,
+            ImageFormat::Tiff => buffers.decode_tiff(Cursor::new(&self.bytes[..]), path)?,
             _ => buffers.decode_png(&self.bytes, path)?,
         };
         let view =
@@ -242,16 +269,14 @@ impl Buffers<'_> {
         }
     }
 
-    fn decode_tiff(&mut self, bytes: &[u8], path: &Path) -> Result<(u32, u32, u8)> {
+    fn decode_tiff<R: Read + Seek>(&mut self, source: R, path: &Path) -> Result<(u32, u32, u8)> {
         let err = |e: tiff::TiffError| tiff_error(path, e);
         // The decoder's buffers never exceed the largest frame allowed.
         let frame_bytes = usize::try_from(self.max_pixels.saturating_mul(2)).unwrap_or(usize::MAX);
         let mut limits = TiffLimits::default();
         limits.decoding_buffer_size = frame_bytes;
         limits.intermediate_buffer_size = frame_bytes;
-        let mut dec = TiffDecoder::new(Cursor::new(bytes))
-            .map_err(err)?
-            .with_limits(limits);
+        let mut dec = TiffDecoder::new(source).map_err(err)?.with_limits(limits);
         let (width, height) = dec.dimensions().map_err(err)?;
         self.check_size(path, width, height)?;
         let depth = match dec.colortype().map_err(err)? {

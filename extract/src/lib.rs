@@ -31,6 +31,7 @@ mod label;
 mod metadata;
 mod noise;
 mod threshold;
+mod tiff_tags;
 
 pub use backend::{Backend, CpuBackend, DEFAULT_MIN_AREA, ExtractParams, Extraction};
 pub use background::MIN_MESH_PX;
@@ -50,3 +51,4 @@ pub use label::Weighting;
 pub use metadata::FrameMetadata;
 pub use noise::CentroidCovariance;
 pub use threshold::{DEFAULT_K, Level, Threshold};
+pub use tiff_tags::tiff_fields;
