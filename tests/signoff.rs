@@ -904,9 +904,14 @@ fn temperatures_per_instant_correct_each_capture() {
         assert!((u1 - u0 - shift(Direction::Up)).abs() < 1e-9, "↑ {p}");
         assert!((d1 - d0 - shift(Direction::Down)).abs() < 1e-9, "↓ {p}");
     }
+    let all: Vec<f64> = rows().iter().map(t).collect();
+    let (lo, hi) = (
+        all.iter().copied().fold(f64::MAX, f64::min),
+        all.iter().copied().fold(f64::MIN, f64::max),
+    );
     let said = drift["conventions"].to_string();
     assert!(
-        said.contains("T per instant") && said.contains("(22.5–24 °C)"),
+        said.contains("T per instant") && said.contains(&format!("({lo}–{hi} °C)")),
         "{said}"
     );
     // Refused: the column without α (a usage error), a disagreeing

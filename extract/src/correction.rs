@@ -204,9 +204,24 @@ impl<'a> CameraMap<'a> {
             let h = f64::from(NODE_SPACING_PX);
             let (u, v) = (i as f64 * h, j as f64 * h);
             let (p, jac) = self.camera.undistort_pixel_area(Point2::new(u, v)).ok()?;
-            let n = self.camera.intrinsics.to_normalized(p);
-            Some([p.x - u, p.y - v, jac, self.illumination.at([u, v], n, jac)])
+            let m = self.mapped([u, v], p, jac, self.camera.intrinsics.to_normalized(p));
+            Some([
+                m.position[0] - u,
+                m.position[1] - v,
+                m.jacobian,
+                m.illumination,
+            ])
         })
+    }
+
+    /// Observed pixel `observed` mapped to ideal pixel `p` (normalised
+    /// coordinates `n`) with area Jacobian `j`, and its RI.
+    fn mapped(&self, observed: [f64; 2], p: Point2<f64>, j: f64, n: geom::Vector2<f64>) -> Mapped {
+        Mapped {
+            position: [p.x, p.y],
+            jacobian: j,
+            illumination: self.illumination.at(observed, n, j),
+        }
     }
 
     /// The pixels `x0..=x1` of row `y` through the lattice; `None` when a
@@ -231,9 +246,8 @@ impl<'a> CameraMap<'a> {
         out.clear();
         let v = f64::from(y);
         // The weights of the h offsets a pixel can have within an interval.
-        let offsets: Vec<[f64; 4]> = (0..h)
-            .map(|o| cubic_weights(f64::from(o) / f64::from(h)))
-            .collect();
+        let offsets: [[f64; 4]; NODE_SPACING_PX as usize] =
+            std::array::from_fn(|o| cubic_weights(o as f64 / f64::from(h)));
         for x in x0..=x1 {
             // Columns k − 1 ..= k + 2 around x, k = x / h (index from i0).
             let k = (i64::from(x / h) - i0) as usize;
@@ -284,11 +298,7 @@ impl PixelMap for CameraMap<'_> {
             }
         };
         self.last.set(Some((observed, n)));
-        Some(Mapped {
-            position: [p.x, p.y],
-            jacobian: j,
-            illumination: self.illumination.at([u, v], n, j),
-        })
+        Some(self.mapped([u, v], p, j, n))
     }
 }
 

@@ -38,22 +38,19 @@ const FILE_SLACK_BYTES: u64 = 1 << 20;
 #[derive(Debug)]
 pub struct FrameReader {
     bytes: Vec<u8>,
-    pixels: Vec<u16>,
-    narrow: Vec<u8>,
-    /// Bit depth every frame must have, if set (8 or 16).
-    expected_depth: Option<u8>,
-    /// Largest frame (pixels) this reader decodes.
-    max_pixels: u64,
+    frame: Buffers,
 }
 
 impl Default for FrameReader {
     fn default() -> Self {
         Self {
             bytes: Vec::new(),
-            pixels: Vec::new(),
-            narrow: Vec::new(),
-            expected_depth: None,
-            max_pixels: DEFAULT_MAX_PIXELS,
+            frame: Buffers {
+                pixels: Vec::new(),
+                narrow: Vec::new(),
+                expected_depth: None,
+                max_pixels: DEFAULT_MAX_PIXELS,
+            },
         }
     }
 }
@@ -67,21 +64,22 @@ impl FrameReader {
 
     /// Refuse frames of more than `max_pixels` pixels (before allocating anything for them).
     pub fn limit_pixels(mut self, max_pixels: u64) -> Self {
-        self.max_pixels = max_pixels;
+        self.frame.max_pixels = max_pixels;
         self
     }
 
     /// Largest file read: [`FILE_BYTES_PER_FRAME_BYTE`] times the largest
     /// frame's 16-bit pixels, plus [`FILE_SLACK_BYTES`].
     fn max_file_bytes(&self) -> u64 {
-        self.max_pixels
+        self.frame
+            .max_pixels
             .saturating_mul(2 * FILE_BYTES_PER_FRAME_BYTE)
             .saturating_add(FILE_SLACK_BYTES)
     }
 
     /// Require every frame to have this bit depth (8 or 16).
     pub fn expect_bit_depth(mut self, depth: Option<u8>) -> Self {
-        self.expected_depth = depth;
+        self.frame.expected_depth = depth;
         self
     }
 
@@ -101,7 +99,7 @@ impl FrameReader {
                 format!(
                     "the file holds {len} bytes, more than any image of at most {} pixels needs \
                      ({limit} bytes; raise the limit with --max-pixels)",
-                    self.max_pixels
+                    self.frame.max_pixels
                 ),
             ));
         }
@@ -119,16 +117,8 @@ impl FrameReader {
                 .map(|f| FrameMetadata::from_fields(&f))
                 .unwrap_or_default();
             file.seek(SeekFrom::Start(0)).map_err(io)?;
-            let mut buffers = Buffers {
-                pixels: &mut self.pixels,
-                narrow: &mut self.narrow,
-                expected_depth: self.expected_depth,
-                max_pixels: self.max_pixels,
-            };
-            let (width, height, depth) = buffers.decode_tiff(file, path)?;
-            let view =
-                FrameView::new(width, height, depth, &self.pixels).map_err(|e| e.in_file(path))?;
-            return Ok((view, metadata));
+            let size = self.frame.decode_tiff(file, path)?;
+            return Ok((self.frame.view(size, path)?, metadata));
         }
         // The file may grow while it is read: never read past the limit.
         file.take(limit.saturating_add(1))
@@ -169,27 +159,23 @@ impl FrameReader {
                 });
             }
         };
-        let mut buffers = Buffers {
-            pixels: &mut self.pixels,
-            narrow: &mut self.narrow,
-            expected_depth: self.expected_depth,
-            max_pixels: self.max_pixels,
+        let size = match format {
+            ImageFormat::Tiff => self.frame.decode_tiff(Cursor::new(&self.bytes[..]), path)?,
+            _ => self.frame.decode_png(&self.bytes, path)?,
         };
-        let (width, height, depth) = match format {
-            ImageFormat::Tiff => buffers.decode_tiff(Cursor::new(&self.bytes[..]), path)?,
-            _ => buffers.decode_png(&self.bytes, path)?,
-        };
-        let view =
-            FrameView::new(width, height, depth, &self.pixels).map_err(|e| e.in_file(path))?;
-        Ok((view, metadata))
+        Ok((self.frame.view(size, path)?, metadata))
     }
 }
 
-/// The reader's pixel buffers, borrowed apart from the file bytes.
-struct Buffers<'a> {
-    pixels: &'a mut Vec<u16>,
-    narrow: &'a mut Vec<u8>,
+/// The reader's pixel buffers and what a frame must be, apart from the
+/// file bytes (so that a frame decodes from them).
+#[derive(Debug)]
+struct Buffers {
+    pixels: Vec<u16>,
+    narrow: Vec<u8>,
+    /// Bit depth every frame must have, if set (8 or 16).
     expected_depth: Option<u8>,
+    /// Largest frame (pixels) this reader decodes.
     max_pixels: u64,
 }
 
@@ -231,7 +217,12 @@ fn unsupported(path: &Path, message: String) -> ExtractError {
     }
 }
 
-impl Buffers<'_> {
+impl Buffers {
+    /// The decoded frame of `(width, height, depth)`.
+    fn view(&self, (width, height, depth): (u32, u32, u8), path: &Path) -> Result<FrameView<'_>> {
+        FrameView::new(width, height, depth, &self.pixels).map_err(|e| e.in_file(path))
+    }
+
     /// Check the size the header claims (before anything is allocated for it).
     fn check_size(&self, path: &Path, width: u32, height: u32) -> Result<()> {
         check_image_size(u64::from(width), u64::from(height), self.max_pixels).map_err(|e| {

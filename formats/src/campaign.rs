@@ -1,6 +1,6 @@
 //! The campaign manifest (`manifest.csv`) and sphere set (`spheres.csv`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
@@ -229,6 +229,14 @@ impl Record for ManifestRow {
         finite("nominal_y", self.nominal_y)?;
         finite("nominal_z", self.nominal_z)
     }
+}
+
+/// The images `manifest` lists, in its order, each path resolved against
+/// the manifest's folder (paths in `manifest.csv` are relative to it).
+pub fn read_manifest_images(manifest: &Path) -> Result<Vec<PathBuf>> {
+    let rows: Vec<Row<ManifestRow>> = read_csv(manifest)?;
+    let base = manifest.parent().unwrap_or(Path::new("."));
+    Ok(rows.iter().map(|r| base.join(&r.record.image)).collect())
 }
 
 /// One row of `spheres.csv`: a sphere's name and diameter (mm).

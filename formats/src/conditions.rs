@@ -140,8 +140,12 @@ impl MachineExpansion {
     /// machine's scale at `instant` (dimensionless); `None` without a
     /// temperature there.
     pub fn strain_at(&self, instant: &InstantKey) -> Option<f64> {
-        self.temperature_at(instant)
-            .map(|t| strain(self.alpha_um_per_m_k, t))
+        self.temperature_at(instant).map(|t| self.strain_of(t))
+    }
+
+    /// The strain α·(T − 20 °C) of the scale at temperature `t_c`.
+    pub fn strain_of(&self, t_c: f64) -> f64 {
+        strain(self.alpha_um_per_m_k, t_c)
     }
 
     /// The expansion of drawn values `T + δT` (every instant: the
@@ -150,8 +154,9 @@ impl MachineExpansion {
         MachineExpansion {
             temperature_c: self.temperature_c.map(|t| t + dt_c),
             instants: self.instants.iter().map(|(k, t)| (*k, t + dt_c)).collect(),
+            temperature_u_c: self.temperature_u_c,
             alpha_um_per_m_k: self.alpha_um_per_m_k + dalpha,
-            ..self.clone()
+            alpha_u_um_per_m_k: self.alpha_u_um_per_m_k,
         }
     }
 

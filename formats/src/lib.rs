@@ -108,7 +108,7 @@ pub use atomic::{AtomicFile, beside, folder_of, write_atomic};
 pub use blobs::{BlobRow, ProblemRow};
 pub use campaign::{
     Axis, Direction, InstantKey, LineKey, ManifestRow, SAME_DIAMETER, SphereRow, SphereSetProblem,
-    check_sphere_set, read_spheres,
+    check_sphere_set, read_manifest_images, read_spheres,
 };
 pub use capture::{AxisProcedure, Dwell, MAX_INSTANTS, ManifestProblemRow, ProcedureConfig};
 pub use error::{FormatError, Result, RigError};

@@ -76,6 +76,13 @@ impl Format {
         config.output.format = format;
         config.output.compression = compression;
     }
+
+    /// Its campaign's folder: its name on the command line (`tiff-lzw`).
+    fn folder(self) -> String {
+        use clap::ValueEnum;
+        self.to_possible_value()
+            .map_or_else(|| format!("{self:?}"), |v| v.get_name().to_string())
+    }
 }
 
 /// Arguments of the hidden `trinocular bench decode`: decode every image of
@@ -89,27 +96,25 @@ pub struct DecodeArgs {
 
 /// Decode every image of the manifest, in parallel, one reader per thread.
 pub fn decode(args: &DecodeArgs) -> Result<()> {
-    let rows: Vec<formats::Row<formats::ManifestRow>> = formats::read_csv(&args.manifest)?;
-    let dir = args.manifest.parent().unwrap_or(Path::new("."));
+    let images = formats::read_manifest_images(&args.manifest)?;
     // One reader (its buffers kept) per thread, each over its share.
-    let share = rows.len().div_ceil(rayon::current_num_threads()).max(1);
-    let pixels: u64 = rows
+    let share = images.len().div_ceil(rayon::current_num_threads()).max(1);
+    let pixels: u64 = images
         .par_chunks(share)
         .map(|chunk| {
             let mut reader = extract::FrameReader::new();
             chunk
                 .iter()
-                .map(|r| {
-                    let path = dir.join(&r.record.image);
+                .map(|path| {
                     reader
-                        .read(&path)
+                        .read(path)
                         .map(|(f, _)| f.pixels.len() as u64)
                         .with_context(|| format!("decoding {}", path.display()))
                 })
                 .sum::<Result<u64>>()
         })
         .sum::<Result<u64>>()?;
-    println!("decoded {} frames, {pixels} pixels", rows.len());
+    println!("decoded {} frames, {pixels} pixels", images.len());
     Ok(())
 }
 
@@ -188,6 +193,7 @@ fn campaign(dir: &Path, format: Format, args: &MeasureArgs) -> Result<()> {
     let p = |rel: &str| dir.join(rel).into_os_string();
     let (targets, runs) = (args.targets.to_string(), args.runs.to_string());
     let c = dir.join("c");
+    let ext = config.output.format.extension();
     let steps: [Vec<OsString>; 2] = [
         [
             "synth",
@@ -215,11 +221,11 @@ fn campaign(dir: &Path, format: Format, args: &MeasureArgs) -> Result<()> {
         [os("calibrate"), os("--target"), p("c/target.csv")]
             .into_iter()
             .chain([os("--nominal"), p("c/nominal.json"), os("--images")])
-            .chain((1..=3).map(|k| p(&format!("c/calib/cam{k}.{}", ext(format)))))
+            .chain((1..=3).map(|k| p(&format!("c/calib/cam{k}.{ext}"))))
             .chain([os("--flat-fields")])
-            .chain((1..=3).map(|k| p(&format!("c/calib/flat_cam{k}.{}", ext(format)))))
+            .chain((1..=3).map(|k| p(&format!("c/calib/flat_cam{k}.{ext}"))))
             .chain([os("--dark-frames")])
-            .chain((1..=3).map(|k| p(&format!("c/calib/dark_cam{k}.{}", ext(format)))))
+            .chain((1..=3).map(|k| p(&format!("c/calib/dark_cam{k}.{ext}"))))
             .chain([os("--out"), p("rig.json")])
             .collect(),
     ];
@@ -228,24 +234,6 @@ fn campaign(dir: &Path, format: Format, args: &MeasureArgs) -> Result<()> {
         run_child(&refs)?;
     }
     Ok(())
-}
-
-/// The file extension of `format`.
-fn ext(format: Format) -> &'static str {
-    match format {
-        Format::Png => "png",
-        _ => "tif",
-    }
-}
-
-/// The campaign's image files, in manifest order.
-fn images(dir: &Path) -> Result<Vec<OsString>> {
-    let manifest = dir.join("c/manifest.csv");
-    let rows: Vec<formats::Row<formats::ManifestRow>> = formats::read_csv(&manifest)?;
-    Ok(rows
-        .iter()
-        .map(|r| dir.join("c").join(&r.record.image).into_os_string())
-        .collect())
 }
 
 /// The plain sum over one frame in memory on all threads: the memory floor.
@@ -291,10 +279,13 @@ pub fn bench(args: &MeasureArgs) -> Result<()> {
         args.repeat
     );
     for format in formats {
-        let dir = root.join(ext_dir(format));
+        let dir = root.join(format.folder());
         eprintln!("rendering and calibrating the {} campaign …", format.name());
         campaign(&dir, format, args)?;
-        let files = images(&dir)?;
+        let files: Vec<OsString> = formats::read_manifest_images(&dir.join("c/manifest.csv"))?
+            .into_iter()
+            .map(PathBuf::into_os_string)
+            .collect();
         let frames = files.len() as f64;
         let first = extract::FrameReader::new()
             .read(Path::new(&files[0]))
@@ -358,14 +349,4 @@ pub fn bench(args: &MeasureArgs) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// The campaign folder of `format`.
-fn ext_dir(format: Format) -> &'static str {
-    match format {
-        Format::Tiff => "tiff",
-        Format::TiffDeflate => "tiff-deflate",
-        Format::TiffLzw => "tiff-lzw",
-        Format::Png => "png",
-    }
 }

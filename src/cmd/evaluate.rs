@@ -309,11 +309,10 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
 /// (their metadata, read without the pixels): `earliest – latest`, with the
 /// images whose time could not be read counted; `None` when none has one.
 fn capture_dates(manifest: &Path) -> Result<Option<String>> {
-    let rows: Vec<formats::Row<formats::ManifestRow>> = formats::read_csv(manifest)?;
-    let dir = manifest.parent().unwrap_or(Path::new("."));
+    let images = formats::read_manifest_images(manifest)?;
     let mut times = Vec::new();
-    for r in &rows {
-        let time = ingest::read_metadata(&dir.join(&r.record.image))
+    for image in &images {
+        let time = ingest::read_metadata(image)
             .ok()
             .and_then(|m| m.datetime)
             .and_then(|t| ingest::parse_time(&t).ok());
@@ -325,7 +324,7 @@ fn capture_dates(manifest: &Path) -> Result<Option<String>> {
     ) else {
         return Ok(None);
     };
-    let missing = rows.len() - times.len();
+    let missing = images.len() - times.len();
     Ok(Some(format!(
         "{} – {} (capture times of {} images of {}{})",
         first.text,
@@ -398,7 +397,7 @@ fn correction_statement(
         let applied = match (m.instants.is_empty(), m.temperature_c, m.range_c()) {
             (true, Some(tc), _) => format!(
                 "T = {tc} °C, deviation − α·(T − 20 °C)·(P − P₀) = deviation − {:.2} µm/m·(P − P₀)",
-                a * (tc - formats::conditions::REFERENCE_C)
+                m.strain_of(tc) * 1e6
             ),
             (_, _, Some((lo, hi))) => format!(
                 "T per instant from the manifest's machine_c column ({lo}–{hi} °C), deviation − \
@@ -428,10 +427,11 @@ fn correction_statement(
 
 /// The machine's expansion for the correction to 20 °C: α from the
 /// conditions, the temperature from them or per instant from the
-/// `machine_c` column of `--manifest` (every instant of the points must
+/// `machine_c` column of `--manifest` (every instant of the `points` must
 /// then have one).
 fn machine_expansion(
     args: &Args,
+    points: &[formats::Row<formats::PointRow>],
     temperature: Option<&formats::conditions::Temperature>,
 ) -> Result<Option<formats::conditions::MachineExpansion>> {
     let instants = match &args.manifest {
@@ -450,7 +450,7 @@ fn machine_expansion(
     if let (Some(m), Some(manifest)) = (&machine, &args.manifest)
         && !m.instants.is_empty()
     {
-        for row in evaluate::read_points(&args.points)? {
+        for row in points {
             if m.temperature_at(&row.record.instant()).is_none() {
                 return Err(formats::FormatError::Row {
                     path: args.points.clone(),
@@ -495,7 +495,9 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let limits = args.signoff.read_limits(KEYS)?;
     let temperature = conditions.as_ref().map(|c| &c.temperature);
-    let machine = machine_expansion(args, temperature)?;
+    // Read once for the corrections' check and both evaluations.
+    let points = evaluate::read_points(&args.points)?;
+    let machine = machine_expansion(args, &points, temperature)?;
     let target_strain = temperature.and_then(|t| t.target_strain());
     let uncorrected = evaluate::Options {
         sphere: args.sphere.clone(),
@@ -508,7 +510,7 @@ pub fn run(args: &Args) -> Result<()> {
         ..uncorrected.clone()
     };
     let evaluate = |options: &evaluate::Options| {
-        evaluate::evaluate_file(&args.points, options).map_err(|e| match e {
+        evaluate::evaluate_rows(&points, &args.points, options).map_err(|e| match e {
             // --sphere naming a sphere the points do not have.
             evaluate::EvaluateError::UnknownSphere { .. } => Usage::error(e),
             e => e.into(),
@@ -555,10 +557,7 @@ pub fn run(args: &Args) -> Result<()> {
     )
     .with_context(|| format!("writing the report into {}", args.out.display()))?;
     if browser.is_some() {
-        eprintln!(
-            "trinocular: printed {}",
-            args.out.join("report.pdf").display()
-        );
+        super::signoff::printed(&args.out.join("report.pdf"));
     }
     let u = |path: String| report.expanded(&path);
     for (axis, a) in report.axes.iter() {

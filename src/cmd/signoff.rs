@@ -109,7 +109,7 @@ impl SignoffArgs {
         self.conditions.iter().chain(self.tolerances.iter())
     }
 
-    /// Judge `limits` (read by [`Args::read_limits`]) on the report's
+    /// Judge `limits` (read by [`SignoffArgs::read_limits`]) on the report's
     /// `figures` with their U: fills `signoff`.
     pub fn judge(
         &self,
@@ -147,8 +147,13 @@ pub fn print_pdf(browser: &Path, html: &Path, pdf: &Path) -> Result<()> {
     let bytes = report::browser::print_pdf(browser, html)
         .with_context(|| format!("printing {} with {}", html.display(), browser.display()))?;
     formats::write_atomic(pdf, &bytes)?;
-    eprintln!("trinocular: printed {}", pdf.display());
+    printed(pdf);
     Ok(())
+}
+
+/// Say that `pdf` was printed.
+pub fn printed(pdf: &Path) {
+    eprintln!("trinocular: printed {}", pdf.display());
 }
 
 /// The one-line verdict for stderr: the verdict, the first figure that

@@ -57,7 +57,6 @@ fn nearest(levels: &[f64], v: f64) -> usize {
 /// scale's end with a triangle (▲ above, ▼ below), counted under the colour
 /// bar. Grey where undefined, outlined where |value| exceeds `tolerance` by
 /// more than its U = 2·`u` (`super::summary::decision`).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn map(
     title: &str,
     angles: &[Angles],

@@ -9,6 +9,7 @@ pub use formats::probe::indexing::report::{
 };
 
 use formats::conformance::{Decision, Rule, decide};
+use geom::montecarlo::COVERAGE_FACTOR;
 
 use super::{Angles, Indexing, UM_PER_MM, layout};
 use crate::{ProbeError, Result, Unsolvable};
@@ -214,10 +215,15 @@ fn b_detents(ind: &Indexing) -> Vec<BDetent> {
         .collect()
 }
 
+/// The expanded uncertainty U = k·u (k = 2) of a standard uncertainty.
+fn expanded(u: f64) -> f64 {
+    COVERAGE_FACTOR * u
+}
+
 /// The decision on a position's error `d` with standard uncertainty `u`
 /// against the tolerance ±`t` (ISO 14253-1 with U = 2u).
 pub(crate) fn decision(d: f64, u: f64, t: f64) -> Decision {
-    decide(d.abs(), Some(2.0 * u), t, Rule::Iso14253)
+    decide(d.abs(), Some(expanded(u)), t, Rule::Iso14253)
 }
 
 /// The decisions on ΔθA and ΔθB (none at A = 0°) of position `p`.
@@ -254,8 +260,8 @@ fn tolerance(angles: &[Angles], t: f64) -> ToleranceReport {
                     b_deg: p.b_deg,
                     d_a_arcsec: p.d_a_arcsec,
                     d_b_arcsec: p.d_b_arcsec,
-                    expanded_d_a_arcsec: 2.0 * p.u_d_a_arcsec,
-                    expanded_d_b_arcsec: p.u_d_b_arcsec.map(|u| 2.0 * u),
+                    expanded_d_a_arcsec: expanded(p.u_d_a_arcsec),
+                    expanded_d_b_arcsec: p.u_d_b_arcsec.map(expanded),
                     exceeds: exceeds.into(),
                 },
             ))

@@ -361,14 +361,23 @@ fn poor_fits(model: &ErrorModel, setup: &Setup) -> Vec<String> {
                 let Some(r2) = fit.figures.r2.filter(|r| *r < POOR_R2) else {
                     continue;
                 };
-                let (p, v) = (&c.positions, c.curve(m));
-                let better = super::series::choose_order(s, p, v, &what)
-                    .and_then(|(n, _)| Ok((n, SeriesFit::fit(s, n, p, v, &what)?.figures.r2)));
                 const NOISE: &str = "the series does not describe the curve (noise against its \
                      range, or a shape it cannot follow): its fitted shape is not significant, the raw \
                      model keeps the measured values";
-                let advice = match (setup.order, better) {
-                    (Order::Fixed(_), Ok((n, r))) if n != fit.order => format!(
+                let chosen =
+                    || format!("it is the order leave-one-out cross-validation chooses: {NOISE}");
+                // Under --order auto the fit is already cross-validation's choice.
+                let (p, v) = (&c.positions, c.curve(m));
+                let better = match setup.order {
+                    Order::Auto => None,
+                    Order::Fixed(_) => Some(
+                        super::series::choose_order(s, p, v, &what).and_then(|(n, _)| {
+                            Ok((n, SeriesFit::fit(s, n, p, v, &what)?.figures.r2))
+                        }),
+                    ),
+                };
+                let advice = match better {
+                    Some(Ok((n, r))) if n != fit.order => format!(
                         "--order auto (leave-one-out) chooses N = {n} for it, R² {}{}",
                         r.map_or_else(|| "—".into(), |r| format!("{r:.3}")),
                         if r.is_some_and(|r| r >= POOR_R2) {
@@ -377,10 +386,8 @@ fn poor_fits(model: &ErrorModel, setup: &Setup) -> Vec<String> {
                             format!(": {NOISE}")
                         }
                     ),
-                    (_, Ok(_)) => {
-                        format!("it is the order leave-one-out cross-validation chooses: {NOISE}")
-                    }
-                    (_, Err(_)) => "too few points to cross-validate another order".into(),
+                    None | Some(Ok(_)) => chosen(),
+                    Some(Err(_)) => "too few points to cross-validate another order".into(),
                 };
                 warnings.push(format!(
                     "{} {}: the {} fit of order {} has R² {r2:.3} < {POOR_R2}; {advice}",

@@ -124,7 +124,7 @@ pub fn run(args: &Args) -> Result<()> {
         source: args.centres.display().to_string(),
     };
     let mut report = method::report(&solved, &options)?;
-    signing.read_limits(&probe::uncertainty::report_figures(&report, &FIGURES))?;
+    signing.read_limits(&report, &FIGURES)?;
     let propagation = args.propagation.options();
     report.uncertainty = Some(method::uncertainty::propagate(
         &positions,

@@ -10,8 +10,6 @@ pub mod volumetric;
 
 use std::path::{Path, PathBuf};
 
-use std::collections::BTreeMap;
-
 use anyhow::Result;
 use formats::OutputPlan;
 use formats::conformance::{Limit, SignOff, read_tolerances_by_path};
@@ -106,11 +104,12 @@ impl<'a> Signing<'a> {
         })
     }
 
-    /// Read the tolerance file against the report's `figures` (by path),
-    /// before their uncertainty is propagated.
-    fn read_limits(&mut self, figures: &BTreeMap<String, f64>) -> Result<()> {
+    /// Read the tolerance file against `report`'s figures (`keys`, by
+    /// path), before their uncertainty is propagated.
+    fn read_limits<R: Serialize>(&mut self, report: &R, keys: &FigureKeys) -> Result<()> {
         if let Some(path) = &self.args.tolerances {
-            self.limits = Some(read_tolerances_by_path(path, figures)?);
+            let figures = probe::uncertainty::report_figures(report, keys);
+            self.limits = Some(read_tolerances_by_path(path, &figures)?);
         }
         Ok(())
     }

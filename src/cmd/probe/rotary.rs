@@ -203,7 +203,7 @@ pub fn run(args: &Args) -> Result<()> {
         |n| n.to_string_lossy().into_owned(),
     );
     let mut report = report(&solution, &source, &at);
-    signing.read_limits(&probe::uncertainty::report_figures(&report, &FIGURES))?;
+    signing.read_limits(&report, &FIGURES)?;
     let probed = if points { input.points() } else { Vec::new() };
     let measured = if points {
         Measured::Points {

@@ -198,7 +198,7 @@ pub fn run(args: &Args) -> Result<()> {
         )
     })?;
     let report = tracer::report(&net, &solution);
-    signing.read_limits(&probe::uncertainty::report_figures(&report, &FIGURES))?;
+    signing.read_limits(&report, &FIGURES)?;
     let uncertainty = tracer::uncertainty(&net, &solution, &options, args.propagation.options())?;
     let json = signing.judge(&report, Some(&uncertainty), &FIGURES)?;
     let page = tracer::html(&net, &solution, &report, &uncertainty, &signing.signoff)?;

@@ -211,10 +211,7 @@ pub fn run(args: &Args) -> Result<()> {
     let setup = setup(args, chain, &curves)?;
     let analysis = analyse(curves.axes.clone(), &setup, curves.campaign.as_ref())
         .with_context(|| format!("volumetric model from {}", setup.source))?;
-    signing.read_limits(&probe::uncertainty::report_figures(
-        &analysis.report,
-        &FIGURES,
-    ))?;
+    signing.read_limits(&analysis.report, &FIGURES)?;
     let inputs = UncertaintyInputs {
         translation_mm: args.curve_u_um.map(|u| u * 1e-3),
         rotation_rad: args.curve_u_urad.map(|u| u * 1e-6),
