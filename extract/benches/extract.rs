@@ -84,6 +84,41 @@ fn extract_auto_threshold(bencher: divan::Bencher, threads: usize) {
     extract_on_threads(bencher, threads, &ExtractParams::default());
 }
 
+/// The corrected light (`mapped_light`: background ring, flat-field and
+/// undistortion through the camera's lattice, moments) of the seed frame's
+/// three spheres on one thread, the lattice solved beforehand as in a run:
+/// what `measure` adds to extraction per frame; with the centroids'
+/// covariance (the system gain K known) and without.
+#[divan::bench(args = [false, true])]
+fn corrected_light_1_thread(bencher: divan::Bencher, covariance: bool) {
+    let px = seed_frame();
+    let params = seed_params();
+    let frame = FrameView::new(W, H, 16, &px).unwrap();
+    let ex = CpuBackend.extract(frame, &params).unwrap();
+    let config = synth::Config::default();
+    let rig = synth::SynthRig::from_config(&config).unwrap();
+    let camera = &rig.camera(2).unwrap().camera;
+    let illumination = geom::Illumination::Ideal;
+    let lattice = extract::Lattice::new(camera);
+    let map = extract::CameraMap::with_lattice(camera, &illumination, &lattice);
+    let gain = covariance.then_some(4.0);
+    let light = || {
+        ex.blobs
+            .iter()
+            .map(|b| {
+                extract::mapped_light(&frame, b, &ex.level, params.weighting, &map, gain)
+                    .unwrap()
+                    .centroid[0]
+            })
+            .sum::<f64>()
+    };
+    light();
+    let pixels: u64 = ex.blobs.iter().map(|b| b.area_px).sum();
+    bencher
+        .counter(divan::counter::ItemsCount::new(pixels))
+        .bench_local(light);
+}
+
 /// The GPU backend on the best adapter, or `None` with a notice.
 #[cfg(feature = "gpu")]
 fn gpu() -> Option<extract::GpuBackend> {

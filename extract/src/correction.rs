@@ -16,12 +16,12 @@
 
 use geom::fit::HeightPlane;
 use geom::{Camera, Illumination, Matrix3, Point2, Point3, RadialIllumination, Vector3};
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 use crate::blob::{Blob, MomentEllipse};
 use crate::frame::FrameView;
 use crate::label::Weighting;
-use crate::noise::{Background, CentroidCovariance, WeightedPixel, centroid_covariance};
+use crate::noise::{Background, CentroidCovariance, NoiseSums, PixelNoise};
 use crate::threshold::Level;
 
 /// Gap (px) between a blob's bounding box and the ring its background is
@@ -61,6 +61,18 @@ pub trait PixelMap {
         }
         Some(())
     }
+
+    /// The relative illumination RI of the pixels `x0..=x1` of row `y` into
+    /// `out` (cleared first), as [`PixelMap::map_run`] gives it; `None` when
+    /// one of them cannot be mapped. By default pixel by pixel.
+    fn illumination_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<f64>) -> Option<()> {
+        out.clear();
+        let v = f64::from(y);
+        for x in x0..=x1 {
+            out.push(self.map(f64::from(x), v)?.illumination);
+        }
+        Some(())
+    }
 }
 
 /// Spacing (px) of the lattice of exactly mapped nodes of
@@ -81,7 +93,7 @@ type Node = [f64; 4];
 
 /// Lagrange weights of the nodes at −1, 0, 1, 2 (in node spacings) at
 /// `t` ∈ [0, 1).
-fn cubic_weights(t: f64) -> [f64; 4] {
+const fn cubic_weights(t: f64) -> [f64; 4] {
     [
         -t * (t - 1.0) * (t - 2.0) / 6.0,
         (t + 1.0) * (t - 1.0) * (t - 2.0) / 2.0,
@@ -89,6 +101,18 @@ fn cubic_weights(t: f64) -> [f64; 4] {
         (t + 1.0) * t * (t - 1.0) / 6.0,
     ]
 }
+
+/// The weights of the [`NODE_SPACING_PX`] offsets a pixel can have within
+/// a node interval.
+const OFFSET_WEIGHTS: [[f64; 4]; NODE_SPACING_PX as usize] = {
+    let mut w = [[0.0; 4]; NODE_SPACING_PX as usize];
+    let mut o = 0;
+    while o < NODE_SPACING_PX {
+        w[o as usize] = cubic_weights(o as f64 / NODE_SPACING_PX as f64);
+        o += 1;
+    }
+    w
+};
 
 /// The lattice of a camera's exactly mapped nodes every
 /// [`NODE_SPACING_PX`] over its sensor, node (i, j) from (−1, −1), each
@@ -156,6 +180,41 @@ pub struct CameraMap<'a> {
     illumination: &'a Illumination,
     last: Cell<Option<(Point2<f64>, geom::Vector2<f64>)>>,
     lattice: Nodes<'a>,
+    band: RefCell<Band>,
+}
+
+/// The nodes of lattice rows j − 1 ..= j + 2, which the pixel rows between
+/// node rows j and j + 1 are interpolated from, for node columns
+/// `i0..=i1`: copied out of the shared lattice once for the runs of a blob
+/// that fall in that band (up to [`NODE_SPACING_PX`] rows each), instead of
+/// looked up node by node for every run.
+struct Band {
+    j: i64,
+    i0: i64,
+    /// Per column from `i0`, its four nodes (`None` where unmappable).
+    columns: Vec<[Option<Node>; 4]>,
+}
+
+/// Node columns fetched beyond a run's own on either side, so that the
+/// wider runs that follow in a band seldom need a fresh copy.
+const BAND_MARGIN: i64 = 4;
+
+impl Band {
+    fn empty() -> Self {
+        Self {
+            j: i64::MIN,
+            i0: 0,
+            columns: Vec::new(),
+        }
+    }
+
+    /// The four nodes of column `i`, when this band holds them.
+    fn column(&self, j: i64, i: i64) -> Option<&[Option<Node>; 4]> {
+        if j != self.j {
+            return None;
+        }
+        self.columns.get(usize::try_from(i - self.i0).ok()?)
+    }
 }
 
 /// A map's lattice: its own, or a run's.
@@ -173,6 +232,7 @@ impl<'a> CameraMap<'a> {
             illumination,
             last: Cell::new(None),
             lattice: Nodes::Own(Lattice::new(camera)),
+            band: RefCell::new(Band::empty()),
         }
     }
 
@@ -188,30 +248,34 @@ impl<'a> CameraMap<'a> {
             illumination,
             last: Cell::new(None),
             lattice: Nodes::Shared(lattice),
+            band: RefCell::new(Band::empty()),
         }
     }
 
     /// The lattice node (i·h, j·h), solved on first use (Newton from the
     /// model's own start); `None` outside the sensor's lattice or where the
     /// model cannot map it.
-    fn node(&self, i: i64, j: i64) -> Option<Node> {
+    fn node(&self, i: i64, j: i64) -> Option<&Node> {
         let lattice = match &self.lattice {
             Nodes::Own(l) => l,
             Nodes::Shared(l) => l,
         };
         let (c, r) = (usize::try_from(i + 1).ok()?, usize::try_from(j + 1).ok()?);
-        *lattice.cell(c, r)?.get_or_init(|| {
-            let h = f64::from(NODE_SPACING_PX);
-            let (u, v) = (i as f64 * h, j as f64 * h);
-            let (p, jac) = self.camera.undistort_pixel_area(Point2::new(u, v)).ok()?;
-            let m = self.mapped([u, v], p, jac, self.camera.intrinsics.to_normalized(p));
-            Some([
-                m.position[0] - u,
-                m.position[1] - v,
-                m.jacobian,
-                m.illumination,
-            ])
-        })
+        lattice
+            .cell(c, r)?
+            .get_or_init(|| {
+                let h = f64::from(NODE_SPACING_PX);
+                let (u, v) = (i as f64 * h, j as f64 * h);
+                let (p, jac) = self.camera.undistort_pixel_area(Point2::new(u, v)).ok()?;
+                let m = self.mapped([u, v], p, jac, self.camera.intrinsics.to_normalized(p));
+                Some([
+                    m.position[0] - u,
+                    m.position[1] - v,
+                    m.jacobian,
+                    m.illumination,
+                ])
+            })
+            .as_ref()
     }
 
     /// Observed pixel `observed` mapped to ideal pixel `p` (normalised
@@ -224,48 +288,74 @@ impl<'a> CameraMap<'a> {
         }
     }
 
-    /// The pixels `x0..=x1` of row `y` through the lattice; `None` when a
-    /// node cannot be mapped.
-    fn lattice_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
+    /// The pixels `x0..=x1` of row `y` through the lattice, each given to
+    /// `emit` with its interpolated node (shift p − (u, v), J, RI); `None`
+    /// when a node cannot be mapped.
+    fn lattice_run(
+        &self,
+        y: u32,
+        x0: u32,
+        x1: u32,
+        mut emit: impl FnMut(u32, &Node),
+    ) -> Option<()> {
         let h = NODE_SPACING_PX;
         let (j, ty) = (i64::from(y / h), f64::from(y % h) / f64::from(h));
         let wy = cubic_weights(ty);
         // The run's node columns, each interpolated to row y.
         let (i0, i1) = (i64::from(x0 / h) - 1, i64::from(x1 / h) + 2);
+        let mut band = self.band.borrow_mut();
+        if band.column(j, i0).is_none() || band.column(j, i1).is_none() {
+            // A fresh copy: this band's columns, widened to the run's.
+            let held = band.column(j, band.i0).is_some();
+            let lo = if held { band.i0.min(i0) } else { i0 } - BAND_MARGIN;
+            let hi = if held {
+                (band.i0 + band.columns.len() as i64 - 1).max(i1)
+            } else {
+                i1
+            } + BAND_MARGIN;
+            let columns = (lo..=hi)
+                .map(|i| [-1, 0, 1, 2].map(|dj| self.node(i, j + dj).copied()))
+                .collect();
+            *band = Band { j, i0: lo, columns };
+        }
         let mut columns: Vec<Node> = Vec::with_capacity((i1 - i0 + 1) as usize);
         for i in i0..=i1 {
+            let nodes = band.column(j, i)?;
             let mut f = [0.0f64; 4];
-            for (dj, w) in (-1..=2).zip(wy) {
-                let n = self.node(i, j + dj)?;
-                for (fc, nc) in f.iter_mut().zip(n) {
+            for (n, w) in nodes.iter().zip(wy) {
+                for (fc, nc) in f.iter_mut().zip(n.as_ref()?) {
                     *fc += w * nc;
                 }
             }
             columns.push(f);
         }
-        out.clear();
-        let v = f64::from(y);
-        // The weights of the h offsets a pixel can have within an interval.
-        let offsets: [[f64; 4]; NODE_SPACING_PX as usize] =
-            std::array::from_fn(|o| cubic_weights(o as f64 / f64::from(h)));
-        for x in x0..=x1 {
-            // Columns k − 1 ..= k + 2 around x, k = x / h (index from i0).
-            let k = (i64::from(x / h) - i0) as usize;
-            let wx = offsets[(x % h) as usize];
-            let mut f = [0.0f64; 4];
-            for (c, w) in columns[k - 1..k + 3].iter().zip(wx) {
-                for (fc, nc) in f.iter_mut().zip(c) {
-                    *fc += w * nc;
+        drop(band);
+        // Interval by interval: pixels k·h ..= k·h + h − 1 of the run between
+        // node columns k − 1 ..= k + 2, k from x0 / h; the interval's pixels
+        // first, then handed on (which keeps the columns in registers).
+        let mut start = (x0 / h) * h;
+        let mut block = [[0.0f64; 4]; NODE_SPACING_PX as usize];
+        for c in columns.windows(4) {
+            let (a, b) = (
+                (x0.max(start) - start) as usize,
+                (x1 - start).min(h - 1) as usize,
+            );
+            for (f, wx) in block.iter_mut().zip(&OFFSET_WEIGHTS) {
+                for (n, fn_) in f.iter_mut().enumerate() {
+                    *fn_ = wx[0] * c[0][n] + wx[1] * c[1][n] + wx[2] * c[2][n] + wx[3] * c[3][n];
                 }
             }
-            let u = f64::from(x);
-            out.push(Mapped {
-                position: [u + f[0], v + f[1]],
-                jacobian: f[2],
-                illumination: f[3],
-            });
+            for (o, f) in block.iter().enumerate().take(b + 1).skip(a) {
+                emit(start + o as u32, f);
+            }
+            start += h;
         }
         Some(())
+    }
+
+    /// Whether the run `x0..=x1` goes through the lattice (else pixel by pixel).
+    fn through_lattice(x0: u32, x1: u32) -> bool {
+        (x1 - x0) / NODE_SPACING_PX + 1 >= MIN_INTERVALS
     }
 }
 
@@ -275,15 +365,40 @@ impl PixelMap for CameraMap<'_> {
     /// [`MIN_INTERVALS`] node spacings, or one near a node the model cannot
     /// map (beyond the lens model's reach), pixel by pixel.
     fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
-        if (x1 - x0) / NODE_SPACING_PX + 1 >= MIN_INTERVALS
-            && self.lattice_run(y, x0, x1, out).is_some()
+        out.clear();
+        let v = f64::from(y);
+        if Self::through_lattice(x0, x1)
+            && self
+                .lattice_run(y, x0, x1, |x, f| {
+                    out.push(Mapped {
+                        position: [f64::from(x) + f[0], v + f[1]],
+                        jacobian: f[2],
+                        illumination: f[3],
+                    })
+                })
+                .is_some()
+        {
+            return Some(());
+        }
+        out.clear();
+        for x in x0..=x1 {
+            out.push(self.map(f64::from(x), v)?);
+        }
+        Some(())
+    }
+
+    /// RI alone, through the lattice where [`PixelMap::map_run`] goes through it.
+    fn illumination_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<f64>) -> Option<()> {
+        out.clear();
+        if Self::through_lattice(x0, x1)
+            && self.lattice_run(y, x0, x1, |_, f| out.push(f[3])).is_some()
         {
             return Some(());
         }
         out.clear();
         let v = f64::from(y);
         for x in x0..=x1 {
-            out.push(self.map(f64::from(x), v)?);
+            out.push(self.map(f64::from(x), v)?.illumination);
         }
         Some(())
     }
@@ -334,21 +449,25 @@ fn ring_points(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Vec<Point3<
     let mut points = Vec::new();
     for y in y0..=y1 {
         let row = frame.row(y as u32);
-        let inside_rows = y >= inner.1 && y <= inner.3;
-        for x in x0..=x1 {
-            if inside_rows && x >= inner.0 && x <= inner.2 {
-                continue;
+        // Rows beside the box: the strips left and right of it only.
+        let spans = if y >= inner.1 && y <= inner.3 {
+            [(x0, inner.0 - 1), (inner.2 + 1, x1)]
+        } else {
+            [(x0, x1), (1, 0)]
+        };
+        for (xa, xb) in spans {
+            for x in xa..=xb {
+                let f = row[x as usize];
+                if f >= level.at(x as u32, y as u32, frame.width) {
+                    continue;
+                }
+                // Coordinates relative to the box centre keep the fit well conditioned.
+                points.push(Point3::new(
+                    x as f64 - f64::from(b.x0 + b.x1) / 2.0,
+                    y as f64 - f64::from(b.y0 + b.y1) / 2.0,
+                    f64::from(f),
+                ));
             }
-            let f = row[x as usize];
-            if f >= level.at(x as u32, y as u32, frame.width) {
-                continue;
-            }
-            // Coordinates relative to the box centre keep the fit well conditioned.
-            points.push(Point3::new(
-                x as f64 - f64::from(b.x0 + b.x1) / 2.0,
-                y as f64 - f64::from(b.y0 + b.y1) / 2.0,
-                f64::from(f),
-            ));
         }
     }
     points
@@ -479,25 +598,15 @@ pub fn mapped_light(
     gain_dn_per_e: Option<f64>,
 ) -> Option<MappedLight> {
     let background = background_fit(frame, blob, level)?;
-    // Buffers kept per thread between blobs: a blob of 10⁵ pixels would
-    // otherwise cost fresh pages (and their faults) every time.
-    SCRATCH.with(|scratch| {
-        let mut fresh = Scratch::default();
-        let mut held = scratch.try_borrow_mut();
-        let buffers = match held.as_mut() {
-            Ok(s) => &mut **s,
-            Err(_) => &mut fresh,
-        };
-        let light = Light {
-            frame,
-            blob,
-            level,
-            weighting,
-            map,
-            gain_dn_per_e,
-        };
-        light.of(&background, buffers)
-    })
+    Light {
+        frame,
+        blob,
+        level,
+        weighting,
+        map,
+        gain_dn_per_e,
+    }
+    .of(&background)
 }
 
 /// What [`mapped_light`] was given.
@@ -510,95 +619,126 @@ struct Light<'a, 'f> {
     gain_dn_per_e: Option<f64>,
 }
 
-/// The buffers of [`Light::of`].
-#[derive(Default)]
-struct Scratch {
-    pixels: Vec<WeightedPixel>,
-    weights: Vec<f64>,
-    mapped: Vec<Mapped>,
+/// `T′` and the observed position and RI of the pixel that sets it.
+struct Threshold {
+    value: f64,
+    at: ([f64; 2], f64),
 }
 
-thread_local! {
-    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::default();
+/// Weighted sums `Σ w`, `Σ w·d`, `Σ w·(d_u², d_v², d_u·d_v)` of positions
+/// `d = p′ − r` about a reference point r near the blob, gathered before the
+/// centroid is known: the centroid is `r + Σ w·d / Σ w`, and the second
+/// moments about any point follow ([`Moments::about`]); with r within the
+/// blob the difference loses no precision that matters.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Moments {
+    pub(crate) w: f64,
+    pub(crate) wd: [f64; 2],
+    pub(crate) wdd: [f64; 3],
+}
+
+impl Moments {
+    #[inline]
+    pub(crate) fn add(&mut self, d: [f64; 2], w: f64) {
+        self.w += w;
+        self.wd[0] += w * d[0];
+        self.wd[1] += w * d[1];
+        self.wdd[0] += w * d[0] * d[0];
+        self.wdd[1] += w * d[1] * d[1];
+        self.wdd[2] += w * d[0] * d[1];
+    }
+
+    /// `Σ w·(d − e)(d − e)ᵀ = Σ w·ddᵀ − (Σ w·d)eᵀ − e(Σ w·d)ᵀ + (Σ w)eeᵀ` as
+    /// (uu, vv, uv): the second moments about the point `e` from r.
+    pub(crate) fn about(&self, e: [f64; 2]) -> [f64; 3] {
+        [
+            self.wdd[0] - 2.0 * e[0] * self.wd[0] + self.w * e[0] * e[0],
+            self.wdd[1] - 2.0 * e[1] * self.wd[1] + self.w * e[1] * e[1],
+            self.wdd[2] - e[0] * self.wd[1] - e[1] * self.wd[0] + self.w * e[0] * e[1],
+        ]
+    }
 }
 
 impl Light<'_, '_> {
-    /// [`mapped_light`] over `background`, in the given buffers.
-    fn of(&self, background: &Background, scratch: &mut Scratch) -> Option<MappedLight> {
-        let Scratch {
-            pixels,
-            weights,
-            mapped,
-        } = scratch;
+    /// [`mapped_light`] over `background`, in two passes over the blob's runs
+    /// that keep nothing per pixel: `T′` from RI alone, then the weights'
+    /// sums (and the covariance's, [`NoiseSums`]) about the blob's plain centroid.
+    fn of(&self, background: &Background) -> Option<MappedLight> {
+        let threshold = self.threshold(background)?;
         let [c, a, b] = background.plane;
-        pixels.clear();
-        let mut t_max = f64::NEG_INFINITY;
-        // Observed position and RI of the pixel that sets T′.
-        let mut t_at = ([0.0, 0.0], 1.0);
+        let reference = [self.blob.u, self.blob.v];
+        let noise = match (self.gain_dn_per_e, self.weighting) {
+            (Some(k), Weighting::Subtracted) => Some(PixelNoise::new(background, k)),
+            _ => None,
+        };
+        let mut noise_sums = NoiseSums::default();
+        let mut sums = Moments::default();
+        let mut mapped = Vec::new();
         for run in &self.blob.runs {
             let row = self.frame.row(run.y);
             let v = f64::from(run.y);
-            self.map.map_run(run.y, run.x0, run.x1, mapped)?;
-            for (x, &m) in (run.x0..=run.x1).zip(mapped.iter()) {
-                let u = f64::from(x);
+            self.map.map_run(run.y, run.x0, run.x1, &mut mapped)?;
+            for (x, m) in (run.x0..=run.x1).zip(mapped.iter()) {
                 if !(m.illumination > 0.0 && m.jacobian > 0.0) {
                     return None;
                 }
-                let bg = c + a * u + b * v;
-                let t = f64::from(self.level.at(x, run.y, self.frame.width));
-                let t_pixel = (t - bg) / m.illumination;
-                if t_pixel > t_max {
-                    t_at = ([u, v], m.illumination);
+                let u = f64::from(x);
+                let signal = f64::from(row[x as usize]) - (c + a * u + b * v);
+                let Some(w) =
+                    corrected_weight(self.weighting, signal / m.illumination, threshold.value)
+                else {
+                    continue;
+                };
+                let d = [m.position[0] - reference[0], m.position[1] - reference[1]];
+                sums.add(d, w * m.jacobian);
+                if let Some(noise) = &noise {
+                    noise_sums.add(noise, [u, v], d, m, signal);
                 }
-                t_max = t_max.max(t_pixel);
-                let signal = f64::from(row[x as usize]) - bg;
-                pixels.push(WeightedPixel {
-                    observed: [u, v],
-                    mapped: m,
-                    signal_dn: signal,
-                });
             }
         }
-        // The pixels that carry weight (kept in place), with their weights
-        // and the centroid's sums.
-        weights.clear();
-        let (mut su, mut sv, mut sw) = (0.0f64, 0.0f64, 0.0f64);
-        pixels.retain(|p| {
-            let f = p.signal_dn / p.mapped.illumination;
-            match corrected_weight(self.weighting, f, t_max) {
-                Some(w) => {
-                    let w = w * p.mapped.jacobian;
-                    su += p.mapped.position[0] * w;
-                    sv += p.mapped.position[1] * w;
-                    sw += w;
-                    weights.push(w);
-                    true
-                }
-                None => false,
-            }
-        });
-        let centroid = (sw > 0.0).then(|| [su / sw, sv / sw])?;
-        let (mut suu, mut svv, mut suv) = (0.0f64, 0.0f64, 0.0f64);
-        for (p, &w) in pixels.iter().zip(weights.iter()) {
-            let (du, dv) = (
-                p.mapped.position[0] - centroid[0],
-                p.mapped.position[1] - centroid[1],
-            );
-            suu += du * du * w;
-            svv += dv * dv * w;
-            suv += du * dv * w;
+        if sums.w.is_nan() || sums.w <= 0.0 {
+            return None;
         }
-        let covariance = match (self.gain_dn_per_e, self.weighting) {
-            (Some(k), Weighting::Subtracted) => {
-                centroid_covariance(pixels, centroid, sw, background, t_at, k)
-            }
-            _ => None,
-        };
+        let e = [sums.wd[0] / sums.w, sums.wd[1] / sums.w];
+        let [uu, vv, uv] = sums.about(e).map(|m| m / sums.w);
         Some(MappedLight {
-            centroid,
-            central: (suu / sw, svv / sw, suv / sw),
-            covariance,
+            centroid: [reference[0] + e[0], reference[1] + e[1]],
+            central: (uu, vv, uv),
+            covariance: noise
+                .and_then(|_| noise_sums.covariance(e, sums.w, background, threshold.at)),
         })
+    }
+
+    /// `T′ = max over the blob of (T(p) − b(p))/RI(p)` (module docs), the
+    /// first pixel to reach it; `None` when a pixel's RI is not positive or
+    /// cannot be mapped.
+    fn threshold(&self, background: &Background) -> Option<Threshold> {
+        let [c, a, b] = background.plane;
+        let mut best = Threshold {
+            value: f64::NEG_INFINITY,
+            at: ([0.0, 0.0], 1.0),
+        };
+        let mut illumination = Vec::new();
+        for run in &self.blob.runs {
+            let v = f64::from(run.y);
+            self.map
+                .illumination_run(run.y, run.x0, run.x1, &mut illumination)?;
+            for (x, &ri) in (run.x0..=run.x1).zip(illumination.iter()) {
+                if ri.is_nan() || ri <= 0.0 {
+                    return None;
+                }
+                let u = f64::from(x);
+                let t = f64::from(self.level.at(x, run.y, self.frame.width));
+                let t_pixel = (t - (c + a * u + b * v)) / ri;
+                if t_pixel > best.value {
+                    best = Threshold {
+                        value: t_pixel,
+                        at: ([u, v], ri),
+                    };
+                }
+            }
+        }
+        Some(best)
     }
 }
 
@@ -784,21 +924,8 @@ mod tests {
     /// the corrected light agree far inside the 1e-4 px they may differ by.
     #[test]
     fn the_lattice_gives_the_exact_maps_corrected_light() {
-        let camera = Camera {
-            // A wide angle on this small frame: 44° across, k1 = −0.2. The
-            // lattice's error grows as h⁴/f³ (2e-5 px at f = 120 px).
-            intrinsics: geom::Intrinsics::centred(200.0, W, H),
-            distortion: geom::Distortion {
-                k1: -0.2,
-                k2: 0.05,
-                k3: 0.0,
-                p1: 1e-3,
-                p2: -5e-4,
-            },
-            pose: geom::Isometry3::identity(),
-            width: W,
-            height: H,
-        };
+        // The lattice's error grows as h⁴/f³ (2e-5 px at f = 120 px).
+        let camera = wide_angle();
         let (cu, cv, r) = (75.3, 58.6, 22.0);
         let pixels = render(
             |u, v| (u - cu).hypot(v - cv) <= r,
@@ -822,6 +949,134 @@ mod tests {
         assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() + (a.2 - b.2).abs() < 1e-5 * a.0);
         let (ka, kb) = (lattice.covariance.unwrap(), exact.covariance.unwrap());
         assert!((ka.uu_px2 / kb.uu_px2 - 1.0).abs() < 1e-5, "{ka:?} {kb:?}");
+    }
+
+    /// A wide angle on the small test frame: 44° across, k1 = −0.2.
+    fn wide_angle() -> Camera {
+        Camera {
+            intrinsics: geom::Intrinsics::centred(200.0, W, H),
+            distortion: geom::Distortion {
+                k1: -0.2,
+                k2: 0.05,
+                k3: 0.0,
+                p1: 1e-3,
+                p2: -5e-4,
+            },
+            pose: geom::Isometry3::identity(),
+            width: W,
+            height: H,
+        }
+    }
+
+    /// The corrected light by its formulas applied directly (module docs,
+    /// `crate::noise`): every pixel kept, `T′` first, then the centroid,
+    /// the central moments about it and `Σ_c` term by term: the oracle for
+    /// the streaming sums of [`Light::of`].
+    fn direct_light(
+        frame: &FrameView<'_>,
+        blob: &Blob,
+        level: &Level,
+        map: &dyn PixelMap,
+        k: f64,
+    ) -> MappedLight {
+        let bg = background_fit(frame, blob, level).unwrap();
+        let [c, a, b] = bg.plane;
+        let (mut pixels, mut mapped) = (Vec::new(), Vec::new());
+        for run in &blob.runs {
+            map.map_run(run.y, run.x0, run.x1, &mut mapped).unwrap();
+            for (x, &m) in (run.x0..=run.x1).zip(&mapped) {
+                let (u, v) = (f64::from(x), f64::from(run.y));
+                let s = f64::from(frame.row(run.y)[x as usize]) - (c + a * u + b * v);
+                let t = (f64::from(level.at(x, run.y, frame.width)) - (c + a * u + b * v))
+                    / m.illumination;
+                pixels.push(([u, v], m, s, t));
+            }
+        }
+        let (mut t_max, mut t_at) = (f64::NEG_INFINITY, ([0.0, 0.0], 1.0));
+        for &(o, m, _, t) in &pixels {
+            if t > t_max {
+                (t_max, t_at) = (t, (o, m.illumination));
+            }
+        }
+        pixels.retain(|&(_, m, s, _)| s / m.illumination > t_max);
+        let w: Vec<f64> = pixels
+            .iter()
+            .map(|&(_, m, s, _)| (s / m.illumination - t_max) * m.jacobian)
+            .collect();
+        let sw: f64 = w.iter().sum();
+        let mean = |f: &dyn Fn(&Mapped) -> f64| {
+            pixels.iter().zip(&w).map(|(p, w)| f(&p.1) * w).sum::<f64>() / sw
+        };
+        let cen = [mean(&|m| m.position[0]), mean(&|m| m.position[1])];
+        let du = |m: &Mapped| m.position[0] - cen[0];
+        let dv = |m: &Mapped| m.position[1] - cen[1];
+        let central = (
+            mean(&|m| du(m) * du(m)),
+            mean(&|m| dv(m) * dv(m)),
+            mean(&|m| du(m) * dv(m)),
+        );
+        // Σ σᵢ²·gᵢgᵢᵀ + G_θ·Σ_θ·G_θᵀ.
+        let x_k = bg.design(t_at.0) / t_at.1;
+        let (mut pix, mut gu, mut gv) = ([0.0; 3], Vector3::zeros(), Vector3::zeros());
+        for &(o, m, s, _) in &pixels {
+            let scale = m.jacobian / m.illumination / sw;
+            let g = [du(&m) * scale, dv(&m) * scale];
+            let var = bg.sigma_dn.powi(2) + k * s.max(0.0);
+            pix[0] += var * g[0] * g[0];
+            pix[1] += var * g[1] * g[1];
+            pix[2] += var * g[0] * g[1];
+            let dw = (x_k - bg.design(o) / m.illumination) * m.jacobian;
+            gu += dw * (du(&m) / sw);
+            gv += dw * (dv(&m) / sw);
+        }
+        let cov = bg.covariance().unwrap();
+        let form = |a: &Vector3<f64>, b: &Vector3<f64>| a.dot(&(cov * b));
+        MappedLight {
+            centroid: cen,
+            central,
+            covariance: Some(CentroidCovariance {
+                uu_px2: pix[0] + form(&gu, &gu),
+                vv_px2: pix[1] + form(&gv, &gv),
+                uv_px2: pix[2] + form(&gu, &gv),
+            }),
+        }
+    }
+
+    /// The two streaming passes (RI alone for `T′`, then sums about the
+    /// blob's plain centroid) give what the formulas give directly from the
+    /// same mapped pixels, on a distorted lens with its fall-off and a
+    /// tilted background, a blob wide enough for its runs to go through the
+    /// lattice's bands: to rounding.
+    #[test]
+    fn the_streaming_sums_give_the_direct_formulas() {
+        let camera = wide_angle();
+        let (cu, cv, r) = (71.7, 63.2, 26.0);
+        let pixels = render(
+            |u, v| (u - cu).hypot(v - cv) <= r,
+            |u, v, inside| 700.0 + 0.8 * u - 0.6 * v + 25_000.0 * inside * (1.0 - u / 900.0),
+        );
+        let frame = FrameView::new(W, H, 16, &pixels).unwrap();
+        let (ex, params) = extract_one(frame);
+        let blob = &ex.blobs[0];
+        assert!(blob.runs.iter().any(|r| r.x1 - r.x0 > 5 * NODE_SPACING_PX));
+        let illumination = Illumination::Ideal;
+        let map = CameraMap::new(&camera, &illumination);
+        let k = 3.5;
+        let got = mapped_light(&frame, blob, &ex.level, params.weighting, &map, Some(k)).unwrap();
+        let want = direct_light(&frame, blob, &ex.level, &map, k);
+        let d = (got.centroid[0] - want.centroid[0]).hypot(got.centroid[1] - want.centroid[1]);
+        println!("streaming − direct: {d:e} px");
+        assert!(d < 1e-10, "centroids {d:e} px apart");
+        let (a, b) = (got.central, want.central);
+        assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() + (a.2 - b.2).abs() < 1e-10 * a.0);
+        let (ka, kb) = (got.covariance.unwrap(), want.covariance.unwrap());
+        for (x, y) in [(ka.uu_px2, kb.uu_px2), (ka.vv_px2, kb.vv_px2)] {
+            assert!((x / y - 1.0).abs() < 1e-10, "{ka:?} {kb:?}");
+        }
+        assert!(
+            (ka.uv_px2 - kb.uv_px2).abs() < 1e-10 * ka.uu_px2,
+            "{ka:?} {kb:?}"
+        );
     }
 
     /// Observed positions stretched by `s` along u about `cu`: ideal

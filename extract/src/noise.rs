@@ -23,7 +23,7 @@
 
 use geom::{Matrix3, Vector3};
 
-use crate::correction::Mapped;
+use crate::correction::{Mapped, Moments};
 
 /// The covariance of a centroid (px²), in the image its positions are in.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,103 +79,142 @@ pub(crate) struct Background {
 
 impl Background {
     /// The design row `x = (1, u − u₀, v − v₀)` of pixel (u, v).
-    fn design(&self, at: [f64; 2]) -> Vector3<f64> {
+    pub(crate) fn design(&self, at: [f64; 2]) -> Vector3<f64> {
         Vector3::new(1.0, at[0] - self.centre[0], at[1] - self.centre[1])
     }
 
     /// `Σ_θ = σ_bg²·(XᵀX)⁻¹`; `None` for a singular ring.
-    fn covariance(&self) -> Option<Matrix3<f64>> {
+    pub(crate) fn covariance(&self) -> Option<Matrix3<f64>> {
         self.normal
             .try_inverse()
             .map(|inv| inv * self.sigma_dn.powi(2))
     }
 }
 
-/// A pixel that carries weight in a corrected centroid.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct WeightedPixel {
-    /// Observed pixel (u, v).
-    pub(crate) observed: [f64; 2],
-    /// Its mapping (position in the corrected image, J, RI).
-    pub(crate) mapped: Mapped,
-    /// `f − b` (DN).
-    pub(crate) signal_dn: f64,
+/// The sums over a blob's weighted pixels that `Σ_c` needs, gathered in the
+/// same single pass as the centroid's, before the centroid is known: with
+/// `dᵢ = pᵢ − r` about a reference point r near the blob and `e = c − r`,
+/// `Σ qᵢ(pᵢ − c)(pᵢ − c)ᵀ` from the [`Moments`] of `qᵢ = σᵢ²·(Jᵢ/RIᵢ)²`
+/// about r; and `G_θ`'s rows `(Σ ∂wᵢ/∂θ·dᵢ − e·Σ ∂wᵢ/∂θ)/Σ w`
+/// with `∂wᵢ/∂θ = Jᵢ·x_k/RI_k − (Jᵢ/RIᵢ)·xᵢ`, so that the sums of `Jᵢ`
+/// and of `(Jᵢ/RIᵢ)·xᵢ` (each also times `dᵢ`) carry it whichever pixel
+/// turns out to set `T′`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct NoiseSums {
+    /// `Σ q`, `Σ q·d`, `Σ q·(d_u², d_v², d_u·d_v)`.
+    q: Moments,
+    /// `Σ J·(1, d_u, d_v)`.
+    j: [f64; 3],
+    /// `Σ (J/RI)·x·(1, d_u, d_v)`, x = (1, u − u₀, v − v₀).
+    gx: [[f64; 3]; 3],
 }
 
-/// `Σ_c` of the module docs for the centroid `centroid` of `pixels` with
-/// weight sum `weight_sum` over `background`; `threshold` is the observed
-/// pixel and RI of the pixel that sets `T′`; `gain_dn_per_e` is K.
-/// `None` when the plane's covariance is undefined.
-pub(crate) fn centroid_covariance(
-    pixels: &[WeightedPixel],
-    centroid: [f64; 2],
-    weight_sum: f64,
-    background: &Background,
-    threshold: ([f64; 2], f64),
-    gain_dn_per_e: f64,
-) -> Option<CentroidCovariance> {
-    let p = pixel_part(pixels, centroid, weight_sum, background, gain_dn_per_e);
-    let b = plane_part(pixels, centroid, weight_sum, background, threshold)?;
-    Some(CentroidCovariance {
-        uu_px2: p.uu_px2 + b.uu_px2,
-        vv_px2: p.vv_px2 + b.vv_px2,
-        uv_px2: p.uv_px2 + b.uv_px2,
-    })
-}
-
-/// `Σᵢ σᵢ²·gᵢgᵢᵀ`: the pixels' own noise.
-fn pixel_part(
-    pixels: &[WeightedPixel],
-    centroid: [f64; 2],
-    weight_sum: f64,
-    background: &Background,
-    gain_dn_per_e: f64,
-) -> CentroidCovariance {
-    let var_bg = background.sigma_dn.powi(2);
-    let (mut uu, mut vv, mut uv) = (0.0, 0.0, 0.0);
-    for p in pixels {
-        let m = &p.mapped;
-        let scale = m.jacobian / m.illumination / weight_sum;
-        let g = [
-            (m.position[0] - centroid[0]) * scale,
-            (m.position[1] - centroid[1]) * scale,
+impl NoiseSums {
+    /// Add a pixel that carries weight: observed at `observed`, mapped by
+    /// `m` to `d` from the reference point, with `signal_dn` = f − b; σ_bg
+    /// and K from `noise`.
+    #[inline]
+    pub(crate) fn add(
+        &mut self,
+        noise: &PixelNoise,
+        observed: [f64; 2],
+        d: [f64; 2],
+        m: &Mapped,
+        signal_dn: f64,
+    ) {
+        let g = m.jacobian / m.illumination;
+        let q = (noise.var_bg + noise.gain_dn_per_e * signal_dn.max(0.0)) * g * g;
+        self.q.add(d, q);
+        let j = m.jacobian;
+        self.j[0] += j;
+        self.j[1] += j * d[0];
+        self.j[2] += j * d[1];
+        let x = [
+            g,
+            g * (observed[0] - noise.centre[0]),
+            g * (observed[1] - noise.centre[1]),
         ];
-        let var = var_bg + gain_dn_per_e * p.signal_dn.max(0.0);
-        uu += var * g[0] * g[0];
-        vv += var * g[1] * g[1];
-        uv += var * g[0] * g[1];
+        for (row, xa) in self.gx.iter_mut().zip(x) {
+            row[0] += xa;
+            row[1] += xa * d[0];
+            row[2] += xa * d[1];
+        }
     }
-    CentroidCovariance {
-        uu_px2: uu,
-        vv_px2: vv,
-        uv_px2: uv,
+
+    /// `Σ_c` of the module docs for the centroid at `e` from the reference
+    /// point, of the added pixels with weight sum `weight_sum`, over
+    /// `background`; `threshold` is the observed pixel and RI of the pixel
+    /// that sets `T′`. `None` when the plane's covariance is undefined.
+    pub(crate) fn covariance(
+        &self,
+        e: [f64; 2],
+        weight_sum: f64,
+        background: &Background,
+        threshold: ([f64; 2], f64),
+    ) -> Option<CentroidCovariance> {
+        let p = self.pixel_part(e, weight_sum);
+        let b = self.plane_part(e, weight_sum, background, threshold)?;
+        Some(CentroidCovariance {
+            uu_px2: p.uu_px2 + b.uu_px2,
+            vv_px2: p.vv_px2 + b.vv_px2,
+            uv_px2: p.uv_px2 + b.uv_px2,
+        })
+    }
+
+    /// `Σᵢ σᵢ²·gᵢgᵢᵀ`: the pixels' own noise.
+    fn pixel_part(&self, e: [f64; 2], weight_sum: f64) -> CentroidCovariance {
+        let [uu, vv, uv] = self.q.about(e).map(|m| m / (weight_sum * weight_sum));
+        CentroidCovariance {
+            uu_px2: uu,
+            vv_px2: vv,
+            uv_px2: uv,
+        }
+    }
+
+    /// `G_θ·Σ_θ·G_θᵀ`: the background plane's error, shared by every pixel.
+    fn plane_part(
+        &self,
+        e: [f64; 2],
+        weight_sum: f64,
+        background: &Background,
+        threshold: ([f64; 2], f64),
+    ) -> Option<CentroidCovariance> {
+        let x_k = background.design(threshold.0) / threshold.1;
+        // Σ ∂w/∂θ·(1, d_u, d_v) = x_k·Σ J·(1, d_u, d_v) − Σ (J/RI)·x·(1, d_u, d_v).
+        let sum =
+            |c: usize| x_k * self.j[c] - Vector3::new(self.gx[0][c], self.gx[1][c], self.gx[2][c]);
+        let (dw, dw_du, dw_dv) = (sum(0), sum(1), sum(2));
+        // G_θ as two rows (u, v) of three.
+        let gu = (dw_du - dw * e[0]) / weight_sum;
+        let gv = (dw_dv - dw * e[1]) / weight_sum;
+        let cov = background.covariance()?;
+        let form = |a: &Vector3<f64>, b: &Vector3<f64>| a.dot(&(cov * b));
+        Some(CentroidCovariance {
+            uu_px2: form(&gu, &gu),
+            vv_px2: form(&gv, &gv),
+            uv_px2: form(&gu, &gv),
+        })
     }
 }
 
-/// `G_θ·Σ_θ·G_θᵀ`: the background plane's error, shared by every pixel.
-fn plane_part(
-    pixels: &[WeightedPixel],
-    centroid: [f64; 2],
-    weight_sum: f64,
-    background: &Background,
-    threshold: ([f64; 2], f64),
-) -> Option<CentroidCovariance> {
-    let x_k = background.design(threshold.0) / threshold.1;
-    // G_θ as two rows (u, v) of three.
-    let (mut gu, mut gv) = (Vector3::zeros(), Vector3::zeros());
-    for p in pixels {
-        let m = &p.mapped;
-        let dw = (x_k - background.design(p.observed) / m.illumination) * m.jacobian;
-        gu += dw * ((m.position[0] - centroid[0]) / weight_sum);
-        gv += dw * ((m.position[1] - centroid[1]) / weight_sum);
+/// What a pixel's variance `σᵢ² = σ_bg² + K·max(fᵢ − bᵢ, 0)` and its design
+/// row need: σ_bg², K and the plane's origin (u₀, v₀).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct PixelNoise {
+    var_bg: f64,
+    gain_dn_per_e: f64,
+    centre: [f64; 2],
+}
+
+impl PixelNoise {
+    /// The noise of pixels over `background` with system gain K.
+    pub(crate) fn new(background: &Background, gain_dn_per_e: f64) -> Self {
+        Self {
+            var_bg: background.sigma_dn.powi(2),
+            gain_dn_per_e,
+            centre: background.centre,
+        }
     }
-    let cov = background.covariance()?;
-    let form = |a: &Vector3<f64>, b: &Vector3<f64>| a.dot(&(cov * b));
-    Some(CentroidCovariance {
-        uu_px2: form(&gu, &gu),
-        vv_px2: form(&gv, &gv),
-        uv_px2: form(&gu, &gv),
-    })
 }
 
 #[cfg(test)]
@@ -185,29 +224,12 @@ mod tests {
     /// A uniform disc of `radius` px and signal `s` DN above a flat
     /// background, thresholded at `t` DN above it, with its ring of
     /// `RING_*` pixels around the bounding box: the pixel part is the closed
-    /// form `σ²·Σ dᵢ²/W²` and the background plane's share is small.
+    /// form `σ²·Σ dᵢ²/W²` and the background plane's share is small. The
+    /// sums are taken about a point off the disc's centre, as a blob's are.
     #[test]
     fn a_disc_has_the_closed_form_and_a_small_background_share() {
         let (radius, s, t, k, sigma_bg) = (12.0f64, 20_000.0, 1_000.0, 4.0, 40.0);
         let r = radius.ceil() as i32;
-        let mut pixels = Vec::new();
-        for y in -r..=r {
-            for x in -r..=r {
-                let (u, v) = (f64::from(x), f64::from(y));
-                if u.hypot(v) <= radius {
-                    pixels.push(WeightedPixel {
-                        observed: [u, v],
-                        mapped: Mapped {
-                            position: [u, v],
-                            jacobian: 1.0,
-                            illumination: 1.0,
-                        },
-                        signal_dn: s,
-                    });
-                }
-            }
-        }
-        let w = (s - t) * pixels.len() as f64;
         // The ring of crate::correction: 8 px from the box, 8 px wide.
         let (inner, outer) = (r + 8, r + 16);
         let mut normal = Matrix3::zeros();
@@ -225,13 +247,38 @@ mod tests {
             centre: [0.0, 0.0],
             normal,
         };
-        let p = pixel_part(&pixels, [0.0, 0.0], w, &background, k);
-        let sum_d2: f64 = pixels.iter().map(|p| p.observed[0].powi(2)).sum();
+        let (reference, noise) = ([-7.5, 3.25], PixelNoise::new(&background, k));
+        let mut sums = NoiseSums::default();
+        let (mut count, mut sum_d2) = (0.0, 0.0);
+        for y in -r..=r {
+            for x in -r..=r {
+                let (u, v) = (f64::from(x), f64::from(y));
+                if u.hypot(v) <= radius {
+                    let m = Mapped {
+                        position: [u, v],
+                        jacobian: 1.0,
+                        illumination: 1.0,
+                    };
+                    let d = [u - reference[0], v - reference[1]];
+                    sums.add(&noise, [u, v], d, &m, s);
+                    count += 1.0;
+                    sum_d2 += u * u;
+                }
+            }
+        }
+        let w = (s - t) * count;
+        // The centroid (0, 0) from the reference point.
+        let e = [-reference[0], -reference[1]];
+        let p = sums.pixel_part(e, w);
         let closed = (sigma_bg.powi(2) + k * s) * sum_d2 / (w * w);
         assert!((p.uu_px2 / closed - 1.0).abs() < 1e-12, "{p:?} {closed}");
-        assert!((p.uu_px2 - p.vv_px2).abs() < 1e-12 * p.uu_px2 && p.uv_px2.abs() < 1e-12);
+        assert!(
+            (p.uu_px2 - p.vv_px2).abs() < 1e-12 * p.uu_px2 && p.uv_px2.abs() < 1e-12 * p.uu_px2
+        );
         // T′ set at the disc's edge pixel (12, 0).
-        let b = plane_part(&pixels, [0.0, 0.0], w, &background, ([12.0, 0.0], 1.0)).unwrap();
+        let b = sums
+            .plane_part(e, w, &background, ([12.0, 0.0], 1.0))
+            .unwrap();
         let share = b.uu_px2 / p.uu_px2;
         eprintln!(
             "disc r = {radius} px, s = {s} DN, K = {k}: σ_u = {:.5} px from the pixels, \

@@ -29,7 +29,8 @@ pub struct MeasureArgs {
     /// Formats to measure (default: all four).
     #[arg(long, value_delimiter = ',', value_enum)]
     formats: Vec<Format>,
-    /// Folder for the campaigns (kept); default: a temporary folder, removed afterwards.
+    /// Folder for the campaigns (kept; a campaign already there, with its
+    /// `rig.json`, is taken as it is); default: a temporary folder, removed afterwards.
     #[arg(long)]
     dir: Option<PathBuf>,
 }
@@ -280,8 +281,12 @@ pub fn bench(args: &MeasureArgs) -> Result<()> {
     );
     for format in formats {
         let dir = root.join(format.folder());
-        eprintln!("rendering and calibrating the {} campaign …", format.name());
-        campaign(&dir, format, args)?;
+        if dir.join("c/manifest.csv").is_file() && dir.join("rig.json").is_file() {
+            eprintln!("taking the {} campaign in {}", format.name(), dir.display());
+        } else {
+            eprintln!("rendering and calibrating the {} campaign …", format.name());
+            campaign(&dir, format, args)?;
+        }
         let files: Vec<OsString> = formats::read_manifest_images(&dir.join("c/manifest.csv"))?
             .into_iter()
             .map(PathBuf::into_os_string)
