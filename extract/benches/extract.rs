@@ -8,28 +8,13 @@
 
 use extract::{Backend, CpuBackend, ExtractParams, FrameView, Threshold};
 
-const W: u32 = 4096;
-const H: u32 = 3072;
+mod common;
 
-/// The seed rig's frame: camera 2 of the renderer's default campaign at its
-/// first instant (spheres A, B, C of 20, 15, 10 mm at ≈ 460 mm, full noise).
+use common::{H, W};
+
+/// The seed rig's frame's pixels.
 fn seed_frame() -> Vec<u16> {
-    let config = synth::Config::default();
-    let rig = synth::SynthRig::from_config(&config).unwrap();
-    let plan = synth::Plan::new(&config).unwrap();
-    let spheres = plan.spheres_at(&plan.instants[0]);
-    let key = synth::NoiseKey {
-        seed: 1,
-        frame: 0,
-        camera: 2,
-    };
-    let img = rig
-        .camera(2)
-        .unwrap()
-        .render(&spheres, key, config.render.max_depth)
-        .unwrap();
-    assert_eq!((img.width(), img.height()), (W, H));
-    img.into_raw()
+    common::seed_image().into_raw()
 }
 
 /// The seed's fixed threshold on 16-bit frames (docs/methods.md).

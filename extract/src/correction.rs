@@ -291,7 +291,7 @@ impl<'a> CameraMap<'a> {
     /// The pixels `x0..=x1` of row `y` through the lattice, each given to
     /// `emit` with its interpolated node (shift p − (u, v), J, RI); `None`
     /// when a node cannot be mapped.
-    fn lattice_run(
+    fn lattice_run<const RI_ONLY: bool>(
         &self,
         y: u32,
         x0: u32,
@@ -340,9 +340,11 @@ impl<'a> CameraMap<'a> {
                 (x0.max(start) - start) as usize,
                 (x1 - start).min(h - 1) as usize,
             );
+            // With RI_ONLY, RI alone (the others are left unset).
+            let comps = if RI_ONLY { 3..4 } else { 0..4 };
             for (f, wx) in block.iter_mut().zip(&OFFSET_WEIGHTS) {
-                for (n, fn_) in f.iter_mut().enumerate() {
-                    *fn_ = wx[0] * c[0][n] + wx[1] * c[1][n] + wx[2] * c[2][n] + wx[3] * c[3][n];
+                for n in comps.clone() {
+                    f[n] = wx[0] * c[0][n] + wx[1] * c[1][n] + wx[2] * c[2][n] + wx[3] * c[3][n];
                 }
             }
             for (o, f) in block.iter().enumerate().take(b + 1).skip(a) {
@@ -369,7 +371,7 @@ impl PixelMap for CameraMap<'_> {
         let v = f64::from(y);
         if Self::through_lattice(x0, x1)
             && self
-                .lattice_run(y, x0, x1, |x, f| {
+                .lattice_run::<false>(y, x0, x1, |x, f| {
                     out.push(Mapped {
                         position: [f64::from(x) + f[0], v + f[1]],
                         jacobian: f[2],
@@ -391,7 +393,9 @@ impl PixelMap for CameraMap<'_> {
     fn illumination_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<f64>) -> Option<()> {
         out.clear();
         if Self::through_lattice(x0, x1)
-            && self.lattice_run(y, x0, x1, |_, f| out.push(f[3])).is_some()
+            && self
+                .lattice_run::<true>(y, x0, x1, |_, f| out.push(f[3]))
+                .is_some()
         {
             return Some(());
         }
@@ -729,10 +733,12 @@ impl Light<'_, '_> {
                 }
                 let u = f64::from(x);
                 let t = f64::from(self.level.at(x, run.y, self.frame.width));
-                let t_pixel = (t - (c + a * u + b * v)) / ri;
-                if t_pixel > best.value {
+                // (t − b)/RI > T′ multiplied out (RI > 0): a division only
+                // where the maximum moves.
+                let above = t - (c + a * u + b * v);
+                if above > best.value * ri {
                     best = Threshold {
-                        value: t_pixel,
+                        value: above / ri,
                         at: ([u, v], ri),
                     };
                 }

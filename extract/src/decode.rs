@@ -26,6 +26,7 @@ use tiff::tags::{PhotometricInterpretation, SampleFormat, Tag};
 
 use crate::frame::FrameView;
 use crate::metadata::FrameMetadata;
+use crate::strips::Strips;
 use crate::{ExtractError, Result};
 
 /// Largest image file (bytes) relative to the largest frame's 16-bit pixel
@@ -48,6 +49,7 @@ impl Default for FrameReader {
             frame: Buffers {
                 pixels: Vec::new(),
                 narrow: Vec::new(),
+                compressed: Vec::new(),
                 expected_depth: None,
                 max_pixels: DEFAULT_MAX_PIXELS,
             },
@@ -173,6 +175,8 @@ impl FrameReader {
 struct Buffers {
     pixels: Vec<u16>,
     narrow: Vec<u8>,
+    /// A compressed TIFF's strips, read from the file ([`Strips`]).
+    compressed: Vec<u8>,
     /// Bit depth every frame must have, if set (8 or 16).
     expected_depth: Option<u8>,
     /// Largest frame (pixels) this reader decodes.
@@ -303,11 +307,24 @@ impl Buffers {
             ));
         }
         self.prepare(path, width, height, depth)?;
-        if depth == 16 {
-            dec.read_image_bytes(bytemuck::cast_slice_mut(&mut self.pixels[..]))
-                .map_err(err)?;
+        let out: &mut [u8] = if depth == 16 {
+            bytemuck::cast_slice_mut(&mut self.pixels[..])
         } else {
-            dec.read_image_bytes(&mut self.narrow[..]).map_err(err)?;
+            &mut self.narrow[..]
+        };
+        match Strips::of(&mut dec, height).map_err(err)? {
+            Some(strips) => strips
+                .decode(
+                    dec.inner(),
+                    &mut self.compressed,
+                    out,
+                    width as usize,
+                    depth,
+                )
+                .map_err(|e| decode_error(path, e.message, e.truncated))?,
+            None => dec.read_image_bytes(out).map_err(err)?,
+        }
+        if depth == 8 {
             self.widen();
         }
         Ok((width, height, depth))

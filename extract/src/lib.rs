@@ -30,6 +30,7 @@ pub mod gpu;
 mod label;
 mod metadata;
 mod noise;
+mod strips;
 mod threshold;
 mod tiff_tags;
 

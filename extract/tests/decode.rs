@@ -191,3 +191,136 @@ fn threshold_outside_the_bit_depth_is_an_error() {
         "{e}"
     );
 }
+
+/// `frame16()` as a 16-bit TIFF through the `tiff` crate's encoder with
+/// `compression`, horizontal differencing and `rows` rows per strip.
+fn save_compressed(path: &Path, compression: tiff::encoder::Compression, rows: u32, eight: bool) {
+    use tiff::encoder::{Predictor, TiffEncoder, colortype};
+    let file = std::fs::File::create(path).unwrap();
+    let mut enc = TiffEncoder::new(file)
+        .unwrap()
+        .with_compression(compression)
+        .with_predictor(Predictor::Horizontal);
+    if eight {
+        let data: Vec<u8> = frame16().iter().map(|&p| (p / 256) as u8).collect();
+        let mut img = enc.new_image::<colortype::Gray8>(W, H).unwrap();
+        img.rows_per_strip(rows).unwrap();
+        img.write_data(&data).unwrap();
+    } else {
+        let mut img = enc.new_image::<colortype::Gray16>(W, H).unwrap();
+        img.rows_per_strip(rows).unwrap();
+        img.write_data(&frame16()).unwrap();
+    }
+}
+
+/// `frame16()` as a big-endian ("MM") 16-bit TIFF of Deflate strips of
+/// `rows` rows with horizontal differencing, written field by field (TIFF
+/// 6.0 §2), the `tiff` crate's encoder writing only little-endian files.
+fn big_endian_deflate(rows: u32) -> Vec<u8> {
+    let pixels = frame16();
+    let strips: Vec<Vec<u8>> = pixels
+        .chunks((W * rows) as usize)
+        .map(|strip| {
+            let mut raw = Vec::new();
+            for row in strip.chunks(W as usize) {
+                let mut previous = 0u16;
+                for &p in row {
+                    raw.extend_from_slice(&p.wrapping_sub(previous).to_be_bytes());
+                    previous = p;
+                }
+            }
+            miniz_oxide::deflate::compress_to_vec_zlib(&raw, 6)
+        })
+        .collect();
+    let n = strips.len() as u32;
+    let entries: [(u16, u16, u32, u32); 10] = [
+        (256, 4, 1, W),
+        (257, 4, 1, H),
+        (258, 3, 1, 16 << 16),
+        (259, 3, 1, 8 << 16),
+        (262, 3, 1, 1 << 16),
+        (273, 4, n, 0), // offsets: filled below
+        (277, 3, 1, 1 << 16),
+        (278, 4, 1, rows),
+        (279, 4, n, 0), // byte counts: filled below
+        (317, 3, 1, 2 << 16),
+    ];
+    let ifd_len = 2 + 12 * entries.len() as u32 + 4;
+    let (offsets_at, counts_at) = (8 + ifd_len, 8 + ifd_len + 4 * n);
+    let mut data_at = counts_at + 4 * n;
+    let mut out = b"MM\0\x2a\0\0\0\x08".to_vec();
+    out.extend_from_slice(&(entries.len() as u16).to_be_bytes());
+    for (tag, kind, count, value) in entries {
+        let value = match tag {
+            273 => offsets_at,
+            279 => counts_at,
+            _ => value,
+        };
+        for b in [
+            &tag.to_be_bytes()[..],
+            &kind.to_be_bytes(),
+            &count.to_be_bytes(),
+            &value.to_be_bytes(),
+        ] {
+            out.extend_from_slice(b);
+        }
+    }
+    out.extend_from_slice(&[0; 4]);
+    for s in &strips {
+        out.extend_from_slice(&data_at.to_be_bytes());
+        data_at += s.len() as u32;
+    }
+    for s in &strips {
+        out.extend_from_slice(&(s.len() as u32).to_be_bytes());
+    }
+    for s in &strips {
+        out.extend_from_slice(s);
+    }
+    out
+}
+
+/// Deflate and LZW strips, 8- and 16-bit, one strip or many, little- and
+/// big-endian, decode to the frame written; a strip cut short or spoilt is
+/// a named error.
+#[test]
+fn compressed_strips_decode_to_the_pixels_written() {
+    use tiff::encoder::{Compression, DeflateLevel};
+    let dir = tempfile::tempdir().unwrap();
+    let mut r = FrameReader::new();
+    for (name, compression) in [
+        ("deflate", Compression::Deflate(DeflateLevel::Balanced)),
+        ("lzw", Compression::Lzw),
+    ] {
+        for rows in [1, 5, H] {
+            for eight in [false, true] {
+                let path = dir.path().join(format!("{name}_{rows}_{eight}.tif"));
+                save_compressed(&path, compression, rows, eight);
+                let (f, _) = r.read(&path).unwrap();
+                let want: Vec<u16> = if eight {
+                    frame16().iter().map(|&p| p / 256).collect()
+                } else {
+                    frame16()
+                };
+                assert_eq!(f.pixels, &want[..], "{}", path.display());
+            }
+        }
+    }
+    let big = dir.path().join("big_endian.tif");
+    let bytes = big_endian_deflate(7);
+    std::fs::write(&big, &bytes).unwrap();
+    assert_eq!(r.read(&big).unwrap().0.pixels, &frame16()[..]);
+
+    // The last strip's data cut short: the file ends before them.
+    let cut = dir.path().join("cut.tif");
+    std::fs::write(&cut, &bytes[..bytes.len() - 20]).unwrap();
+    let e = read_err(&cut, None);
+    assert!(e.contains("truncated"), "{e}");
+    // A strip's data spoilt.
+    let spoilt = dir.path().join("spoilt.tif");
+    let mut s = bytes.clone();
+    let at = s.len() - 30;
+    s[at..at + 12].fill(0xff);
+    std::fs::write(&spoilt, &s).unwrap();
+    let e = read_err(&spoilt, None);
+    assert!(e.contains("cannot decode") && e.contains("strip"), "{e}");
+}

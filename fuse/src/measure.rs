@@ -44,7 +44,6 @@ use formats::{
 };
 use geom::nalgebra::Matrix2;
 use geom::{Matrix3, Point2, Point3};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{SphereMatch, assign};
@@ -871,9 +870,8 @@ fn seed_references(
     for p in plans {
         lines.entry(p.line).or_default().push(p);
     }
-    lines
-        .into_par_iter()
-        .map(|(line, instants)| {
+    let lines: Vec<(LineKey, Vec<&InstantPlan>)> = lines.into_iter().collect();
+    in_parallel(&lines, |(line, instants)| {
             let n = ctx.spheres.len();
             let mut found: Vec<Option<(Seen, Point3<f64>)>> = vec![None; n];
             let mut first_failure: Option<String> = None;
@@ -920,8 +918,9 @@ fn seed_references(
                     })
                 })
                 .collect();
-            (line, refs)
+            (*line, refs)
         })
+        .into_iter()
         .collect()
 }
 
@@ -1277,10 +1276,7 @@ fn measure_chunks(
     let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
     let mut count = 0u64;
     for chunk in todo.chunks(CHUNK_INSTANTS) {
-        let results: Vec<Outcome> = chunk
-            .par_iter()
-            .map(|ip| measure_one(ctx, ip, references))
-            .collect();
+        let results: Vec<Outcome> = in_parallel(chunk, |ip| measure_one(ctx, ip, references));
         let mut rows = Vec::new();
         let mut observations = Vec::new();
         for (ip, outcome) in chunk.iter().zip(results) {
@@ -1299,6 +1295,44 @@ fn measure_chunks(
         finished(count);
     }
     Ok(problems)
+}
+
+/// `f` over `items` on as many worker threads as the rayon pool has
+/// threads, each taking the next item when it is done with one; results in
+/// the order of `items`. The workers are threads of their own, not jobs of
+/// the pool: the extraction inside `f` runs its parallel parts (the
+/// labelling's bands) on the pool, and a worker waiting for them cannot
+/// take up another item, as a pool thread waiting inside a parallel job
+/// would. So at most one item per worker holds a frame: frames in flight ≤
+/// threads, and a worker's decoding of its next frame overlaps the pool's
+/// work on the others'.
+fn in_parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    let workers = rayon::current_num_threads().min(items.len());
+    if workers <= 1 {
+        return items.iter().map(&f).collect();
+    }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut done: Vec<(usize, R)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(item) = items.get(i) else { break };
+                        mine.push((i, f(item)));
+                    }
+                    mine
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    });
+    done.sort_by_key(|(i, _)| *i);
+    done.into_iter().map(|(_, r)| r).collect()
 }
 
 /// A partial output open for appending rows (no header), each append synced.
