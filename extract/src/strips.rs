@@ -112,48 +112,75 @@ impl Strips {
             truncated: e.kind() == std::io::ErrorKind::UnexpectedEof,
             message: e.to_string(),
         };
-        // The strips' bytes, one after another; never more than the file holds.
         let file_len = source.seek(SeekFrom::End(0)).map_err(io)?;
-        compressed.clear();
-        let mut spans = Vec::with_capacity(self.chunks.len());
-        for (k, &(offset, count)) in self.chunks.iter().enumerate() {
-            if offset.checked_add(count).is_none_or(|end| end > file_len) {
-                return Err(StripError {
-                    message: format!(
-                        "strip {k} ({count} bytes at {offset}) ends beyond the file's {file_len} bytes"
-                    ),
-                    truncated: true,
-                });
-            }
-            let start = compressed.len();
-            let count = usize::try_from(count).map_err(|e| StripError::new(e.to_string()))?;
-            compressed.resize(start + count, 0);
-            source.seek(SeekFrom::Start(offset)).map_err(io)?;
-            source.read_exact(&mut compressed[start..]).map_err(io)?;
-            spans.push(start..start + count);
-        }
         let row_bytes = row_samples * usize::from(depth / 8);
-        let compressed = &compressed[..];
-        out.par_chunks_mut((self.rows_per_strip * row_bytes).max(1))
-            .zip(spans.par_iter())
+        let strip_bytes = (self.rows_per_strip * row_bytes).max(1);
+        // A few strips per thread at a time: the compressed bytes held stay
+        // a fraction of the file's.
+        let batch = 2 * rayon::current_num_threads();
+        let mut spans = Vec::with_capacity(batch);
+        for (b, (group, rows)) in self
+            .chunks
+            .chunks(batch)
+            .zip(out.chunks_mut(batch * strip_bytes))
             .enumerate()
-            .try_for_each(|(k, (rows, span))| {
-                let n = self.inflate(&compressed[span.clone()], rows).map_err(|e| {
-                    StripError::new(format!("strip {k}: {} data: {e}", self.name()))
-                })?;
-                if n != rows.len() {
+        {
+            // The group's bytes, one strip after another; never more than
+            // the file holds.
+            compressed.clear();
+            spans.clear();
+            for (i, &(offset, count)) in group.iter().enumerate() {
+                if offset.checked_add(count).is_none_or(|end| end > file_len) {
                     return Err(StripError {
                         message: format!(
-                            "strip {k} decodes to {n} bytes where its {} rows need {}",
-                            rows.len() / row_bytes,
-                            rows.len()
+                            "strip {} ({count} bytes at {offset}) ends beyond the file's {file_len} bytes",
+                            b * batch + i
                         ),
                         truncated: true,
                     });
                 }
-                self.finish_rows(rows, row_bytes, depth);
-                Ok(())
-            })
+                let start = compressed.len();
+                let count = usize::try_from(count).map_err(|e| StripError::new(e.to_string()))?;
+                compressed.resize(start + count, 0);
+                source.seek(SeekFrom::Start(offset)).map_err(io)?;
+                source.read_exact(&mut compressed[start..]).map_err(io)?;
+                spans.push(start..start + count);
+            }
+            let bytes = &compressed[..];
+            rows.par_chunks_mut(strip_bytes)
+                .zip(spans.par_iter())
+                .enumerate()
+                .try_for_each(|(i, (rows, span))| {
+                    self.decode_strip(b * batch + i, &bytes[span.clone()], rows, row_bytes, depth)
+                })?;
+        }
+        Ok(())
+    }
+
+    /// Decompress strip `k` into its `rows`, and finish them.
+    fn decode_strip(
+        &self,
+        k: usize,
+        input: &[u8],
+        rows: &mut [u8],
+        row_bytes: usize,
+        depth: u8,
+    ) -> Result<(), StripError> {
+        let n = self
+            .inflate(input, rows)
+            .map_err(|e| StripError::new(format!("strip {k}: {} data: {e}", self.name())))?;
+        if n != rows.len() {
+            return Err(StripError {
+                message: format!(
+                    "strip {k} decodes to {n} bytes where its {} rows need {}",
+                    rows.len() / row_bytes,
+                    rows.len()
+                ),
+                truncated: true,
+            });
+        }
+        self.finish_rows(rows, row_bytes, depth);
+        Ok(())
     }
 
     fn name(&self) -> &'static str {
