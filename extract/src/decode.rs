@@ -7,8 +7,8 @@
 //! tags read by seeking, `crate::tiff_fields`): the pixels are copied once,
 //! from the page cache into the frame, and no buffer holds the file (the
 //! `image` crate's TIFF decoder would decode into a fresh buffer and copy).
-//! A PNG file is read once into the byte buffer and decoded from it through
-//! the `image` crate, its metadata from the same bytes.
+//! A PNG file is decoded from the file too, through the `image` crate, its
+//! metadata from its eXIf chunk (a TIFF-structured block).
 //!
 //! Nothing is allocated from what a file claims before it is checked: the
 //! file's size against the largest frame allowed, the dimensions in its
@@ -28,6 +28,9 @@ use crate::frame::FrameView;
 use crate::metadata::FrameMetadata;
 use crate::strips::Strips;
 use crate::{ExtractError, Result};
+
+/// The eight bytes a PNG file starts with (PNG §5.2).
+const PNG_SIGNATURE: [u8; 8] = [137, 80, 78, 71, 13, 10, 26, 10];
 
 /// Largest image file (bytes) relative to the largest frame's 16-bit pixel
 /// bytes: room for metadata, thumbnails and incompressible data.
@@ -105,14 +108,17 @@ impl FrameReader {
                 ),
             ));
         }
-        // Classic TIFF (the signature `image` recognises): straight from
-        // the file.
+        // Classic TIFF (the signature `image` recognises) and PNG: straight
+        // from the file.
         let mut file = BufReader::new(file);
-        let mut magic = [0u8; 4];
-        let tiff = len >= 8
-            && file.read_exact(&mut magic).is_ok()
-            && matches!(magic, [b'I', b'I', 42, 0] | [b'M', b'M', 0, 42]);
+        let mut magic = [0u8; 8];
+        let head = file.read_exact(&mut magic).is_ok();
+        let tiff = head && matches!(magic[..4], [b'I', b'I', 42, 0] | [b'M', b'M', 0, 42]);
         file.seek(SeekFrom::Start(0)).map_err(io)?;
+        if head && magic == PNG_SIGNATURE {
+            let (size, metadata) = self.frame.decode_png(file, path)?;
+            return Ok((self.frame.view(size, path)?, metadata));
+        }
         if tiff {
             // An unreadable tag block gives empty metadata, as for any file.
             let metadata = crate::tiff_fields(&mut file)
@@ -151,7 +157,10 @@ impl FrameReader {
         let format = image::guess_format(&self.bytes).map_err(decode_err)?;
         let metadata = match format {
             ImageFormat::Tiff => FrameMetadata::from_tiff_bytes(&self.bytes),
-            ImageFormat::Png => FrameMetadata::from_png_bytes(&self.bytes),
+            ImageFormat::Png => {
+                let (size, metadata) = self.frame.decode_png(Cursor::new(&self.bytes[..]), path)?;
+                return Ok((self.frame.view(size, path)?, metadata));
+            }
             other => {
                 return Err(ExtractError::Unsupported {
                     path: path.to_path_buf(),
@@ -161,10 +170,7 @@ impl FrameReader {
                 });
             }
         };
-        let size = match format {
-            ImageFormat::Tiff => self.frame.decode_tiff(Cursor::new(&self.bytes[..]), path)?,
-            _ => self.frame.decode_png(&self.bytes, path)?,
-        };
+        let size = self.frame.decode_tiff(Cursor::new(&self.bytes[..]), path)?;
         Ok((self.frame.view(size, path)?, metadata))
     }
 }
@@ -330,18 +336,25 @@ impl Buffers {
         Ok((width, height, depth))
     }
 
-    fn decode_png(&mut self, bytes: &[u8], path: &Path) -> Result<(u32, u32, u8)> {
+    /// Decode a PNG from `source` (a file or bytes), with the metadata of
+    /// its eXIf chunk, which writers put before the image data.
+    fn decode_png<R: std::io::BufRead + Seek>(
+        &mut self,
+        mut source: R,
+        path: &Path,
+    ) -> Result<((u32, u32, u8), FrameMetadata)> {
         let err = |e: image::ImageError| image_error(path, e);
         // The size in the IHDR chunk, which must come first (PNG §5.6), is
         // checked before the decoder sizes any buffer from it.
-        if let (Some(b"IHDR"), Some(w), Some(h)) = (
-            bytes.get(12..16),
-            bytes.get(16..20).and_then(|b| <[u8; 4]>::try_from(b).ok()),
-            bytes.get(20..24).and_then(|b| <[u8; 4]>::try_from(b).ok()),
-        ) {
-            self.check_size(path, u32::from_be_bytes(w), u32::from_be_bytes(h))?;
+        let mut head = [0u8; 24];
+        if source.read_exact(&mut head).is_ok() && &head[12..16] == b"IHDR" {
+            let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+            self.check_size(path, be(&head[16..20]), be(&head[20..24]))?;
         }
-        let mut reader = ImageReader::with_format(Cursor::new(bytes), ImageFormat::Png);
+        source
+            .seek(SeekFrom::Start(0))
+            .map_err(|e| image_error(path, image::ImageError::IoError(e)))?;
+        let mut reader = ImageReader::with_format(source, ImageFormat::Png);
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
         limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
@@ -351,7 +364,14 @@ impl Buffers {
                 .saturating_add(FILE_SLACK_BYTES),
         );
         reader.limits(limits);
-        let decoder = reader.into_decoder().map_err(err)?;
+        let mut decoder = reader.into_decoder().map_err(err)?;
+        // An unreadable eXIf chunk gives empty metadata, as for any file.
+        let metadata = decoder
+            .exif_metadata()
+            .ok()
+            .flatten()
+            .map(|exif| FrameMetadata::from_tiff_bytes(&exif))
+            .unwrap_or_default();
         let (width, height) = decoder.dimensions();
         self.check_size(path, width, height)?;
         let depth = match decoder.color_type() {
@@ -375,6 +395,6 @@ impl Buffers {
             decoder.read_image(&mut self.narrow[..]).map_err(err)?;
             self.widen();
         }
-        Ok((width, height, depth))
+        Ok(((width, height, depth), metadata))
     }
 }

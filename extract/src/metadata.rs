@@ -89,19 +89,11 @@ impl FrameMetadata {
         }
     }
 
-    /// Parse the tags of a TIFF file held in memory; an unreadable tag block gives empty metadata.
+    /// Parse the tags of a TIFF file (or a PNG's eXIf block, the same
+    /// structure) held in memory; an unreadable tag block gives empty metadata.
     pub fn from_tiff_bytes(bytes: &[u8]) -> Self {
         match exif::parse_exif(bytes) {
             Ok((fields, _)) => Self::from_fields(&fields),
-            Err(_) => Self::default(),
-        }
-    }
-
-    /// Parse the eXIf chunk of a PNG held in memory, if any.
-    pub fn from_png_bytes(bytes: &[u8]) -> Self {
-        let mut cursor = std::io::Cursor::new(bytes);
-        match exif::Reader::new().read_from_container(&mut cursor) {
-            Ok(e) => Self::from_fields(&e.fields().cloned().collect::<Vec<_>>()),
             Err(_) => Self::default(),
         }
     }

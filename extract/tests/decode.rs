@@ -324,3 +324,40 @@ fn compressed_strips_decode_to_the_pixels_written() {
     let e = read_err(&spoilt, None);
     assert!(e.contains("cannot decode") && e.contains("strip"), "{e}");
 }
+
+/// A PNG's eXIf metadata is read whether the frame comes from its file
+/// (decoded from the file) or from bytes in memory.
+#[test]
+fn png_metadata_from_the_file_and_from_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("frame.png");
+    let image = synth::Image16::from_raw(W, H, frame16()).unwrap();
+    let meta = synth::FrameMetadata {
+        make: "Maker".into(),
+        model: "Model 7".into(),
+        serial: "SN-42".into(),
+        time_s: 1.0e9,
+        exposure_s: 0.004,
+        f_number: 8.0,
+        focal_mm: 25.0,
+        description: String::new(),
+    };
+    synth::write_image(
+        &path,
+        &image,
+        16,
+        &meta,
+        synth::config::ImageFormat::Png,
+        synth::config::TiffCompression::None,
+    )
+    .unwrap();
+    let mut r = FrameReader::new();
+    let (f, from_file) = r.read(&path).unwrap();
+    assert_eq!(f.pixels, &frame16()[..]);
+    assert_eq!(from_file.serial.as_deref(), Some("SN-42"));
+    assert_eq!(from_file.model.as_deref(), Some("Model 7"));
+    assert_eq!(from_file.exposure_s, Some(0.004));
+    let bytes = std::fs::read(&path).unwrap();
+    let (_, from_bytes) = r.read_bytes(&bytes, &path).unwrap();
+    assert_eq!(from_bytes, from_file);
+}
