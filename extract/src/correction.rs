@@ -652,6 +652,19 @@ impl Moments {
         self.wdd[2] += w * d[0] * d[1];
     }
 
+    /// `self − t·other`, sum by sum.
+    pub(crate) fn minus(&self, t: f64, other: &Moments) -> Moments {
+        Moments {
+            w: self.w - t * other.w,
+            wd: [self.wd[0] - t * other.wd[0], self.wd[1] - t * other.wd[1]],
+            wdd: [
+                self.wdd[0] - t * other.wdd[0],
+                self.wdd[1] - t * other.wdd[1],
+                self.wdd[2] - t * other.wdd[2],
+            ],
+        }
+    }
+
     /// `Σ w·(d − e)(d − e)ᵀ = Σ w·ddᵀ − (Σ w·d)eᵀ − e(Σ w·d)ᵀ + (Σ w)eeᵀ` as
     /// (uu, vv, uv): the second moments about the point `e` from r.
     pub(crate) fn about(&self, e: [f64; 2]) -> [f64; 3] {
@@ -663,18 +676,157 @@ impl Moments {
     }
 }
 
+/// A pixel of the single pass kept aside, its weight waiting for `T′`.
+struct Aside {
+    observed: [f64; 2],
+    d: [f64; 2],
+    mapped: Mapped,
+    corrected: f64,
+    signal: f64,
+}
+
+/// The single pass's guess at `T′`, from the blob's first run: `M + ½·|M|`,
+/// M the largest `(T − b)/RI` there. Pixels above it carry weight whatever
+/// `T′` turns out to be, provided `T′` stays below it — which it does unless
+/// the threshold in radiance units rises by half across the blob.
+const GUESS_MARGIN: f64 = 0.5;
+
+/// What the single pass came to.
+enum Pass {
+    /// The corrected light, or `None` where it is undefined.
+    Done(Option<MappedLight>),
+    /// `T′` exceeded the guess: the two passes are needed.
+    Again,
+}
+
 impl Light<'_, '_> {
-    /// [`mapped_light`] over `background`, in two passes over the blob's runs
-    /// that keep nothing per pixel: `T′` from RI alone, then the weights'
-    /// sums (and the covariance's, [`NoiseSums`]) about the blob's plain centroid.
+    /// [`mapped_light`] over `background`, keeping nothing per pixel but
+    /// those near the threshold: one pass over the blob's runs that finds
+    /// `T′` while it sums the pixels surely above it — as `Σ f′·J·φ` and
+    /// `Σ J·φ` (φ = 1, d, d·dᵀ), since `w = (f′ − T′)·J` — and keeps aside the
+    /// pixels that might fall below it ([`GUESS_MARGIN`]); when the guess
+    /// fails, two passes (`T′` from RI alone, then the weights).
     fn of(&self, background: &Background) -> Option<MappedLight> {
-        let threshold = self.threshold(background)?;
-        let [c, a, b] = background.plane;
-        let reference = [self.blob.u, self.blob.v];
-        let noise = match (self.gain_dn_per_e, self.weighting) {
+        match self.single_pass(background) {
+            Pass::Done(light) => light,
+            Pass::Again => {
+                let threshold = self.threshold(background)?;
+                self.weighted(background, &threshold)
+            }
+        }
+    }
+
+    /// The pixels' noise, where the centroid's covariance is wanted.
+    fn pixel_noise(&self, background: &Background) -> Option<PixelNoise> {
+        match (self.gain_dn_per_e, self.weighting) {
             (Some(k), Weighting::Subtracted) => Some(PixelNoise::new(background, k)),
             _ => None,
+        }
+    }
+
+    /// `T′` subtracted from the weights: `T′` (thresholded) or 0 (raw).
+    fn subtracted(&self, threshold: f64) -> f64 {
+        match self.weighting {
+            Weighting::Subtracted => threshold,
+            Weighting::Raw => 0.0,
+        }
+    }
+
+    fn single_pass(&self, background: &Background) -> Pass {
+        let [c, a, b] = background.plane;
+        let reference = [self.blob.u, self.blob.v];
+        let noise = self.pixel_noise(background);
+        let mut noise_sums = NoiseSums::default();
+        let (mut above_fj, mut above_j) = (Moments::default(), Moments::default());
+        let mut aside = Vec::new();
+        let mut best = Threshold {
+            value: f64::NEG_INFINITY,
+            at: ([0.0, 0.0], 1.0),
         };
+        let mut guess = None;
+        let mut mapped = Vec::new();
+        for run in &self.blob.runs {
+            let Some(pixels) = self.frame.row(run.y).get(run.x0 as usize..=run.x1 as usize) else {
+                return Pass::Done(None);
+            };
+            let v = f64::from(run.y);
+            if self
+                .map
+                .map_run(run.y, run.x0, run.x1, &mut mapped)
+                .is_none()
+            {
+                return Pass::Done(None);
+            }
+            // T′ so far (as in `threshold`): over the first run before its
+            // pixels are weighed (it sets the guess), with them after.
+            let t_max = |best: &mut Threshold, x: u32, m: &Mapped| {
+                let u = f64::from(x);
+                let t = f64::from(self.level.at(x, run.y, self.frame.width));
+                let above = t - (c + a * u + b * v);
+                if above > best.value * m.illumination {
+                    *best = Threshold {
+                        value: above / m.illumination,
+                        at: ([u, v], m.illumination),
+                    };
+                }
+            };
+            let first = guess.is_none();
+            if first {
+                for (x, m) in (run.x0..=run.x1).zip(&mapped) {
+                    t_max(&mut best, x, m);
+                }
+            }
+            let g = *guess.get_or_insert(best.value + GUESS_MARGIN * best.value.abs());
+            for ((x, &f), m) in (run.x0..=run.x1).zip(pixels).zip(&mapped) {
+                if !(m.illumination > 0.0 && m.jacobian > 0.0) {
+                    return Pass::Done(None);
+                }
+                if !first {
+                    t_max(&mut best, x, m);
+                }
+                let u = f64::from(x);
+                let signal = f64::from(f) - (c + a * u + b * v);
+                let corrected = signal / m.illumination;
+                let d = [m.position[0] - reference[0], m.position[1] - reference[1]];
+                if corrected > g {
+                    above_fj.add(d, corrected * m.jacobian);
+                    above_j.add(d, m.jacobian);
+                    if let Some(noise) = &noise {
+                        noise_sums.add(noise, [u, v], d, m, signal);
+                    }
+                } else {
+                    aside.push(Aside {
+                        observed: [u, v],
+                        d,
+                        mapped: *m,
+                        corrected,
+                        signal,
+                    });
+                }
+            }
+        }
+        match guess {
+            Some(g) if best.value < g => {}
+            _ => return Pass::Again,
+        }
+        let mut sums = above_fj.minus(self.subtracted(best.value), &above_j);
+        for p in &aside {
+            if let Some(w) = corrected_weight(self.weighting, p.corrected, best.value) {
+                sums.add(p.d, w * p.mapped.jacobian);
+                if let Some(noise) = &noise {
+                    noise_sums.add(noise, p.observed, p.d, &p.mapped, p.signal);
+                }
+            }
+        }
+        Pass::Done(self.finish(&sums, noise.map(|_| noise_sums), background, &best))
+    }
+
+    /// The weights' sums (and the covariance's, [`NoiseSums`]) about the
+    /// blob's plain centroid, with `threshold` known.
+    fn weighted(&self, background: &Background, threshold: &Threshold) -> Option<MappedLight> {
+        let [c, a, b] = background.plane;
+        let reference = [self.blob.u, self.blob.v];
+        let noise = self.pixel_noise(background);
         let mut noise_sums = NoiseSums::default();
         let mut sums = Moments::default();
         let mut mapped = Vec::new();
@@ -700,16 +852,27 @@ impl Light<'_, '_> {
                 }
             }
         }
+        self.finish(&sums, noise.map(|_| noise_sums), background, threshold)
+    }
+
+    /// The centroid, central moments and covariance from the sums.
+    fn finish(
+        &self,
+        sums: &Moments,
+        noise_sums: Option<NoiseSums>,
+        background: &Background,
+        threshold: &Threshold,
+    ) -> Option<MappedLight> {
         if sums.w.is_nan() || sums.w <= 0.0 {
             return None;
         }
+        let reference = [self.blob.u, self.blob.v];
         let e = [sums.wd[0] / sums.w, sums.wd[1] / sums.w];
         let [uu, vv, uv] = sums.about(e).map(|m| m / sums.w);
         Some(MappedLight {
             centroid: [reference[0] + e[0], reference[1] + e[1]],
             central: (uu, vv, uv),
-            covariance: noise
-                .and_then(|_| noise_sums.covariance(e, sums.w, background, threshold.at)),
+            covariance: noise_sums.and_then(|n| n.covariance(e, sums.w, background, threshold.at)),
         })
     }
 
@@ -1048,41 +1211,63 @@ mod tests {
         }
     }
 
-    /// The two streaming passes (RI alone for `T′`, then sums about the
-    /// blob's plain centroid) give what the formulas give directly from the
-    /// same mapped pixels, on a distorted lens with its fall-off and a
+    /// The streaming sums — the single pass, and the two passes (RI alone
+    /// for `T′`, then the weights) where its guess fails — give what the
+    /// formulas give directly from the same mapped pixels, on a distorted lens with its fall-off and a
     /// tilted background, a blob wide enough for its runs to go through the
     /// lattice's bands: to rounding.
     #[test]
     fn the_streaming_sums_give_the_direct_formulas() {
         let camera = wide_angle();
         let (cu, cv, r) = (71.7, 63.2, 26.0);
-        let pixels = render(
-            |u, v| (u - cu).hypot(v - cv) <= r,
-            |u, v, inside| 700.0 + 0.8 * u - 0.6 * v + 25_000.0 * inside * (1.0 - u / 900.0),
-        );
-        let frame = FrameView::new(W, H, 16, &pixels).unwrap();
-        let (ex, params) = extract_one(frame);
-        let blob = &ex.blobs[0];
-        assert!(blob.runs.iter().any(|r| r.x1 - r.x0 > 5 * NODE_SPACING_PX));
-        let illumination = Illumination::Ideal;
-        let map = CameraMap::new(&camera, &illumination);
-        let k = 3.5;
-        let got = mapped_light(&frame, blob, &ex.level, params.weighting, &map, Some(k)).unwrap();
-        let want = direct_light(&frame, blob, &ex.level, &map, k);
-        let d = (got.centroid[0] - want.centroid[0]).hypot(got.centroid[1] - want.centroid[1]);
-        println!("streaming − direct: {d:e} px");
-        assert!(d < 1e-10, "centroids {d:e} px apart");
-        let (a, b) = (got.central, want.central);
-        assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() + (a.2 - b.2).abs() < 1e-10 * a.0);
-        let (ka, kb) = (got.covariance.unwrap(), want.covariance.unwrap());
-        for (x, y) in [(ka.uu_px2, kb.uu_px2), (ka.vv_px2, kb.vv_px2)] {
-            assert!((x / y - 1.0).abs() < 1e-10, "{ka:?} {kb:?}");
+        // A mild tilt: T′ stays within the single pass's guess. A steep one
+        // (the threshold 2000 DN lies 620 DN above the background at the
+        // blob's top row, 1350 DN at its bottom): the guess fails and the
+        // two passes run.
+        type Plane = fn(f64, f64) -> f64;
+        let backgrounds: [(Plane, bool); 2] = [
+            (|u, v| 700.0 + 0.8 * u - 0.6 * v, true),
+            (|_, v| 1900.0 - 14.0 * v, false),
+        ];
+        for (background, single) in backgrounds {
+            let pixels = render(
+                |u, v| (u - cu).hypot(v - cv) <= r,
+                |u, v, inside| background(u, v) + 25_000.0 * inside * (1.0 - u / 900.0),
+            );
+            let frame = FrameView::new(W, H, 16, &pixels).unwrap();
+            let (ex, params) = extract_one(frame);
+            let blob = &ex.blobs[0];
+            assert!(blob.runs.iter().any(|r| r.x1 - r.x0 > 5 * NODE_SPACING_PX));
+            let illumination = Illumination::Ideal;
+            let map = CameraMap::new(&camera, &illumination);
+            let k = 3.5;
+            let light = Light {
+                frame: &frame,
+                blob,
+                level: &ex.level,
+                weighting: params.weighting,
+                map: &map,
+                gain_dn_per_e: Some(k),
+            };
+            let fitted = background_fit(&frame, blob, &ex.level).unwrap();
+            assert_eq!(matches!(light.single_pass(&fitted), Pass::Done(_)), single);
+            let got =
+                mapped_light(&frame, blob, &ex.level, params.weighting, &map, Some(k)).unwrap();
+            let want = direct_light(&frame, blob, &ex.level, &map, k);
+            let d = (got.centroid[0] - want.centroid[0]).hypot(got.centroid[1] - want.centroid[1]);
+            println!("single pass {single}: streaming − direct: {d:e} px");
+            assert!(d < 1e-10, "centroids {d:e} px apart");
+            let (a, b) = (got.central, want.central);
+            assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() + (a.2 - b.2).abs() < 1e-10 * a.0);
+            let (ka, kb) = (got.covariance.unwrap(), want.covariance.unwrap());
+            for (x, y) in [(ka.uu_px2, kb.uu_px2), (ka.vv_px2, kb.vv_px2)] {
+                assert!((x / y - 1.0).abs() < 1e-10, "{ka:?} {kb:?}");
+            }
+            assert!(
+                (ka.uv_px2 - kb.uv_px2).abs() < 1e-10 * ka.uu_px2,
+                "{ka:?} {kb:?}"
+            );
         }
-        assert!(
-            (ka.uv_px2 - kb.uv_px2).abs() < 1e-10 * ka.uu_px2,
-            "{ka:?} {kb:?}"
-        );
     }
 
     /// Observed positions stretched by `s` along u about `cu`: ideal
