@@ -1,11 +1,11 @@
 //! The decoders of the formats cameras write, on the seed frame (4096×3072,
 //! 16-bit, three spheres, full noise) as the renderer writes it: ours
-//! (`FrameReader`: the `tiff` crate from the file, PNG through `image`/`png`)
-//! beside the other maintained Rust decoders of each format, in the same
+//! (`FrameReader`: an uncompressed TIFF from the file, a compressed one's
+//! strips in parallel by `extract::strips`, PNG through `image`/`png`) beside the other maintained Rust decoders of each format, in the same
 //! run, each from the file in the page cache to 16-bit pixels in memory:
 //! the `tiff` crate's plain decoder, a TIFF's strips inflated by
 //! `zune-inflate`, `miniz_oxide` and `fdeflate` or unpacked by `weezl` (the
-//! horizontal differencing undone after), and `zune-png`
+//! horizontal differencing undone after), the `png` crate and `zune-png`
 //! (docs/performance.md states the figures). Run:
 //! `cargo bench -p extract --bench decoders`.
 
