@@ -61,18 +61,6 @@ pub trait PixelMap {
         }
         Some(())
     }
-
-    /// The relative illumination RI of the pixels `x0..=x1` of row `y` into
-    /// `out` (cleared first), as [`PixelMap::map_run`] gives it; `None` when
-    /// one of them cannot be mapped. By default pixel by pixel.
-    fn illumination_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<f64>) -> Option<()> {
-        out.clear();
-        let v = f64::from(y);
-        for x in x0..=x1 {
-            out.push(self.map(f64::from(x), v)?.illumination);
-        }
-        Some(())
-    }
 }
 
 /// Spacing (px) of the lattice of exactly mapped nodes of
@@ -288,16 +276,9 @@ impl<'a> CameraMap<'a> {
         }
     }
 
-    /// The pixels `x0..=x1` of row `y` through the lattice, each given to
-    /// `emit` with its interpolated node (shift p − (u, v), J, RI); `None`
-    /// when a node cannot be mapped.
-    fn lattice_run<const RI_ONLY: bool>(
-        &self,
-        y: u32,
-        x0: u32,
-        x1: u32,
-        mut emit: impl FnMut(u32, &Node),
-    ) -> Option<()> {
+    /// The pixels `x0..=x1` of row `y` through the lattice, pushed onto
+    /// `out`; `None` when a node cannot be mapped.
+    fn lattice_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
         let h = NODE_SPACING_PX;
         let (j, ty) = (i64::from(y / h), f64::from(y % h) / f64::from(h));
         let wy = cubic_weights(ty);
@@ -306,7 +287,7 @@ impl<'a> CameraMap<'a> {
         let mut band = self.band.borrow_mut();
         if band.column(j, i0).is_none() || band.column(j, i1).is_none() {
             // A fresh copy: this band's columns, widened to the run's.
-            let held = band.column(j, band.i0).is_some();
+            let held = band.j == j;
             let lo = if held { band.i0.min(i0) } else { i0 } - BAND_MARGIN;
             let hi = if held {
                 (band.i0 + band.columns.len() as i64 - 1).max(i1)
@@ -330,6 +311,7 @@ impl<'a> CameraMap<'a> {
             columns.push(f);
         }
         drop(band);
+        let v = f64::from(y);
         // Interval by interval: pixels k·h ..= k·h + h − 1 of the run between
         // node columns k − 1 ..= k + 2, k from x0 / h; the interval's pixels
         // first, then handed on (which keeps the columns in registers).
@@ -340,24 +322,21 @@ impl<'a> CameraMap<'a> {
                 (x0.max(start) - start) as usize,
                 (x1 - start).min(h - 1) as usize,
             );
-            // With RI_ONLY, RI alone (the others are left unset).
-            let comps = if RI_ONLY { 3..4 } else { 0..4 };
             for (f, wx) in block.iter_mut().zip(&OFFSET_WEIGHTS) {
-                for n in comps.clone() {
-                    f[n] = wx[0] * c[0][n] + wx[1] * c[1][n] + wx[2] * c[2][n] + wx[3] * c[3][n];
+                for (n, fn_) in f.iter_mut().enumerate() {
+                    *fn_ = wx[0] * c[0][n] + wx[1] * c[1][n] + wx[2] * c[2][n] + wx[3] * c[3][n];
                 }
             }
             for (o, f) in block.iter().enumerate().take(b + 1).skip(a) {
-                emit(start + o as u32, f);
+                out.push(Mapped {
+                    position: [f64::from(start + o as u32) + f[0], v + f[1]],
+                    jacobian: f[2],
+                    illumination: f[3],
+                });
             }
             start += h;
         }
         Some(())
-    }
-
-    /// Whether the run `x0..=x1` goes through the lattice (else pixel by pixel).
-    fn through_lattice(x0: u32, x1: u32) -> bool {
-        (x1 - x0) / NODE_SPACING_PX + 1 >= MIN_INTERVALS
     }
 }
 
@@ -368,41 +347,15 @@ impl PixelMap for CameraMap<'_> {
     /// map (beyond the lens model's reach), pixel by pixel.
     fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
         out.clear();
-        let v = f64::from(y);
-        if Self::through_lattice(x0, x1)
-            && self
-                .lattice_run::<false>(y, x0, x1, |x, f| {
-                    out.push(Mapped {
-                        position: [f64::from(x) + f[0], v + f[1]],
-                        jacobian: f[2],
-                        illumination: f[3],
-                    })
-                })
-                .is_some()
+        if (x1 - x0) / NODE_SPACING_PX + 1 >= MIN_INTERVALS
+            && self.lattice_run(y, x0, x1, out).is_some()
         {
             return Some(());
         }
         out.clear();
+        let v = f64::from(y);
         for x in x0..=x1 {
             out.push(self.map(f64::from(x), v)?);
-        }
-        Some(())
-    }
-
-    /// RI alone, through the lattice where [`PixelMap::map_run`] goes through it.
-    fn illumination_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<f64>) -> Option<()> {
-        out.clear();
-        if Self::through_lattice(x0, x1)
-            && self
-                .lattice_run::<true>(y, x0, x1, |_, f| out.push(f[3]))
-                .is_some()
-        {
-            return Some(());
-        }
-        out.clear();
-        let v = f64::from(y);
-        for x in x0..=x1 {
-            out.push(self.map(f64::from(x), v)?.illumination);
         }
         Some(())
     }
@@ -698,34 +651,35 @@ struct Aside {
     signal: f64,
 }
 
-/// The single pass's guess at `T′`, from the blob's first run: `M + ½·|M|`,
-/// M the largest `(T − b)/RI` there. Pixels above it carry weight whatever
-/// `T′` turns out to be, provided `T′` stays below it — which it does unless
-/// the threshold in radiance units rises by half across the blob.
+/// The guess at `T′` from the blob's first run: `M + ½·|M|`, M the largest
+/// `(T − b)/RI` there. Pixels above it carry weight whatever `T′` turns out
+/// to be, provided `T′` stays at or below it — which it does unless the
+/// threshold in radiance units rises by half across the blob.
 const GUESS_MARGIN: f64 = 0.5;
 
-/// What the single pass came to.
+/// What a pass came to.
 enum Pass {
     /// The corrected light, or `None` where it is undefined.
     Done(Option<MappedLight>),
-    /// `T′` exceeded the guess: the two passes are needed.
-    Again,
+    /// `T′` (given) exceeded the guess: a second pass, with it as the guess.
+    Again(f64),
 }
 
 impl Light<'_, '_> {
     /// [`mapped_light`] over `background`, keeping nothing per pixel but
-    /// those near the threshold: one pass over the blob's runs that finds
-    /// `T′` while it sums the pixels surely above it — as `Σ f′·J·φ` and
-    /// `Σ J·φ` (φ = 1, d, d·dᵀ), since `w = (f′ − T′)·J` — and keeps aside the
-    /// pixels that might fall below it ([`GUESS_MARGIN`]); when the guess
-    /// fails, two passes (`T′` from RI alone, then the weights).
+    /// those near the threshold: one pass over the blob's runs finds `T′`
+    /// while it sums the pixels surely above it — as `Σ f′·J·φ` and `Σ J·φ`
+    /// (φ = 1, d, d·dᵀ), since `w = (f′ − T′)·J` — and keeps aside the pixels
+    /// that might fall below it ([`GUESS_MARGIN`]); when `T′` exceeds the
+    /// guess, the first pass has found it, and a second takes it as the guess.
     fn of(&self, background: &Background) -> Option<MappedLight> {
-        match self.single_pass(background) {
+        match self.pass(background, None) {
             Pass::Done(light) => light,
-            Pass::Again => {
-                let threshold = self.threshold(background)?;
-                self.weighted(background, &threshold)
-            }
+            Pass::Again(threshold) => match self.pass(background, Some(threshold)) {
+                Pass::Done(light) => light,
+                // The second pass finds the same T′ as the first.
+                Pass::Again(_) => None,
+            },
         }
     }
 
@@ -745,7 +699,9 @@ impl Light<'_, '_> {
         }
     }
 
-    fn single_pass(&self, background: &Background) -> Pass {
+    /// One pass over the runs ([`Light::of`]) with the guess at `T′`, or
+    /// with the first run's when `None`.
+    fn pass(&self, background: &Background, guess: Option<f64>) -> Pass {
         let [c, a, b] = background.plane;
         let reference = [self.blob.u, self.blob.v];
         let noise = self.pixel_noise(background);
@@ -756,7 +712,7 @@ impl Light<'_, '_> {
             value: f64::NEG_INFINITY,
             at: ([0.0, 0.0], 1.0),
         };
-        let mut guess = None;
+        let mut guess = guess;
         let mut mapped = Vec::new();
         for run in &self.blob.runs {
             let Some(pixels) = self.frame.row(run.y).get(run.x0 as usize..=run.x1 as usize) else {
@@ -770,8 +726,9 @@ impl Light<'_, '_> {
             {
                 return Pass::Done(None);
             }
-            // T′ so far (as in `threshold`): over the first run before its
-            // pixels are weighed (it sets the guess), with them after.
+            // T′ so far (the maximum multiplied out, RI > 0: a division only
+            // where it moves): over the first run before its pixels are
+            // weighed when that run sets the guess, with them after.
             let t_max = |best: &mut Threshold, x: u32, m: &Mapped| {
                 let u = f64::from(x);
                 let t = f64::from(self.level.at(x, run.y, self.frame.width));
@@ -819,8 +776,8 @@ impl Light<'_, '_> {
             }
         }
         match guess {
-            Some(g) if best.value < g => {}
-            _ => return Pass::Again,
+            Some(g) if best.value <= g => {}
+            _ => return Pass::Again(best.value),
         }
         let mut sums = above_fj.minus(self.subtracted(best.value), &above_j);
         for p in &aside {
@@ -832,40 +789,6 @@ impl Light<'_, '_> {
             }
         }
         Pass::Done(self.finish(&sums, noise.map(|_| noise_sums), background, &best))
-    }
-
-    /// The weights' sums (and the covariance's, [`NoiseSums`]) about the
-    /// blob's plain centroid, with `threshold` known.
-    fn weighted(&self, background: &Background, threshold: &Threshold) -> Option<MappedLight> {
-        let [c, a, b] = background.plane;
-        let reference = [self.blob.u, self.blob.v];
-        let noise = self.pixel_noise(background);
-        let mut noise_sums = NoiseSums::default();
-        let mut sums = Moments::default();
-        let mut mapped = Vec::new();
-        for run in &self.blob.runs {
-            let row = self.frame.row(run.y);
-            let v = f64::from(run.y);
-            self.map.map_run(run.y, run.x0, run.x1, &mut mapped)?;
-            for (x, m) in (run.x0..=run.x1).zip(mapped.iter()) {
-                if !(m.illumination > 0.0 && m.jacobian > 0.0) {
-                    return None;
-                }
-                let u = f64::from(x);
-                let signal = f64::from(row[x as usize]) - (c + a * u + b * v);
-                let Some(w) =
-                    corrected_weight(self.weighting, signal / m.illumination, threshold.value)
-                else {
-                    continue;
-                };
-                let d = [m.position[0] - reference[0], m.position[1] - reference[1]];
-                sums.add(d, w * m.jacobian);
-                if let Some(noise) = &noise {
-                    noise_sums.add(noise, [u, v], d, m, signal);
-                }
-            }
-        }
-        self.finish(&sums, noise.map(|_| noise_sums), background, threshold)
     }
 
     /// The centroid, central moments and covariance from the sums.
@@ -887,40 +810,6 @@ impl Light<'_, '_> {
             central: (uu, vv, uv),
             covariance: noise_sums.and_then(|n| n.covariance(e, sums.w, background, threshold.at)),
         })
-    }
-
-    /// `T′ = max over the blob of (T(p) − b(p))/RI(p)` (module docs), the
-    /// first pixel to reach it; `None` when a pixel's RI is not positive or
-    /// cannot be mapped.
-    fn threshold(&self, background: &Background) -> Option<Threshold> {
-        let [c, a, b] = background.plane;
-        let mut best = Threshold {
-            value: f64::NEG_INFINITY,
-            at: ([0.0, 0.0], 1.0),
-        };
-        let mut illumination = Vec::new();
-        for run in &self.blob.runs {
-            let v = f64::from(run.y);
-            self.map
-                .illumination_run(run.y, run.x0, run.x1, &mut illumination)?;
-            for (x, &ri) in (run.x0..=run.x1).zip(illumination.iter()) {
-                if ri.is_nan() || ri <= 0.0 {
-                    return None;
-                }
-                let u = f64::from(x);
-                let t = f64::from(self.level.at(x, run.y, self.frame.width));
-                // (t − b)/RI > T′ multiplied out (RI > 0): a division only
-                // where the maximum moves.
-                let above = t - (c + a * u + b * v);
-                if above > best.value * ri {
-                    best = Threshold {
-                        value: above / ri,
-                        at: ([u, v], ri),
-                    };
-                }
-            }
-        }
-        Some(best)
     }
 }
 
@@ -1224,10 +1113,10 @@ mod tests {
         }
     }
 
-    /// The streaming sums — the single pass, and the two passes (RI alone
-    /// for `T′`, then the weights) where its guess fails — give what the
-    /// formulas give directly from the same mapped pixels, on a distorted lens with its fall-off and a
-    /// tilted background, a blob wide enough for its runs to go through the
+    /// The streaming sums — one pass, and a second with the first's `T′` as
+    /// its guess where the first's guess fails — give what the formulas give
+    /// directly from the same mapped pixels, on a distorted lens with its
+    /// fall-off and a tilted background, a blob wide enough for its runs to go through the
     /// lattice's bands: to rounding.
     #[test]
     fn the_streaming_sums_give_the_direct_formulas() {
@@ -1235,8 +1124,8 @@ mod tests {
         let (cu, cv, r) = (71.7, 63.2, 26.0);
         // A mild tilt: T′ stays within the single pass's guess. A steep one
         // (the threshold 2000 DN lies 620 DN above the background at the
-        // blob's top row, 1350 DN at its bottom): the guess fails and the
-        // two passes run.
+        // blob's top row, 1350 DN at its bottom): the guess fails and a
+        // second pass runs.
         type Plane = fn(f64, f64) -> f64;
         let backgrounds: [(Plane, bool); 2] = [
             (|u, v| 700.0 + 0.8 * u - 0.6 * v, true),
@@ -1263,7 +1152,7 @@ mod tests {
                 gain_dn_per_e: Some(k),
             };
             let fitted = background_fit(&frame, blob, &ex.level).unwrap();
-            assert_eq!(matches!(light.single_pass(&fitted), Pass::Done(_)), single);
+            assert_eq!(matches!(light.pass(&fitted, None), Pass::Done(_)), single);
             let got =
                 mapped_light(&frame, blob, &ex.level, params.weighting, &map, Some(k)).unwrap();
             let want = direct_light(&frame, blob, &ex.level, &map, k);
