@@ -14,6 +14,10 @@
 //! (the threshold test stays consistent), and the weight of a uniform
 //! sphere's pixels depends on their blurred coverage alone.
 
+// Lanes side by side: loops over lane indices into several arrays are what the
+// compiler spreads over vector units.
+#![allow(clippy::needless_range_loop)]
+
 use geom::fit::HeightPlane;
 use geom::{Camera, Illumination, Matrix3, Point2, Point3, RadialIllumination, Vector3};
 use std::cell::{Cell, RefCell};
@@ -21,7 +25,7 @@ use std::cell::{Cell, RefCell};
 use crate::blob::{Blob, MomentEllipse};
 use crate::frame::FrameView;
 use crate::label::Weighting;
-use crate::noise::{Background, CentroidCovariance, NoiseSums, PixelNoise};
+use crate::noise::{Background, CentroidCovariance, NoiseSums, NoiseTotals, PixelNoise};
 use crate::threshold::Level;
 
 /// Gap (px) between a blob's bounding box and the ring its background is
@@ -46,21 +50,118 @@ pub struct Mapped {
     pub illumination: f64,
 }
 
+/// Pixels of a run mapped together: one [`NODE_SPACING_PX`] interval of
+/// the lattice, whose arithmetic the compiler can spread over vector lanes.
+pub const LANES: usize = NODE_SPACING_PX as usize;
+
+/// Lane offsets `0, 1, …, LANES − 1` as reals.
+const LANE_OFFSETS: [f64; LANES] = {
+    let mut o = [0.0; LANES];
+    let mut l = 0;
+    while l < LANES {
+        o[l] = l as f64;
+        l += 1;
+    }
+    o
+};
+
+/// Up to [`LANES`] consecutive pixels of a row, mapped: lane `l` is pixel
+/// `x + l`, and the lanes `first..end` are the run's (the others carry
+/// finite values that count for nothing).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MappedLanes {
+    /// Pixel of lane 0.
+    pub x: u32,
+    /// First lane of the run.
+    pub first: usize,
+    /// One past the last lane of the run.
+    pub end: usize,
+    /// Positions in the corrected image (px), u then v.
+    pub position: [[f64; LANES]; 2],
+    /// Area Jacobians of the mapping.
+    pub jacobian: [f64; LANES],
+    /// `1/RI`: the flat-field correction's factor.
+    pub inverse_illumination: [f64; LANES],
+}
+
+impl MappedLanes {
+    /// Lanes from pixel `x` with nothing in them yet.
+    fn empty(x: u32) -> Self {
+        Self {
+            x,
+            first: 0,
+            end: 0,
+            position: [[0.0; LANES]; 2],
+            jacobian: [1.0; LANES],
+            inverse_illumination: [1.0; LANES],
+        }
+    }
+
+    /// Put pixel `x + l`'s map in lane `l` (after the lanes put so far).
+    fn put(&mut self, l: usize, m: &Mapped) {
+        if self.end == self.first {
+            self.first = l;
+        }
+        self.end = l + 1;
+        self.position[0][l] = m.position[0];
+        self.position[1][l] = m.position[1];
+        self.jacobian[l] = m.jacobian;
+        self.inverse_illumination[l] = 1.0 / m.illumination;
+    }
+
+    /// Per lane whether it is one of the run's (without branches, which
+    /// would keep the compiler from using vector lanes).
+    #[inline(always)]
+    fn held(&self) -> [bool; LANES] {
+        std::array::from_fn(|l| (l >= self.first) & (l < self.end))
+    }
+
+    /// The run's pixels: `(x, its map)`.
+    pub fn pixels(&self) -> impl Iterator<Item = (u32, Mapped)> + '_ {
+        (self.first..self.end).map(|l| {
+            (
+                self.x + l as u32,
+                Mapped {
+                    position: [self.position[0][l], self.position[1][l]],
+                    jacobian: self.jacobian[l],
+                    illumination: 1.0 / self.inverse_illumination[l],
+                },
+            )
+        })
+    }
+}
+
 /// A pixel correction: observed pixel (u, v) → [`Mapped`]; `None` where undefined.
 pub trait PixelMap {
     /// Map one pixel centre.
     fn map(&self, u: f64, v: f64) -> Option<Mapped>;
 
-    /// Map the pixels `x0..=x1` of row `y` into `out` (cleared first);
-    /// `None` when one of them cannot be mapped. By default pixel by pixel.
-    fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
-        out.clear();
-        let v = f64::from(y);
-        for x in x0..=x1 {
-            out.push(self.map(f64::from(x), v)?);
-        }
-        Some(())
+    /// Map the pixels `x0..=x1` of row `y` into `out` (cleared first), in
+    /// [`MappedLanes`] in order; `None` when one of them cannot be mapped.
+    /// By default pixel by pixel, [`LANES`] at a time from `x0`.
+    fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<MappedLanes>) -> Option<()> {
+        pixel_by_pixel(self, y, x0, x1, out)
     }
+}
+
+/// [`PixelMap::map_run`] through [`PixelMap::map`], pixel by pixel.
+fn pixel_by_pixel<M: PixelMap + ?Sized>(
+    map: &M,
+    y: u32,
+    x0: u32,
+    x1: u32,
+    out: &mut Vec<MappedLanes>,
+) -> Option<()> {
+    out.clear();
+    let v = f64::from(y);
+    for x in (x0..=x1).step_by(LANES) {
+        let mut lanes = MappedLanes::empty(x);
+        for (l, xl) in (x..=x1).take(LANES).enumerate() {
+            lanes.put(l, &map.map(f64::from(xl), v)?);
+        }
+        out.push(lanes);
+    }
+    Some(())
 }
 
 /// Spacing (px) of the lattice of exactly mapped nodes of
@@ -76,7 +177,7 @@ pub const NODE_SPACING_PX: u32 = 8;
 /// Runs shorter than this many node intervals are mapped pixel by pixel.
 const MIN_INTERVALS: u32 = 4;
 
-/// A node's shift p − (u, v), J and RI.
+/// A node's shift p − (u, v), J and 1/RI.
 type Node = [f64; 4];
 
 /// Lagrange weights of the nodes at −1, 0, 1, 2 (in node spacings) at
@@ -90,13 +191,18 @@ const fn cubic_weights(t: f64) -> [f64; 4] {
     ]
 }
 
-/// The weights of the [`NODE_SPACING_PX`] offsets a pixel can have within
-/// a node interval.
-const OFFSET_WEIGHTS: [[f64; 4]; NODE_SPACING_PX as usize] = {
-    let mut w = [[0.0; 4]; NODE_SPACING_PX as usize];
+/// The weight of node column m (of the four) at each offset a pixel can
+/// have within a node interval, by lane.
+const OFFSET_WEIGHTS: [[f64; LANES]; 4] = {
+    let mut w = [[0.0; LANES]; 4];
     let mut o = 0;
-    while o < NODE_SPACING_PX {
-        w[o as usize] = cubic_weights(o as f64 / NODE_SPACING_PX as f64);
+    while o < LANES {
+        let c = cubic_weights(o as f64 / NODE_SPACING_PX as f64);
+        let mut m = 0;
+        while m < 4 {
+            w[m][o] = c[m];
+            m += 1;
+        }
         o += 1;
     }
     w
@@ -181,6 +287,8 @@ struct Band {
     i0: i64,
     /// Per column from `i0`, its four nodes (`None` where unmappable).
     columns: Vec<[Option<Node>; 4]>,
+    /// A run's columns interpolated to its row (kept between runs).
+    row: Vec<Node>,
 }
 
 /// Node columns fetched beyond a run's own on either side, so that the
@@ -193,6 +301,7 @@ impl Band {
             j: i64::MIN,
             i0: 0,
             columns: Vec::new(),
+            row: Vec::new(),
         }
     }
 
@@ -260,7 +369,7 @@ impl<'a> CameraMap<'a> {
                     m.position[0] - u,
                     m.position[1] - v,
                     m.jacobian,
-                    m.illumination,
+                    1.0 / m.illumination,
                 ])
             })
             .as_ref()
@@ -277,8 +386,8 @@ impl<'a> CameraMap<'a> {
     }
 
     /// The pixels `x0..=x1` of row `y` through the lattice, pushed onto
-    /// `out`; `None` when a node cannot be mapped.
-    fn lattice_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
+    /// `out` a node interval at a time; `None` when a node cannot be mapped.
+    fn lattice_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<MappedLanes>) -> Option<()> {
         let h = NODE_SPACING_PX;
         let (j, ty) = (i64::from(y / h), f64::from(y % h) / f64::from(h));
         let wy = cubic_weights(ty);
@@ -294,12 +403,13 @@ impl<'a> CameraMap<'a> {
             } else {
                 i1
             } + BAND_MARGIN;
-            let columns = (lo..=hi)
+            band.columns = (lo..=hi)
                 .map(|i| [-1, 0, 1, 2].map(|dj| self.node(i, j + dj).copied()))
                 .collect();
-            *band = Band { j, i0: lo, columns };
+            (band.j, band.i0) = (j, lo);
         }
-        let mut columns: Vec<Node> = Vec::with_capacity((i1 - i0 + 1) as usize);
+        let mut columns = std::mem::take(&mut band.row);
+        columns.clear();
         for i in i0..=i1 {
             let nodes = band.column(j, i)?;
             let mut f = [0.0f64; 4];
@@ -310,34 +420,69 @@ impl<'a> CameraMap<'a> {
             }
             columns.push(f);
         }
-        drop(band);
-        let v = f64::from(y);
-        // Interval by interval: pixels k·h ..= k·h + h − 1 of the run between
-        // node columns k − 1 ..= k + 2, k from x0 / h; the interval's pixels
-        // first, then handed on (which keeps the columns in registers).
-        let mut start = (x0 / h) * h;
-        let mut block = [[0.0f64; 4]; NODE_SPACING_PX as usize];
-        for c in columns.windows(4) {
-            let (a, b) = (
-                (x0.max(start) - start) as usize,
-                (x1 - start).min(h - 1) as usize,
-            );
-            for (f, wx) in block.iter_mut().zip(&OFFSET_WEIGHTS) {
-                for (n, fn_) in f.iter_mut().enumerate() {
-                    *fn_ = wx[0] * c[0][n] + wx[1] * c[1][n] + wx[2] * c[2][n] + wx[3] * c[3][n];
-                }
-            }
-            for (o, f) in block.iter().enumerate().take(b + 1).skip(a) {
-                out.push(Mapped {
-                    position: [f64::from(start + o as u32) + f[0], v + f[1]],
-                    jacobian: f[2],
-                    illumination: f[3],
-                });
-            }
-            start += h;
-        }
+        // On the CPU's widest vector units: the same arithmetic in the same
+        // order, so the same result, on any.
+        pulp::Arch::new().dispatch(Intervals {
+            columns: &columns,
+            x0,
+            x1,
+            v: f64::from(y),
+            out,
+        });
+        band.row = columns;
         Some(())
     }
+}
+
+/// A run's node columns, interpolated to its row `v`, to be spread over the
+/// run's pixels `x0..=x1` interval by interval.
+struct Intervals<'a> {
+    columns: &'a [Node],
+    x0: u32,
+    x1: u32,
+    v: f64,
+    out: &'a mut Vec<MappedLanes>,
+}
+
+impl pulp::WithSimd for Intervals<'_> {
+    type Output = ();
+
+    /// Pixels k·h ..= k·h + h − 1 of the run between node columns
+    /// k − 1 ..= k + 2, k from x0 / h.
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let (h, x0, x1) = (NODE_SPACING_PX, self.x0, self.x1);
+        let mut start = (x0 / h) * h;
+        for c in self.columns.windows(4) {
+            let mut lanes = MappedLanes::empty(start);
+            lanes.first = (x0.max(start) - start) as usize;
+            lanes.end = (x1 - start).min(h - 1) as usize + 1;
+            let [sx, sy, jac, inv] = interval(c);
+            let u0 = f64::from(start);
+            for l in 0..LANES {
+                lanes.position[0][l] = (u0 + LANE_OFFSETS[l]) + sx[l];
+                lanes.position[1][l] = self.v + sy[l];
+            }
+            (lanes.jacobian, lanes.inverse_illumination) = (jac, inv);
+            self.out.push(lanes);
+            start += h;
+        }
+    }
+}
+
+/// The four quantities of a [`Node`] at each pixel of a node interval,
+/// from the four node columns around it (already interpolated to the row).
+#[inline(always)]
+fn interval(c: &[Node]) -> [[f64; LANES]; 4] {
+    let w = &OFFSET_WEIGHTS;
+    let mut q = [[0.0; LANES]; 4];
+    for (n, qn) in q.iter_mut().enumerate() {
+        let (c0, c1, c2, c3) = (c[0][n], c[1][n], c[2][n], c[3][n]);
+        for l in 0..LANES {
+            qn[l] = w[0][l] * c0 + w[1][l] * c1 + w[2][l] * c2 + w[3][l] * c3;
+        }
+    }
+    q
 }
 
 impl PixelMap for CameraMap<'_> {
@@ -345,19 +490,14 @@ impl PixelMap for CameraMap<'_> {
     /// the bicubic of the shift p − (u, v), J and RI; a run shorter than
     /// [`MIN_INTERVALS`] node spacings, or one near a node the model cannot
     /// map (beyond the lens model's reach), pixel by pixel.
-    fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<Mapped>) -> Option<()> {
+    fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<MappedLanes>) -> Option<()> {
         out.clear();
         if (x1 - x0) / NODE_SPACING_PX + 1 >= MIN_INTERVALS
             && self.lattice_run(y, x0, x1, out).is_some()
         {
             return Some(());
         }
-        out.clear();
-        let v = f64::from(y);
-        for x in x0..=x1 {
-            out.push(self.map(f64::from(x), v)?);
-        }
-        Some(())
+        pixel_by_pixel(self, y, x0, x1, out)
     }
 
     fn map(&self, u: f64, v: f64) -> Option<Mapped> {
@@ -595,6 +735,111 @@ struct Threshold {
     at: ([f64; 2], f64),
 }
 
+impl Threshold {
+    /// Raise `T′` to the largest `(T − b)/RI` of the run's `lanes`, set by
+    /// the first pixel that holds it (as a scan pixel by pixel would).
+    #[inline(always)]
+    fn raise(&mut self, lanes: &MappedLanes, pixels: &PixelLanes) {
+        let held = lanes.held();
+        let mut t = [f64::NEG_INFINITY; LANES];
+        for (l, tl) in t.iter_mut().enumerate() {
+            let above = (pixels.level[l] - pixels.background[l]) * lanes.inverse_illumination[l];
+            *tl = if held[l] { above } else { f64::NEG_INFINITY };
+        }
+        // The maximum as a tree: no chain of dependent comparisons.
+        let mut m = t;
+        let mut half = LANES / 2;
+        while half > 0 {
+            for l in 0..half {
+                m[l] = m[l].max(m[l + half]);
+            }
+            half /= 2;
+        }
+        if m[0] > self.value
+            && let Some(l) = t.iter().position(|&x| x == m[0])
+        {
+            *self = Threshold {
+                value: m[0],
+                at: ([pixels.u[l], pixels.v], 1.0 / lanes.inverse_illumination[l]),
+            };
+        }
+    }
+}
+
+/// The observed side of [`MappedLanes`]: per lane the pixel's column u,
+/// value f, threshold T and background b(u, v) (DN); and the row v.
+struct PixelLanes {
+    u: [f64; LANES],
+    v: f64,
+    value: [f64; LANES],
+    level: [f64; LANES],
+    background: [f64; LANES],
+}
+
+impl PixelLanes {
+    /// The pixels of `lanes` in `row` (v), with their thresholds `levels`
+    /// over the background `plane`.
+    #[inline(always)]
+    fn of(lanes: &MappedLanes, row: &[u16], levels: &Levels<'_>, plane: [f64; 3], v: f64) -> Self {
+        let [c, a, b] = plane;
+        let mut p = PixelLanes {
+            u: [0.0; LANES],
+            v,
+            value: gather(row, lanes.x),
+            level: match levels {
+                Levels::Constant(t) => [*t; LANES],
+                Levels::Row(r) => gather(r, lanes.x),
+            },
+            background: [0.0; LANES],
+        };
+        let u0 = f64::from(lanes.x);
+        for l in 0..LANES {
+            p.u[l] = u0 + LANE_OFFSETS[l];
+            p.background[l] = c + a * p.u[l] + b * v;
+        }
+        p
+    }
+}
+
+/// [`LANES`] values of `row` from `x`, 0 beyond its end.
+#[inline(always)]
+fn gather(row: &[u16], x: u32) -> [f64; LANES] {
+    let x = x as usize;
+    let mut out = [0.0; LANES];
+    match row.get(x..x + LANES) {
+        Some(px) => {
+            for (o, &p) in out.iter_mut().zip(px) {
+                *o = f64::from(p);
+            }
+        }
+        None => {
+            for (o, &p) in out.iter_mut().zip(row.iter().skip(x)) {
+                *o = f64::from(p);
+            }
+        }
+    }
+    out
+}
+
+/// A frame's thresholds along one row.
+enum Levels<'a> {
+    Constant(f64),
+    Row(&'a [u16]),
+}
+
+impl<'a> Levels<'a> {
+    /// Row `y` of `level` over a frame `width` wide.
+    fn of(level: &'a Level, y: u32, width: u32) -> Option<Self> {
+        match level {
+            Level::Constant(t) => Some(Levels::Constant(f64::from(*t))),
+            Level::Map(m) => {
+                let start = y as usize * width as usize;
+                m.get(start..start + width as usize).map(Levels::Row)
+            }
+        }
+    }
+}
+
 /// Weighted sums `Σ w`, `Σ w·d`, `Σ w·(d_u², d_v², d_u·d_v)` of positions
 /// `d = p′ − r` about a reference point r near the blob, gathered before the
 /// centroid is known: the centroid is `r + Σ w·d / Σ w`, and the second
@@ -608,25 +853,15 @@ pub(crate) struct Moments {
 }
 
 impl Moments {
-    #[inline]
-    pub(crate) fn add(&mut self, d: [f64; 2], w: f64) {
-        self.w += w;
-        self.wd[0] += w * d[0];
-        self.wd[1] += w * d[1];
-        self.wdd[0] += w * d[0] * d[0];
-        self.wdd[1] += w * d[1] * d[1];
-        self.wdd[2] += w * d[0] * d[1];
-    }
-
-    /// `self − t·other`, sum by sum.
-    pub(crate) fn minus(&self, t: f64, other: &Moments) -> Moments {
+    /// `self + t·other`, sum by sum.
+    pub(crate) fn added(&self, t: f64, other: &Moments) -> Moments {
         Moments {
-            w: self.w - t * other.w,
-            wd: [self.wd[0] - t * other.wd[0], self.wd[1] - t * other.wd[1]],
+            w: self.w + t * other.w,
+            wd: [self.wd[0] + t * other.wd[0], self.wd[1] + t * other.wd[1]],
             wdd: [
-                self.wdd[0] - t * other.wdd[0],
-                self.wdd[1] - t * other.wdd[1],
-                self.wdd[2] - t * other.wdd[2],
+                self.wdd[0] + t * other.wdd[0],
+                self.wdd[1] + t * other.wdd[1],
+                self.wdd[2] + t * other.wdd[2],
             ],
         }
     }
@@ -642,11 +877,140 @@ impl Moments {
     }
 }
 
+/// [`Moments`] gathered in `N` lanes side by side (lane l sums lane l of
+/// every [`MappedLanes`] added; N = 1: pixel by pixel), totalled at the end.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct MomentSums<const N: usize> {
+    w: [f64; N],
+    wd: [[f64; N]; 2],
+    wdd: [[f64; N]; 3],
+}
+
+impl<const N: usize> Default for MomentSums<N> {
+    fn default() -> Self {
+        Self {
+            w: [0.0; N],
+            wd: [[0.0; N]; 2],
+            wdd: [[0.0; N]; 3],
+        }
+    }
+}
+
+impl<const N: usize> MomentSums<N> {
+    /// Add weights `w` at positions `d` (u, v), lane by lane.
+    #[inline(always)]
+    pub(crate) fn add(&mut self, d: &[[f64; N]; 2], w: &[f64; N]) {
+        for l in 0..N {
+            let (wu, wv) = (w[l] * d[0][l], w[l] * d[1][l]);
+            self.w[l] += w[l];
+            self.wd[0][l] += wu;
+            self.wd[1][l] += wv;
+            self.wdd[0][l] += wu * d[0][l];
+            self.wdd[1][l] += wv * d[1][l];
+            self.wdd[2][l] += wu * d[1][l];
+        }
+    }
+
+    /// The sums over every lane.
+    pub(crate) fn total(&self) -> Moments {
+        Moments {
+            w: lane_total(&self.w),
+            wd: self.wd.each_ref().map(lane_total),
+            wdd: self.wdd.each_ref().map(lane_total),
+        }
+    }
+}
+
+/// The sum of a lane sum's lanes, in lane order.
+pub(crate) fn lane_total<const N: usize>(lanes: &[f64; N]) -> f64 {
+    lanes.iter().sum()
+}
+
+/// What a pass sums over the pixels surely above `T′`, lane by lane:
+/// `Σ f′·J·φ`, `Σ J·φ` and the noise's sums.
+#[derive(Default)]
+struct AboveSums {
+    fj: MomentSums<LANES>,
+    j: MomentSums<LANES>,
+    noise: NoiseSums<LANES>,
+}
+
+impl AboveSums {
+    /// Weigh the run's `lanes`: those above `guess` summed, the others set
+    /// aside; `false` when one of the run's pixels has no positive J or RI.
+    #[inline(always)]
+    fn weigh(
+        &mut self,
+        lanes: &MappedLanes,
+        p: &PixelLanes,
+        guess: f64,
+        reference: [f64; 2],
+        noise: Option<&PixelNoise>,
+        aside: &mut Vec<Aside>,
+    ) -> bool {
+        let held = lanes.held();
+        let (jac, inv) = (&lanes.jacobian, &lanes.inverse_illumination);
+        let (mut signal, mut corrected) = ([0.0; LANES], [0.0; LANES]);
+        let (mut kept, mut unmappable, mut set_aside) = ([false; LANES], 0u32, 0u32);
+        // Simple loops without branches: each one's lanes side by side.
+        for l in 0..LANES {
+            signal[l] = p.value[l] - p.background[l];
+            corrected[l] = signal[l] * inv[l];
+            kept[l] = held[l] & (corrected[l] > guess);
+            unmappable += u32::from(held[l] & !((inv[l] > 0.0) & (jac[l] > 0.0)));
+            set_aside += u32::from(held[l] & !kept[l]);
+        }
+        let (mut d, mut fj, mut j, mut g) =
+            ([[0.0; LANES]; 2], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        for l in 0..LANES {
+            let k = kept[l];
+            d[0][l] = if k {
+                lanes.position[0][l] - reference[0]
+            } else {
+                0.0
+            };
+            d[1][l] = if k {
+                lanes.position[1][l] - reference[1]
+            } else {
+                0.0
+            };
+            fj[l] = if k { corrected[l] * jac[l] } else { 0.0 };
+            j[l] = if k { jac[l] } else { 0.0 };
+            g[l] = if k { jac[l] * inv[l] } else { 0.0 };
+        }
+        if unmappable > 0 {
+            return false;
+        }
+        self.fj.add(&d, &fj);
+        self.j.add(&d, &j);
+        if let Some(noise) = noise {
+            self.noise.add(noise, &p.u, p.v, &d, &j, &g, &signal);
+        }
+        if set_aside > 0 {
+            for l in (lanes.first..lanes.end).filter(|&l| !kept[l]) {
+                aside.push(Aside {
+                    observed: [p.u[l], p.v],
+                    d: [
+                        lanes.position[0][l] - reference[0],
+                        lanes.position[1][l] - reference[1],
+                    ],
+                    jacobian: lanes.jacobian[l],
+                    inverse_illumination: lanes.inverse_illumination[l],
+                    corrected: corrected[l],
+                    signal: signal[l],
+                });
+            }
+        }
+        true
+    }
+}
+
 /// A pixel of the single pass kept aside, its weight waiting for `T′`.
 struct Aside {
     observed: [f64; 2],
     d: [f64; 2],
-    mapped: Mapped,
+    jacobian: f64,
+    inverse_illumination: f64,
     corrected: f64,
     signal: f64,
 }
@@ -656,6 +1020,30 @@ struct Aside {
 /// to be, provided `T′` stays at or below it — which it does unless the
 /// threshold in radiance units rises by half across the blob.
 const GUESS_MARGIN: f64 = 0.5;
+
+/// [`Light::of`]'s passes over a blob, to be compiled for each kind of
+/// vector unit.
+struct Passes<'a, 'b, 'f> {
+    light: &'a Light<'b, 'f>,
+    background: &'a Background,
+}
+
+impl pulp::WithSimd for Passes<'_, '_, '_> {
+    type Output = Option<MappedLight>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> Option<MappedLight> {
+        let (light, background) = (self.light, self.background);
+        match light.pass(background, None) {
+            Pass::Done(done) => done,
+            Pass::Again(threshold) => match light.pass(background, Some(threshold)) {
+                Pass::Done(done) => done,
+                // The second pass finds the same T′ as the first.
+                Pass::Again(_) => None,
+            },
+        }
+    }
+}
 
 /// What a pass came to.
 enum Pass {
@@ -672,15 +1060,13 @@ impl Light<'_, '_> {
     /// (φ = 1, d, d·dᵀ), since `w = (f′ − T′)·J` — and keeps aside the pixels
     /// that might fall below it ([`GUESS_MARGIN`]); when `T′` exceeds the
     /// guess, the first pass has found it, and a second takes it as the guess.
+    /// The passes run on the CPU's widest vector units: the same
+    /// arithmetic in the same order, so the same result, on any.
     fn of(&self, background: &Background) -> Option<MappedLight> {
-        match self.pass(background, None) {
-            Pass::Done(light) => light,
-            Pass::Again(threshold) => match self.pass(background, Some(threshold)) {
-                Pass::Done(light) => light,
-                // The second pass finds the same T′ as the first.
-                Pass::Again(_) => None,
-            },
-        }
+        pulp::Arch::new().dispatch(Passes {
+            light: self,
+            background,
+        })
     }
 
     /// The pixels' noise, where the centroid's covariance is wanted.
@@ -700,13 +1086,13 @@ impl Light<'_, '_> {
     }
 
     /// One pass over the runs ([`Light::of`]) with the guess at `T′`, or
-    /// with the first run's when `None`.
+    /// with the first run's when `None`: a node interval's pixels at a time
+    /// ([`MappedLanes`]).
+    #[inline(always)]
     fn pass(&self, background: &Background, guess: Option<f64>) -> Pass {
-        let [c, a, b] = background.plane;
         let reference = [self.blob.u, self.blob.v];
         let noise = self.pixel_noise(background);
-        let mut noise_sums = NoiseSums::default();
-        let (mut above_fj, mut above_j) = (Moments::default(), Moments::default());
+        let mut above = AboveSums::default();
         let mut aside = Vec::new();
         let mut best = Threshold {
             value: f64::NEG_INFINITY,
@@ -715,10 +1101,12 @@ impl Light<'_, '_> {
         let mut guess = guess;
         let mut mapped = Vec::new();
         for run in &self.blob.runs {
-            let Some(pixels) = self.frame.row(run.y).get(run.x0 as usize..=run.x1 as usize) else {
+            let row = self.frame.row(run.y);
+            let levels = Levels::of(self.level, run.y, self.frame.width);
+            let (Some(_), Some(levels)) = (row.get(run.x0 as usize..=run.x1 as usize), levels)
+            else {
                 return Pass::Done(None);
             };
-            let v = f64::from(run.y);
             if self
                 .map
                 .map_run(run.y, run.x0, run.x1, &mut mapped)
@@ -726,52 +1114,25 @@ impl Light<'_, '_> {
             {
                 return Pass::Done(None);
             }
-            // T′ so far (the maximum multiplied out, RI > 0: a division only
-            // where it moves): over the first run before its pixels are
-            // weighed when that run sets the guess, with them after.
-            let t_max = |best: &mut Threshold, x: u32, m: &Mapped| {
-                let u = f64::from(x);
-                let t = f64::from(self.level.at(x, run.y, self.frame.width));
-                let above = t - (c + a * u + b * v);
-                if above > best.value * m.illumination {
-                    *best = Threshold {
-                        value: above / m.illumination,
-                        at: ([u, v], m.illumination),
-                    };
-                }
-            };
+            let v = f64::from(run.y);
+            let pixels =
+                |lanes: &MappedLanes| PixelLanes::of(lanes, row, &levels, background.plane, v);
+            // T′ so far: over the first run before its pixels are weighed
+            // when that run sets the guess, with them after.
             let first = guess.is_none();
             if first {
-                for (x, m) in (run.x0..=run.x1).zip(&mapped) {
-                    t_max(&mut best, x, m);
+                for lanes in &mapped {
+                    best.raise(lanes, &pixels(lanes));
                 }
             }
             let g = *guess.get_or_insert(best.value + GUESS_MARGIN * best.value.abs());
-            for ((x, &f), m) in (run.x0..=run.x1).zip(pixels).zip(&mapped) {
-                if !(m.illumination > 0.0 && m.jacobian > 0.0) {
-                    return Pass::Done(None);
-                }
+            for lanes in &mapped {
+                let p = pixels(lanes);
                 if !first {
-                    t_max(&mut best, x, m);
+                    best.raise(lanes, &p);
                 }
-                let u = f64::from(x);
-                let signal = f64::from(f) - (c + a * u + b * v);
-                let corrected = signal / m.illumination;
-                let d = [m.position[0] - reference[0], m.position[1] - reference[1]];
-                if corrected > g {
-                    above_fj.add(d, corrected * m.jacobian);
-                    above_j.add(d, m.jacobian);
-                    if let Some(noise) = &noise {
-                        noise_sums.add(noise, [u, v], d, m, signal);
-                    }
-                } else {
-                    aside.push(Aside {
-                        observed: [u, v],
-                        d,
-                        mapped: *m,
-                        corrected,
-                        signal,
-                    });
+                if !above.weigh(lanes, &p, g, reference, noise.as_ref(), &mut aside) {
+                    return Pass::Done(None);
                 }
             }
         }
@@ -779,23 +1140,39 @@ impl Light<'_, '_> {
             Some(g) if best.value <= g => {}
             _ => return Pass::Again(best.value),
         }
-        let mut sums = above_fj.minus(self.subtracted(best.value), &above_j);
+        let (mut near, mut near_noise) = (MomentSums::<1>::default(), NoiseSums::<1>::default());
         for p in &aside {
             if let Some(w) = corrected_weight(self.weighting, p.corrected, best.value) {
-                sums.add(p.d, w * p.mapped.jacobian);
+                let d = [[p.d[0]], [p.d[1]]];
+                near.add(&d, &[w * p.jacobian]);
                 if let Some(noise) = &noise {
-                    noise_sums.add(noise, p.observed, p.d, &p.mapped, p.signal);
+                    let g = p.jacobian * p.inverse_illumination;
+                    near_noise.add(
+                        noise,
+                        &[p.observed[0]],
+                        p.observed[1],
+                        &d,
+                        &[p.jacobian],
+                        &[g],
+                        &[p.signal],
+                    );
                 }
             }
         }
-        Pass::Done(self.finish(&sums, noise.map(|_| noise_sums), background, &best))
+        let sums = above
+            .fj
+            .total()
+            .added(-self.subtracted(best.value), &above.j.total())
+            .added(1.0, &near.total());
+        let noise_sums = noise.map(|_| above.noise.total().added(&near_noise.total()));
+        Pass::Done(self.finish(&sums, noise_sums, background, &best))
     }
 
     /// The centroid, central moments and covariance from the sums.
     fn finish(
         &self,
         sums: &Moments,
-        noise_sums: Option<NoiseSums>,
+        noise_sums: Option<NoiseTotals>,
         background: &Background,
         threshold: &Threshold,
     ) -> Option<MappedLight> {
@@ -925,8 +1302,9 @@ mod tests {
             (700, 100, 112),
         ] {
             map.map_run(y, x0, x1, &mut out).unwrap();
-            assert_eq!(out.len(), (x1 - x0 + 1) as usize);
-            for (x, m) in (x0..=x1).zip(&out) {
+            let pixels: Vec<(u32, Mapped)> = out.iter().flat_map(MappedLanes::pixels).collect();
+            assert!(pixels.iter().map(|p| p.0).eq(x0..=x1));
+            for (x, m) in pixels {
                 let exact = CameraMap::new(&camera, &illumination)
                     .map(f64::from(x), f64::from(y))
                     .unwrap();
@@ -1055,7 +1433,7 @@ mod tests {
         let (mut pixels, mut mapped) = (Vec::new(), Vec::new());
         for run in &blob.runs {
             map.map_run(run.y, run.x0, run.x1, &mut mapped).unwrap();
-            for (x, &m) in (run.x0..=run.x1).zip(&mapped) {
+            for (x, m) in mapped.iter().flat_map(MappedLanes::pixels) {
                 let (u, v) = (f64::from(x), f64::from(run.y));
                 let s = f64::from(frame.row(run.y)[x as usize]) - (c + a * u + b * v);
                 let t = (f64::from(level.at(x, run.y, frame.width)) - (c + a * u + b * v))
@@ -1170,6 +1548,60 @@ mod tests {
                 "{ka:?} {kb:?}"
             );
         }
+    }
+
+    /// The corrected light and the lattice's runs compiled for the CPU's
+    /// widest vector units give the bits of the same code without them
+    /// (pulp's scalar build): results do not depend on the machine's CPU.
+    #[test]
+    fn vector_units_give_the_scalar_codes_bits() {
+        let camera = wide_angle();
+        let (cu, cv, r) = (71.7, 63.2, 26.0);
+        let pixels = render(
+            |u, v| (u - cu).hypot(v - cv) <= r,
+            |u, v, inside| 700.0 + 0.8 * u - 0.6 * v + 25_000.0 * inside,
+        );
+        let frame = FrameView::new(W, H, 16, &pixels).unwrap();
+        let (ex, params) = extract_one(frame);
+        let blob = &ex.blobs[0];
+        let illumination = Illumination::Ideal;
+        // A map each: a short run's pixels are solved from the previous one's.
+        let maps = [0, 1].map(|_| CameraMap::new(&camera, &illumination));
+        let light = |map| Light {
+            frame: &frame,
+            blob,
+            level: &ex.level,
+            weighting: params.weighting,
+            map,
+            gain_dn_per_e: Some(3.5),
+        };
+        let background = background_fit(&frame, blob, &ex.level).unwrap();
+        let scalar = pulp::WithSimd::with_simd(
+            Passes {
+                light: &light(&maps[0]),
+                background: &background,
+            },
+            pulp::Scalar::new(),
+        );
+        assert!(scalar.is_some_and(|s| s.covariance.is_some()));
+        assert_eq!(light(&maps[1]).of(&background), scalar);
+        let columns: Vec<Node> = (0..12)
+            .map(|i| [0.1 * f64::from(i), -0.3, 1.0 + 1e-3 * f64::from(i), 0.9])
+            .collect();
+        fn intervals<'a>(columns: &'a [Node], out: &'a mut Vec<MappedLanes>) -> Intervals<'a> {
+            Intervals {
+                columns,
+                x0: 13,
+                x1: 70,
+                v: 41.0,
+                out,
+            }
+        }
+        let (mut vector, mut scalar) = (Vec::new(), Vec::new());
+        pulp::Arch::new().dispatch(intervals(&columns, &mut vector));
+        pulp::WithSimd::with_simd(intervals(&columns, &mut scalar), pulp::Scalar::new());
+        assert_eq!(vector.len(), 9);
+        assert_eq!(vector, scalar);
     }
 
     /// Observed positions stretched by `s` along u about `cu`: ideal

@@ -21,9 +21,13 @@
 //! (`w = f′·J`) jumps by `T′·J` where a pixel crosses the threshold, which a
 //! linear propagation cannot carry: no covariance is given for it.
 
+// Lanes side by side: loops over lane indices into several arrays are what the
+// compiler spreads over vector units.
+#![allow(clippy::needless_range_loop)]
+
 use geom::{Matrix3, Vector3};
 
-use crate::correction::{Mapped, Moments};
+use crate::correction::{MomentSums, Moments, lane_total};
 
 /// The covariance of a centroid (px²), in the image its positions are in.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -98,46 +102,93 @@ impl Background {
 /// about r; and `G_θ`'s rows `(Σ ∂wᵢ/∂θ·dᵢ − e·Σ ∂wᵢ/∂θ)/Σ w`
 /// with `∂wᵢ/∂θ = Jᵢ·x_k/RI_k − (Jᵢ/RIᵢ)·xᵢ`, so that the sums of `Jᵢ`
 /// and of `(Jᵢ/RIᵢ)·xᵢ` (each also times `dᵢ`) carry it whichever pixel
-/// turns out to set `T′`.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct NoiseSums {
+/// turns out to set `T′`. Gathered in `N` lanes side by side, as
+/// [`MomentSums`], and totalled into [`NoiseTotals`].
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct NoiseSums<const N: usize> {
     /// `Σ q`, `Σ q·d`, `Σ q·(d_u², d_v², d_u·d_v)`.
-    q: Moments,
+    q: MomentSums<N>,
     /// `Σ J·(1, d_u, d_v)`.
-    j: [f64; 3],
+    j: [[f64; N]; 3],
     /// `Σ (J/RI)·x·(1, d_u, d_v)`, x = (1, u − u₀, v − v₀).
-    gx: [[f64; 3]; 3],
+    gx: [[[f64; N]; 3]; 3],
 }
 
-impl NoiseSums {
-    /// Add a pixel that carries weight: observed at `observed`, mapped by
-    /// `m` to `d` from the reference point, with `signal_dn` = f − b; σ_bg
-    /// and K from `noise`.
-    #[inline]
+impl<const N: usize> Default for NoiseSums<N> {
+    fn default() -> Self {
+        Self {
+            q: MomentSums::default(),
+            j: [[0.0; N]; 3],
+            gx: [[[0.0; N]; 3]; 3],
+        }
+    }
+}
+
+impl<const N: usize> NoiseSums<N> {
+    /// Add pixels that carry weight, lane by lane: observed at `(u, v)`, at
+    /// `d` from the reference point, with area Jacobian `jacobian`,
+    /// `g = J/RI` and `signal_dn` = f − b; σ_bg and K from `noise`. A lane
+    /// whose `jacobian` and `g` are 0 adds nothing.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn add(
         &mut self,
         noise: &PixelNoise,
-        observed: [f64; 2],
-        d: [f64; 2],
-        m: &Mapped,
-        signal_dn: f64,
+        u: &[f64; N],
+        v: f64,
+        d: &[[f64; N]; 2],
+        jacobian: &[f64; N],
+        g: &[f64; N],
+        signal_dn: &[f64; N],
     ) {
-        let g = m.jacobian / m.illumination;
-        let q = (noise.var_bg + noise.gain_dn_per_e * signal_dn.max(0.0)) * g * g;
-        self.q.add(d, q);
-        let j = m.jacobian;
-        self.j[0] += j;
-        self.j[1] += j * d[0];
-        self.j[2] += j * d[1];
-        let x = [
-            g,
-            g * (observed[0] - noise.centre[0]),
-            g * (observed[1] - noise.centre[1]),
-        ];
-        for (row, xa) in self.gx.iter_mut().zip(x) {
-            row[0] += xa;
-            row[1] += xa * d[0];
-            row[2] += xa * d[1];
+        let mut q = [0.0; N];
+        for l in 0..N {
+            q[l] = (noise.var_bg + noise.gain_dn_per_e * signal_dn[l].max(0.0)) * g[l] * g[l];
+        }
+        self.q.add(d, &q);
+        for l in 0..N {
+            let j = jacobian[l];
+            self.j[0][l] += j;
+            self.j[1][l] += j * d[0][l];
+            self.j[2][l] += j * d[1][l];
+            let x = [
+                g[l],
+                g[l] * (u[l] - noise.centre[0]),
+                g[l] * (v - noise.centre[1]),
+            ];
+            for (row, xa) in self.gx.iter_mut().zip(x) {
+                row[0][l] += xa;
+                row[1][l] += xa * d[0][l];
+                row[2][l] += xa * d[1][l];
+            }
+        }
+    }
+
+    /// The sums over every lane.
+    pub(crate) fn total(&self) -> NoiseTotals {
+        NoiseTotals {
+            q: self.q.total(),
+            j: self.j.each_ref().map(lane_total),
+            gx: self.gx.each_ref().map(|row| row.each_ref().map(lane_total)),
+        }
+    }
+}
+
+/// [`NoiseSums`] totalled over their lanes.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct NoiseTotals {
+    q: Moments,
+    j: [f64; 3],
+    gx: [[f64; 3]; 3],
+}
+
+impl NoiseTotals {
+    /// The sums of both.
+    pub(crate) fn added(&self, other: &NoiseTotals) -> NoiseTotals {
+        NoiseTotals {
+            q: self.q.added(1.0, &other.q),
+            j: std::array::from_fn(|c| self.j[c] + other.j[c]),
+            gx: std::array::from_fn(|r| std::array::from_fn(|c| self.gx[r][c] + other.gx[r][c])),
         }
     }
 
@@ -248,19 +299,14 @@ mod tests {
             normal,
         };
         let (reference, noise) = ([-7.5, 3.25], PixelNoise::new(&background, k));
-        let mut sums = NoiseSums::default();
+        let mut sums = NoiseSums::<1>::default();
         let (mut count, mut sum_d2) = (0.0, 0.0);
         for y in -r..=r {
             for x in -r..=r {
                 let (u, v) = (f64::from(x), f64::from(y));
                 if u.hypot(v) <= radius {
-                    let m = Mapped {
-                        position: [u, v],
-                        jacobian: 1.0,
-                        illumination: 1.0,
-                    };
-                    let d = [u - reference[0], v - reference[1]];
-                    sums.add(&noise, [u, v], d, &m, s);
+                    let d = [[u - reference[0]], [v - reference[1]]];
+                    sums.add(&noise, &[u], v, &d, &[1.0], &[1.0], &[s]);
                     count += 1.0;
                     sum_d2 += u * u;
                 }
@@ -269,6 +315,7 @@ mod tests {
         let w = (s - t) * count;
         // The centroid (0, 0) from the reference point.
         let e = [-reference[0], -reference[1]];
+        let sums = sums.total();
         let p = sums.pixel_part(e, w);
         let closed = (sigma_bg.powi(2) + k * s) * sum_d2 / (w * w);
         assert!((p.uu_px2 / closed - 1.0).abs() < 1e-12, "{p:?} {closed}");
