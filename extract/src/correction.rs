@@ -18,7 +18,6 @@
 // compiler spreads over vector units.
 #![allow(clippy::needless_range_loop)]
 
-use geom::fit::HeightPlane;
 use geom::{Camera, Illumination, Matrix3, Point2, Point3, RadialIllumination, Vector3};
 use std::cell::{Cell, RefCell};
 
@@ -274,43 +273,48 @@ pub struct CameraMap<'a> {
     illumination: &'a Illumination,
     last: Cell<Option<(Point2<f64>, geom::Vector2<f64>)>>,
     lattice: Nodes<'a>,
-    band: RefCell<Band>,
+    rows: RefCell<NodeRows>,
 }
 
-/// The nodes of lattice rows j − 1 ..= j + 2, which the pixel rows between
-/// node rows j and j + 1 are interpolated from, for node columns
-/// `i0..=i1`: copied out of the shared lattice once for the runs of a blob
-/// that fall in that band (up to [`NODE_SPACING_PX`] rows each), instead of
-/// looked up node by node for every run.
-struct Band {
-    j: i64,
+/// Rows of lattice nodes copied out of the shared lattice for the runs of
+/// a blob, instead of looked up node by node for every run: node row r in
+/// slot r mod 4, so that the rows j − 1 ..= j + 2 that the pixel rows
+/// between node rows j and j + 1 are interpolated from are at hand, and
+/// the next band of pixel rows copies one more.
+struct NodeRows {
+    slots: [NodeRow; 4],
+    /// A run's node columns interpolated to its row (kept between runs).
+    interpolated: Vec<Node>,
+}
+
+/// A row of nodes: row `r`, node columns from `i0` (`None` where unmappable).
+struct NodeRow {
+    r: i64,
     i0: i64,
-    /// Per column from `i0`, its four nodes (`None` where unmappable).
-    columns: Vec<[Option<Node>; 4]>,
-    /// A run's columns interpolated to its row (kept between runs).
-    row: Vec<Node>,
+    nodes: Vec<Option<Node>>,
 }
 
-/// Node columns fetched beyond a run's own on either side, so that the
-/// wider runs that follow in a band seldom need a fresh copy.
-const BAND_MARGIN: i64 = 4;
+/// Node columns copied beyond a run's own on either side, so that the
+/// wider runs that follow seldom need a fresh copy.
+const ROW_MARGIN: i64 = 4;
 
-impl Band {
+impl NodeRows {
     fn empty() -> Self {
         Self {
-            j: i64::MIN,
-            i0: 0,
-            columns: Vec::new(),
-            row: Vec::new(),
+            slots: std::array::from_fn(|_| NodeRow {
+                r: i64::MIN,
+                i0: 0,
+                nodes: Vec::new(),
+            }),
+            interpolated: Vec::new(),
         }
     }
+}
 
-    /// The four nodes of column `i`, when this band holds them.
-    fn column(&self, j: i64, i: i64) -> Option<&[Option<Node>; 4]> {
-        if j != self.j {
-            return None;
-        }
-        self.columns.get(usize::try_from(i - self.i0).ok()?)
+impl NodeRow {
+    /// Node `i` of the row, when copied and mappable.
+    fn get(&self, i: i64) -> Option<&Node> {
+        self.nodes.get(usize::try_from(i - self.i0).ok()?)?.as_ref()
     }
 }
 
@@ -329,7 +333,7 @@ impl<'a> CameraMap<'a> {
             illumination,
             last: Cell::new(None),
             lattice: Nodes::Own(Lattice::new(camera)),
-            band: RefCell::new(Band::empty()),
+            rows: RefCell::new(NodeRows::empty()),
         }
     }
 
@@ -345,7 +349,7 @@ impl<'a> CameraMap<'a> {
             illumination,
             last: Cell::new(None),
             lattice: Nodes::Shared(lattice),
-            band: RefCell::new(Band::empty()),
+            rows: RefCell::new(NodeRows::empty()),
         }
     }
 
@@ -393,28 +397,29 @@ impl<'a> CameraMap<'a> {
         let wy = cubic_weights(ty);
         // The run's node columns, each interpolated to row y.
         let (i0, i1) = (i64::from(x0 / h) - 1, i64::from(x1 / h) + 2);
-        let mut band = self.band.borrow_mut();
-        if band.column(j, i0).is_none() || band.column(j, i1).is_none() {
-            // A fresh copy: this band's columns, widened to the run's.
-            let held = band.j == j;
-            let lo = if held { band.i0.min(i0) } else { i0 } - BAND_MARGIN;
-            let hi = if held {
-                (band.i0 + band.columns.len() as i64 - 1).max(i1)
-            } else {
-                i1
-            } + BAND_MARGIN;
-            band.columns = (lo..=hi)
-                .map(|i| [-1, 0, 1, 2].map(|dj| self.node(i, j + dj).copied()))
-                .collect();
-            (band.j, band.i0) = (j, lo);
+        let mut rows = self.rows.borrow_mut();
+        for r in j - 1..=j + 2 {
+            let slot = &mut rows.slots[r.rem_euclid(4) as usize];
+            let end = slot.i0 + slot.nodes.len() as i64;
+            if slot.r != r || i0 < slot.i0 || i1 >= end {
+                // A fresh copy of the row, widened to the run's.
+                let held = slot.r == r;
+                let lo = if held { slot.i0.min(i0) } else { i0 } - ROW_MARGIN;
+                let hi = if held { (end - 1).max(i1) } else { i1 } + ROW_MARGIN;
+                slot.nodes.clear();
+                slot.nodes
+                    .extend((lo..=hi).map(|i| self.node(i, r).copied()));
+                (slot.r, slot.i0) = (r, lo);
+            }
         }
-        let mut columns = std::mem::take(&mut band.row);
+        let rows = &mut *rows;
+        let slots = [-1, 0, 1, 2].map(|dj| &rows.slots[(j + dj).rem_euclid(4) as usize]);
+        let columns = &mut rows.interpolated;
         columns.clear();
         for i in i0..=i1 {
-            let nodes = band.column(j, i)?;
             let mut f = [0.0f64; 4];
-            for (n, w) in nodes.iter().zip(wy) {
-                for (fc, nc) in f.iter_mut().zip(n.as_ref()?) {
+            for (slot, w) in slots.iter().zip(wy) {
+                for (fc, nc) in f.iter_mut().zip(slot.get(i)?) {
                     *fc += w * nc;
                 }
             }
@@ -423,13 +428,12 @@ impl<'a> CameraMap<'a> {
         // On the CPU's widest vector units: the same arithmetic in the same
         // order, so the same result, on any.
         pulp::Arch::new().dispatch(Intervals {
-            columns: &columns,
+            columns,
             x0,
             x1,
             v: f64::from(y),
             out,
         });
-        band.row = columns;
         Some(())
     }
 }
@@ -580,29 +584,32 @@ fn background_fit(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Option<B
     let b = &blob.bbox;
     let mut points = ring_points(frame, blob, level);
     let centre = [f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0];
+    let (mut normal, mut rhs) = normal_equations(&points);
     let mut background = None;
     for _ in 0..3 {
         if points.len() < RING_MIN_PIXELS {
             return None;
         }
-        let (normal, rhs) = normal_equations(&points);
-        let fit = ring_plane(&points, &normal, &rhs)?;
-        let n = fit.residuals.len() as f64;
-        let sigma = (fit.residuals.iter().map(|r| r * r).sum::<f64>() / (n - 3.0)).sqrt();
-        let before = points.len();
-        let mut k = 0;
-        points.retain(|_| {
-            let keep = fit.residuals[k].abs() <= RING_CLIP_SIGMA * sigma;
-            k += 1;
-            keep
-        });
+        let [c, a, b] = ring_plane(&normal, &rhs)?;
+        let residual = |p: &Point3<f64>| p.z - c - a * p.x - b * p.y;
+        let n = points.len() as f64;
+        let sigma = (points.iter().map(|p| residual(p).powi(2)).sum::<f64>() / (n - 3.0)).sqrt();
         // Back to absolute pixel coordinates: b = c + a·(u − uc) + b·(v − vc).
         let (uc, vc) = (centre[0], centre[1]);
         background = Some(Background {
-            plane: [fit.c - fit.a * uc - fit.b * vc, fit.a, fit.b],
+            plane: [c - a * uc - b * vc, a, b],
             sigma_dn: sigma,
             centre,
             normal,
+        });
+        // The clipped pixels leave the normal equations.
+        let before = points.len();
+        points.retain(|p| {
+            let keep = residual(p).abs() <= RING_CLIP_SIGMA * sigma;
+            if !keep {
+                remove_from_normal_equations(&mut normal, &mut rhs, p);
+            }
+            keep
         });
         if points.len() == before {
             break;
@@ -611,28 +618,16 @@ fn background_fit(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Option<B
     background
 }
 
-/// The least-squares plane `f = c + a·u + b·v` through the ring `points`
-/// (coordinates relative to the box centre) by the normal equations
-/// `XᵀX θ = Xᵀf` (`normal` = XᵀX, `rhs` = Xᵀf; Cholesky): the ring
-/// surrounds the centre, so XᵀX is well conditioned and the solution agrees
-/// with an orthogonal factorisation to rounding, at a fraction of its cost
-/// for 10⁴ ring pixels; `None` for a degenerate ring.
-fn ring_plane(
-    points: &[Point3<f64>],
-    normal: &Matrix3<f64>,
-    rhs: &Vector3<f64>,
-) -> Option<HeightPlane> {
+/// The least-squares plane `f = c + a·u + b·v`, as `[c, a, b]`, through the
+/// ring's pixels (coordinates relative to the box centre) from their normal
+/// equations `XᵀX θ = Xᵀf` (`normal` = XᵀX, `rhs` = Xᵀf; Cholesky): the
+/// ring surrounds the centre, so XᵀX is well conditioned and the solution
+/// agrees with an orthogonal factorisation to rounding, at a fraction of
+/// its cost for 10⁴ ring pixels; `None` for a degenerate ring.
+fn ring_plane(normal: &Matrix3<f64>, rhs: &Vector3<f64>) -> Option<[f64; 3]> {
     let theta = normal.cholesky()?.solve(rhs);
-    let (c, a, b) = (theta[0], theta[1], theta[2]);
-    if !(a.is_finite() && b.is_finite() && c.is_finite()) {
-        return None;
-    }
-    Some(HeightPlane {
-        a,
-        b,
-        c,
-        residuals: points.iter().map(|p| p.z - c - a * p.x - b * p.y).collect(),
-    })
+    let plane = [theta[0], theta[1], theta[2]];
+    plane.iter().all(|x| x.is_finite()).then_some(plane)
 }
 
 /// `XᵀX` of the ring's design matrix, rows `(1, u − uc, v − vc)`, and `Xᵀf`,
@@ -655,6 +650,17 @@ fn normal_equations(points: &[Point3<f64>]) -> (Matrix3<f64>, Vector3<f64>) {
         Matrix3::new(n, su, sv, su, suu, suv, sv, suv, svv),
         Vector3::new(sf, suf, svf),
     )
+}
+
+/// Take the ring pixel `p` (u − uc, v − vc, f) out of `XᵀX` and `Xᵀf`.
+fn remove_from_normal_equations(
+    normal: &mut Matrix3<f64>,
+    rhs: &mut Vector3<f64>,
+    p: &Point3<f64>,
+) {
+    let x = Vector3::new(1.0, p.x, p.y);
+    *normal -= x * x.transpose();
+    *rhs -= x * p.z;
 }
 
 /// A blob's corrected light (module docs): the weights `w = F′·J` at the
@@ -735,33 +741,60 @@ struct Threshold {
     at: ([f64; 2], f64),
 }
 
-impl Threshold {
-    /// Raise `T′` to the largest `(T − b)/RI` of the run's `lanes`, set by
-    /// the first pixel that holds it (as a scan pixel by pixel would).
+/// `T′` so far, lane by lane: per lane the largest `(T − b)/RI` of its
+/// pixels, with the first pixel that holds it.
+struct ThresholdLanes {
+    value: [f64; LANES],
+    u: [f64; LANES],
+    v: [f64; LANES],
+    inverse_illumination: [f64; LANES],
+}
+
+impl ThresholdLanes {
+    fn new() -> Self {
+        Self {
+            value: [f64::NEG_INFINITY; LANES],
+            u: [0.0; LANES],
+            v: [0.0; LANES],
+            inverse_illumination: [1.0; LANES],
+        }
+    }
+
+    /// Raise each lane's maximum by the run's `lanes`.
     #[inline(always)]
     fn raise(&mut self, lanes: &MappedLanes, pixels: &PixelLanes) {
         let held = lanes.held();
-        let mut t = [f64::NEG_INFINITY; LANES];
-        for (l, tl) in t.iter_mut().enumerate() {
-            let above = (pixels.level[l] - pixels.background[l]) * lanes.inverse_illumination[l];
-            *tl = if held[l] { above } else { f64::NEG_INFINITY };
-        }
-        // The maximum as a tree: no chain of dependent comparisons.
-        let mut m = t;
-        let mut half = LANES / 2;
-        while half > 0 {
-            for l in 0..half {
-                m[l] = m[l].max(m[l + half]);
-            }
-            half /= 2;
-        }
-        if m[0] > self.value
-            && let Some(l) = t.iter().position(|&x| x == m[0])
-        {
-            *self = Threshold {
-                value: m[0],
-                at: ([pixels.u[l], pixels.v], 1.0 / lanes.inverse_illumination[l]),
+        for l in 0..LANES {
+            let inv = lanes.inverse_illumination[l];
+            let t = (pixels.level[l] - pixels.background[l]) * inv;
+            let higher = held[l] & (t > self.value[l]);
+            self.value[l] = if higher { t } else { self.value[l] };
+            self.u[l] = if higher { pixels.u[l] } else { self.u[l] };
+            self.v[l] = if higher { pixels.v } else { self.v[l] };
+            self.inverse_illumination[l] = if higher {
+                inv
+            } else {
+                self.inverse_illumination[l]
             };
+        }
+    }
+
+    /// `T′` over every lane, set by the pixel that holds it first in row
+    /// order (as a scan pixel by pixel would find it).
+    fn threshold(&self) -> Threshold {
+        let mut best = 0;
+        for l in 1..LANES {
+            let (t, b) = (self.value[l], self.value[best]);
+            if t > b || (t == b && (self.v[l], self.u[l]) < (self.v[best], self.u[best])) {
+                best = l;
+            }
+        }
+        Threshold {
+            value: self.value[best],
+            at: (
+                [self.u[best], self.v[best]],
+                1.0 / self.inverse_illumination[best],
+            ),
         }
     }
 }
@@ -1094,10 +1127,7 @@ impl Light<'_, '_> {
         let noise = self.pixel_noise(background);
         let mut above = AboveSums::default();
         let mut aside = Vec::new();
-        let mut best = Threshold {
-            value: f64::NEG_INFINITY,
-            at: ([0.0, 0.0], 1.0),
-        };
+        let mut best = ThresholdLanes::new();
         let mut guess = guess;
         let mut mapped = Vec::new();
         for run in &self.blob.runs {
@@ -1125,7 +1155,10 @@ impl Light<'_, '_> {
                     best.raise(lanes, &pixels(lanes));
                 }
             }
-            let g = *guess.get_or_insert(best.value + GUESS_MARGIN * best.value.abs());
+            let g = *guess.get_or_insert_with(|| {
+                let m = best.threshold().value;
+                m + GUESS_MARGIN * m.abs()
+            });
             for lanes in &mapped {
                 let p = pixels(lanes);
                 if !first {
@@ -1136,6 +1169,7 @@ impl Light<'_, '_> {
                 }
             }
         }
+        let best = best.threshold();
         match guess {
             Some(g) if best.value <= g => {}
             _ => return Pass::Again(best.value),

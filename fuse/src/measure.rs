@@ -151,6 +151,8 @@ pub struct Summary {
     /// Per camera, the sphere images this run measured from and how many of
     /// them are saturated (resumed instants not counted).
     pub saturation: BTreeMap<u8, Saturation>,
+    /// Frames this run decoded: each image it uses once.
+    pub frames_read: usize,
 }
 
 fn with_suffix(out: &Path, suffix: &str) -> PathBuf {
@@ -221,6 +223,7 @@ const MIN_VIEWS: usize = 2;
 /// whose frames could not be used at all (the row saying why), how many
 /// could, and per sphere its image centres in the cameras that found it with
 /// a row per camera that did not.
+#[derive(Clone)]
 struct Sight {
     cams: usize,
     left_out: Vec<Failure>,
@@ -255,6 +258,27 @@ fn left_out(row: Failure, measured: &str) -> Failure {
 /// triangulated centre at the first instant of the line that measured it.
 type SphereReference = std::result::Result<(Seen, Point3<f64>), String>;
 
+/// The seed's fusion's references per line and sphere, and what the
+/// instants looked at to find them saw: each is measured from that, not
+/// decoded again.
+#[derive(Default)]
+struct References {
+    lines: HashMap<LineKey, Vec<SphereReference>>,
+    seen: Mutex<HashMap<InstantKey, Sight>>,
+}
+
+impl References {
+    /// What `ip`'s cameras see: as seen while finding the references, or
+    /// looked at now.
+    fn sight(&self, ctx: &Context<'_>, ip: &InstantPlan) -> Sight {
+        self.seen
+            .lock()
+            .ok()
+            .and_then(|mut seen| seen.remove(&ip.key))
+            .unwrap_or_else(|| ctx.observe_instant(ip))
+    }
+}
+
 /// Shared, read-only state of a run.
 struct Context<'a> {
     rig: RigModel,
@@ -266,6 +290,8 @@ struct Context<'a> {
     options: MeasureOptions,
     backend: &'a dyn Backend,
     readers: Mutex<Vec<FrameReader>>,
+    /// Frames decoded so far.
+    frames_read: std::sync::atomic::AtomicUsize,
     sensor: &'a BTreeMap<u8, sensor::SensorMaps>,
     /// Each camera's noise model (the centroids' covariances).
     noise: BTreeMap<u8, CameraNoise>,
@@ -298,6 +324,7 @@ impl<'a> Context<'a> {
             options: *options,
             backend,
             readers: Mutex::new(Vec::new()),
+            frames_read: std::sync::atomic::AtomicUsize::new(0),
             sensor: inputs.sensor,
             noise,
         }
@@ -395,6 +422,8 @@ impl Context<'_> {
             .unwrap_or_else(|| FrameReader::new().limit_pixels(self.options.extract.max_pixels));
         let result = (|| {
             let (raw, _) = reader.read(path).map_err(|e| fail(e.to_string()))?;
+            self.frames_read
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let corrected = raw
                 .corrected(self.sensor.get(&camera))
                 .map_err(|e| fail(e.in_file(path).to_string()))?;
@@ -770,12 +799,8 @@ struct Outcome {
     saturation: BTreeMap<u8, Saturation>,
 }
 
-fn measure_one(
-    ctx: &Context<'_>,
-    ip: &InstantPlan,
-    references: &HashMap<LineKey, Vec<SphereReference>>,
-) -> Outcome {
-    let sight = ctx.observe_instant(ip);
+fn measure_one(ctx: &Context<'_>, ip: &InstantPlan, references: &References) -> Outcome {
+    let sight = references.sight(ctx, ip);
     let needed = ctx.views_needed(sight.cams);
     if sight.usable < needed {
         return Outcome {
@@ -794,7 +819,7 @@ fn measure_one(
         }
         let centre = match ctx.options.fusion {
             Fusion::Triangulate => ctx.triangulate_one(s, &seen),
-            Fusion::Seed => match references.get(&ip.line).and_then(|r| r.get(s)) {
+            Fusion::Seed => match references.lines.get(&ip.line).and_then(|r| r.get(s)) {
                 Some(reference) => ctx.seed_one(s, &seen, reference),
                 None => Err("no reference instant for the line".into()),
             },
@@ -861,17 +886,16 @@ fn measure_one(
 }
 
 /// References of the seed's fusion: per line and sphere, the first instant
-/// of the line (manifest order) at which the sphere was measured.
-fn seed_references(
-    ctx: &Context<'_>,
-    plans: &[InstantPlan],
-) -> HashMap<LineKey, Vec<SphereReference>> {
+/// of the line (manifest order) at which the sphere was measured; with what
+/// the instants looked at for them saw.
+fn seed_references(ctx: &Context<'_>, plans: &[InstantPlan]) -> References {
     let mut lines: BTreeMap<LineKey, Vec<&InstantPlan>> = BTreeMap::new();
     for p in plans {
         lines.entry(p.line).or_default().push(p);
     }
     let lines: Vec<(LineKey, Vec<&InstantPlan>)> = lines.into_iter().collect();
-    in_parallel(&lines, |(line, instants)| {
+    let seen = Mutex::new(HashMap::new());
+    let lines = in_parallel(&lines, |(line, instants)| {
             let n = ctx.spheres.len();
             let mut found: Vec<Option<(Seen, Point3<f64>)>> = vec![None; n];
             let mut first_failure: Option<String> = None;
@@ -880,6 +904,9 @@ fn seed_references(
                     break;
                 }
                 let sight = ctx.observe_instant(ip);
+                if let Ok(mut seen) = seen.lock() {
+                    seen.insert(ip.key, sight.clone());
+                }
                 if let Some(f) = sight.left_out.into_iter().next() {
                     first_failure.get_or_insert(f.reason);
                     continue;
@@ -921,7 +948,8 @@ fn seed_references(
             (*line, refs)
         })
         .into_iter()
-        .collect()
+        .collect();
+    References { lines, seen }
 }
 
 /// Largest extent of the commanded positions along any axis (mm).
@@ -1077,7 +1105,7 @@ pub fn measure(
     let references = if options.fusion == Fusion::Seed {
         seed_references(&ctx, &plans)
     } else {
-        HashMap::new()
+        References::default()
     };
     let total = plans.len() as u64;
     progress(resumed as u64, total);
@@ -1130,6 +1158,7 @@ pub fn measure(
         assumed_ideal_lens: assumed_ideal,
         noise: ctx.noise.clone(),
         saturation,
+        frames_read: ctx.frames_read.into_inner(),
     })
 }
 
@@ -1266,7 +1295,7 @@ fn resume(
 fn measure_chunks(
     ctx: &Context<'_>,
     todo: &[&InstantPlan],
-    references: &HashMap<LineKey, Vec<SphereReference>>,
+    references: &References,
     paths: &Paths,
     saturation: &mut BTreeMap<u8, Saturation>,
     finished: impl Fn(u64),

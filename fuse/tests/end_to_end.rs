@@ -61,6 +61,10 @@ fn run(dir: &Path, options: &MeasureOptions, name: &str) -> Vec<PointRow> {
             .as_ref()
             .and_then(|p| std::fs::read_to_string(p).ok())
     );
+    // Every frame of the cameras used decoded once, the seed's reference
+    // instants included.
+    let cameras = if options.all_cameras { 3 } else { 2 };
+    assert_eq!(summary.frames_read, cameras * summary.instants);
     read_csv(&out)
         .unwrap()
         .into_iter()
