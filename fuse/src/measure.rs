@@ -59,7 +59,7 @@ use geom::triangulate::{View, centre_covariance, parameter_image_covariance, tri
 /// Allowance for the spheres' layout on the table around its reference point (mm).
 pub const SPHERE_LAYOUT_MM: f64 = 50.0;
 
-/// Instants measured between two appends to the partial output.
+/// Instants measured between two appends to the partial output (at most).
 const CHUNK_INSTANTS: usize = 16;
 
 /// How sphere centres are computed from the cameras' images.
@@ -1304,64 +1304,113 @@ fn measure_chunks(
     let mut images = Appender::open(&paths.observations_partial)?;
     let mut problems: Vec<(usize, InstantProblemRow)> = Vec::new();
     let mut count = 0u64;
-    for chunk in todo.chunks(CHUNK_INSTANTS) {
-        let results: Vec<Outcome> = in_parallel(chunk, |ip| measure_one(ctx, ip, references));
+    // Appended as they are done, CHUNK_INSTANTS at a time: no worker waits
+    // for the others at the end of a chunk.
+    let mut done: Vec<(usize, Outcome)> = Vec::new();
+    let mut result = Ok(());
+    let mut append = |done: &mut Vec<(usize, Outcome)>| -> Result<()> {
+        done.sort_by_key(|(i, _)| *i);
         let mut rows = Vec::new();
         let mut observations = Vec::new();
-        for (ip, outcome) in chunk.iter().zip(results) {
+        for (i, outcome) in done.drain(..) {
             rows.extend(outcome.rows);
             observations.extend(outcome.observations);
-            problems.extend(outcome.problems.into_iter().map(|p| (ip.index, p)));
+            problems.extend(outcome.problems.into_iter().map(|p| (todo[i].index, p)));
             for (camera, s) in outcome.saturation {
                 let tally = saturation.entry(camera).or_default();
                 tally.images += s.images;
                 tally.saturated += s.saturated;
             }
+            count += 1;
         }
         images.append(&observations)?;
         points.append(&rows)?;
-        count += chunk.len() as u64;
         finished(count);
+        Ok(())
+    };
+    for_each_parallel(
+        todo,
+        |ip| measure_one(ctx, ip, references),
+        |i, outcome| {
+            done.push((i, outcome));
+            if done.len() == CHUNK_INSTANTS {
+                result = append(&mut done);
+            }
+            result.is_ok()
+        },
+    );
+    result?;
+    if !done.is_empty() {
+        append(&mut done)?;
     }
     Ok(problems)
 }
 
 /// `f` over `items` on as many worker threads as the rayon pool has
 /// threads, each taking the next item when it is done with one; results in
-/// the order of `items`. The workers are threads of their own, not jobs of
-/// the pool: the extraction inside `f` runs its parallel parts (the
-/// labelling's bands) on the pool, and a worker waiting for them cannot
-/// take up another item, as a pool thread waiting inside a parallel job
-/// would. So at most one item per worker holds a frame: frames in flight ≤
-/// threads, and a worker's decoding of its next frame overlaps the pool's
-/// work on the others'.
+/// the order of `items` ([`for_each_parallel`]).
 fn in_parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let workers = rayon::current_num_threads().min(items.len());
-    if workers <= 1 {
-        return items.iter().map(&f).collect();
-    }
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut done: Vec<(usize, R)> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                scope.spawn(|| {
-                    let mut mine = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(item) = items.get(i) else { break };
-                        mine.push((i, f(item)));
-                    }
-                    mine
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
+    let mut done: Vec<(usize, R)> = Vec::with_capacity(items.len());
+    for_each_parallel(items, f, |i, r| {
+        done.push((i, r));
+        true
     });
     done.sort_by_key(|(i, _)| *i);
     done.into_iter().map(|(_, r)| r).collect()
+}
+
+/// `f` over `items` on as many worker threads as the rayon pool has
+/// threads, each taking the next item when it is done with one; each
+/// result handed to `done` (with its item's index) on this thread as soon
+/// as it is ready; once `done` says `false`, no item is begun. The workers are threads of their own, not jobs of the
+/// pool: the extraction inside `f` runs its parallel parts (the labelling's
+/// bands) on the pool, and a worker waiting for them cannot take up another
+/// item, as a pool thread waiting inside a parallel job would. So at most
+/// one item per worker holds a frame: frames in flight ≤ threads, and a
+/// worker's decoding of its next frame overlaps the pool's work on the
+/// others'.
+fn for_each_parallel<T: Sync, R: Send>(
+    items: &[T],
+    f: impl Fn(&T) -> R + Sync,
+    mut done: impl FnMut(usize, R) -> bool,
+) {
+    let workers = rayon::current_num_threads().min(items.len());
+    if workers <= 1 {
+        for (i, item) in items.iter().enumerate() {
+            if !done(i, f(item)) {
+                break;
+            }
+        }
+        return;
+    }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let (send, receive) = std::sync::mpsc::channel();
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                let send = send.clone();
+                let (next, f) = (&next, &f);
+                scope.spawn(move || {
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(item) = items.get(i) else { break };
+                        if send.send((i, f(item))).is_err() {
+                            break;
+                        }
+                    }
+                })
+            })
+            .collect();
+        drop(send);
+        for (i, r) in receive {
+            if !done(i, r) {
+                next.store(items.len(), std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+        for h in handles {
+            h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+        }
+    });
 }
 
 /// A partial output open for appending rows (no header), each append synced.
