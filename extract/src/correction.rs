@@ -18,24 +18,15 @@
 // compiler spreads over vector units.
 #![allow(clippy::needless_range_loop)]
 
-use geom::{Camera, Illumination, Matrix3, Point2, Point3, RadialIllumination, Vector3};
+use geom::{Camera, Illumination, Point2, RadialIllumination};
 use std::cell::{Cell, RefCell};
 
 use crate::blob::{Blob, MomentEllipse};
 use crate::frame::FrameView;
 use crate::label::Weighting;
 use crate::noise::{Background, CentroidCovariance, NoiseSums, NoiseTotals, PixelNoise};
+use crate::ring::background_fit;
 use crate::threshold::Level;
-
-/// Gap (px) between a blob's bounding box and the ring its background is
-/// fitted on: the blur's tail beyond the threshold contour stays inside it.
-pub const RING_GAP_PX: u32 = 8;
-/// Width (px) of that ring.
-pub const RING_WIDTH_PX: u32 = 8;
-/// Fewest usable ring pixels for a background plane.
-const RING_MIN_PIXELS: usize = 32;
-/// Ring pixels further than this many σ from the plane are refitted without.
-const RING_CLIP_SIGMA: f64 = 3.0;
 
 /// One observed pixel in the corrected image: its position, the area
 /// Jacobian `|∂mapped/∂observed|`, and the lens's relative illumination.
@@ -287,11 +278,12 @@ struct NodeRows {
     interpolated: Vec<Node>,
 }
 
-/// A row of nodes: row `r`, node columns from `i0` (`None` where unmappable).
+/// A row of nodes: row `r`, node columns from `i0` (NaN where unmappable,
+/// which every interpolation through them carries).
 struct NodeRow {
     r: i64,
     i0: i64,
-    nodes: Vec<Option<Node>>,
+    nodes: Vec<Node>,
 }
 
 /// Node columns copied beyond a run's own on either side, so that the
@@ -312,9 +304,11 @@ impl NodeRows {
 }
 
 impl NodeRow {
-    /// Node `i` of the row, when copied and mappable.
-    fn get(&self, i: i64) -> Option<&Node> {
-        self.nodes.get(usize::try_from(i - self.i0).ok()?)?.as_ref()
+    /// Nodes `i0..=i1` of the row, when copied.
+    fn span(&self, i0: i64, i1: i64) -> Option<&[Node]> {
+        let (a, b) = (i0 - self.i0, i1 - self.i0);
+        self.nodes
+            .get(usize::try_from(a).ok()?..=usize::try_from(b).ok()?)
     }
 }
 
@@ -408,40 +402,36 @@ impl<'a> CameraMap<'a> {
                 let hi = if held { (end - 1).max(i1) } else { i1 } + ROW_MARGIN;
                 slot.nodes.clear();
                 slot.nodes
-                    .extend((lo..=hi).map(|i| self.node(i, r).copied()));
+                    .extend((lo..=hi).map(|i| self.node(i, r).copied().unwrap_or([f64::NAN; 4])));
                 (slot.r, slot.i0) = (r, lo);
             }
         }
         let rows = &mut *rows;
-        let slots = [-1, 0, 1, 2].map(|dj| &rows.slots[(j + dj).rem_euclid(4) as usize]);
-        let columns = &mut rows.interpolated;
-        columns.clear();
-        for i in i0..=i1 {
-            let mut f = [0.0f64; 4];
-            for (slot, w) in slots.iter().zip(wy) {
-                for (fc, nc) in f.iter_mut().zip(slot.get(i)?) {
-                    *fc += w * nc;
-                }
-            }
-            columns.push(f);
-        }
+        let [a, b, c, d] =
+            [-1, 0, 1, 2].map(|dj| rows.slots[(j + dj).rem_euclid(4) as usize].span(i0, i1));
         // On the CPU's widest vector units: the same arithmetic in the same
         // order, so the same result, on any.
-        pulp::Arch::new().dispatch(Intervals {
-            columns,
-            x0,
-            x1,
-            v: f64::from(y),
-            out,
-        });
-        Some(())
+        pulp::Arch::new()
+            .dispatch(Intervals {
+                rows: [a?, b?, c?, d?],
+                weights: wy,
+                columns: &mut rows.interpolated,
+                x0,
+                x1,
+                v: f64::from(y),
+                out,
+            })
+            .then_some(())
     }
 }
 
-/// A run's node columns, interpolated to its row `v`, to be spread over the
-/// run's pixels `x0..=x1` interval by interval.
+/// A run's four rows of node columns, to be interpolated to its row `v`
+/// with `weights` (into `columns`) and spread over the run's pixels
+/// `x0..=x1` interval by interval.
 struct Intervals<'a> {
-    columns: &'a [Node],
+    rows: [&'a [Node]; 4],
+    weights: [f64; 4],
+    columns: &'a mut Vec<Node>,
     x0: u32,
     x1: u32,
     v: f64,
@@ -449,15 +439,32 @@ struct Intervals<'a> {
 }
 
 impl pulp::WithSimd for Intervals<'_> {
-    type Output = ();
+    /// Whether every node was mappable (else nothing is pushed).
+    type Output = bool;
 
-    /// Pixels k·h ..= k·h + h − 1 of the run between node columns
-    /// k − 1 ..= k + 2, k from x0 / h.
+    /// Each node column interpolated to row v; then pixels
+    /// k·h ..= k·h + h − 1 of the run between node columns k − 1 ..= k + 2,
+    /// k from x0 / h.
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) {
+    fn with_simd<S: pulp::Simd>(self, _: S) -> bool {
+        let ([r0, r1, r2, r3], [w0, w1, w2, w3]) = (self.rows, self.weights);
+        let columns = self.columns;
+        columns.clear();
+        columns.extend(
+            r0.iter()
+                .zip(r1)
+                .zip(r2)
+                .zip(r3)
+                .map(|(((n0, n1), n2), n3)| {
+                    std::array::from_fn(|q| w0 * n0[q] + w1 * n1[q] + w2 * n2[q] + w3 * n3[q])
+                }),
+        );
+        if columns.iter().flatten().any(|x| x.is_nan()) {
+            return false;
+        }
         let (h, x0, x1) = (NODE_SPACING_PX, self.x0, self.x1);
         let mut start = (x0 / h) * h;
-        for c in self.columns.windows(4) {
+        for c in columns.windows(4) {
             let mut lanes = MappedLanes::empty(start);
             lanes.first = (x0.max(start) - start) as usize;
             lanes.end = (x1 - start).min(h - 1) as usize + 1;
@@ -471,6 +478,7 @@ impl pulp::WithSimd for Intervals<'_> {
             self.out.push(lanes);
             start += h;
         }
+        true
     }
 }
 
@@ -532,137 +540,6 @@ impl PixelMap for FlatFieldMap<'_> {
     }
 }
 
-/// The ring of pixels of [`background_fit`], relative to the
-/// centre of the blob's bounding box (u, v, f).
-fn ring_points(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Vec<Point3<f64>> {
-    let b = &blob.bbox;
-    let (gap, width) = (RING_GAP_PX, RING_WIDTH_PX);
-    let inner = (
-        i64::from(b.x0) - i64::from(gap),
-        i64::from(b.y0) - i64::from(gap),
-        i64::from(b.x1) + i64::from(gap),
-        i64::from(b.y1) + i64::from(gap),
-    );
-    let x0 = (inner.0 - i64::from(width)).max(0);
-    let y0 = (inner.1 - i64::from(width)).max(0);
-    let x1 = (inner.2 + i64::from(width)).min(i64::from(frame.width) - 1);
-    let y1 = (inner.3 + i64::from(width)).min(i64::from(frame.height) - 1);
-    let mut points = Vec::new();
-    for y in y0..=y1 {
-        let row = frame.row(y as u32);
-        // Rows beside the box: the strips left and right of it only.
-        let spans = if y >= inner.1 && y <= inner.3 {
-            [(x0, inner.0 - 1), (inner.2 + 1, x1)]
-        } else {
-            [(x0, x1), (1, 0)]
-        };
-        for (xa, xb) in spans {
-            for x in xa..=xb {
-                let f = row[x as usize];
-                if f >= level.at(x as u32, y as u32, frame.width) {
-                    continue;
-                }
-                // Coordinates relative to the box centre keep the fit well conditioned.
-                points.push(Point3::new(
-                    x as f64 - f64::from(b.x0 + b.x1) / 2.0,
-                    y as f64 - f64::from(b.y0 + b.y1) / 2.0,
-                    f64::from(f),
-                ));
-            }
-        }
-    }
-    points
-}
-
-/// The background under a blob as a plane `b(u, v) = c + a·u + b·v` (DN),
-/// fitted to the pixels of a ring [`RING_GAP_PX`] outside its bounding box,
-/// [`RING_WIDTH_PX`] wide: pixels at or above the threshold (other blobs)
-/// are left out, and the fit is repeated without pixels beyond
-/// [`RING_CLIP_SIGMA`]·σ; with what its noise needs: the residual σ of the
-/// last fit and `XᵀX` of its design. `None` when too few pixels remain.
-fn background_fit(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Option<Background> {
-    let b = &blob.bbox;
-    let mut points = ring_points(frame, blob, level);
-    let centre = [f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0];
-    let (mut normal, mut rhs) = normal_equations(&points);
-    let mut background = None;
-    for _ in 0..3 {
-        if points.len() < RING_MIN_PIXELS {
-            return None;
-        }
-        let [c, a, b] = ring_plane(&normal, &rhs)?;
-        let residual = |p: &Point3<f64>| p.z - c - a * p.x - b * p.y;
-        let n = points.len() as f64;
-        let sigma = (points.iter().map(|p| residual(p).powi(2)).sum::<f64>() / (n - 3.0)).sqrt();
-        // Back to absolute pixel coordinates: b = c + a·(u − uc) + b·(v − vc).
-        let (uc, vc) = (centre[0], centre[1]);
-        background = Some(Background {
-            plane: [c - a * uc - b * vc, a, b],
-            sigma_dn: sigma,
-            centre,
-            normal,
-        });
-        // The clipped pixels leave the normal equations.
-        let before = points.len();
-        points.retain(|p| {
-            let keep = residual(p).abs() <= RING_CLIP_SIGMA * sigma;
-            if !keep {
-                remove_from_normal_equations(&mut normal, &mut rhs, p);
-            }
-            keep
-        });
-        if points.len() == before {
-            break;
-        }
-    }
-    background
-}
-
-/// The least-squares plane `f = c + a·u + b·v`, as `[c, a, b]`, through the
-/// ring's pixels (coordinates relative to the box centre) from their normal
-/// equations `XᵀX θ = Xᵀf` (`normal` = XᵀX, `rhs` = Xᵀf; Cholesky): the
-/// ring surrounds the centre, so XᵀX is well conditioned and the solution
-/// agrees with an orthogonal factorisation to rounding, at a fraction of
-/// its cost for 10⁴ ring pixels; `None` for a degenerate ring.
-fn ring_plane(normal: &Matrix3<f64>, rhs: &Vector3<f64>) -> Option<[f64; 3]> {
-    let theta = normal.cholesky()?.solve(rhs);
-    let plane = [theta[0], theta[1], theta[2]];
-    plane.iter().all(|x| x.is_finite()).then_some(plane)
-}
-
-/// `XᵀX` of the ring's design matrix, rows `(1, u − uc, v − vc)`, and `Xᵀf`,
-/// in one scan of scalar sums.
-fn normal_equations(points: &[Point3<f64>]) -> (Matrix3<f64>, Vector3<f64>) {
-    let [mut n, mut su, mut sv, mut suu, mut suv, mut svv] = [0.0f64; 6];
-    let [mut sf, mut suf, mut svf] = [0.0f64; 3];
-    for p in points {
-        n += 1.0;
-        su += p.x;
-        sv += p.y;
-        suu += p.x * p.x;
-        suv += p.x * p.y;
-        svv += p.y * p.y;
-        sf += p.z;
-        suf += p.x * p.z;
-        svf += p.y * p.z;
-    }
-    (
-        Matrix3::new(n, su, sv, su, suu, suv, sv, suv, svv),
-        Vector3::new(sf, suf, svf),
-    )
-}
-
-/// Take the ring pixel `p` (u − uc, v − vc, f) out of `XᵀX` and `Xᵀf`.
-fn remove_from_normal_equations(
-    normal: &mut Matrix3<f64>,
-    rhs: &mut Vector3<f64>,
-    p: &Point3<f64>,
-) {
-    let x = Vector3::new(1.0, p.x, p.y);
-    *normal -= x * x.transpose();
-    *rhs -= x * p.z;
-}
-
 /// A blob's corrected light (module docs): the weights `w = F′·J` at the
 /// undistorted positions p′ of its pixels, summed into its centroid and
 /// central second moments — in the corrected (ideal) image, where a luminous
@@ -713,7 +590,6 @@ pub fn mapped_light(
     map: &dyn PixelMap,
     gain_dn_per_e: Option<f64>,
 ) -> Option<MappedLight> {
-    let background = background_fit(frame, blob, level)?;
     Light {
         frame,
         blob,
@@ -722,7 +598,7 @@ pub fn mapped_light(
         map,
         gain_dn_per_e,
     }
-    .of(&background)
+    .of()
 }
 
 /// What [`mapped_light`] was given.
@@ -1054,11 +930,10 @@ struct Aside {
 /// threshold in radiance units rises by half across the blob.
 const GUESS_MARGIN: f64 = 0.5;
 
-/// [`Light::of`]'s passes over a blob, to be compiled for each kind of
-/// vector unit.
+/// [`Light::of`]: the background fit and the passes over a blob, to be
+/// compiled for each kind of vector unit.
 struct Passes<'a, 'b, 'f> {
     light: &'a Light<'b, 'f>,
-    background: &'a Background,
 }
 
 impl pulp::WithSimd for Passes<'_, '_, '_> {
@@ -1066,7 +941,8 @@ impl pulp::WithSimd for Passes<'_, '_, '_> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) -> Option<MappedLight> {
-        let (light, background) = (self.light, self.background);
+        let light = self.light;
+        let background = &background_fit(light.frame, light.blob, light.level)?;
         match light.pass(background, None) {
             Pass::Done(done) => done,
             Pass::Again(threshold) => match light.pass(background, Some(threshold)) {
@@ -1093,13 +969,11 @@ impl Light<'_, '_> {
     /// (φ = 1, d, d·dᵀ), since `w = (f′ − T′)·J` — and keeps aside the pixels
     /// that might fall below it ([`GUESS_MARGIN`]); when `T′` exceeds the
     /// guess, the first pass has found it, and a second takes it as the guess.
-    /// The passes run on the CPU's widest vector units: the same
-    /// arithmetic in the same order, so the same result, on any.
-    fn of(&self, background: &Background) -> Option<MappedLight> {
-        pulp::Arch::new().dispatch(Passes {
-            light: self,
-            background,
-        })
+    /// With the background under the blob ([`background_fit`]), on the
+    /// CPU's widest vector units: the same arithmetic in the same order, so
+    /// the same result, on any.
+    fn of(&self) -> Option<MappedLight> {
+        pulp::Arch::new().dispatch(Passes { light: self })
     }
 
     /// The pixels' noise, where the centroid's covariance is wanted.
@@ -1263,6 +1137,7 @@ mod tests {
     use super::*;
     use crate::backend::{Backend, CpuBackend, ExtractParams, Extraction};
     use crate::threshold::Threshold;
+    use geom::Vector3;
 
     const W: u32 = 160;
     const H: u32 = 120;
@@ -1353,6 +1228,42 @@ mod tests {
         println!("worst: {worst:?}");
         assert!(worst[0] < 1e-6, "position {:e} px", worst[0]);
         assert!(worst[1] < 1e-8 && worst[2] < 1e-8, "{worst:?}");
+    }
+
+    /// A run whose lattice nodes reach beyond where the lens model can be
+    /// inverted (k1 = −0.5 at f = 100 px folds 54 px from the centre) is
+    /// mapped pixel by pixel, as the exact map maps it; a run beyond the
+    /// fold cannot be mapped at all.
+    #[test]
+    fn runs_near_where_the_model_folds_are_mapped_pixel_by_pixel() {
+        let camera = Camera {
+            intrinsics: geom::Intrinsics::centred(100.0, W, H),
+            distortion: geom::Distortion {
+                k1: -0.5,
+                k2: 0.0,
+                k3: 0.0,
+                p1: 0.0,
+                p2: 0.0,
+            },
+            pose: geom::Isometry3::identity(),
+            width: W,
+            height: H,
+        };
+        let illumination = Illumination::Ideal;
+        let map = CameraMap::new(&camera, &illumination);
+        let (y, x0, x1) = (60u32, 90u32, 126u32);
+        assert!(map.node(i64::from(x1 / NODE_SPACING_PX) + 2, 7).is_none());
+        let mut out = Vec::new();
+        map.map_run(y, x0, x1, &mut out).unwrap();
+        let exact = CameraMap::new(&camera, &illumination);
+        let pixels: Vec<(u32, Mapped)> = out.iter().flat_map(MappedLanes::pixels).collect();
+        assert!(pixels.iter().map(|p| p.0).eq(x0..=x1));
+        for (x, m) in pixels {
+            let e = exact.map(f64::from(x), f64::from(y)).unwrap();
+            assert!((m.position[0] - e.position[0]).abs() < 1e-9, "{m:?} {e:?}");
+            assert!((m.jacobian / e.jacobian - 1.0).abs() < 1e-12, "{m:?} {e:?}");
+        }
+        assert!(map.map_run(y, 136, 150, &mut out).is_none());
     }
 
     #[test]
@@ -1609,21 +1520,35 @@ mod tests {
             map,
             gain_dn_per_e: Some(3.5),
         };
-        let background = background_fit(&frame, blob, &ex.level).unwrap();
         let scalar = pulp::WithSimd::with_simd(
             Passes {
                 light: &light(&maps[0]),
-                background: &background,
             },
             pulp::Scalar::new(),
         );
         assert!(scalar.is_some_and(|s| s.covariance.is_some()));
-        assert_eq!(light(&maps[1]).of(&background), scalar);
-        let columns: Vec<Node> = (0..12)
-            .map(|i| [0.1 * f64::from(i), -0.3, 1.0 + 1e-3 * f64::from(i), 0.9])
-            .collect();
-        fn intervals<'a>(columns: &'a [Node], out: &'a mut Vec<MappedLanes>) -> Intervals<'a> {
+        assert_eq!(light(&maps[1]).of(), scalar);
+        let rows: [Vec<Node>; 4] = std::array::from_fn(|r| {
+            (0..12)
+                .map(|i| {
+                    let (i, r) = (f64::from(i), r as f64);
+                    [
+                        0.1 * i - 0.2 * r,
+                        -0.3 + 0.01 * i * r,
+                        1.0 + 1e-3 * i,
+                        0.9 - 1e-3 * r,
+                    ]
+                })
+                .collect()
+        });
+        fn intervals<'a>(
+            rows: &'a [Vec<Node>; 4],
+            columns: &'a mut Vec<Node>,
+            out: &'a mut Vec<MappedLanes>,
+        ) -> Intervals<'a> {
             Intervals {
+                rows: rows.each_ref().map(Vec::as_slice),
+                weights: cubic_weights(0.375),
                 columns,
                 x0: 13,
                 x1: 70,
@@ -1631,9 +1556,12 @@ mod tests {
                 out,
             }
         }
-        let (mut vector, mut scalar) = (Vec::new(), Vec::new());
-        pulp::Arch::new().dispatch(intervals(&columns, &mut vector));
-        pulp::WithSimd::with_simd(intervals(&columns, &mut scalar), pulp::Scalar::new());
+        let (mut vector, mut scalar, mut columns) = (Vec::new(), Vec::new(), Vec::new());
+        assert!(pulp::Arch::new().dispatch(intervals(&rows, &mut columns, &mut vector)));
+        assert!(pulp::WithSimd::with_simd(
+            intervals(&rows, &mut columns, &mut scalar),
+            pulp::Scalar::new()
+        ));
         assert_eq!(vector.len(), 9);
         assert_eq!(vector, scalar);
     }
