@@ -463,6 +463,7 @@ impl pulp::WithSimd for Intervals<'_> {
             return false;
         }
         let (h, x0, x1) = (NODE_SPACING_PX, self.x0, self.x1);
+        debug_assert_eq!(columns.len() as u32, x1 / h - x0 / h + 4);
         let mut start = (x0 / h) * h;
         for c in columns.windows(4) {
             let mut lanes = MappedLanes::empty(start);
@@ -1528,8 +1529,9 @@ mod tests {
         );
         assert!(scalar.is_some_and(|s| s.covariance.is_some()));
         assert_eq!(light(&maps[1]).of(), scalar);
+        // Node columns 13/8 − 1 ..= 70/8 + 2 around the run 13..=70.
         let rows: [Vec<Node>; 4] = std::array::from_fn(|r| {
-            (0..12)
+            (0..11)
                 .map(|i| {
                     let (i, r) = (f64::from(i), r as f64);
                     [
@@ -1562,7 +1564,7 @@ mod tests {
             intervals(&rows, &mut columns, &mut scalar),
             pulp::Scalar::new()
         ));
-        assert_eq!(vector.len(), 9);
+        assert_eq!(vector.len(), 8);
         assert_eq!(vector, scalar);
     }
 
