@@ -1333,7 +1333,7 @@ fn measure_chunks(
         |ip| measure_one(ctx, ip, references),
         |i, outcome| {
             done.push((i, outcome));
-            if done.len() == CHUNK_INSTANTS {
+            if done.len() == CHUNK_INSTANTS && result.is_ok() {
                 result = append(&mut done);
             }
             result.is_ok()
@@ -1362,7 +1362,9 @@ fn in_parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec
 /// `f` over `items` on as many worker threads as the rayon pool has
 /// threads, each taking the next item when it is done with one; each
 /// result handed to `done` (with its item's index) on this thread as soon
-/// as it is ready; once `done` says `false`, no item is begun. The workers are threads of their own, not jobs of the
+/// as it is ready (a worker with a result to hand over waits while as many
+/// as there are workers are waiting); once `done` says `false`, no item is
+/// begun. The workers are threads of their own, not jobs of the
 /// pool: the extraction inside `f` runs its parallel parts (the labelling's
 /// bands) on the pool, and a worker waiting for them cannot take up another
 /// item, as a pool thread waiting inside a parallel job would. So at most
@@ -1384,7 +1386,8 @@ fn for_each_parallel<T: Sync, R: Send>(
         return;
     }
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let (send, receive) = std::sync::mpsc::channel();
+    // Bounded: a worker does not run more than a few results ahead of `done`.
+    let (send, receive) = std::sync::mpsc::sync_channel(workers);
     std::thread::scope(|scope| {
         let handles: Vec<_> = (0..workers)
             .map(|_| {
@@ -1538,4 +1541,44 @@ fn write_problems(
     let list: Vec<InstantProblemRow> = problems.into_iter().map(|(_, p)| p).collect();
     output.write_records(path, &list)?;
     Ok((Some(path.to_path_buf()), Some(first)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every item's result reaches `done` once, with its index, on any
+    /// number of workers; once `done` says stop, no further item is begun.
+    #[test]
+    fn each_result_is_handed_over_once_and_a_stop_is_kept() {
+        let items: Vec<u32> = (0..200).collect();
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let squares = pool.install(|| in_parallel(&items, |x| x * x));
+            assert!(squares.iter().zip(&items).all(|(s, x)| *s == x * x));
+            let begun = std::sync::atomic::AtomicUsize::new(0);
+            let mut seen = 0;
+            pool.install(|| {
+                for_each_parallel(
+                    &items,
+                    |_| begun.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+                    |_, _| {
+                        seen += 1;
+                        seen < 10
+                    },
+                );
+            });
+            // The stop comes at the tenth result; by then each worker had
+            // at most one result waiting and one item under way.
+            let begun = begun.into_inner();
+            assert!(
+                (10..=10 + 2 * threads).contains(&begun),
+                "{threads} threads: {begun} begun"
+            );
+            assert_eq!(seen, begun);
+        }
+    }
 }
