@@ -203,7 +203,7 @@ const OFFSET_WEIGHTS: [[f64; LANES]; 4] = {
 /// solved on first use and kept for the whole run, shared by every frame
 /// and thread. A node is solved from the same start whoever needs it first,
 /// so results do not depend on the order of frames or the number of
-/// threads. Nodes are held in tiles of [`TILE_NODES`]² made on first use:
+/// threads. Nodes are held in tiles of `TILE_NODES`² made on first use:
 /// only the parts of the sensor the spheres cross take memory.
 pub struct Lattice {
     /// Nodes per lattice row and column.
@@ -500,8 +500,8 @@ fn interval(c: &[Node]) -> [[f64; LANES]; 4] {
 
 impl PixelMap for CameraMap<'_> {
     /// Through the lattice of exact nodes ([`NODE_SPACING_PX`]): each pixel
-    /// the bicubic of the shift p − (u, v), J and RI; a run shorter than
-    /// [`MIN_INTERVALS`] node spacings, or one near a node the model cannot
+    /// the bicubic of the shift p − (u, v), J and 1/RI; a run shorter than
+    /// `MIN_INTERVALS` (4) node spacings, or one near a node the model cannot
     /// map (beyond the lens model's reach), pixel by pixel.
     fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<MappedLanes>) -> Option<()> {
         out.clear();
