@@ -87,11 +87,8 @@ impl MappedLanes {
         }
     }
 
-    /// Put pixel `x + l`'s map in lane `l` (after the lanes put so far).
+    /// Put pixel `x + l`'s map in lane `l`, the lane after those put so far.
     fn put(&mut self, l: usize, m: &Mapped) {
-        if self.end == self.first {
-            self.first = l;
-        }
         self.end = l + 1;
         self.position[0][l] = m.position[0];
         self.position[1][l] = m.position[1];
@@ -860,10 +857,13 @@ impl AboveSums {
     ) -> bool {
         let held = lanes.held();
         let (jac, inv) = (&lanes.jacobian, &lanes.inverse_illumination);
-        let (mut signal, mut corrected) = ([0.0; LANES], [0.0; LANES]);
+        let (mut signal, mut corrected, mut offset) =
+            ([0.0; LANES], [0.0; LANES], [[0.0; LANES]; 2]);
         let (mut kept, mut unmappable, mut set_aside) = ([false; LANES], 0u32, 0u32);
         // Simple loops without branches: each one's lanes side by side.
         for l in 0..LANES {
+            offset[0][l] = lanes.position[0][l] - reference[0];
+            offset[1][l] = lanes.position[1][l] - reference[1];
             signal[l] = p.value[l] - p.background[l];
             corrected[l] = signal[l] * inv[l];
             kept[l] = held[l] & (corrected[l] > guess);
@@ -874,16 +874,8 @@ impl AboveSums {
             ([[0.0; LANES]; 2], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for l in 0..LANES {
             let k = kept[l];
-            d[0][l] = if k {
-                lanes.position[0][l] - reference[0]
-            } else {
-                0.0
-            };
-            d[1][l] = if k {
-                lanes.position[1][l] - reference[1]
-            } else {
-                0.0
-            };
+            d[0][l] = if k { offset[0][l] } else { 0.0 };
+            d[1][l] = if k { offset[1][l] } else { 0.0 };
             fj[l] = if k { corrected[l] * jac[l] } else { 0.0 };
             j[l] = if k { jac[l] } else { 0.0 };
             g[l] = if k { jac[l] * inv[l] } else { 0.0 };
@@ -900,10 +892,7 @@ impl AboveSums {
             for l in (lanes.first..lanes.end).filter(|&l| !kept[l]) {
                 aside.push(Aside {
                     observed: [p.u[l], p.v],
-                    d: [
-                        lanes.position[0][l] - reference[0],
-                        lanes.position[1][l] - reference[1],
-                    ],
+                    d: [offset[0][l], offset[1][l]],
                     jacobian: lanes.jacobian[l],
                     inverse_illumination: lanes.inverse_illumination[l],
                     corrected: corrected[l],
@@ -964,15 +953,15 @@ enum Pass {
 }
 
 impl Light<'_, '_> {
-    /// [`mapped_light`] over `background`, keeping nothing per pixel but
-    /// those near the threshold: one pass over the blob's runs finds `T′`
-    /// while it sums the pixels surely above it — as `Σ f′·J·φ` and `Σ J·φ`
-    /// (φ = 1, d, d·dᵀ), since `w = (f′ − T′)·J` — and keeps aside the pixels
-    /// that might fall below it ([`GUESS_MARGIN`]); when `T′` exceeds the
-    /// guess, the first pass has found it, and a second takes it as the guess.
-    /// With the background under the blob ([`background_fit`]), on the
-    /// CPU's widest vector units: the same arithmetic in the same order, so
-    /// the same result, on any.
+    /// [`mapped_light`]: the background under the blob ([`background_fit`]),
+    /// then, keeping nothing per pixel but those near the threshold, one
+    /// pass over the blob's runs that finds `T′` while it sums the pixels
+    /// surely above it — as `Σ f′·J·φ` and `Σ J·φ` (φ = 1, d, d·dᵀ), since
+    /// `w = (f′ − T′)·J` — and keeps aside the pixels that might fall below
+    /// it ([`GUESS_MARGIN`]); when `T′` exceeds the guess, the first pass has
+    /// found it, and a second takes it as the guess. On the CPU's widest
+    /// vector units: the same arithmetic in the same order, so the same
+    /// result, on any.
     fn of(&self) -> Option<MappedLight> {
         pulp::Arch::new().dispatch(Passes { light: self })
     }
@@ -1187,19 +1176,7 @@ mod tests {
     #[test]
     fn runs_mapped_through_nodes_agree_with_the_exact_map() {
         let (w, h) = (4096u32, 3072u32);
-        let camera = Camera {
-            intrinsics: geom::Intrinsics::centred(2600.0, w, h),
-            distortion: geom::Distortion {
-                k1: -0.2,
-                k2: 0.05,
-                k3: 0.0,
-                p1: 4e-4,
-                p2: -3e-4,
-            },
-            pose: geom::Isometry3::identity(),
-            width: w,
-            height: h,
-        };
+        let camera = lens(2600.0, [-0.2, 0.05, 4e-4, -3e-4], w, h);
         let illumination = Illumination::Ideal;
         let map = CameraMap::new(&camera, &illumination);
         let mut out = Vec::new();
@@ -1237,19 +1214,7 @@ mod tests {
     /// fold cannot be mapped at all.
     #[test]
     fn runs_near_where_the_model_folds_are_mapped_pixel_by_pixel() {
-        let camera = Camera {
-            intrinsics: geom::Intrinsics::centred(100.0, W, H),
-            distortion: geom::Distortion {
-                k1: -0.5,
-                k2: 0.0,
-                k3: 0.0,
-                p1: 0.0,
-                p2: 0.0,
-            },
-            pose: geom::Isometry3::identity(),
-            width: W,
-            height: H,
-        };
+        let camera = lens(100.0, [-0.5, 0.0, 0.0, 0.0], W, H);
         let illumination = Illumination::Ideal;
         let map = CameraMap::new(&camera, &illumination);
         let (y, x0, x1) = (60u32, 90u32, 126u32);
@@ -1348,18 +1313,24 @@ mod tests {
 
     /// A wide angle on the small test frame: 44° across, k1 = −0.2.
     fn wide_angle() -> Camera {
+        lens(200.0, [-0.2, 0.05, 1e-3, -5e-4], W, H)
+    }
+
+    /// A `width`×`height` camera at the origin, focal length `focal_px`
+    /// centred, with Brown distortion `[k1, k2, p1, p2]` (k3 = 0).
+    fn lens(focal_px: f64, [k1, k2, p1, p2]: [f64; 4], width: u32, height: u32) -> Camera {
         Camera {
-            intrinsics: geom::Intrinsics::centred(200.0, W, H),
+            intrinsics: geom::Intrinsics::centred(focal_px, width, height),
             distortion: geom::Distortion {
-                k1: -0.2,
-                k2: 0.05,
+                k1,
+                k2,
                 k3: 0.0,
-                p1: 1e-3,
-                p2: -5e-4,
+                p1,
+                p2,
             },
             pose: geom::Isometry3::identity(),
-            width: W,
-            height: H,
+            width,
+            height,
         }
     }
 

@@ -34,7 +34,7 @@ struct Ring {
 
 impl Ring {
     /// The pixels of the ring [`RING_GAP_PX`] outside `blob`'s bounding box,
-    /// [`RING_WIDTH_PX`] wide, below the threshold `level` (others blobs'
+    /// [`RING_WIDTH_PX`] wide, below the threshold `level` (other blobs'
     /// pixels are left out).
     #[inline(always)]
     fn around(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Self {
@@ -139,17 +139,14 @@ impl Ring {
     /// how many remain.
     #[inline(always)]
     fn clip(&mut self, plane: [f64; 3], limit: f64) -> usize {
-        let kept: Vec<f64> = self
-            .chunks()
-            .flat_map(|[u, v, f, k]| {
-                (0..LANES).map(move |l| {
-                    let r = residual(plane, u[l], v[l], f[l]);
-                    if r.abs() <= limit { k[l] } else { 0.0 }
-                })
-            })
-            .collect();
-        self.kept = kept;
-        self.kept.iter().sum::<f64>() as usize
+        let Ring { u, v, f, kept } = self;
+        for (i, k) in kept.iter_mut().enumerate() {
+            let keep = residual(plane, u[i], v[i], f[i]).abs() <= limit;
+            if !keep {
+                *k = 0.0;
+            }
+        }
+        kept.iter().sum::<f64>() as usize
     }
 }
 
