@@ -96,11 +96,12 @@ impl MappedLanes {
         self.inverse_illumination[l] = 1.0 / m.illumination;
     }
 
-    /// Per lane whether it is one of the run's (without branches, which
-    /// would keep the compiler from using vector lanes).
+    /// Whether lane `l` is one of the run's, compared as reals and without
+    /// branches: inside a loop over the lanes it stays a vector mask.
     #[inline(always)]
-    fn held(&self) -> [bool; LANES] {
-        std::array::from_fn(|l| (l >= self.first) & (l < self.end))
+    fn holds(&self, l: usize) -> bool {
+        let o = LANE_OFFSETS[l];
+        (o >= self.first as f64) & (o < self.end as f64)
     }
 
     /// The run's pixels: `(x, its map)`.
@@ -615,61 +616,65 @@ struct Threshold {
     at: ([f64; 2], f64),
 }
 
-/// `T′` so far, lane by lane: per lane the largest `(T − b)/RI` of its
-/// pixels, with the first pixel that holds it.
-struct ThresholdLanes {
-    value: [f64; LANES],
-    u: [f64; LANES],
-    v: [f64; LANES],
-    inverse_illumination: [f64; LANES],
-}
-
-impl ThresholdLanes {
-    fn new() -> Self {
+impl Threshold {
+    /// Before any pixel.
+    fn none() -> Self {
         Self {
-            value: [f64::NEG_INFINITY; LANES],
-            u: [0.0; LANES],
-            v: [0.0; LANES],
-            inverse_illumination: [1.0; LANES],
+            value: f64::NEG_INFINITY,
+            at: ([0.0; 2], 1.0),
         }
     }
 
-    /// Raise each lane's maximum by the run's `lanes`.
-    #[inline(always)]
-    fn raise(&mut self, lanes: &MappedLanes, pixels: &PixelLanes) {
-        let held = lanes.held();
-        for l in 0..LANES {
-            let inv = lanes.inverse_illumination[l];
-            let t = (pixels.level[l] - pixels.background[l]) * inv;
-            let higher = held[l] & (t > self.value[l]);
-            self.value[l] = if higher { t } else { self.value[l] };
-            self.u[l] = if higher { pixels.u[l] } else { self.u[l] };
-            self.v[l] = if higher { pixels.v } else { self.v[l] };
-            self.inverse_illumination[l] = if higher {
-                inv
-            } else {
-                self.inverse_illumination[l]
-            };
-        }
-    }
-
-    /// `T′` over every lane, set by the pixel that holds it first in row
-    /// order (as a scan pixel by pixel would find it).
-    fn threshold(&self) -> Threshold {
-        let mut best = 0;
-        for l in 1..LANES {
-            let (t, b) = (self.value[l], self.value[best]);
-            if t > b || (t == b && (self.v[l], self.u[l]) < (self.v[best], self.u[best])) {
-                best = l;
+    /// Raised by a run whose pixels' `(T − b)/RI` reach `top` lane by lane
+    /// ([`raise_lanes`]): where the run holds a larger one, that level and
+    /// the first of its pixels that holds it. Runs come in raster order, so
+    /// the first pixel in raster order that holds `T′` sets it, as a scan
+    /// pixel by pixel would find it.
+    fn raise(
+        &mut self,
+        top: &[f64; LANES],
+        mapped: &[MappedLanes],
+        pixels: impl Fn(&MappedLanes) -> PixelLanes,
+    ) {
+        let m = top
+            .iter()
+            .fold(f64::NEG_INFINITY, |a, &t| if t > a { t } else { a });
+        if m > self.value {
+            for lanes in mapped {
+                let p = pixels(lanes);
+                let t = levels(lanes, &p);
+                if let Some(l) = (lanes.first..lanes.end).find(|&l| t[l] == m) {
+                    self.value = m;
+                    self.at = ([p.u[l], p.v], 1.0 / lanes.inverse_illumination[l]);
+                    return;
+                }
             }
         }
-        Threshold {
-            value: self.value[best],
-            at: (
-                [self.u[best], self.v[best]],
-                1.0 / self.inverse_illumination[best],
-            ),
-        }
+    }
+}
+
+/// Per lane `(T − b)/RI` of the pixels in `lanes`, −∞ in the lanes that
+/// are not the run's.
+#[inline(always)]
+fn levels(lanes: &MappedLanes, p: &PixelLanes) -> [f64; LANES] {
+    let mut t = [0.0; LANES];
+    for l in 0..LANES {
+        let level = (p.level[l] - p.background[l]) * lanes.inverse_illumination[l];
+        t[l] = if lanes.holds(l) {
+            level
+        } else {
+            f64::NEG_INFINITY
+        };
+    }
+    t
+}
+
+/// `top` raised lane by lane to the pixels' `(T − b)/RI` ([`levels`]).
+#[inline(always)]
+fn raise_lanes(top: &mut [f64; LANES], lanes: &MappedLanes, p: &PixelLanes) {
+    let t = levels(lanes, p);
+    for l in 0..LANES {
+        top[l] = if t[l] > top[l] { t[l] } else { top[l] };
     }
 }
 
@@ -855,32 +860,36 @@ impl AboveSums {
         noise: Option<&PixelNoise>,
         aside: &mut Vec<Aside>,
     ) -> bool {
-        let held = lanes.held();
         let (jac, inv) = (&lanes.jacobian, &lanes.inverse_illumination);
-        let (mut signal, mut corrected, mut offset) =
-            ([0.0; LANES], [0.0; LANES], [[0.0; LANES]; 2]);
-        let (mut kept, mut unmappable, mut set_aside) = ([false; LANES], 0u32, 0u32);
-        // Simple loops without branches: each one's lanes side by side.
-        for l in 0..LANES {
-            offset[0][l] = lanes.position[0][l] - reference[0];
-            offset[1][l] = lanes.position[1][l] - reference[1];
-            signal[l] = p.value[l] - p.background[l];
-            corrected[l] = signal[l] * inv[l];
-            kept[l] = held[l] & (corrected[l] > guess);
-            unmappable += u32::from(held[l] & !((inv[l] > 0.0) & (jac[l] > 0.0)));
-            set_aside += u32::from(held[l] & !kept[l]);
-        }
         let (mut d, mut fj, mut j, mut g) =
             ([[0.0; LANES]; 2], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        let (mut signal, mut unmappable, mut set_aside) =
+            ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        // One loop without branches: its lanes side by side, the masks in
+        // vector registers.
         for l in 0..LANES {
-            let k = kept[l];
-            d[0][l] = if k { offset[0][l] } else { 0.0 };
-            d[1][l] = if k { offset[1][l] } else { 0.0 };
-            fj[l] = if k { corrected[l] * jac[l] } else { 0.0 };
-            j[l] = if k { jac[l] } else { 0.0 };
-            g[l] = if k { jac[l] * inv[l] } else { 0.0 };
+            let held = lanes.holds(l);
+            signal[l] = p.value[l] - p.background[l];
+            let corrected = signal[l] * inv[l];
+            let kept = held & (corrected > guess);
+            let mappable = (inv[l] > 0.0) & (jac[l] > 0.0);
+            unmappable[l] = if held & !mappable { 1.0 } else { 0.0 };
+            set_aside[l] = if held & !kept { 1.0 } else { 0.0 };
+            d[0][l] = if kept {
+                lanes.position[0][l] - reference[0]
+            } else {
+                0.0
+            };
+            d[1][l] = if kept {
+                lanes.position[1][l] - reference[1]
+            } else {
+                0.0
+            };
+            fj[l] = if kept { corrected * jac[l] } else { 0.0 };
+            j[l] = if kept { jac[l] } else { 0.0 };
+            g[l] = if kept { jac[l] * inv[l] } else { 0.0 };
         }
-        if unmappable > 0 {
+        if lane_total(&unmappable) > 0.0 {
             return false;
         }
         self.fj.add(&d, &fj);
@@ -888,14 +897,17 @@ impl AboveSums {
         if let Some(noise) = noise {
             self.noise.add(noise, &p.u, p.v, &d, &j, &g, &signal);
         }
-        if set_aside > 0 {
-            for l in (lanes.first..lanes.end).filter(|&l| !kept[l]) {
+        if lane_total(&set_aside) > 0.0 {
+            for l in (lanes.first..lanes.end).filter(|&l| set_aside[l] > 0.0) {
                 aside.push(Aside {
                     observed: [p.u[l], p.v],
-                    d: [offset[0][l], offset[1][l]],
-                    jacobian: lanes.jacobian[l],
-                    inverse_illumination: lanes.inverse_illumination[l],
-                    corrected: corrected[l],
+                    d: [
+                        lanes.position[0][l] - reference[0],
+                        lanes.position[1][l] - reference[1],
+                    ],
+                    jacobian: jac[l],
+                    inverse_illumination: inv[l],
+                    corrected: signal[l] * inv[l],
                     signal: signal[l],
                 });
             }
@@ -991,7 +1003,7 @@ impl Light<'_, '_> {
         let noise = self.pixel_noise(background);
         let mut above = AboveSums::default();
         let mut aside = Vec::new();
-        let mut best = ThresholdLanes::new();
+        let mut best = Threshold::none();
         let mut guess = guess;
         let mut mapped = Vec::new();
         for run in &self.blob.runs {
@@ -1014,26 +1026,27 @@ impl Light<'_, '_> {
             // T′ so far: over the first run before its pixels are weighed
             // when that run sets the guess, with them after.
             let first = guess.is_none();
+            let mut top = [f64::NEG_INFINITY; LANES];
             if first {
                 for lanes in &mapped {
-                    best.raise(lanes, &pixels(lanes));
+                    raise_lanes(&mut top, lanes, &pixels(lanes));
                 }
+                best.raise(&top, &mapped, pixels);
             }
-            let g = *guess.get_or_insert_with(|| {
-                let m = best.threshold().value;
-                m + GUESS_MARGIN * m.abs()
-            });
+            let g = *guess.get_or_insert_with(|| best.value + GUESS_MARGIN * best.value.abs());
             for lanes in &mapped {
                 let p = pixels(lanes);
                 if !first {
-                    best.raise(lanes, &p);
+                    raise_lanes(&mut top, lanes, &p);
                 }
                 if !above.weigh(lanes, &p, g, reference, noise.as_ref(), &mut aside) {
                     return Pass::Done(None);
                 }
             }
+            if !first {
+                best.raise(&top, &mapped, pixels);
+            }
         }
-        let best = best.threshold();
         match guess {
             Some(g) if best.value <= g => {}
             _ => return Pass::Again(best.value),
