@@ -1359,18 +1359,16 @@ fn in_parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec
     done.into_iter().map(|(_, r)| r).collect()
 }
 
-/// `f` over `items` on as many worker threads as the rayon pool has
-/// threads, each taking the next item when it is done with one; each
-/// result handed to `done` (with its item's index) on this thread as soon
-/// as it is ready (a worker with a result to hand over waits while as many
-/// as there are workers are waiting); once `done` says `false`, no item is
-/// begun. The workers are threads of their own, not jobs of the
-/// pool: the extraction inside `f` runs its parallel parts (the labelling's
-/// bands) on the pool, and a worker waiting for them cannot take up another
-/// item, as a pool thread waiting inside a parallel job would. So at most
-/// one item per worker holds a frame: frames in flight ≤ threads, and a
-/// worker's decoding of its next frame overlaps the pool's work on the
-/// others'.
+/// `f` over `items` on the rayon pool's threads, each taking the next item
+/// when it is done with one; each result handed to `done` (with its item's
+/// index) on this thread as soon as it is ready (a worker with a result to
+/// hand over waits while as many as there are workers are waiting); once
+/// `done` says `false`, no item is begun. Each worker is one job of the
+/// pool that loops over the items, so the extraction inside `f` runs its
+/// parallel parts (the labelling's bands) on the same threads, with no
+/// threads besides the pool's to share the cores with; no item is left
+/// queued for a thread waiting inside a parallel part to take up, so at
+/// most one item per worker holds a frame: frames in flight ≤ threads.
 fn for_each_parallel<T: Sync, R: Send>(
     items: &[T],
     f: impl Fn(&T) -> R + Sync,
@@ -1388,30 +1386,25 @@ fn for_each_parallel<T: Sync, R: Send>(
     let next = std::sync::atomic::AtomicUsize::new(0);
     // Bounded: a worker does not run more than a few results ahead of `done`.
     let (send, receive) = std::sync::mpsc::sync_channel(workers);
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                let send = send.clone();
-                let (next, f) = (&next, &f);
-                scope.spawn(move || {
-                    loop {
-                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(item) = items.get(i) else { break };
-                        if send.send((i, f(item))).is_err() {
-                            break;
-                        }
+    rayon::in_place_scope(|scope| {
+        for _ in 0..workers {
+            let send = send.clone();
+            let (next, f) = (&next, &f);
+            scope.spawn(move |_| {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(item) = items.get(i) else { break };
+                    if send.send((i, f(item))).is_err() {
+                        break;
                     }
-                })
-            })
-            .collect();
+                }
+            });
+        }
         drop(send);
         for (i, r) in receive {
             if !done(i, r) {
                 next.store(items.len(), std::sync::atomic::Ordering::Relaxed);
             }
-        }
-        for h in handles {
-            h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
         }
     });
 }
