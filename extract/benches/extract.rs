@@ -86,7 +86,7 @@ fn corrected_light_1_thread(bencher: divan::Bencher, covariance: bool) {
     let illumination = geom::Illumination::Ideal;
     let lattice = extract::Lattice::new(camera);
     let map = extract::CameraMap::with_lattice(camera, &illumination, &lattice);
-    let gain = covariance.then_some(4.0);
+    let gain = extract::Covariance::at_gain(covariance.then_some(4.0));
     let light = || {
         ex.blobs
             .iter()

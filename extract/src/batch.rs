@@ -20,7 +20,7 @@ use crate::denoise::Denoise;
 use crate::frame::FrameView;
 use crate::label::Weighting;
 use crate::metadata::FrameMetadata;
-use crate::noise::CentroidCovariance;
+use crate::noise::{CentroidCovariance, Covariance};
 
 /// How a camera's frames are corrected before their centroids are taken:
 /// the sensor's per-pixel maps (master dark, gain map, defective pixels)
@@ -114,7 +114,14 @@ pub(crate) fn frame_blobs(
             let mut b = b.clone();
             if let Some(ri) = flat_field {
                 let map = FlatFieldMap(ri);
-                let light = mapped_light(frame, &b, &extraction.level, weighting, &map, gain);
+                let light = mapped_light(
+                    frame,
+                    &b,
+                    &extraction.level,
+                    weighting,
+                    &map,
+                    Covariance::at_gain(gain),
+                );
                 match light {
                     Some(l) => (b.u, b.v) = (l.centroid[0], l.centroid[1]),
                     None => uncorrected.push((

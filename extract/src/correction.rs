@@ -24,8 +24,12 @@ use std::cell::{Cell, RefCell};
 use crate::blob::{Blob, MomentEllipse};
 use crate::frame::FrameView;
 use crate::label::Weighting;
-use crate::noise::{Background, CentroidCovariance, NoiseSums, NoiseTotals, PixelNoise};
+use crate::noise::{
+    Background, CentroidCovariance, Covariance, CovarianceForm, NoiseSums, NoiseTotals, PixelNoise,
+};
+#[cfg(test)]
 use crate::ring::background_fit;
+use crate::ring::{Ring, with_ring};
 use crate::threshold::Level;
 
 /// One observed pixel in the corrected image: its position, the area
@@ -163,7 +167,7 @@ fn pixel_by_pixel<M: PixelMap + ?Sized>(
 pub const NODE_SPACING_PX: u32 = 8;
 
 /// Runs shorter than this many node intervals are mapped pixel by pixel.
-const MIN_INTERVALS: u32 = 4;
+const MIN_INTERVALS: u32 = 1;
 
 /// A node's shift p − (u, v), J and 1/RI.
 type Node = [f64; 4];
@@ -550,10 +554,13 @@ pub struct MappedLight {
     /// Central second moments `(μ20, μ02, μ11) = Σ w·(p′ − c)(p′ − c)ᵀ / Σ w` (px²).
     pub central: (f64, f64, f64),
     /// The centroid's covariance from the pixels' noise (`crate::noise`,
-    /// px² of the corrected image); `None` without a system gain K, with
-    /// the raw weighting, or when the background plane's covariance is
-    /// undefined.
+    /// px² of the corrected image) at the system gain K given; `None`
+    /// without one, with the raw weighting, or when the background plane's
+    /// covariance is undefined.
     pub covariance: Option<CentroidCovariance>,
+    /// The same as the form linear in K, when a covariance was wanted
+    /// ([`Covariance::AtGain`] or [`Covariance::Form`]).
+    pub covariance_form: Option<CovarianceForm>,
 }
 
 impl MappedLight {
@@ -575,10 +582,10 @@ fn corrected_weight(weighting: Weighting, f: f64, t: f64) -> Option<f64> {
 
 /// The blob's corrected light: centroid `Σ p′·F′·J / Σ F′·J` and the second
 /// moments about it over its pixels, with the background plane, flat-field
-/// correction and threshold of the module docs; with the system gain
-/// `gain_dn_per_e` (K, DN/e⁻), the centroid's covariance (`crate::noise`).
-/// `frame` must be the frame the blob was extracted from (after denoising;
-/// a denoised frame's pixels are correlated, so give no K for one). `None`
+/// correction and threshold of the module docs; with the centroid's
+/// `covariance` (`crate::noise`) as wanted. `frame` must be the frame the
+/// blob was extracted from (after denoising; a denoised frame's pixels are
+/// correlated, so want no covariance for one). `None`
 /// when the background cannot be estimated, a pixel cannot be mapped, or no
 /// weight remains.
 pub fn mapped_light(
@@ -587,7 +594,7 @@ pub fn mapped_light(
     level: &Level,
     weighting: Weighting,
     map: &dyn PixelMap,
-    gain_dn_per_e: Option<f64>,
+    covariance: Covariance,
 ) -> Option<MappedLight> {
     Light {
         frame,
@@ -595,7 +602,7 @@ pub fn mapped_light(
         level,
         weighting,
         map,
-        gain_dn_per_e,
+        covariance,
     }
     .of()
 }
@@ -607,7 +614,7 @@ struct Light<'a, 'f> {
     level: &'a Level,
     weighting: Weighting,
     map: &'a dyn PixelMap,
-    gain_dn_per_e: Option<f64>,
+    covariance: Covariance,
 }
 
 /// `T′` and the observed position and RI of the pixel that sets it.
@@ -625,30 +632,60 @@ impl Threshold {
         }
     }
 
-    /// Raised by a run whose pixels' `(T − b)/RI` reach `top` lane by lane
-    /// ([`raise_lanes`]): where the run holds a larger one, that level and
-    /// the first of its pixels that holds it. Runs come in raster order, so
-    /// the first pixel in raster order that holds `T′` sets it, as a scan
+    /// Raised by the run of row `v` mapped as `mapped`, whose pixels'
+    /// `(T − b)/RI` reach `top`: where the run holds a larger one, that level
+    /// and the first of its pixels that holds it. Runs come in raster order,
+    /// so the first pixel in raster order that holds `T′` sets it, as a scan
     /// pixel by pixel would find it.
-    fn raise(
-        &mut self,
-        top: &[f64; LANES],
-        mapped: &[MappedLanes],
-        pixels: impl Fn(&MappedLanes) -> PixelLanes,
-    ) {
-        let m = top
-            .iter()
-            .fold(f64::NEG_INFINITY, |a, &t| if t > a { t } else { a });
-        if m > self.value {
-            for lanes in mapped {
-                let p = pixels(lanes);
-                let t = levels(lanes, &p);
-                if let Some(l) = (lanes.first..lanes.end).find(|&l| t[l] == m) {
-                    self.value = m;
-                    self.at = ([p.u[l], p.v], 1.0 / lanes.inverse_illumination[l]);
-                    return;
-                }
+    fn raise(&mut self, top: &RunTop, mapped: &[MappedLanes], v: f64) {
+        let mut best: Option<(f64, usize)> = None;
+        for l in 0..LANES {
+            let (t, k) = (top.level[l], top.interval[l]);
+            // The largest level; on a tie the first interval, then lane.
+            if best.is_none_or(|(bk, bl)| {
+                let b = top.level[bl];
+                t > b || (t == b && k < bk)
+            }) && t > f64::NEG_INFINITY
+            {
+                best = Some((k, l));
             }
+        }
+        let Some((k, l)) = best else { return };
+        let m = top.level[l];
+        if let (true, Some(lanes)) = (m > self.value, mapped.get(k as usize)) {
+            self.value = m;
+            self.at = (
+                [f64::from(lanes.x) + LANE_OFFSETS[l], v],
+                1.0 / lanes.inverse_illumination[l],
+            );
+        }
+    }
+}
+
+/// The largest `(T − b)/RI` of a run's pixels so far, lane by lane, with
+/// the first of its intervals that holds it.
+struct RunTop {
+    level: [f64; LANES],
+    interval: [f64; LANES],
+}
+
+impl RunTop {
+    fn new() -> Self {
+        Self {
+            level: [f64::NEG_INFINITY; LANES],
+            interval: [0.0; LANES],
+        }
+    }
+
+    /// Raised by the run's interval `k`, its pixels `p` mapped as `lanes`
+    /// ([`levels`]).
+    #[inline(always)]
+    fn raise(&mut self, k: f64, lanes: &MappedLanes, p: &PixelLanes) {
+        let t = levels(lanes, p);
+        for l in 0..LANES {
+            let higher = t[l] > self.level[l];
+            self.level[l] = if higher { t[l] } else { self.level[l] };
+            self.interval[l] = if higher { k } else { self.interval[l] };
         }
     }
 }
@@ -667,15 +704,6 @@ fn levels(lanes: &MappedLanes, p: &PixelLanes) -> [f64; LANES] {
         };
     }
     t
-}
-
-/// `top` raised lane by lane to the pixels' `(T − b)/RI` ([`levels`]).
-#[inline(always)]
-fn raise_lanes(top: &mut [f64; LANES], lanes: &MappedLanes, p: &PixelLanes) {
-    let t = levels(lanes, p);
-    for l in 0..LANES {
-        top[l] = if t[l] > top[l] { t[l] } else { top[l] };
-    }
 }
 
 /// The observed side of [`MappedLanes`]: per lane the pixel's column u,
@@ -936,6 +964,7 @@ const GUESS_MARGIN: f64 = 0.5;
 /// compiled for each kind of vector unit.
 struct Passes<'a, 'b, 'f> {
     light: &'a Light<'b, 'f>,
+    ring: &'a mut Ring,
 }
 
 impl pulp::WithSimd for Passes<'_, '_, '_> {
@@ -944,7 +973,7 @@ impl pulp::WithSimd for Passes<'_, '_, '_> {
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) -> Option<MappedLight> {
         let light = self.light;
-        let background = &background_fit(light.frame, light.blob, light.level)?;
+        let background = &self.ring.fit(light.frame, light.blob, light.level)?;
         match light.pass(background, None) {
             Pass::Done(done) => done,
             Pass::Again(threshold) => match light.pass(background, Some(threshold)) {
@@ -975,14 +1004,16 @@ impl Light<'_, '_> {
     /// vector units: the same arithmetic in the same order, so the same
     /// result, on any.
     fn of(&self) -> Option<MappedLight> {
-        pulp::Arch::new().dispatch(Passes { light: self })
+        with_ring(|ring| pulp::Arch::new().dispatch(Passes { light: self, ring }))
     }
 
     /// The pixels' noise, where the centroid's covariance is wanted.
     fn pixel_noise(&self, background: &Background) -> Option<PixelNoise> {
-        match (self.gain_dn_per_e, self.weighting) {
-            (Some(k), Weighting::Subtracted) => Some(PixelNoise::new(background, k)),
-            _ => None,
+        match (self.covariance, self.weighting) {
+            (Covariance::Off, _) | (_, Weighting::Raw) => None,
+            (Covariance::AtGain(_) | Covariance::Form, Weighting::Subtracted) => {
+                Some(PixelNoise::new(background))
+            }
         }
     }
 
@@ -1026,25 +1057,25 @@ impl Light<'_, '_> {
             // T′ so far: over the first run before its pixels are weighed
             // when that run sets the guess, with them after.
             let first = guess.is_none();
-            let mut top = [f64::NEG_INFINITY; LANES];
+            let mut top = RunTop::new();
             if first {
-                for lanes in &mapped {
-                    raise_lanes(&mut top, lanes, &pixels(lanes));
+                for (k, lanes) in mapped.iter().enumerate() {
+                    top.raise(k as f64, lanes, &pixels(lanes));
                 }
-                best.raise(&top, &mapped, pixels);
+                best.raise(&top, &mapped, v);
             }
             let g = *guess.get_or_insert_with(|| best.value + GUESS_MARGIN * best.value.abs());
-            for lanes in &mapped {
+            for (k, lanes) in mapped.iter().enumerate() {
                 let p = pixels(lanes);
                 if !first {
-                    raise_lanes(&mut top, lanes, &p);
+                    top.raise(k as f64, lanes, &p);
                 }
                 if !above.weigh(lanes, &p, g, reference, noise.as_ref(), &mut aside) {
                     return Pass::Done(None);
                 }
             }
             if !first {
-                best.raise(&top, &mapped, pixels);
+                best.raise(&top, &mapped, v);
             }
         }
         match guess {
@@ -1093,10 +1124,15 @@ impl Light<'_, '_> {
         let reference = [self.blob.u, self.blob.v];
         let e = [sums.wd[0] / sums.w, sums.wd[1] / sums.w];
         let [uu, vv, uv] = sums.about(e).map(|m| m / sums.w);
+        let form = noise_sums.and_then(|n| n.covariance(e, sums.w, background, threshold.at));
         Some(MappedLight {
             centroid: [reference[0] + e[0], reference[1] + e[1]],
             central: (uu, vv, uv),
-            covariance: noise_sums.and_then(|n| n.covariance(e, sums.w, background, threshold.at)),
+            covariance: match self.covariance {
+                Covariance::AtGain(k) => form.map(|f| f.at(k)),
+                Covariance::Off | Covariance::Form => None,
+            },
+            covariance_form: form,
         })
     }
 }
@@ -1109,7 +1145,7 @@ pub fn mapped_centroid(
     weighting: Weighting,
     map: &dyn PixelMap,
 ) -> Option<[f64; 2]> {
-    mapped_light(frame, blob, level, weighting, map, None).map(|l| l.centroid)
+    mapped_light(frame, blob, level, weighting, map, Covariance::Off).map(|l| l.centroid)
 }
 
 /// The corrected centroids of `blobs` with `camera`'s model and its lens's
@@ -1310,7 +1346,15 @@ mod tests {
         assert!(blob.runs.iter().any(|r| r.x1 - r.x0 > 4 * NODE_SPACING_PX));
         let illumination = Illumination::Ideal;
         let light = |map: &dyn PixelMap| {
-            mapped_light(&frame, blob, &ex.level, params.weighting, map, Some(4.0)).unwrap()
+            mapped_light(
+                &frame,
+                blob,
+                &ex.level,
+                params.weighting,
+                map,
+                Covariance::AtGain(4.0),
+            )
+            .unwrap()
         };
         let lattice = light(&CameraMap::new(&camera, &illumination));
         let exact = light(&Exact(CameraMap::new(&camera, &illumination)));
@@ -1418,6 +1462,7 @@ mod tests {
                 vv_px2: pix[1] + form(&gv, &gv),
                 uv_px2: pix[2] + form(&gu, &gv),
             }),
+            covariance_form: None,
         }
     }
 
@@ -1457,12 +1502,19 @@ mod tests {
                 level: &ex.level,
                 weighting: params.weighting,
                 map: &map,
-                gain_dn_per_e: Some(k),
+                covariance: Covariance::AtGain(k),
             };
             let fitted = background_fit(&frame, blob, &ex.level).unwrap();
             assert_eq!(matches!(light.pass(&fitted, None), Pass::Done(_)), single);
-            let got =
-                mapped_light(&frame, blob, &ex.level, params.weighting, &map, Some(k)).unwrap();
+            let got = mapped_light(
+                &frame,
+                blob,
+                &ex.level,
+                params.weighting,
+                &map,
+                Covariance::AtGain(k),
+            )
+            .unwrap();
             let want = direct_light(&frame, blob, &ex.level, &map, k);
             let d = (got.centroid[0] - want.centroid[0]).hypot(got.centroid[1] - want.centroid[1]);
             println!("single pass {single}: streaming − direct: {d:e} px");
@@ -1476,6 +1528,33 @@ mod tests {
             assert!(
                 (ka.uv_px2 - kb.uv_px2).abs() < 1e-10 * ka.uu_px2,
                 "{ka:?} {kb:?}"
+            );
+            // Without K in the pass: its form, given K after, is the same
+            // covariance, at this gain and at another.
+            let deferred = mapped_light(
+                &frame,
+                blob,
+                &ex.level,
+                params.weighting,
+                &map,
+                Covariance::Form,
+            )
+            .unwrap();
+            assert!(deferred.covariance.is_none());
+            assert_eq!(deferred.centroid, got.centroid);
+            let form = deferred.covariance_form.unwrap();
+            assert_eq!(form.at(k), ka);
+            let other = direct_light(&frame, blob, &ex.level, &map, 0.25 * k)
+                .covariance
+                .unwrap();
+            let at = form.at(0.25 * k);
+            assert!(
+                (at.uu_px2 / other.uu_px2 - 1.0).abs() < 1e-10,
+                "{at:?} {other:?}"
+            );
+            assert!(
+                (at.vv_px2 / other.vv_px2 - 1.0).abs() < 1e-10,
+                "{at:?} {other:?}"
             );
         }
     }
@@ -1503,14 +1582,17 @@ mod tests {
             level: &ex.level,
             weighting: params.weighting,
             map,
-            gain_dn_per_e: Some(3.5),
+            covariance: Covariance::AtGain(3.5),
         };
-        let scalar = pulp::WithSimd::with_simd(
-            Passes {
-                light: &light(&maps[0]),
-            },
-            pulp::Scalar::new(),
-        );
+        let scalar = with_ring(|ring| {
+            pulp::WithSimd::with_simd(
+                Passes {
+                    light: &light(&maps[0]),
+                    ring,
+                },
+                pulp::Scalar::new(),
+            )
+        });
         assert!(scalar.is_some_and(|s| s.covariance.is_some()));
         assert_eq!(light(&maps[1]).of(), scalar);
         // Node columns 13/8 − 1 ..= 70/8 + 2 around the run 13..=70.
@@ -1589,8 +1671,15 @@ mod tests {
             blob.circularity()
         );
         let stretch = Stretch { cu, s };
-        let light =
-            mapped_light(&frame, blob, &ex.level, params.weighting, &stretch, None).unwrap();
+        let light = mapped_light(
+            &frame,
+            blob,
+            &ex.level,
+            params.weighting,
+            &stretch,
+            Covariance::Off,
+        )
+        .unwrap();
         let e = light.ellipse();
         assert!(e.circularity() > 0.995, "{e:?}");
         // The thresholded weights thin the edge pixels: within 1 % of 2R.
@@ -1666,7 +1755,7 @@ mod tests {
                 &ex.level,
                 params.weighting,
                 &StretchAndFalloff,
-                Some(K * k_factor),
+                Covariance::AtGain(K * k_factor),
             )
             .unwrap();
             let c = light.covariance.unwrap();

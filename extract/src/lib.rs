@@ -51,6 +51,6 @@ pub use frame::{Frame, FrameView};
 pub use gpu::GpuBackend;
 pub use label::Weighting;
 pub use metadata::FrameMetadata;
-pub use noise::CentroidCovariance;
+pub use noise::{CentroidCovariance, Covariance, CovarianceForm};
 pub use threshold::{DEFAULT_K, Level, Threshold};
 pub use tiff_tags::tiff_fields;

@@ -15,7 +15,10 @@
 //! σ_bg the ring's residual σ about its plane (read, quantisation and the
 //! background's shot noise, and whatever fixed pattern the frame still
 //! carries), K the system gain (DN/e⁻: a signal of s DN has a shot-noise
-//! variance of K·s DN²), `Σ_θ = σ_bg²·(XᵀX)⁻¹` the plane's covariance. A
+//! variance of K·s DN²), `Σ_θ = σ_bg²·(XᵀX)⁻¹` the plane's covariance. As
+//! σᵢ² is linear in K, so is `Σ_c = Σ_0 + K·Σ_K` ([`CovarianceForm`]): the
+//! sums are gathered without K, which can be given after the pass (e.g. once
+//! it has been estimated from the very frames being measured). A
 //! pixel crossing the threshold enters with zero weight, so thresholding
 //! adds no jump: the linearisation holds across it. The raw weighting
 //! (`w = f′·J`) jumps by `T′·J` where a pixel crosses the threshold, which a
@@ -65,6 +68,51 @@ impl CentroidCovariance {
     pub fn matrix(&self) -> [[f64; 2]; 2] {
         [[self.uu_px2, self.uv_px2], [self.uv_px2, self.vv_px2]]
     }
+
+    /// `self + t·other`, term by term.
+    fn added(&self, t: f64, other: &CentroidCovariance) -> CentroidCovariance {
+        CentroidCovariance {
+            uu_px2: self.uu_px2 + t * other.uu_px2,
+            vv_px2: self.vv_px2 + t * other.vv_px2,
+            uv_px2: self.uv_px2 + t * other.uv_px2,
+        }
+    }
+}
+
+/// Which covariance a corrected centroid is wanted with
+/// (`crate::correction::mapped_light`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Covariance {
+    /// None.
+    Off,
+    /// At the system gain K (DN/e⁻), with its form.
+    AtGain(f64),
+    /// Its form only, for K given later ([`CovarianceForm::at`]).
+    Form,
+}
+
+impl Covariance {
+    /// At the gain K when it is known, else none.
+    pub fn at_gain(gain_dn_per_e: Option<f64>) -> Self {
+        gain_dn_per_e.map_or(Covariance::Off, Covariance::AtGain)
+    }
+}
+
+/// A centroid's covariance as the form `Σ_c = Σ_0 + K·Σ_K` linear in the
+/// system gain K (module docs), for K given after the pass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CovarianceForm {
+    /// `Σ_0`: the background's noise, in the pixels and in the plane.
+    pub fixed: CentroidCovariance,
+    /// `Σ_K`: the signal's shot noise per unit of K (px² per DN/e⁻).
+    pub per_gain: CentroidCovariance,
+}
+
+impl CovarianceForm {
+    /// The covariance with the system gain `gain_dn_per_e` (K, DN/e⁻).
+    pub fn at(&self, gain_dn_per_e: f64) -> CentroidCovariance {
+        self.fixed.added(gain_dn_per_e, &self.per_gain)
+    }
 }
 
 /// The background plane under a blob, as fitted to its ring, with what its
@@ -99,15 +147,18 @@ impl Background {
 /// same single pass as the centroid's, before the centroid is known: with
 /// `dᵢ = pᵢ − r` about a reference point r near the blob and `e = c − r`,
 /// `Σ qᵢ(pᵢ − c)(pᵢ − c)ᵀ` from the [`Moments`] of `qᵢ = σᵢ²·(Jᵢ/RIᵢ)²`
-/// about r; and `G_θ`'s rows `(Σ ∂wᵢ/∂θ·dᵢ − e·Σ ∂wᵢ/∂θ)/Σ w`
+/// about r, as those of `(Jᵢ/RIᵢ)²` (times σ_bg²) and of
+/// `max(fᵢ − bᵢ, 0)·(Jᵢ/RIᵢ)²` (times K); and `G_θ`'s rows `(Σ ∂wᵢ/∂θ·dᵢ − e·Σ ∂wᵢ/∂θ)/Σ w`
 /// with `∂wᵢ/∂θ = Jᵢ·x_k/RI_k − (Jᵢ/RIᵢ)·xᵢ`, so that the sums of `Jᵢ`
 /// and of `(Jᵢ/RIᵢ)·xᵢ` (each also times `dᵢ`) carry it whichever pixel
 /// turns out to set `T′`. Gathered in `N` lanes side by side, as
 /// [`MomentSums`], and totalled into [`NoiseTotals`].
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct NoiseSums<const N: usize> {
-    /// `Σ q`, `Σ q·d`, `Σ q·(d_u², d_v², d_u·d_v)`.
-    q: MomentSums<N>,
+    /// The moments of `(J/RI)²`: `Σ q`, `Σ q·d`, `Σ q·(d_u², d_v², d_u·d_v)`.
+    q_background: MomentSums<N>,
+    /// The moments of `max(f − b, 0)·(J/RI)²`.
+    q_shot: MomentSums<N>,
     /// `Σ J·(1, d_u, d_v)`.
     j: [[f64; N]; 3],
     /// `Σ (J/RI)·x·(1, d_u, d_v)`, x = (1, u − u₀, v − v₀).
@@ -117,7 +168,8 @@ pub(crate) struct NoiseSums<const N: usize> {
 impl<const N: usize> Default for NoiseSums<N> {
     fn default() -> Self {
         Self {
-            q: MomentSums::default(),
+            q_background: MomentSums::default(),
+            q_shot: MomentSums::default(),
             j: [[0.0; N]; 3],
             gx: [[[0.0; N]; 3]; 3],
         }
@@ -127,8 +179,8 @@ impl<const N: usize> Default for NoiseSums<N> {
 impl<const N: usize> NoiseSums<N> {
     /// Add pixels that carry weight, lane by lane: observed at `(u, v)`, at
     /// `d` from the reference point, with area Jacobian `jacobian`,
-    /// `g = J/RI` and `signal_dn` = f − b; σ_bg and K from `noise`. A lane
-    /// whose `jacobian` and `g` are 0 adds nothing.
+    /// `g = J/RI` and `signal_dn` = f − b; the plane's origin from `noise`.
+    /// A lane whose `jacobian` and `g` are 0 adds nothing.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn add(
@@ -141,11 +193,13 @@ impl<const N: usize> NoiseSums<N> {
         g: &[f64; N],
         signal_dn: &[f64; N],
     ) {
-        let mut q = [0.0; N];
+        let (mut background, mut shot) = ([0.0; N], [0.0; N]);
         for l in 0..N {
-            q[l] = (noise.var_bg + noise.gain_dn_per_e * signal_dn[l].max(0.0)) * g[l] * g[l];
+            background[l] = g[l] * g[l];
+            shot[l] = signal_dn[l].max(0.0) * background[l];
         }
-        self.q.add(d, &q);
+        self.q_background.add(d, &background);
+        self.q_shot.add(d, &shot);
         for l in 0..N {
             let j = jacobian[l];
             self.j[0][l] += j;
@@ -167,7 +221,8 @@ impl<const N: usize> NoiseSums<N> {
     /// The sums over every lane.
     pub(crate) fn total(&self) -> NoiseTotals {
         NoiseTotals {
-            q: self.q.total(),
+            q_background: self.q_background.total(),
+            q_shot: self.q_shot.total(),
             j: self.j.each_ref().map(lane_total),
             gx: self.gx.each_ref().map(|row| row.each_ref().map(lane_total)),
         }
@@ -177,7 +232,8 @@ impl<const N: usize> NoiseSums<N> {
 /// [`NoiseSums`] totalled over their lanes.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct NoiseTotals {
-    q: Moments,
+    q_background: Moments,
+    q_shot: Moments,
     j: [f64; 3],
     gx: [[f64; 3]; 3],
 }
@@ -186,7 +242,8 @@ impl NoiseTotals {
     /// The sums of both.
     pub(crate) fn added(&self, other: &NoiseTotals) -> NoiseTotals {
         NoiseTotals {
-            q: self.q.added(1.0, &other.q),
+            q_background: self.q_background.added(1.0, &other.q_background),
+            q_shot: self.q_shot.added(1.0, &other.q_shot),
             j: std::array::from_fn(|c| self.j[c] + other.j[c]),
             gx: std::array::from_fn(|r| std::array::from_fn(|c| self.gx[r][c] + other.gx[r][c])),
         }
@@ -195,31 +252,21 @@ impl NoiseTotals {
     /// `Σ_c` of the module docs for the centroid at `e` from the reference
     /// point, of the added pixels with weight sum `weight_sum`, over
     /// `background`; `threshold` is the observed pixel and RI of the pixel
-    /// that sets `T′`. `None` when the plane's covariance is undefined.
+    /// that sets `T′`; as the form linear in K. `None` when the plane's
+    /// covariance is undefined.
     pub(crate) fn covariance(
         &self,
         e: [f64; 2],
         weight_sum: f64,
         background: &Background,
         threshold: ([f64; 2], f64),
-    ) -> Option<CentroidCovariance> {
-        let p = self.pixel_part(e, weight_sum);
-        let b = self.plane_part(e, weight_sum, background, threshold)?;
-        Some(CentroidCovariance {
-            uu_px2: p.uu_px2 + b.uu_px2,
-            vv_px2: p.vv_px2 + b.vv_px2,
-            uv_px2: p.uv_px2 + b.uv_px2,
+    ) -> Option<CovarianceForm> {
+        let plane = self.plane_part(e, weight_sum, background, threshold)?;
+        let pixels = pixel_part(&self.q_background, e, weight_sum);
+        Some(CovarianceForm {
+            fixed: plane.added(background.sigma_dn.powi(2), &pixels),
+            per_gain: pixel_part(&self.q_shot, e, weight_sum),
         })
-    }
-
-    /// `Σᵢ σᵢ²·gᵢgᵢᵀ`: the pixels' own noise.
-    fn pixel_part(&self, e: [f64; 2], weight_sum: f64) -> CentroidCovariance {
-        let [uu, vv, uv] = self.q.about(e).map(|m| m / (weight_sum * weight_sum));
-        CentroidCovariance {
-            uu_px2: uu,
-            vv_px2: vv,
-            uv_px2: uv,
-        }
     }
 
     /// `G_θ·Σ_θ·G_θᵀ`: the background plane's error, shared by every pixel.
@@ -248,21 +295,27 @@ impl NoiseTotals {
     }
 }
 
-/// What a pixel's variance `σᵢ² = σ_bg² + K·max(fᵢ − bᵢ, 0)` and its design
-/// row need: σ_bg², K and the plane's origin (u₀, v₀).
+/// `Σᵢ qᵢ·gᵢgᵢᵀ` (`gᵢ` of the module docs) from the moments of q about the
+/// reference point: the pixels' own noise, per unit of what q leaves out.
+fn pixel_part(q: &Moments, e: [f64; 2], weight_sum: f64) -> CentroidCovariance {
+    let [uu, vv, uv] = q.about(e).map(|m| m / (weight_sum * weight_sum));
+    CentroidCovariance {
+        uu_px2: uu,
+        vv_px2: vv,
+        uv_px2: uv,
+    }
+}
+
+/// What the pixels' design rows need: the plane's origin (u₀, v₀).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct PixelNoise {
-    var_bg: f64,
-    gain_dn_per_e: f64,
     centre: [f64; 2],
 }
 
 impl PixelNoise {
-    /// The noise of pixels over `background` with system gain K.
-    pub(crate) fn new(background: &Background, gain_dn_per_e: f64) -> Self {
+    /// The noise of pixels over `background`.
+    pub(crate) fn new(background: &Background) -> Self {
         Self {
-            var_bg: background.sigma_dn.powi(2),
-            gain_dn_per_e,
             centre: background.centre,
         }
     }
@@ -298,7 +351,7 @@ mod tests {
             centre: [0.0, 0.0],
             normal,
         };
-        let (reference, noise) = ([-7.5, 3.25], PixelNoise::new(&background, k));
+        let (reference, noise) = ([-7.5, 3.25], PixelNoise::new(&background));
         let mut sums = NoiseSums::<1>::default();
         let (mut count, mut sum_d2) = (0.0, 0.0);
         for y in -r..=r {
@@ -316,16 +369,21 @@ mod tests {
         // The centroid (0, 0) from the reference point.
         let e = [-reference[0], -reference[1]];
         let sums = sums.total();
-        let p = sums.pixel_part(e, w);
+        let form = sums
+            .covariance(e, w, &background, ([12.0, 0.0], 1.0))
+            .unwrap();
+        let plane = sums
+            .plane_part(e, w, &background, ([12.0, 0.0], 1.0))
+            .unwrap();
+        // The pixels' part: the form at K less the plane's.
+        let p = form.at(k).added(-1.0, &plane);
         let closed = (sigma_bg.powi(2) + k * s) * sum_d2 / (w * w);
         assert!((p.uu_px2 / closed - 1.0).abs() < 1e-12, "{p:?} {closed}");
         assert!(
             (p.uu_px2 - p.vv_px2).abs() < 1e-12 * p.uu_px2 && p.uv_px2.abs() < 1e-12 * p.uu_px2
         );
         // T′ set at the disc's edge pixel (12, 0).
-        let b = sums
-            .plane_part(e, w, &background, ([12.0, 0.0], 1.0))
-            .unwrap();
+        let b = plane;
         let share = b.uu_px2 / p.uu_px2;
         eprintln!(
             "disc r = {radius} px, s = {s} DN, K = {k}: σ_u = {:.5} px from the pixels, \

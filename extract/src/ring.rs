@@ -26,7 +26,7 @@ const LANES: usize = 4;
 /// of the blob's bounding box, value f − f₀ (f₀: the first pixel's, so that
 /// `Σ f²` keeps the residuals' precision), and 1 while the pixel is kept (0
 /// once clipped, and for the padding to a whole number of lanes).
-struct Ring {
+pub(crate) struct Ring {
     u: Vec<f64>,
     v: Vec<f64>,
     f: Vec<f64>,
@@ -64,11 +64,24 @@ impl RingSums {
 }
 
 impl Ring {
+    /// No pixels, room for none.
+    const fn new() -> Self {
+        Ring {
+            u: Vec::new(),
+            v: Vec::new(),
+            f: Vec::new(),
+            kept: Vec::new(),
+            f0: 0.0,
+        }
+    }
+
     /// The pixels of the ring [`RING_GAP_PX`] outside `blob`'s bounding box,
     /// [`RING_WIDTH_PX`] wide, below the threshold `level` (other blobs'
-    /// pixels are left out).
+    /// pixels are left out), in place of the ring's pixels before (their
+    /// room reused: fresh memory for each blob costs a page fault every
+    /// 4 kB).
     #[inline(always)]
-    fn around(frame: &FrameView<'_>, blob: &Blob, level: &Level) -> Self {
+    fn around(&mut self, frame: &FrameView<'_>, blob: &Blob, level: &Level) {
         let b = &blob.bbox;
         let (gap, width) = (i64::from(RING_GAP_PX), i64::from(RING_WIDTH_PX));
         let inner = (
@@ -84,13 +97,11 @@ impl Ring {
         // Coordinates relative to the box centre keep the fit well conditioned.
         let centre = [f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0];
         let capacity = 2 * (width as usize) * ((x1 - x0 + 1) + (y1 - y0 + 1)).max(0) as usize;
-        let mut ring = Ring {
-            u: Vec::with_capacity(capacity + LANES),
-            v: Vec::with_capacity(capacity + LANES),
-            f: Vec::with_capacity(capacity + LANES),
-            kept: Vec::new(),
-            f0: 0.0,
-        };
+        let ring = self;
+        for column in [&mut ring.u, &mut ring.v, &mut ring.f, &mut ring.kept] {
+            column.clear();
+            column.reserve(capacity + LANES);
+        }
         let mut f0 = None;
         for y in y0..=y1 {
             let row = frame.row(y as u32);
@@ -114,12 +125,11 @@ impl Ring {
             }
         }
         ring.f0 = f0.unwrap_or(0.0);
-        ring.kept = vec![1.0; ring.u.len()];
+        ring.kept.resize(ring.u.len(), 1.0);
         let padded = ring.u.len().next_multiple_of(LANES);
         for column in [&mut ring.u, &mut ring.v, &mut ring.f, &mut ring.kept] {
             column.resize(padded, 0.0);
         }
-        ring
     }
 
     /// The columns a lane group at a time: u, v, f and kept.
@@ -193,48 +203,72 @@ fn residual([c, a, b]: [f64; 3], u: f64, v: f64, f: f64) -> f64 {
     f - c - a * u - b * v
 }
 
-/// The background under a blob as a plane `b(u, v) = c + a·u + b·v` (DN),
-/// least squares on the pixels of its ring ([`Ring::around`]), refitted
-/// without the pixels beyond [`RING_CLIP_SIGMA`]·σ until none is (at most
-/// three fits; the sums are gathered once and the clipped pixels taken out
-/// of them); with what its noise needs: the residual σ of the last fit and
-/// `XᵀX` of its design. `None` when too few pixels remain or the ring is
-/// degenerate.
-#[inline(always)]
+/// [`Ring::fit`] with this thread's ring.
+#[cfg(test)]
 pub(crate) fn background_fit(
     frame: &FrameView<'_>,
     blob: &Blob,
     level: &Level,
 ) -> Option<Background> {
-    let b = &blob.bbox;
-    let centre = [f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0];
-    let mut ring = Ring::around(frame, blob, level);
-    let mut sums = ring.sums();
-    let mut count = sums.0[0] as usize;
-    let mut background = None;
-    for _ in 0..3 {
-        if count < RING_MIN_PIXELS {
-            return None;
+    with_ring(|ring| ring.fit(frame, blob, level))
+}
+
+thread_local! {
+    /// Each thread's ring, its room reused from blob to blob.
+    static RING: std::cell::RefCell<Ring> = const { std::cell::RefCell::new(Ring::new()) };
+}
+
+/// `f` with this thread's ring (its room reused from blob to blob).
+pub(crate) fn with_ring<R>(f: impl FnOnce(&mut Ring) -> R) -> R {
+    RING.with_borrow_mut(f)
+}
+
+impl Ring {
+    /// The background under `blob` as a plane `b(u, v) = c + a·u + b·v`
+    /// (DN), least squares on the pixels of its ring ([`Ring::around`], in
+    /// this ring's room), refitted without the pixels beyond
+    /// [`RING_CLIP_SIGMA`]·σ until none is (at most three fits; the sums are
+    /// gathered once and the clipped pixels taken out of them); with what
+    /// its noise needs: the residual σ of the last fit and `XᵀX` of its
+    /// design. `None` when too few pixels remain or the ring is degenerate.
+    #[inline(always)]
+    pub(crate) fn fit(
+        &mut self,
+        frame: &FrameView<'_>,
+        blob: &Blob,
+        level: &Level,
+    ) -> Option<Background> {
+        let ring = self;
+        let b = &blob.bbox;
+        let centre = [f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0];
+        ring.around(frame, blob, level);
+        let mut sums = ring.sums();
+        let mut count = sums.0[0] as usize;
+        let mut background = None;
+        for _ in 0..3 {
+            if count < RING_MIN_PIXELS {
+                return None;
+            }
+            let (normal, rhs) = sums.normal_equations();
+            let plane = ring_plane(&normal, &rhs)?;
+            let sigma = (sums.residual_squares(plane) / (count as f64 - 3.0)).sqrt();
+            // Back to absolute pixel coordinates and values:
+            // b = f₀ + c + a·(u − uc) + b·(v − vc).
+            let [c, a, b] = plane;
+            background = Some(Background {
+                plane: [ring.f0 + c - a * centre[0] - b * centre[1], a, b],
+                sigma_dn: sigma,
+                centre,
+                normal,
+            });
+            let clipped = ring.clip(plane, RING_CLIP_SIGMA * sigma, &mut sums);
+            if clipped == 0 {
+                break;
+            }
+            count -= clipped;
         }
-        let (normal, rhs) = sums.normal_equations();
-        let plane = ring_plane(&normal, &rhs)?;
-        let sigma = (sums.residual_squares(plane) / (count as f64 - 3.0)).sqrt();
-        // Back to absolute pixel coordinates and values:
-        // b = f₀ + c + a·(u − uc) + b·(v − vc).
-        let [c, a, b] = plane;
-        background = Some(Background {
-            plane: [ring.f0 + c - a * centre[0] - b * centre[1], a, b],
-            sigma_dn: sigma,
-            centre,
-            normal,
-        });
-        let clipped = ring.clip(plane, RING_CLIP_SIGMA * sigma, &mut sums);
-        if clipped == 0 {
-            break;
-        }
-        count -= clipped;
+        background
     }
-    background
 }
 
 /// The least-squares plane `f = c + a·u + b·v`, as `[c, a, b]`, from its

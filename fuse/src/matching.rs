@@ -232,6 +232,7 @@ mod tests {
             diameter_px,
             rejected: None,
             covariance: None,
+            covariance_form: None,
         }
     }
 

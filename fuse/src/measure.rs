@@ -37,7 +37,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use extract::{Backend, ExtractParams, FrameReader};
+use extract::{Backend, Covariance, CovarianceForm, ExtractParams, FrameReader, FrameView};
 use formats::{
     InstantKey, InstantProblemRow, LineKey, Missing, ObservationRow, OutputPlan, PointRow,
     SphereRow, read_csv_from,
@@ -47,7 +47,7 @@ use geom::{Matrix3, Point2, Point3};
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{SphereMatch, assign};
-use crate::noise::{CameraNoise, noise_models};
+use crate::noise::{self as noise_model, CameraNoise, OwnedFrame};
 use crate::observe::{Candidate, candidates};
 use crate::plan::{InstantPlan, RigModel, plan};
 use crate::plausibility::ResidualGate;
@@ -188,13 +188,24 @@ fn fingerprint(inputs: &Inputs<'_>, options: &MeasureOptions) -> Result<Fingerpr
 
 /// One camera's image of a sphere: its centre in ideal pixels, the
 /// centre's covariance from the image noise (px²) when the camera's noise
-/// is known, and whether some of its pixels are at the sensor's maximum.
+/// is known (its form linear in K while K is being estimated), and whether
+/// some of its pixels are at the sensor's maximum.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Observed {
     ideal: Point2<f64>,
     covariance: Option<Matrix2<f64>>,
+    covariance_form: Option<CovarianceForm>,
     saturated: bool,
 }
+
+/// `[[var u, cov], [cov, var v]]` of a centroid's covariance.
+fn covariance_matrix(c: &extract::CentroidCovariance) -> Matrix2<f64> {
+    Matrix2::new(c.uu_px2, c.uv_px2, c.uv_px2, c.vv_px2)
+}
+
+/// What one camera's image of an instant shows of every sphere
+/// ([`Context::observe`]), or why it cannot be used at all.
+type Observation = std::result::Result<Vec<std::result::Result<Observed, Failure>>, Failure>;
 
 /// Of one camera's sphere images that the points were measured from, how
 /// many have saturated pixels: their flat tops bias the centre and hide the
@@ -295,6 +306,10 @@ struct Context<'a> {
     sensor: &'a BTreeMap<u8, sensor::SensorMaps>,
     /// Each camera's noise model (the centroids' covariances).
     noise: BTreeMap<u8, CameraNoise>,
+    /// Cameras' images observed ahead of their instants (while reading
+    /// them for K, [`Context::gains_from_repeats`]), taken by
+    /// [`Context::observe`] instead of reading them again.
+    observed: Mutex<HashMap<(InstantKey, u8), Observation>>,
     /// Each camera's lattice of exactly mapped nodes, solved once a run
     /// (`extract::Lattice`).
     lattices: BTreeMap<u8, extract::Lattice>,
@@ -308,7 +323,6 @@ impl<'a> Context<'a> {
         options: &MeasureOptions,
         backend: &'a dyn Backend,
     ) -> Self {
-        let noise = noise_models(inputs.rig, plans, options.extract.max_pixels);
         let spheres = inputs.spheres;
         let lattices = rig
             .cameras
@@ -326,7 +340,8 @@ impl<'a> Context<'a> {
             readers: Mutex::new(Vec::new()),
             frames_read: std::sync::atomic::AtomicUsize::new(0),
             sensor: inputs.sensor,
-            noise,
+            noise: BTreeMap::new(),
+            observed: Mutex::new(HashMap::new()),
         }
     }
 }
@@ -391,12 +406,36 @@ impl Context<'_> {
 
     /// Extract and match one camera's image: per sphere its ideal-pixel
     /// centre, or the row saying why the image does not show it. A frame
-    /// that cannot be used at all fails the whole instant.
-    fn observe(
+    /// that cannot be used at all fails the whole instant. An image
+    /// observed already (read for K) is not read again.
+    fn observe(&self, ip: &InstantPlan, camera: u8) -> Observation {
+        let ahead = self
+            .observed
+            .lock()
+            .ok()
+            .and_then(|mut o| o.remove(&(ip.key, camera)));
+        if let Some(observation) = ahead {
+            return observation;
+        }
+        let covariance = Covariance::at_gain(self.noise.get(&camera).and_then(|n| n.gain_dn_per_e));
+        self.with_frame(ip, camera, |path, raw, _| {
+            self.observe_frame(ip, camera, path, raw, covariance)
+        })
+    }
+
+    /// Camera `camera`'s image of `ip` decoded (with a reader of the pool)
+    /// and given to `then` with its path and metadata; the failure of the
+    /// whole instant when there is no such image or it cannot be read.
+    fn with_frame<R>(
         &self,
         ip: &InstantPlan,
         camera: u8,
-    ) -> std::result::Result<Vec<std::result::Result<Observed, Failure>>, Failure> {
+        then: impl FnOnce(
+            &Path,
+            FrameView<'_>,
+            &extract::FrameMetadata,
+        ) -> std::result::Result<R, Failure>,
+    ) -> std::result::Result<R, Failure> {
         let key = &ip.key;
         let path = ip.images.get(&camera).ok_or_else(|| {
             Self::failure(
@@ -406,89 +445,191 @@ impl Context<'_> {
                 format!("no image of camera {camera}"),
             )
         })?;
-        let fail = |reason: String| Self::failure(key, Some(camera), Some(path), reason);
-        let ((cam, illumination), lattice) = self
-            .rig
-            .cameras
-            .get(&camera)
-            .zip(self.rig.illumination.get(&camera))
-            .zip(self.lattices.get(&camera))
-            .ok_or_else(|| fail(format!("camera {camera} is not in the rig")))?;
+        if self.camera_model(camera).is_none() {
+            return Err(Self::failure(
+                key,
+                Some(camera),
+                Some(path),
+                format!("camera {camera} is not in the rig"),
+            ));
+        }
         let mut reader = self
             .readers
             .lock()
             .ok()
             .and_then(|mut r| r.pop())
             .unwrap_or_else(|| FrameReader::new().limit_pixels(self.options.extract.max_pixels));
-        let result = (|| {
-            let (raw, _) = reader.read(path).map_err(|e| fail(e.to_string()))?;
-            self.frames_read
-                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let corrected = raw
-                .corrected(self.sensor.get(&camera))
-                .map_err(|e| fail(e.in_file(path).to_string()))?;
-            let frame = corrected.as_ref().map_or(raw, extract::Frame::view);
-            let extraction = self
-                .backend
-                .extract(frame, &self.options.extract)
-                .map_err(|e| fail(e.in_file(path).to_string()))?;
-            let cands = candidates(
-                cam,
-                illumination,
-                lattice,
-                &frame,
-                &extraction,
-                self.options.extract.weighting,
-                self.noise.get(&camera).and_then(|n| n.gain_dn_per_e),
-            );
-            let wd = self.rig.working_distance(camera).unwrap_or(1.0);
-            let range = ((wd - self.reach_mm).max(0.1 * wd), wd + self.reach_mm);
-            let blobs = plural(extraction.blobs.len(), "blob");
-            Ok(assign(&cands, &self.diameters, cam.intrinsics.fx, range)
-                .into_iter()
-                .enumerate()
-                .map(|(s, m)| match m {
-                    SphereMatch::Found(c) => Ok(Observed {
-                        ideal: cands[c].ideal_px,
-                        // Candidates are the extraction's blobs, in order.
-                        saturated: extraction
-                            .blobs
-                            .get(c)
-                            .is_some_and(extract::Blob::saturated),
-                        covariance: cands[c]
-                            .covariance
-                            .map(|k| Matrix2::new(k.uu_px2, k.uv_px2, k.uv_px2, k.vv_px2)),
-                    }),
-                    SphereMatch::Missing => Err(self.sphere_failure(
-                        key,
-                        s,
-                        Some(camera),
-                        Some(path),
-                        &format!(
-                            "not found among {blobs}{}{}",
-                            rejections(&cands),
-                            extraction
-                                .saturation_note(frame.max_value())
-                                .map(|n| format!(" ({n})"))
-                                .unwrap_or_default()
-                        ),
-                    )),
-                    SphereMatch::Ambiguous => Err(self.sphere_failure(
-                        key,
-                        s,
-                        Some(camera),
-                        Some(path),
-                        &format!(
-                            "ambiguous: {blobs} fit the sphere diameters in more than one way"
-                        ),
-                    )),
-                })
-                .collect())
-        })();
+        let result = match reader.read(path) {
+            Ok((raw, metadata)) => {
+                self.frames_read
+                    .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                then(path, raw, &metadata)
+            }
+            Err(e) => Err(Self::failure(key, Some(camera), Some(path), e.to_string())),
+        };
         if let Ok(mut r) = self.readers.lock() {
             r.push(reader);
         }
         result
+    }
+
+    /// Camera `camera`'s model, its lens's relative illumination and its
+    /// lattice.
+    fn camera_model(
+        &self,
+        camera: u8,
+    ) -> Option<(&geom::Camera, &geom::Illumination, &extract::Lattice)> {
+        let ((cam, illumination), lattice) = self
+            .rig
+            .cameras
+            .get(&camera)
+            .zip(self.rig.illumination.get(&camera))
+            .zip(self.lattices.get(&camera))?;
+        Some((cam, illumination, lattice))
+    }
+
+    /// [`Context::observe`] of the decoded image `raw` (from `path`), its
+    /// centroids' covariances as wanted.
+    fn observe_frame(
+        &self,
+        ip: &InstantPlan,
+        camera: u8,
+        path: &Path,
+        raw: FrameView<'_>,
+        covariance: Covariance,
+    ) -> Observation {
+        let key = &ip.key;
+        let fail = |reason: String| Self::failure(key, Some(camera), Some(path), reason);
+        let (cam, illumination, lattice) = self
+            .camera_model(camera)
+            .ok_or_else(|| fail(format!("camera {camera} is not in the rig")))?;
+        let corrected = raw
+            .corrected(self.sensor.get(&camera))
+            .map_err(|e| fail(e.in_file(path).to_string()))?;
+        let frame = corrected.as_ref().map_or(raw, extract::Frame::view);
+        let extraction = self
+            .backend
+            .extract(frame, &self.options.extract)
+            .map_err(|e| fail(e.in_file(path).to_string()))?;
+        let cands = candidates(
+            cam,
+            illumination,
+            lattice,
+            &frame,
+            &extraction,
+            self.options.extract.weighting,
+            covariance,
+        );
+        let wd = self.rig.working_distance(camera).unwrap_or(1.0);
+        let range = ((wd - self.reach_mm).max(0.1 * wd), wd + self.reach_mm);
+        let blobs = plural(extraction.blobs.len(), "blob");
+        Ok(assign(&cands, &self.diameters, cam.intrinsics.fx, range)
+            .into_iter()
+            .enumerate()
+            .map(|(s, m)| match m {
+                SphereMatch::Found(c) => Ok(Observed {
+                    ideal: cands[c].ideal_px,
+                    // Candidates are the extraction's blobs, in order.
+                    saturated: extraction
+                        .blobs
+                        .get(c)
+                        .is_some_and(extract::Blob::saturated),
+                    covariance: cands[c].covariance.as_ref().map(covariance_matrix),
+                    covariance_form: cands[c].covariance_form,
+                }),
+                SphereMatch::Missing => Err(self.sphere_failure(
+                    key,
+                    s,
+                    Some(camera),
+                    Some(path),
+                    &format!(
+                        "not found among {blobs}{}{}",
+                        rejections(&cands),
+                        extraction
+                            .saturation_note(frame.max_value())
+                            .map(|n| format!(" ({n})"))
+                            .unwrap_or_default()
+                    ),
+                )),
+                SphereMatch::Ambiguous => Err(self.sphere_failure(
+                    key,
+                    s,
+                    Some(camera),
+                    Some(path),
+                    &format!("ambiguous: {blobs} fit the sphere diameters in more than one way"),
+                )),
+            })
+            .collect())
+    }
+
+    /// Each camera's noise model (`crate::noise`): K from the rig's stacks,
+    /// else from the campaign's first pairs of repeated captures. Those
+    /// frames are observed as they are read for K — their covariances as
+    /// forms, given K once it is known — and kept for their instants
+    /// (`done` ones aside), so that no frame is decoded twice.
+    fn gains_from_repeats(
+        &mut self,
+        rig: &formats::Rig,
+        plans: &[InstantPlan],
+        done: &std::collections::HashSet<InstantKey>,
+    ) {
+        for (camera, stacks) in noise_model::from_stacks(rig) {
+            let noise = match stacks {
+                Some(noise) => noise,
+                None => self.gain_from_repeats(plans, camera, done),
+            };
+            self.noise.insert(camera, noise);
+        }
+    }
+
+    /// K of `camera` from the first pairs of repeated captures, their
+    /// instants' observations kept (with their covariances at K).
+    fn gain_from_repeats(
+        &self,
+        plans: &[InstantPlan],
+        camera: u8,
+        done: &std::collections::HashSet<InstantKey>,
+    ) -> CameraNoise {
+        let pairs = noise_model::repeat_pairs(plans, camera);
+        let Some([(_, first), _]) = pairs.first() else {
+            return noise_model::without_repeats();
+        };
+        let (mut frames, mut observed, mut unreadable) = (Vec::new(), Vec::new(), None);
+        for (ip, _) in pairs.iter().flatten() {
+            let observe = !done.contains(&ip.key)
+                && self
+                    .rig
+                    .cameras_for(ip.key.axis, self.options.all_cameras)
+                    .contains(&camera);
+            let observation = self.with_frame(ip, camera, |path, raw, metadata| {
+                frames.push(OwnedFrame::of(&raw, metadata.exposure_s));
+                Ok(observe.then(|| self.observe_frame(ip, camera, path, raw, Covariance::Form)))
+            });
+            match observation {
+                Ok(Some(o)) => observed.push((ip.key, o)),
+                Ok(None) => {}
+                Err(f) => {
+                    unreadable = Some(f.reason);
+                    break;
+                }
+            }
+        }
+        let noise = match unreadable {
+            Some(why) => noise_model::unknown(format!("repeated captures cannot be read: {why}")),
+            None => noise_model::from_repeats(&frames, first),
+        };
+        if let Ok(mut kept) = self.observed.lock() {
+            for (key, mut observation) in observed {
+                for o in observation.iter_mut().flatten().flatten() {
+                    o.covariance = noise
+                        .gain_dn_per_e
+                        .zip(o.covariance_form)
+                        .map(|(k, form)| covariance_matrix(&form.at(k)));
+                }
+                kept.insert((key, camera), observation);
+            }
+        }
+        noise
     }
 
     /// What the cameras used for this instant see of every sphere. A
@@ -1100,7 +1241,9 @@ pub fn measure(
     let resumed = done.len();
 
     // Every instant not done, in parallel chunks appended to the partial file.
-    let ctx = Context::new(rig, &plans, inputs, options, backend);
+    let mut ctx = Context::new(rig, &plans, inputs, options, backend);
+    ctx.gains_from_repeats(inputs.rig, &plans, &done);
+    let ctx = ctx;
     let todo: Vec<&InstantPlan> = plans.iter().filter(|p| !done.contains(&p.key)).collect();
     let references = if options.fusion == Fusion::Seed {
         seed_references(&ctx, &plans)

@@ -5,18 +5,20 @@
 //! K comes from the sensor's photon transfer when the rig was calibrated
 //! with flat and dark stacks (`rig.json` `sensor.gain_dn_per_e`); otherwise
 //! from the campaign's own images: pairs of repeated captures of one instant
-//! (`sensor::gain_from_repeats`). Without either it is unknown, and the
-//! centroids carry no covariance — said so, never guessed.
+//! (`sensor::gain_from_repeats`), whose frames `measure` measures as it reads
+//! them for K, their centroids' covariances given K once it is known
+//! (`extract::CovarianceForm`), so that no frame is decoded twice. Without
+//! either it is unknown, and the centroids carry no covariance — said so,
+//! never guessed.
 
 use std::collections::BTreeMap;
 
-use extract::FrameReader;
 use formats::InstantKey;
 
 use crate::plan::InstantPlan;
 
 /// Pairs of repeated captures read per camera for K.
-const REPEAT_PAIRS: usize = 2;
+pub(crate) const REPEAT_PAIRS: usize = 2;
 
 /// Where a camera's noise model comes from.
 #[derive(Debug, Clone, PartialEq)]
@@ -61,8 +63,12 @@ impl CameraNoise {
 }
 
 /// The first [`REPEAT_PAIRS`] pairs of images of `camera` taken at one
-/// instant: captures 1 and 2 of the same axis, direction, run and target.
-fn repeat_pairs(plans: &[InstantPlan], camera: u8) -> Vec<(&std::path::Path, &std::path::Path)> {
+/// instant: captures 1 and 2 of the same axis, direction, run and target,
+/// with their instants.
+pub(crate) fn repeat_pairs(
+    plans: &[InstantPlan],
+    camera: u8,
+) -> Vec<[(&InstantPlan, &std::path::Path); 2]> {
     let by_key: BTreeMap<InstantKey, &InstantPlan> = plans.iter().map(|p| (p.key, p)).collect();
     plans
         .iter()
@@ -72,61 +78,73 @@ fn repeat_pairs(plans: &[InstantPlan], camera: u8) -> Vec<(&std::path::Path, &st
                 capture: 2,
                 ..p.key
             })?;
-            Some((
-                p.images.get(&camera)?.as_path(),
-                second.images.get(&camera)?.as_path(),
-            ))
+            Some([
+                (p, p.images.get(&camera)?.as_path()),
+                (*second, second.images.get(&camera)?.as_path()),
+            ])
         })
         .take(REPEAT_PAIRS)
         .collect()
 }
 
-/// A frame read into memory: pixels, width, height, bit depth, exposure (s).
-type OwnedFrame = (Vec<u16>, u32, u32, u8, Option<f64>);
+/// A frame read into memory, as the photon transfer takes it.
+pub(crate) struct OwnedFrame {
+    values: Vec<u16>,
+    width: u32,
+    height: u32,
+    container_bits: u8,
+    exposure_s: Option<f64>,
+}
 
-/// K from pairs of repeated captures of `camera`, read with `max_pixels`.
-fn from_repeats(plans: &[InstantPlan], camera: u8, max_pixels: u64) -> CameraNoise {
-    let unknown = |why: String| CameraNoise {
+impl OwnedFrame {
+    /// A copy of `frame`, taken with `exposure_s`.
+    pub(crate) fn of(frame: &extract::FrameView<'_>, exposure_s: Option<f64>) -> Self {
+        Self {
+            values: frame.pixels.to_vec(),
+            width: frame.width,
+            height: frame.height,
+            container_bits: frame.bit_depth,
+            exposure_s,
+        }
+    }
+
+    fn view(&self) -> sensor::Frame<'_> {
+        sensor::Frame {
+            values: &self.values,
+            width: self.width,
+            height: self.height,
+            container_bits: self.container_bits,
+            exposure_s: self.exposure_s,
+        }
+    }
+}
+
+/// A camera whose K is unknown, and why.
+pub(crate) fn unknown(why: String) -> CameraNoise {
+    CameraNoise {
         gain_dn_per_e: None,
         source: NoiseSource::Unknown(why),
-    };
-    let pairs = repeat_pairs(plans, camera);
-    if pairs.is_empty() {
-        return unknown(
-            "no flat and dark stacks in the rig and no instant captured twice to estimate the sensor's \
-             gain from"
-                .into(),
-        );
     }
-    let mut reader = FrameReader::new().limit_pixels(max_pixels);
-    let mut frames: Vec<OwnedFrame> = Vec::new();
-    for path in pairs.iter().flat_map(|(a, b)| [*a, *b]) {
-        match reader.read(path) {
-            Ok((f, meta)) => frames.push((
-                f.pixels.to_vec(),
-                f.width,
-                f.height,
-                f.bit_depth,
-                meta.exposure_s,
-            )),
-            Err(e) => return unknown(format!("repeated captures cannot be read: {e}")),
-        }
-    }
-    fn view(f: &OwnedFrame) -> sensor::Frame<'_> {
-        sensor::Frame {
-            values: &f.0,
-            width: f.1,
-            height: f.2,
-            container_bits: f.3,
-            exposure_s: f.4,
-        }
-    }
+}
+
+/// Without flat and dark stacks and without repeated captures.
+pub(crate) fn without_repeats() -> CameraNoise {
+    unknown(
+        "no flat and dark stacks in the rig and no instant captured twice to estimate the sensor's \
+         gain from"
+            .into(),
+    )
+}
+
+/// K from the `frames` of pairs of repeated captures (in pairs, the first
+/// from `first`).
+pub(crate) fn from_repeats(frames: &[OwnedFrame], first: &std::path::Path) -> CameraNoise {
     let frame_pairs: Vec<(sensor::Frame<'_>, sensor::Frame<'_>)> = frames
         .chunks_exact(2)
-        .map(|p| (view(&p[0]), view(&p[1])))
+        .map(|p| (p[0].view(), p[1].view()))
         .collect();
     let saturation = frames.first().map_or(u16::MAX, |f| {
-        if f.3 == 8 {
+        if f.container_bits == 8 {
             u16::from(u8::MAX)
         } else {
             u16::MAX
@@ -142,31 +160,23 @@ fn from_repeats(plans: &[InstantPlan], camera: u8, max_pixels: u64) -> CameraNoi
         },
         Err(e) => unknown(format!(
             "the repeated captures ({}) give no gain: {e}",
-            pairs[0].0.display()
+            first.display()
         )),
     }
 }
 
-/// Each camera's noise model: from the rig's sensor record, else from the
-/// campaign's repeated captures.
-pub fn noise_models(
-    rig: &formats::Rig,
-    plans: &[InstantPlan],
-    max_pixels: u64,
-) -> BTreeMap<u8, CameraNoise> {
+/// Each camera's noise model from the rig's sensor record; `None` for a
+/// camera whose K is to come from the campaign's repeated captures.
+pub(crate) fn from_stacks(rig: &formats::Rig) -> BTreeMap<u8, Option<CameraNoise>> {
     rig.cameras
         .iter()
         .map(|c| {
-            let id = c.model.id;
             let from_stacks = c.sensor.as_ref().and_then(|s| s.gain_dn_per_e);
-            let noise = match from_stacks {
-                Some(k) => CameraNoise {
-                    gain_dn_per_e: Some(k),
-                    source: NoiseSource::Stacks,
-                },
-                None => from_repeats(plans, id, max_pixels),
-            };
-            (id, noise)
+            let noise = from_stacks.map(|k| CameraNoise {
+                gain_dn_per_e: Some(k),
+                source: NoiseSource::Stacks,
+            });
+            (c.model.id, noise)
         })
         .collect()
 }

@@ -17,8 +17,8 @@
 //! however strongly the lens distorts the observed one.
 
 use extract::{
-    Blob, CameraMap, CentroidCovariance, Extraction, FrameView, Lattice, MappedLight, Weighting,
-    mapped_light,
+    Blob, CameraMap, CentroidCovariance, Covariance, CovarianceForm, Extraction, FrameView,
+    Lattice, MappedLight, Weighting, mapped_light,
 };
 use geom::{Camera, Illumination, Point2};
 
@@ -44,6 +44,9 @@ pub struct Candidate {
     /// camera's system gain K), for a blob that could not be corrected, or
     /// with the raw weighting.
     pub covariance: Option<CentroidCovariance>,
+    /// The same as the form linear in K, where a covariance was wanted
+    /// (`extract::Covariance`): for K given after.
+    pub covariance_form: Option<CovarianceForm>,
 }
 
 /// Roundness of a blob's corrected light at ideal position `at`: its
@@ -67,10 +70,10 @@ fn rejection(camera: &Camera, blob: &Blob, light: Option<&MappedLight>) -> Optio
 /// Candidates of one frame: every blob with its corrected centroid and
 /// diameter in ideal pixels (camera `camera`, its lens's relative
 /// illumination `illumination`, the camera's `lattice` for the run); with
-/// the camera's system gain
-/// `gain_dn_per_e` (K, DN/e⁻), each centroid's covariance from the image
-/// noise. `frame` must be the frame the extraction came from (not denoised
-/// when K is given: the covariance assumes independent pixels).
+/// each centroid's covariance from the image noise as wanted (`covariance`:
+/// at the camera's system gain K, or as the form to give K later). `frame`
+/// must be the frame the extraction came from (not denoised when a
+/// covariance is wanted: it assumes independent pixels).
 #[allow(clippy::too_many_arguments)]
 pub fn candidates(
     camera: &Camera,
@@ -79,14 +82,14 @@ pub fn candidates(
     frame: &FrameView<'_>,
     extraction: &Extraction,
     weighting: Weighting,
-    gain_dn_per_e: Option<f64>,
+    covariance: Covariance,
 ) -> Vec<Candidate> {
     let map = CameraMap::with_lattice(camera, illumination, lattice);
     extraction
         .blobs
         .iter()
         .map(|b| {
-            let light = mapped_light(frame, b, &extraction.level, weighting, &map, gain_dn_per_e);
+            let light = mapped_light(frame, b, &extraction.level, weighting, &map, covariance);
             let rejected = rejection(camera, b, light.as_ref());
             let ([u, v], diameter_px) = match &light {
                 Some(l) => (l.centroid, l.ellipse().minor_px),
@@ -97,6 +100,7 @@ pub fn candidates(
                 diameter_px,
                 rejected,
                 covariance: light.and_then(|l| l.covariance),
+                covariance_form: light.and_then(|l| l.covariance_form),
             }
         })
         .collect()
@@ -186,7 +190,7 @@ mod tests {
                             &frame,
                             &extraction,
                             params.weighting,
-                            Some(k * f),
+                            Covariance::AtGain(k * f),
                         )
                         .into_iter()
                         .filter(|c| c.rejected.is_none())

@@ -21,6 +21,19 @@ pub fn campaign_with(
     seed: u64,
     edit: impl FnOnce(&mut synth::Config),
 ) {
+    campaign_captured(dir, width, targets, runs, 1, seed, edit);
+}
+
+/// As [`campaign_with`], each instant captured `captures` times.
+pub fn campaign_captured(
+    dir: &Path,
+    width: u32,
+    targets: u32,
+    runs: u32,
+    captures: u32,
+    seed: u64,
+    edit: impl FnOnce(&mut synth::Config),
+) {
     let mut config = synth::Config::default();
     edit(&mut config);
     config
@@ -29,7 +42,7 @@ pub fn campaign_with(
             height: Some(width * 3 / 4),
             targets: Some(targets),
             runs: Some(runs),
-            captures: Some(1),
+            captures: Some(captures),
             seed: Some(seed),
         })
         .unwrap();
