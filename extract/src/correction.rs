@@ -166,9 +166,6 @@ fn pixel_by_pixel<M: PixelMap + ?Sized>(
 /// lenses, against the 1e-4 px a centroid may move (`docs/performance.md`).
 pub const NODE_SPACING_PX: u32 = 8;
 
-/// Runs shorter than this many node intervals are mapped pixel by pixel.
-const MIN_INTERVALS: u32 = 1;
-
 /// A node's shift p − (u, v), J and 1/RI.
 type Node = [f64; 4];
 
@@ -502,14 +499,11 @@ fn interval(c: &[Node]) -> [[f64; LANES]; 4] {
 
 impl PixelMap for CameraMap<'_> {
     /// Through the lattice of exact nodes ([`NODE_SPACING_PX`]): each pixel
-    /// the bicubic of the shift p − (u, v), J and 1/RI; a run shorter than
-    /// `MIN_INTERVALS` (4) node spacings, or one near a node the model cannot
-    /// map (beyond the lens model's reach), pixel by pixel.
+    /// the bicubic of the shift p − (u, v), J and 1/RI; a run near a node
+    /// the model cannot map (beyond the lens model's reach) pixel by pixel.
     fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<MappedLanes>) -> Option<()> {
         out.clear();
-        if (x1 - x0) / NODE_SPACING_PX + 1 >= MIN_INTERVALS
-            && self.lattice_run(y, x0, x1, out).is_some()
-        {
+        if self.lattice_run(y, x0, x1, out).is_some() {
             return Some(());
         }
         pixel_by_pixel(self, y, x0, x1, out)
@@ -1574,7 +1568,7 @@ mod tests {
         let (ex, params) = extract_one(frame);
         let blob = &ex.blobs[0];
         let illumination = Illumination::Ideal;
-        // A map each: a short run's pixels are solved from the previous one's.
+        // A map each: a run mapped pixel by pixel is solved from the previous pixel's.
         let maps = [0, 1].map(|_| CameraMap::new(&camera, &illumination));
         let light = |map| Light {
             frame: &frame,
