@@ -458,24 +458,31 @@ impl pulp::WithSimd for Intervals<'_> {
                     std::array::from_fn(|q| w0 * n0[q] + w1 * n1[q] + w2 * n2[q] + w3 * n3[q])
                 }),
         );
-        if columns.iter().flatten().any(|x| x.is_nan()) {
+        // Without an early exit, so that the check runs in vector lanes.
+        if columns
+            .iter()
+            .flatten()
+            .fold(false, |nan, x| nan | x.is_nan())
+        {
             return false;
         }
         let (h, x0, x1) = (NODE_SPACING_PX, self.x0, self.x1);
         debug_assert_eq!(columns.len() as u32, x1 / h - x0 / h + 4);
         let mut start = (x0 / h) * h;
         for c in columns.windows(4) {
-            let mut lanes = MappedLanes::empty(start);
-            lanes.first = (x0.max(start) - start) as usize;
-            lanes.end = (x1 - start).min(h - 1) as usize + 1;
-            let [sx, sy, jac, inv] = interval(c);
+            let [sx, sy, jacobian, inverse_illumination] = interval(c);
             let u0 = f64::from(start);
-            for l in 0..LANES {
-                lanes.position[0][l] = (u0 + LANE_OFFSETS[l]) + sx[l];
-                lanes.position[1][l] = self.v + sy[l];
-            }
-            (lanes.jacobian, lanes.inverse_illumination) = (jac, inv);
-            self.out.push(lanes);
+            self.out.push(MappedLanes {
+                x: start,
+                first: (x0.max(start) - start) as usize,
+                end: (x1 - start).min(h - 1) as usize + 1,
+                position: [
+                    std::array::from_fn(|l| (u0 + LANE_OFFSETS[l]) + sx[l]),
+                    std::array::from_fn(|l| self.v + sy[l]),
+                ],
+                jacobian,
+                inverse_illumination,
+            });
             start += h;
         }
         true
@@ -861,28 +868,43 @@ pub(crate) fn lane_total<const N: usize>(lanes: &[f64; N]) -> f64 {
 }
 
 /// What a pass sums over the pixels surely above `T′`, lane by lane:
-/// `Σ f′·J·φ`, `Σ J·φ` and the noise's sums.
-#[derive(Default)]
+/// `Σ f′·J·φ`, `Σ J·φ` and the noise's sums (where wanted), of positions
+/// about the `reference` point.
 struct AboveSums {
+    reference: [f64; 2],
+    pixel_noise: Option<PixelNoise>,
     fj: MomentSums<LANES>,
     j: MomentSums<LANES>,
     noise: NoiseSums<LANES>,
 }
 
 impl AboveSums {
-    /// Weigh the run's `lanes`: those above `guess` summed, the others set
-    /// aside; `false` when one of the run's pixels has no positive J or RI.
+    /// No pixels yet.
+    fn new(reference: [f64; 2], pixel_noise: Option<PixelNoise>) -> Self {
+        Self {
+            reference,
+            pixel_noise,
+            fj: MomentSums::default(),
+            j: MomentSums::default(),
+            noise: NoiseSums::default(),
+        }
+    }
+
+    /// Weigh the run's `lanes` (its interval `k`): those above `guess`
+    /// summed, the others set aside, `top` raised by their `(T − b)/RI`;
+    /// `false` when one of the run's pixels has no positive J or RI.
     #[inline(always)]
     fn weigh(
         &mut self,
         lanes: &MappedLanes,
         p: &PixelLanes,
         guess: f64,
-        reference: [f64; 2],
-        noise: Option<&PixelNoise>,
         aside: &mut Vec<Aside>,
+        top: &mut RunTop,
+        k: f64,
     ) -> bool {
         let (jac, inv) = (&lanes.jacobian, &lanes.inverse_illumination);
+        let reference = self.reference;
         let (mut d, mut fj, mut j, mut g) =
             ([[0.0; LANES]; 2], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
         let (mut signal, mut unmappable, mut set_aside) =
@@ -891,6 +913,11 @@ impl AboveSums {
         // vector registers.
         for l in 0..LANES {
             let held = lanes.holds(l);
+            // T′ so far ([`RunTop::raise`]).
+            let t = (p.level[l] - p.background[l]) * inv[l];
+            let higher = held & (t > top.level[l]);
+            top.level[l] = if higher { t } else { top.level[l] };
+            top.interval[l] = if higher { k } else { top.interval[l] };
             signal[l] = p.value[l] - p.background[l];
             let corrected = signal[l] * inv[l];
             let kept = held & (corrected > guess);
@@ -916,7 +943,7 @@ impl AboveSums {
         }
         self.fj.add(&d, &fj);
         self.j.add(&d, &j);
-        if let Some(noise) = noise {
+        if let Some(noise) = &self.pixel_noise {
             self.noise.add(noise, &p.u, p.v, &d, &j, &g, &signal);
         }
         if lane_total(&set_aside) > 0.0 {
@@ -1026,7 +1053,7 @@ impl Light<'_, '_> {
     fn pass(&self, background: &Background, guess: Option<f64>) -> Pass {
         let reference = [self.blob.u, self.blob.v];
         let noise = self.pixel_noise(background);
-        let mut above = AboveSums::default();
+        let mut above = AboveSums::new(reference, noise);
         let mut aside = Vec::new();
         let mut best = Threshold::none();
         let mut guess = guess;
@@ -1061,10 +1088,8 @@ impl Light<'_, '_> {
             let g = *guess.get_or_insert_with(|| best.value + GUESS_MARGIN * best.value.abs());
             for (k, lanes) in mapped.iter().enumerate() {
                 let p = pixels(lanes);
-                if !first {
-                    top.raise(k as f64, lanes, &p);
-                }
-                if !above.weigh(lanes, &p, g, reference, noise.as_ref(), &mut aside) {
+                let (top, k) = (&mut top, k as f64);
+                if !above.weigh(lanes, &p, g, &mut aside, top, k) {
                     return Pass::Done(None);
                 }
             }
