@@ -747,12 +747,12 @@ impl PixelLanes {
 fn gather(row: &[u16], x: u32) -> [f64; LANES] {
     let x = x as usize;
     let mut out = [0.0; LANES];
-    match row.get(x..x + LANES) {
-        Some(px) => {
-            for (o, &p) in out.iter_mut().zip(px) {
-                *o = f64::from(p);
-            }
-        }
+    match row
+        .get(x..x + LANES)
+        .and_then(|px| <&[u16; LANES]>::try_from(px).ok())
+    {
+        // A whole interval: converted in vector lanes.
+        Some(px) => out = px.map(f64::from),
         None => {
             for (o, &p) in out.iter_mut().zip(row.iter().skip(x)) {
                 *o = f64::from(p);
@@ -907,8 +907,7 @@ impl AboveSums {
         let reference = self.reference;
         let (mut d, mut fj, mut j, mut g) =
             ([[0.0; LANES]; 2], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
-        let (mut signal, mut unmappable, mut set_aside) =
-            ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        let (mut signal, mut unmappable, mut set_aside) = ([0.0; LANES], false, false);
         // One loop without branches: its lanes side by side, the masks in
         // vector registers.
         for l in 0..LANES {
@@ -922,8 +921,8 @@ impl AboveSums {
             let corrected = signal[l] * inv[l];
             let kept = held & (corrected > guess);
             let mappable = (inv[l] > 0.0) & (jac[l] > 0.0);
-            unmappable[l] = if held & !mappable { 1.0 } else { 0.0 };
-            set_aside[l] = if held & !kept { 1.0 } else { 0.0 };
+            unmappable |= held & !mappable;
+            set_aside |= held & !kept;
             d[0][l] = if kept {
                 lanes.position[0][l] - reference[0]
             } else {
@@ -938,7 +937,7 @@ impl AboveSums {
             j[l] = if kept { jac[l] } else { 0.0 };
             g[l] = if kept { jac[l] * inv[l] } else { 0.0 };
         }
-        if lane_total(&unmappable) > 0.0 {
+        if unmappable {
             return false;
         }
         self.fj.add(&d, &fj);
@@ -946,8 +945,9 @@ impl AboveSums {
         if let Some(noise) = &self.pixel_noise {
             self.noise.add(noise, &p.u, p.v, &d, &j, &g, &signal);
         }
-        if lane_total(&set_aside) > 0.0 {
-            for l in (lanes.first..lanes.end).filter(|&l| set_aside[l] > 0.0) {
+        if set_aside {
+            let kept = |l: usize| signal[l] * inv[l] > guess;
+            for l in (lanes.first..lanes.end).filter(|&l| !kept(l)) {
                 aside.push(Aside {
                     observed: [p.u[l], p.v],
                     d: [
