@@ -218,9 +218,13 @@ thread_local! {
     static RING: std::cell::RefCell<Ring> = const { std::cell::RefCell::new(Ring::new()) };
 }
 
-/// `f` with this thread's ring (its room reused from blob to blob).
+/// `f` with this thread's ring (its room reused from blob to blob), or with
+/// a ring of its own where that one is in use (a call from within `f`).
 pub(crate) fn with_ring<R>(f: impl FnOnce(&mut Ring) -> R) -> R {
-    RING.with_borrow_mut(f)
+    RING.with(|ring| match ring.try_borrow_mut() {
+        Ok(mut ring) => f(&mut ring),
+        Err(_) => f(&mut Ring::new()),
+    })
 }
 
 impl Ring {
@@ -389,6 +393,10 @@ mod tests {
             fitted.sigma_dn
         );
         assert!((fitted.normal[(0, 0)] - n as f64).abs() < 0.5);
+        // Within a fit of this thread's ring, another one gets a ring of its
+        // own, and the same plane.
+        let nested = with_ring(|_| background_fit(&frame, blob, &ex.level)).unwrap();
+        assert_eq!(nested, fitted);
         let truth = [plane(0.0, 0.0), 0.8, -0.5];
         assert!(
             (fitted.plane[1] - truth[1]).abs() < 0.01 && (fitted.plane[2] - truth[2]).abs() < 0.01
