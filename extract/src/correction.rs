@@ -653,7 +653,10 @@ impl Threshold {
         }
         let Some((k, l)) = best else { return };
         let m = top.level[l];
-        if let (true, Some(lanes)) = (m > self.value, mapped.get(k as usize)) {
+        if m <= self.value {
+            return;
+        }
+        if let Some(lanes) = mapped.get(k as usize) {
             self.value = m;
             self.at = (
                 [f64::from(lanes.x) + LANE_OFFSETS[l], v],
