@@ -70,14 +70,14 @@ pub fn gain_from_repeats(pairs: &[(Frame<'_>, Frame<'_>)], saturation: u16) -> R
     let all: Vec<Frame<'_>> = pairs.iter().flat_map(|(a, b)| [*a, *b]).collect();
     let floor = adc_depth(&all).step_dn().powi(2);
     let (width, bits) = (first.width, first.container_bits);
-    let prepared: Vec<(Vec<f32>, Vec<bool>)> = pairs
+    let (levels, saturated): (Vec<Vec<f32>>, Vec<Vec<bool>>) = pairs
         .iter()
         .map(|(a, b)| pair_levels(a.values, b.values, saturation))
-        .collect();
+        .unzip();
     // The photon transfer over the pixels not masked out.
     let fit = |masks: &[Vec<bool>]| {
         pairs_noise(
-            &with_masks(pairs, &prepared, masks),
+            &with_masks(pairs, &levels, masks),
             width,
             bits,
             floor,
@@ -85,19 +85,20 @@ pub fn gain_from_repeats(pairs: &[(Frame<'_>, Frame<'_>)], saturation: u16) -> R
         )
         .ok_or(no_gain(0.0, 0.0, 0))
     };
-    let saturated: Vec<Vec<bool>> = prepared.iter().map(|(_, s)| s.clone()).collect();
     let rough = fit(&saturated)?;
-    let flat: Vec<Vec<bool>> = prepared
+    let flat: Vec<Vec<bool>> = levels
         .iter()
+        .zip(&saturated)
         .map(|(levels, saturated)| not_flat(levels, saturated, width, &rough.model))
         .collect();
+    drop(saturated);
     let fine = fit(&flat)?;
     let (low, high) = fine.model.levels();
     let gain = fine.model.slope();
-    let background = prepared
+    let background = levels
         .first()
         .zip(flat.first())
-        .and_then(|((levels, _), out)| {
+        .and_then(|(levels, out)| {
             let mut kept: Vec<f64> = levels
                 .iter()
                 .zip(out)
@@ -124,14 +125,14 @@ pub fn gain_from_repeats(pairs: &[(Frame<'_>, Frame<'_>)], saturation: u16) -> R
 /// The pairs with their levels and each its mask of pixels left out.
 fn with_masks<'a>(
     pairs: &'a [(Frame<'a>, Frame<'a>)],
-    prepared: &'a [(Vec<f32>, Vec<bool>)],
+    levels: &'a [Vec<f32>],
     masks: &'a [Vec<bool>],
 ) -> Vec<Pair<'a>> {
     pairs
         .iter()
-        .zip(prepared)
+        .zip(levels)
         .zip(masks)
-        .map(|(((a, b), (levels, _)), excluded)| Pair {
+        .map(|(((a, b), levels), excluded)| Pair {
             a: a.values,
             b: b.values,
             levels,
