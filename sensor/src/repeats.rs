@@ -17,8 +17,7 @@ use rayon::prelude::*;
 
 use crate::adc::adc_depth;
 use crate::frame::{Frame, StackKind, check_frame, check_same_camera};
-use crate::order::median;
-use crate::temporal::{NoiseModel, Pair, Pooling, pairs_noise};
+use crate::temporal::{Levels, NoiseModel, Pair, Pooling, mean_level, pairs_noise};
 use crate::{Result, SensorError};
 
 /// The 3×3 range of a flat pixel's pair mean is at most this many σ of the
@@ -70,14 +69,16 @@ pub fn gain_from_repeats(pairs: &[(Frame<'_>, Frame<'_>)], saturation: u16) -> R
     let all: Vec<Frame<'_>> = pairs.iter().flat_map(|(a, b)| [*a, *b]).collect();
     let floor = adc_depth(&all).step_dn().powi(2);
     let (width, bits) = (first.width, first.container_bits);
-    let (levels, saturated): (Vec<Vec<f32>>, Vec<Vec<bool>>) = pairs
+    // Each pixel's level, the pair's mean (A + B)/2, is computed where it
+    // is needed, not held: two pairs of full frames are 100 MB already.
+    let saturated: Vec<Vec<bool>> = pairs
         .iter()
-        .map(|(a, b)| pair_levels(a.values, b.values, saturation))
-        .unzip();
+        .map(|(a, b)| saturated_pixels(a.values, b.values, saturation))
+        .collect();
     // The photon transfer over the pixels not masked out.
     let fit = |masks: &[Vec<bool>]| {
         pairs_noise(
-            &with_masks(pairs, &levels, masks),
+            &with_masks(pairs, masks),
             width,
             bits,
             floor,
@@ -86,27 +87,19 @@ pub fn gain_from_repeats(pairs: &[(Frame<'_>, Frame<'_>)], saturation: u16) -> R
         .ok_or(no_gain(0.0, 0.0, 0))
     };
     let rough = fit(&saturated)?;
-    let flat: Vec<Vec<bool>> = levels
+    let flat: Vec<Vec<bool>> = pairs
         .iter()
         .zip(&saturated)
-        .map(|(levels, saturated)| not_flat(levels, saturated, width, &rough.model))
+        .map(|((a, b), saturated)| not_flat(a.values, b.values, saturated, width, &rough.model))
         .collect();
     drop(saturated);
     let fine = fit(&flat)?;
     let (low, high) = fine.model.levels();
     let gain = fine.model.slope();
-    let background = levels
+    let background = pairs
         .first()
         .zip(flat.first())
-        .and_then(|(levels, out)| {
-            let mut kept: Vec<f64> = levels
-                .iter()
-                .zip(out)
-                .filter(|(_, out)| !**out)
-                .map(|(&l, _)| f64::from(l))
-                .collect();
-            median(&mut kept)
-        })
+        .and_then(|((a, b), out)| median_level(a.values, b.values, out))
         .unwrap_or(low);
     let sigma = fine.model.variance(background).sqrt();
     if !(gain > 0.0 && high - low > MIN_SPAN_SIGMAS * sigma) {
@@ -122,23 +115,50 @@ pub fn gain_from_repeats(pairs: &[(Frame<'_>, Frame<'_>)], saturation: u16) -> R
     })
 }
 
-/// The pairs with their levels and each its mask of pixels left out.
-fn with_masks<'a>(
-    pairs: &'a [(Frame<'a>, Frame<'a>)],
-    levels: &'a [Vec<f32>],
-    masks: &'a [Vec<bool>],
-) -> Vec<Pair<'a>> {
+/// The pairs, binned by their mean levels, each with its mask of pixels
+/// left out.
+fn with_masks<'a>(pairs: &'a [(Frame<'a>, Frame<'a>)], masks: &'a [Vec<bool>]) -> Vec<Pair<'a>> {
     pairs
         .iter()
-        .zip(levels)
         .zip(masks)
-        .map(|(((a, b), levels), excluded)| Pair {
+        .map(|((a, b), excluded)| Pair {
             a: a.values,
             b: b.values,
-            levels,
+            levels: Levels::Mean,
             excluded,
         })
         .collect()
+}
+
+/// The median level (A + B)/2 of the pixels not `excluded`, `None` for
+/// none. The levels are half-integers, so they are counted by A + B (one
+/// counter for each of the 2¹⁷ − 1 sums, not a copy of the pixels): the
+/// middle value, or the mean of the two middle values.
+fn median_level(a: &[u16], b: &[u16], excluded: &[bool]) -> Option<f64> {
+    let mut counts = vec![0u64; 2 * usize::from(u16::MAX) + 1];
+    for ((&x, &y), &out) in a.iter().zip(b).zip(excluded) {
+        if !out {
+            counts[usize::from(x) + usize::from(y)] += 1;
+        }
+    }
+    let n: u64 = counts.iter().sum();
+    if n == 0 {
+        return None;
+    }
+    // The level of rank r (from 0) in ascending order.
+    let at = |rank: u64| {
+        let mut seen = 0;
+        counts.iter().position(|&c| {
+            seen += c;
+            seen > rank
+        })
+    };
+    let level = |sum: usize| sum as f64 / 2.0;
+    let upper = level(at(n / 2)?);
+    if n % 2 == 1 {
+        return Some(upper);
+    }
+    Some(0.5 * (level(at(n / 2 - 1)?) + upper))
 }
 
 fn no_gain(low: f64, high: f64, pixels: u64) -> SensorError {
@@ -149,26 +169,22 @@ fn no_gain(low: f64, high: f64, pixels: u64) -> SensorError {
     }
 }
 
-/// Each pixel's level `(A + B)/2` and whether it is saturated in either frame.
-fn pair_levels(a: &[u16], b: &[u16], saturation: u16) -> (Vec<f32>, Vec<bool>) {
+/// Whether each pixel is saturated in either frame.
+fn saturated_pixels(a: &[u16], b: &[u16], saturation: u16) -> Vec<bool> {
     a.par_iter()
         .zip(b)
-        .map(|(&x, &y)| {
-            (
-                (f32::from(x) + f32::from(y)) / 2.0,
-                x >= saturation || y >= saturation,
-            )
-        })
-        .unzip()
+        .map(|(&x, &y)| x >= saturation || y >= saturation)
+        .collect()
 }
 
 /// The pixels to leave out of the fine fit: saturated ones, the frame's
-/// border, and those whose 3×3 range of `levels` exceeds
+/// border, and those whose 3×3 range of levels `(A + B)/2` exceeds
 /// [`FLAT_RANGE_SIGMAS`]·σ of the level (`σ² = model(level)/2`).
-fn not_flat(levels: &[f32], saturated: &[bool], width: u32, model: &NoiseModel) -> Vec<bool> {
+fn not_flat(a: &[u16], b: &[u16], saturated: &[bool], width: u32, model: &NoiseModel) -> Vec<bool> {
     let w = width as usize;
-    let h = levels.len() / w.max(1);
-    (0..levels.len())
+    let h = a.len() / w.max(1);
+    let level = |i: usize| mean_level(a[i], b[i]);
+    (0..a.len())
         .into_par_iter()
         .map(|i| {
             let (x, y) = (i % w, i / w);
@@ -177,13 +193,51 @@ fn not_flat(levels: &[f32], saturated: &[bool], width: u32, model: &NoiseModel) 
             }
             let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
             for row in y - 1..=y + 1 {
-                for &l in &levels[row * w + x - 1..=row * w + x + 1] {
+                for j in row * w + x - 1..=row * w + x + 1 {
+                    let l = level(j);
                     lo = lo.min(l);
                     hi = hi.max(l);
                 }
             }
-            let sigma = (model.variance(f64::from(levels[i])) / 2.0).sqrt();
+            let sigma = (model.variance(f64::from(level(i))) / 2.0).sqrt();
             f64::from(hi - lo) > FLAT_RANGE_SIGMAS * sigma
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The counted median of the levels (A + B)/2 is the sorted one, for an
+    /// odd and an even number of pixels kept, and none for none.
+    #[test]
+    fn the_counted_median_level_is_the_sorted_one() {
+        let mut state = 7u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 33) as u16
+        };
+        let a: Vec<u16> = (0..1001).map(|_| next()).collect();
+        let b: Vec<u16> = (0..1001).map(|_| next() / 7).collect();
+        for keep_every in [2, 3] {
+            let excluded: Vec<bool> = (0..a.len()).map(|i| i % keep_every != 0).collect();
+            let mut kept: Vec<f64> = a
+                .iter()
+                .zip(&b)
+                .zip(&excluded)
+                .filter(|(_, out)| !**out)
+                .map(|((&x, &y), _)| f64::from(mean_level(x, y)))
+                .collect();
+            let n = kept.len();
+            assert_eq!(
+                median_level(&a, &b, &excluded),
+                crate::order::median(&mut kept),
+                "{n} pixels"
+            );
+        }
+        assert_eq!(median_level(&a, &b, &vec![true; a.len()]), None);
+    }
 }

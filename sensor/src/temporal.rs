@@ -125,9 +125,25 @@ pub(crate) struct Pair<'a> {
     /// Frame B.
     pub(crate) b: &'a [u16],
     /// Each pixel's level (DN).
-    pub(crate) levels: &'a [f32],
+    pub(crate) levels: Levels<'a>,
     /// Pixels left out (saturated, or not usable for another reason).
     pub(crate) excluded: &'a [bool],
+}
+
+/// What a pair's pixels are binned by.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Levels<'a> {
+    /// Each pixel's level, given (a stack's medians).
+    Given(&'a [f32]),
+    /// The pair's own mean level of each pixel ([`mean_level`]), computed
+    /// where it is needed rather than held.
+    Mean,
+}
+
+/// The level `(a + b)/2` of a pixel of a pair (exact: a half-integer).
+#[inline]
+pub(crate) fn mean_level(a: u16, b: u16) -> f32 {
+    (f32::from(a) + f32::from(b)) / 2.0
 }
 
 /// The temporal noise of a stack of ≥ 2 frames (`None` for fewer).
@@ -148,7 +164,7 @@ pub(crate) fn temporal_noise(
         .map(|ab| Pair {
             a: ab[0].values,
             b: ab[1].values,
-            levels,
+            levels: Levels::Given(levels),
             excluded: saturated,
         })
         .collect();
@@ -245,20 +261,23 @@ fn pair_sums(
             pair.a
                 .par_chunks(width)
                 .zip(pair.b.par_chunks(width))
-                .zip(
-                    pair.levels
-                        .par_chunks(width)
-                        .zip(pair.excluded.par_chunks(width)),
-                )
+                .zip(pair.excluded.par_chunks(width))
+                .enumerate()
                 .fold(
                     || vec![BinSums::default(); BINS],
-                    |mut bins, ((ra, rb), (rl, rs))| {
-                        for (((&va, &vb), &level), &out) in ra.iter().zip(rb).zip(rl).zip(rs) {
+                    |mut bins, (y, ((ra, rb), rs))| {
+                        let row_levels = match pair.levels {
+                            Levels::Given(levels) => levels.get(y * width..(y + 1) * width),
+                            Levels::Mean => None,
+                        };
+                        for (x, ((&va, &vb), &out)) in ra.iter().zip(rb).zip(rs).enumerate() {
                             if out {
                                 continue;
                             }
                             let d = i64::from(va) - i64::from(vb);
-                            let level = f64::from(level);
+                            let level = f64::from(
+                                row_levels.map_or_else(|| mean_level(va, vb), |row| row[x]),
+                            );
                             if let Some((mean, half_width2)) = limit(level)
                                 && (d as f64 - mean).powi(2) > half_width2
                             {
