@@ -681,33 +681,23 @@ impl RunTop {
         }
     }
 
-    /// Raised by the run's interval `k`, its pixels `p` mapped as `lanes`
-    /// ([`levels`]).
+    /// Raised by the run's interval `k`, its pixels `p` mapped as `lanes`.
     #[inline(always)]
     fn raise(&mut self, k: f64, lanes: &MappedLanes, p: &PixelLanes) {
-        let t = levels(lanes, p);
         for l in 0..LANES {
-            let higher = t[l] > self.level[l];
-            self.level[l] = if higher { t[l] } else { self.level[l] };
-            self.interval[l] = if higher { k } else { self.interval[l] };
+            self.raise_lane(l, k, lanes, p);
         }
     }
-}
 
-/// Per lane `(T − b)/RI` of the pixels in `lanes`, −∞ in the lanes that
-/// are not the run's.
-#[inline(always)]
-fn levels(lanes: &MappedLanes, p: &PixelLanes) -> [f64; LANES] {
-    let mut t = [0.0; LANES];
-    for l in 0..LANES {
-        let level = (p.level[l] - p.background[l]) * lanes.inverse_illumination[l];
-        t[l] = if lanes.holds(l) {
-            level
-        } else {
-            f64::NEG_INFINITY
-        };
+    /// Lane `l` raised by its pixel's `(T − b)/RI` in interval `k` (inside
+    /// a loop over the lanes, without branches), if the pixel is the run's.
+    #[inline(always)]
+    fn raise_lane(&mut self, l: usize, k: f64, lanes: &MappedLanes, p: &PixelLanes) {
+        let t = (p.level[l] - p.background[l]) * lanes.inverse_illumination[l];
+        let higher = lanes.holds(l) & (t > self.level[l]);
+        self.level[l] = if higher { t } else { self.level[l] };
+        self.interval[l] = if higher { k } else { self.interval[l] };
     }
-    t
 }
 
 /// The observed side of [`MappedLanes`]: per lane the pixel's column u,
@@ -914,12 +904,8 @@ impl AboveSums {
         // One loop without branches: its lanes side by side, the masks in
         // vector registers.
         for l in 0..LANES {
+            top.raise_lane(l, k, lanes, p);
             let held = lanes.holds(l);
-            // T′ so far ([`RunTop::raise`]).
-            let t = (p.level[l] - p.background[l]) * inv[l];
-            let higher = held & (t > top.level[l]);
-            top.level[l] = if higher { t } else { top.level[l] };
-            top.interval[l] = if higher { k } else { top.interval[l] };
             signal[l] = p.value[l] - p.background[l];
             let corrected = signal[l] * inv[l];
             let kept = held & (corrected > guess);
@@ -1018,7 +1004,7 @@ enum Pass {
 }
 
 impl Light<'_, '_> {
-    /// [`mapped_light`]: the background under the blob ([`background_fit`]),
+    /// [`mapped_light`]: the background under the blob ([`Ring::fit`]),
     /// then, keeping nothing per pixel but those near the threshold, one
     /// pass over the blob's runs that finds `T′` while it sums the pixels
     /// surely above it — as `Σ f′·J·φ` and `Σ J·φ` (φ = 1, d, d·dᵀ), since
@@ -1091,8 +1077,7 @@ impl Light<'_, '_> {
             let g = *guess.get_or_insert_with(|| best.value + GUESS_MARGIN * best.value.abs());
             for (k, lanes) in mapped.iter().enumerate() {
                 let p = pixels(lanes);
-                let (top, k) = (&mut top, k as f64);
-                if !above.weigh(lanes, &p, g, &mut aside, top, k) {
+                if !above.weigh(lanes, &p, g, &mut aside, &mut top, k as f64) {
                     return Pass::Done(None);
                 }
             }

@@ -32,6 +32,8 @@ pub(crate) struct Ring {
     f: Vec<f64>,
     kept: Vec<f64>,
     f0: f64,
+    /// (uc, vc): the centre of the blob's bounding box.
+    centre: [f64; 2],
 }
 
 /// The sums of the fit over the kept pixels: n, Σu, Σv, Σu², Σuv, Σv², Σf,
@@ -72,6 +74,7 @@ impl Ring {
             f: Vec::new(),
             kept: Vec::new(),
             f0: 0.0,
+            centre: [0.0; 2],
         }
     }
 
@@ -96,9 +99,9 @@ impl Ring {
         let y1 = (inner.3 + width).min(i64::from(frame.height) - 1);
         // Coordinates relative to the box centre keep the fit well conditioned.
         let centre = [f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0];
+        self.centre = centre;
         let capacity = 2 * (width as usize) * ((x1 - x0 + 1) + (y1 - y0 + 1)).max(0) as usize;
-        let ring = self;
-        for column in [&mut ring.u, &mut ring.v, &mut ring.f, &mut ring.kept] {
+        for column in [&mut self.u, &mut self.v, &mut self.f, &mut self.kept] {
             column.clear();
             column.reserve(capacity + LANES);
         }
@@ -117,17 +120,17 @@ impl Ring {
                     let f = row[x as usize];
                     if f < level.at(x as u32, y as u32, frame.width) {
                         let f0 = *f0.get_or_insert(f64::from(f));
-                        ring.u.push(x as f64 - centre[0]);
-                        ring.v.push(v);
-                        ring.f.push(f64::from(f) - f0);
+                        self.u.push(x as f64 - centre[0]);
+                        self.v.push(v);
+                        self.f.push(f64::from(f) - f0);
                     }
                 }
             }
         }
-        ring.f0 = f0.unwrap_or(0.0);
-        ring.kept.resize(ring.u.len(), 1.0);
-        let padded = ring.u.len().next_multiple_of(LANES);
-        for column in [&mut ring.u, &mut ring.v, &mut ring.f, &mut ring.kept] {
+        self.f0 = f0.unwrap_or(0.0);
+        self.kept.resize(self.u.len(), 1.0);
+        let padded = self.u.len().next_multiple_of(LANES);
+        for column in [&mut self.u, &mut self.v, &mut self.f, &mut self.kept] {
             column.resize(padded, 0.0);
         }
     }
@@ -148,6 +151,8 @@ impl Ring {
     fn sums(&self) -> RingSums {
         let mut s = [[0.0f64; LANES]; 10];
         for [u, v, f, k] in self.chunks() {
+            // The terms of `RingSums::of` written out, k times each (k is 1
+            // or 0), so that they stay in vector lanes.
             for l in 0..LANES {
                 let (ku, kv, kf) = (k[l] * u[l], k[l] * v[l], k[l] * f[l]);
                 s[0][l] += k[l];
@@ -195,6 +200,50 @@ impl Ring {
         }
         clipped
     }
+
+    /// The background under `blob` as a plane `b(u, v) = c + a·u + b·v`
+    /// (DN), least squares on the pixels of its ring ([`Ring::around`], in
+    /// this ring's room), refitted without the pixels beyond
+    /// [`RING_CLIP_SIGMA`]·σ until none is (at most three fits; the sums are
+    /// gathered once and the clipped pixels taken out of them); with what
+    /// its noise needs: the residual σ of the last fit and `XᵀX` of its
+    /// design. `None` when too few pixels remain or the ring is degenerate.
+    #[inline(always)]
+    pub(crate) fn fit(
+        &mut self,
+        frame: &FrameView<'_>,
+        blob: &Blob,
+        level: &Level,
+    ) -> Option<Background> {
+        self.around(frame, blob, level);
+        let centre = self.centre;
+        let mut sums = self.sums();
+        let mut count = sums.0[0] as usize;
+        let mut background = None;
+        for _ in 0..3 {
+            if count < RING_MIN_PIXELS {
+                return None;
+            }
+            let (normal, rhs) = sums.normal_equations();
+            let plane = ring_plane(&normal, &rhs)?;
+            let sigma = (sums.residual_squares(plane) / (count as f64 - 3.0)).sqrt();
+            // Back to absolute pixel coordinates and values:
+            // b = f₀ + c + a·(u − uc) + b·(v − vc).
+            let [c, a, b] = plane;
+            background = Some(Background {
+                plane: [self.f0 + c - a * centre[0] - b * centre[1], a, b],
+                sigma_dn: sigma,
+                centre,
+                normal,
+            });
+            let clipped = self.clip(plane, RING_CLIP_SIGMA * sigma, &mut sums);
+            if clipped == 0 {
+                break;
+            }
+            count -= clipped;
+        }
+        background
+    }
 }
 
 /// The residual `f − (c + a·u + b·v)` of a ring pixel about `[c, a, b]`.
@@ -225,54 +274,6 @@ pub(crate) fn with_ring<R>(f: impl FnOnce(&mut Ring) -> R) -> R {
         Ok(mut ring) => f(&mut ring),
         Err(_) => f(&mut Ring::new()),
     })
-}
-
-impl Ring {
-    /// The background under `blob` as a plane `b(u, v) = c + a·u + b·v`
-    /// (DN), least squares on the pixels of its ring ([`Ring::around`], in
-    /// this ring's room), refitted without the pixels beyond
-    /// [`RING_CLIP_SIGMA`]·σ until none is (at most three fits; the sums are
-    /// gathered once and the clipped pixels taken out of them); with what
-    /// its noise needs: the residual σ of the last fit and `XᵀX` of its
-    /// design. `None` when too few pixels remain or the ring is degenerate.
-    #[inline(always)]
-    pub(crate) fn fit(
-        &mut self,
-        frame: &FrameView<'_>,
-        blob: &Blob,
-        level: &Level,
-    ) -> Option<Background> {
-        let ring = self;
-        let b = &blob.bbox;
-        let centre = [f64::from(b.x0 + b.x1) / 2.0, f64::from(b.y0 + b.y1) / 2.0];
-        ring.around(frame, blob, level);
-        let mut sums = ring.sums();
-        let mut count = sums.0[0] as usize;
-        let mut background = None;
-        for _ in 0..3 {
-            if count < RING_MIN_PIXELS {
-                return None;
-            }
-            let (normal, rhs) = sums.normal_equations();
-            let plane = ring_plane(&normal, &rhs)?;
-            let sigma = (sums.residual_squares(plane) / (count as f64 - 3.0)).sqrt();
-            // Back to absolute pixel coordinates and values:
-            // b = f₀ + c + a·(u − uc) + b·(v − vc).
-            let [c, a, b] = plane;
-            background = Some(Background {
-                plane: [ring.f0 + c - a * centre[0] - b * centre[1], a, b],
-                sigma_dn: sigma,
-                centre,
-                normal,
-            });
-            let clipped = ring.clip(plane, RING_CLIP_SIGMA * sigma, &mut sums);
-            if clipped == 0 {
-                break;
-            }
-            count -= clipped;
-        }
-        background
-    }
 }
 
 /// The least-squares plane `f = c + a·u + b·v`, as `[c, a, b]`, from its

@@ -307,7 +307,7 @@ struct Context<'a> {
     /// Each camera's noise model (the centroids' covariances).
     noise: BTreeMap<u8, CameraNoise>,
     /// Cameras' images observed ahead of their instants (while reading
-    /// them for K, [`Context::gains_from_repeats`]), taken by
+    /// them for K, [`Context::noise_models`]), taken by
     /// [`Context::observe`] instead of reading them again.
     observed: Mutex<HashMap<(InstantKey, u8), Observation>>,
     /// Each camera's lattice of exactly mapped nodes, solved once a run
@@ -567,7 +567,7 @@ impl Context<'_> {
     /// frames are observed as they are read for K — their covariances as
     /// forms, given K once it is known — and kept for their instants
     /// (`done` ones aside), so that no frame is decoded twice.
-    fn gains_from_repeats(
+    fn noise_models(
         &mut self,
         rig: &formats::Rig,
         plans: &[InstantPlan],
@@ -1241,9 +1241,11 @@ pub fn measure(
     let resumed = done.len();
 
     // Every instant not done, in parallel chunks appended to the partial file.
-    let mut ctx = Context::new(rig, &plans, inputs, options, backend);
-    ctx.gains_from_repeats(inputs.rig, &plans, &done);
-    let ctx = ctx;
+    let ctx = {
+        let mut ctx = Context::new(rig, &plans, inputs, options, backend);
+        ctx.noise_models(inputs.rig, &plans, &done);
+        ctx
+    };
     let todo: Vec<&InstantPlan> = plans.iter().filter(|p| !done.contains(&p.key)).collect();
     let references = if options.fusion == Fusion::Seed {
         seed_references(&ctx, &plans)

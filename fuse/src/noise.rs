@@ -18,7 +18,7 @@ use formats::InstantKey;
 use crate::plan::InstantPlan;
 
 /// Pairs of repeated captures read per camera for K.
-pub(crate) const REPEAT_PAIRS: usize = 2;
+const REPEAT_PAIRS: usize = 2;
 
 /// Where a camera's noise model comes from.
 #[derive(Debug, Clone, PartialEq)]
