@@ -47,7 +47,7 @@ use geom::{Matrix3, Point2, Point3};
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{SphereMatch, assign};
-use crate::noise::{self as noise_model, CameraNoise, OwnedFrame};
+use crate::noise::{self as noise_model, CameraNoise};
 use crate::observe::{Candidate, candidates};
 use crate::plan::{InstantPlan, RigModel, plan};
 use crate::plausibility::ResidualGate;
@@ -583,7 +583,10 @@ impl Context<'_> {
     }
 
     /// K of `camera` from the first pairs of repeated captures, their
-    /// instants' observations kept (with their covariances at K).
+    /// instants' observations kept (with their covariances at K). The pairs
+    /// are read one at a time, each frame by a reader of the pool (two
+    /// frames in memory, no copy), and only the pair's sums kept
+    /// (`sensor::RepeatGainEstimate`).
     fn gain_from_repeats(
         &self,
         plans: &[InstantPlan],
@@ -594,30 +597,35 @@ impl Context<'_> {
         let Some([(_, first), _]) = pairs.first() else {
             return noise_model::without_repeats();
         };
-        let (mut frames, mut observed, mut unreadable) = (Vec::new(), Vec::new(), None);
-        for (ip, _) in pairs.iter().flatten() {
-            let observe = !done.contains(&ip.key)
+        let observe = |ip: &InstantPlan, path: &Path, raw: FrameView<'_>| {
+            let wanted = !done.contains(&ip.key)
                 && self
                     .rig
                     .cameras_for(ip.key.axis, self.options.all_cameras)
                     .contains(&camera);
-            let observation = self.with_frame(ip, camera, |path, raw, metadata| {
-                frames.push(OwnedFrame::of(&raw, metadata.exposure_s));
-                Ok(observe.then(|| self.observe_frame(ip, camera, path, raw, Covariance::Form)))
+            wanted.then(|| {
+                (
+                    ip.key,
+                    self.observe_frame(ip, camera, path, raw, Covariance::Form),
+                )
+            })
+        };
+        let (mut estimate, mut observed) = (noise_model::RepeatsRead::default(), Vec::new());
+        for [(ip_a, _), (ip_b, _)] in &pairs {
+            let read = self.with_frame(ip_a, camera, |path_a, a, metadata_a| {
+                observed.extend(observe(ip_a, path_a, a));
+                self.with_frame(ip_b, camera, |path_b, b, metadata_b| {
+                    estimate.add_pair(&a, metadata_a.exposure_s, &b, metadata_b.exposure_s);
+                    observed.extend(observe(ip_b, path_b, b));
+                    Ok(())
+                })
             });
-            match observation {
-                Ok(Some(o)) => observed.push((ip.key, o)),
-                Ok(None) => {}
-                Err(f) => {
-                    unreadable = Some(f.reason);
-                    break;
-                }
+            if let Err(f) = read {
+                estimate.unreadable(f.reason);
+                break;
             }
         }
-        let noise = match unreadable {
-            Some(why) => noise_model::unknown(format!("repeated captures cannot be read: {why}")),
-            None => noise_model::from_repeats(&frames, first),
-        };
+        let noise = estimate.finish(first);
         if let Ok(mut kept) = self.observed.lock() {
             for (key, mut observation) in observed {
                 for o in observation.iter_mut().flatten().flatten() {

@@ -87,35 +87,75 @@ pub(crate) fn repeat_pairs(
         .collect()
 }
 
-/// A frame read into memory, as the photon transfer takes it.
-pub(crate) struct OwnedFrame {
-    values: Vec<u16>,
-    width: u32,
-    height: u32,
-    container_bits: u8,
-    exposure_s: Option<f64>,
+/// K from the pairs of repeated captures as they are read, and the first
+/// reason none can be given.
+#[derive(Default)]
+pub(crate) struct RepeatsRead {
+    estimate: Option<sensor::RepeatGainEstimate>,
+    failure: Option<String>,
 }
 
-impl OwnedFrame {
-    /// A copy of `frame`, taken with `exposure_s`.
-    pub(crate) fn of(frame: &extract::FrameView<'_>, exposure_s: Option<f64>) -> Self {
-        Self {
-            values: frame.pixels.to_vec(),
-            width: frame.width,
-            height: frame.height,
-            container_bits: frame.bit_depth,
-            exposure_s,
+impl RepeatsRead {
+    /// Takes in the pair of frames `a` and `b`, taken with exposures
+    /// `exposure_a` and `exposure_b` (s).
+    pub(crate) fn add_pair(
+        &mut self,
+        a: &extract::FrameView<'_>,
+        exposure_a: Option<f64>,
+        b: &extract::FrameView<'_>,
+        exposure_b: Option<f64>,
+    ) {
+        if self.failure.is_some() {
+            return;
+        }
+        // The container's top code: saturated pixels are left out.
+        let saturation = if a.bit_depth == 8 {
+            u16::from(u8::MAX)
+        } else {
+            u16::MAX
+        };
+        let estimate = self
+            .estimate
+            .get_or_insert_with(|| sensor::RepeatGainEstimate::new(saturation));
+        if let Err(e) = estimate.add_pair(&as_frame(a, exposure_a), &as_frame(b, exposure_b)) {
+            self.failure = Some(format!("give no gain: {e}"));
         }
     }
 
-    fn view(&self) -> sensor::Frame<'_> {
-        sensor::Frame {
-            values: &self.values,
-            width: self.width,
-            height: self.height,
-            container_bits: self.container_bits,
-            exposure_s: self.exposure_s,
+    /// A frame that could not be read, and why: no K.
+    pub(crate) fn unreadable(&mut self, why: String) {
+        self.failure.get_or_insert(format!("cannot be read: {why}"));
+    }
+
+    /// The camera's noise model from the pairs read (the first of them from
+    /// `first`).
+    pub(crate) fn finish(self, first: &std::path::Path) -> CameraNoise {
+        let gain = match (self.failure, self.estimate) {
+            (Some(why), _) => Err(why),
+            (None, None) => Err("give no gain: no pair was read".to_owned()),
+            (None, Some(estimate)) => estimate.finish().map_err(|e| format!("give no gain: {e}")),
+        };
+        match gain {
+            Ok(g) => CameraNoise {
+                gain_dn_per_e: Some(g.gain_dn_per_e),
+                source: NoiseSource::Repeats {
+                    pairs: g.pairs,
+                    pixels: g.pixels,
+                },
+            },
+            Err(why) => unknown(format!("the repeated captures ({}) {why}", first.display())),
         }
+    }
+}
+
+/// A decoded frame as the photon transfer takes it.
+fn as_frame<'a>(frame: &extract::FrameView<'a>, exposure_s: Option<f64>) -> sensor::Frame<'a> {
+    sensor::Frame {
+        values: frame.pixels,
+        width: frame.width,
+        height: frame.height,
+        container_bits: frame.bit_depth,
+        exposure_s,
     }
 }
 
@@ -134,35 +174,6 @@ pub(crate) fn without_repeats() -> CameraNoise {
          gain from"
             .into(),
     )
-}
-
-/// K from the `frames` of pairs of repeated captures (in pairs, the first
-/// from `first`).
-pub(crate) fn from_repeats(frames: &[OwnedFrame], first: &std::path::Path) -> CameraNoise {
-    let frame_pairs: Vec<(sensor::Frame<'_>, sensor::Frame<'_>)> = frames
-        .chunks_exact(2)
-        .map(|p| (p[0].view(), p[1].view()))
-        .collect();
-    let saturation = frames.first().map_or(u16::MAX, |f| {
-        if f.container_bits == 8 {
-            u16::from(u8::MAX)
-        } else {
-            u16::MAX
-        }
-    });
-    match sensor::gain_from_repeats(&frame_pairs, saturation) {
-        Ok(g) => CameraNoise {
-            gain_dn_per_e: Some(g.gain_dn_per_e),
-            source: NoiseSource::Repeats {
-                pairs: g.pairs,
-                pixels: g.pixels,
-            },
-        },
-        Err(e) => unknown(format!(
-            "the repeated captures ({}) give no gain: {e}",
-            first.display()
-        )),
-    }
 }
 
 /// Each camera's noise model from the rig's sensor record; `None` for a

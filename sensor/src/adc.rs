@@ -57,10 +57,19 @@ impl AdcDepth {
 /// 16-bit container (an 8-bit container is always 8-bit).
 pub fn adc_depth(frames: &[Frame<'_>]) -> AdcDepth {
     let container_bits = frames.first().map_or(16, |f| f.container_bits);
-    let all = frames
+    depth_of(container_bits, values_or(frames))
+}
+
+/// The OR of every value of the frames.
+pub(crate) fn values_or(frames: &[Frame<'_>]) -> u16 {
+    frames
         .iter()
         .flat_map(|f| f.values.iter())
-        .fold(0u16, |acc, &v| acc | v);
+        .fold(0u16, |acc, &v| acc | v)
+}
+
+/// [`adc_depth`] from the OR of all values, `all`.
+pub(crate) fn depth_of(container_bits: u8, all: u16) -> AdcDepth {
     if container_bits != 16 || all == 0 {
         return AdcDepth::container(container_bits);
     }

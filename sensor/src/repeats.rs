@@ -9,15 +9,21 @@
 //! renderer's capture jitter) adds `(∇f·δ)²` to the difference. A pixel is
 //! flat when the range of the pair's mean over its 3×3 neighbourhood is
 //! within [`FLAT_RANGE_SIGMAS`] of the mean's noise at its level (from a
-//! first fit over every pixel); the mean `(A + B)/2` is independent of
-//! `A − B` for Gaussian noise of equal variance, so this choice does not
-//! bias the variance of the differences it keeps.
+//! first fit over every pixel of the pair); the mean `(A + B)/2` is
+//! independent of `A − B` for Gaussian noise of equal variance, so this
+//! choice does not bias the variance of the differences it keeps.
+//!
+//! The pairs are taken one at a time ([`RepeatGainEstimate`]): each pair's
+//! flat pixels and outliers are judged against the pair's own fit, and only
+//! its sums per level bin are kept, so memory holds one pair's frames.
 
 use rayon::prelude::*;
 
-use crate::adc::adc_depth;
+use crate::adc::{depth_of, values_or};
 use crate::frame::{Frame, StackKind, check_frame, check_same_camera};
-use crate::temporal::{Levels, NoiseModel, Pair, Pooling, mean_level, pairs_noise};
+use crate::temporal::{
+    BinSums, Levels, NoiseModel, Pair, Pooling, fit_sums, mean_level, pairs_noise,
+};
 use crate::{Result, SensorError};
 
 /// The 3×3 range of a flat pixel's pair mean is at most this many σ of the
@@ -51,83 +57,121 @@ pub struct RepeatGain {
 
 /// K from pairs `(A, B)` of repeated captures of one instant each (the
 /// same camera and setting; pairs of different instants may be pooled):
-/// the photon transfer of the module docs over the locally flat pixels, not
-/// saturated (at `saturation` DN in either frame). Refuses frames of
-/// different sizes or depths, and images without two levels far enough
-/// apart to show a rise of the noise (no flat bright region).
+/// [`RepeatGainEstimate`] over the pairs in turn.
 pub fn gain_from_repeats(pairs: &[(Frame<'_>, Frame<'_>)], saturation: u16) -> Result<RepeatGain> {
-    let (first, _) = pairs.first().ok_or(SensorError::EmptyStack {
-        kind: StackKind::Repeat,
-    })?;
-    let kind = StackKind::Repeat;
-    for (index, (a, b)) in pairs.iter().enumerate() {
-        for (j, f) in [a, b].into_iter().enumerate() {
-            check_frame(f, kind, 2 * index + j)?;
-            check_same_camera(f, kind, 2 * index + j, first, kind)?;
-        }
+    let mut estimate = RepeatGainEstimate::new(saturation);
+    for (a, b) in pairs {
+        estimate.add_pair(a, b)?;
     }
-    let all: Vec<Frame<'_>> = pairs.iter().flat_map(|(a, b)| [*a, *b]).collect();
-    let floor = adc_depth(&all).step_dn().powi(2);
-    let (width, bits) = (first.width, first.container_bits);
-    // Each pixel's level, the pair's mean (A + B)/2, is computed where it
-    // is needed, not held: two pairs of full frames are 100 MB already.
-    let saturated: Vec<Vec<bool>> = pairs
-        .iter()
-        .map(|(a, b)| saturated_pixels(a.values, b.values, saturation))
-        .collect();
-    // The photon transfer over the pixels not masked out.
-    let fit = |masks: &[Vec<bool>]| {
-        pairs_noise(
-            &with_masks(pairs, masks),
-            width,
-            bits,
-            floor,
-            Pooling::DegreesOfFreedom,
-        )
-        .ok_or(no_gain(0.0, 0.0, 0))
-    };
-    let rough = fit(&saturated)?;
-    let flat: Vec<Vec<bool>> = pairs
-        .iter()
-        .zip(&saturated)
-        .map(|((a, b), saturated)| not_flat(a.values, b.values, saturated, width, &rough.model))
-        .collect();
-    drop(saturated);
-    let fine = fit(&flat)?;
-    let (low, high) = fine.model.levels();
-    let gain = fine.model.slope();
-    let background = pairs
-        .first()
-        .zip(flat.first())
-        .and_then(|((a, b), out)| median_level(a.values, b.values, out))
-        .unwrap_or(low);
-    let sigma = fine.model.variance(background).sqrt();
-    if !(gain > 0.0 && high - low > MIN_SPAN_SIGMAS * sigma) {
-        return Err(no_gain(low, high, fine.samples));
-    }
-    Ok(RepeatGain {
-        gain_dn_per_e: gain,
-        background_level_dn: background,
-        background_temporal_dn: sigma,
-        top_level_dn: high,
-        pixels: fine.samples,
-        pairs: pairs.len(),
-    })
+    estimate.finish()
 }
 
-/// The pairs, binned by their mean levels, each with its mask of pixels
-/// left out.
-fn with_masks<'a>(pairs: &'a [(Frame<'a>, Frame<'a>)], masks: &'a [Vec<bool>]) -> Vec<Pair<'a>> {
-    pairs
-        .iter()
-        .zip(masks)
-        .map(|((a, b), excluded)| Pair {
-            a: a.values,
-            b: b.values,
-            levels: Levels::Mean,
-            excluded,
+/// K from pairs of repeated captures given one at a time, so that only one
+/// pair's frames are held (two pairs of full frames are 100 MB): each
+/// pair's photon transfer over its locally flat pixels not saturated (at
+/// `saturation` DN in either frame) — the flat pixels chosen, and outliers
+/// clipped, against the pair's own fit — its sums per level bin kept, and
+/// the line fitted to the sums of all pairs at the end.
+#[derive(Debug, Clone)]
+pub struct RepeatGainEstimate {
+    saturation: u16,
+    /// The first frame's size and depth, its values left out.
+    first: Option<Frame<'static>>,
+    /// The OR of every value (the ADC depth).
+    all: u16,
+    /// Each pair's differences per level bin.
+    sums: Vec<Vec<BinSums>>,
+    /// The median level of the first pair's flat pixels.
+    background: Option<f64>,
+}
+
+impl RepeatGainEstimate {
+    /// No pairs yet; pixels at `saturation` DN are left out.
+    pub fn new(saturation: u16) -> Self {
+        Self {
+            saturation,
+            first: None,
+            all: 0,
+            sums: Vec::new(),
+            background: None,
+        }
+    }
+
+    /// Takes in a pair `(a, b)` of repeated captures. Refuses frames of
+    /// another size or depth than the first pair's.
+    pub fn add_pair(&mut self, a: &Frame<'_>, b: &Frame<'_>) -> Result<()> {
+        let kind = StackKind::Repeat;
+        let index = 2 * self.sums.len();
+        let first = *self.first.get_or_insert(Frame { values: &[], ..*a });
+        for (j, f) in [a, b].into_iter().enumerate() {
+            check_frame(f, kind, index + j)?;
+            check_same_camera(f, kind, index + j, &first, kind)?;
+        }
+        let pair_or = values_or(&[*a, *b]);
+        self.all |= pair_or;
+        let floor = depth_of(first.container_bits, pair_or).step_dn().powi(2);
+        let fit = |excluded: &[bool]| {
+            let pair = Pair {
+                a: a.values,
+                b: b.values,
+                levels: Levels::Mean,
+                excluded,
+            };
+            pairs_noise(
+                &[pair],
+                first.width,
+                first.container_bits,
+                floor,
+                Pooling::DegreesOfFreedom,
+            )
+            .ok_or(no_gain(0.0, 0.0, 0))
+        };
+        // Each pixel's level, the pair's mean (A + B)/2, is computed where
+        // it is needed, not held; one mask serves both fits.
+        let mut excluded = saturated_pixels(a.values, b.values, self.saturation);
+        let rough = fit(&excluded)?;
+        exclude_not_flat(
+            a.values,
+            b.values,
+            &mut excluded,
+            first.width,
+            &rough.temporal.model,
+        );
+        let fine = fit(&excluded)?;
+        if self.background.is_none() {
+            self.background = median_level(a.values, b.values, &excluded);
+        }
+        self.sums.extend(fine.sums);
+        Ok(())
+    }
+
+    /// K from the pairs taken in: refuses none, and images without two
+    /// levels far enough apart to show a rise of the noise (no flat bright
+    /// region).
+    pub fn finish(self) -> Result<RepeatGain> {
+        let Some(first) = self.first else {
+            return Err(SensorError::EmptyStack {
+                kind: StackKind::Repeat,
+            });
+        };
+        let floor = depth_of(first.container_bits, self.all).step_dn().powi(2);
+        let fine = fit_sums(&self.sums, floor, Pooling::DegreesOfFreedom);
+        let (low, high) = fine.model.levels();
+        let gain = fine.model.slope();
+        let background = self.background.unwrap_or(low);
+        let sigma = fine.model.variance(background).sqrt();
+        if !(gain > 0.0 && high - low > MIN_SPAN_SIGMAS * sigma) {
+            return Err(no_gain(low, high, fine.samples));
+        }
+        Ok(RepeatGain {
+            gain_dn_per_e: gain,
+            background_level_dn: background,
+            background_temporal_dn: sigma,
+            top_level_dn: high,
+            pixels: fine.samples,
+            pairs: self.sums.len(),
         })
-        .collect()
+    }
 }
 
 /// The median level (A + B)/2 of the pixels not `excluded`, `None` for
@@ -177,32 +221,31 @@ fn saturated_pixels(a: &[u16], b: &[u16], saturation: u16) -> Vec<bool> {
         .collect()
 }
 
-/// The pixels to leave out of the fine fit: saturated ones, the frame's
-/// border, and those whose 3×3 range of levels `(A + B)/2` exceeds
-/// [`FLAT_RANGE_SIGMAS`]·σ of the level (`σ² = model(level)/2`).
-fn not_flat(a: &[u16], b: &[u16], saturated: &[bool], width: u32, model: &NoiseModel) -> Vec<bool> {
+/// Leaves out of the fine fit, beside the pixels `excluded` already
+/// (saturated ones), the frame's border and the pixels whose 3×3 range of
+/// levels `(A + B)/2` exceeds [`FLAT_RANGE_SIGMAS`]·σ of the level
+/// (`σ² = model(level)/2`).
+fn exclude_not_flat(a: &[u16], b: &[u16], excluded: &mut [bool], width: u32, model: &NoiseModel) {
     let w = width as usize;
     let h = a.len() / w.max(1);
     let level = |i: usize| mean_level(a[i], b[i]);
-    (0..a.len())
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            if saturated[i] || x == 0 || y == 0 || x + 1 >= w || y + 1 >= h {
-                return true;
+    excluded.par_iter_mut().enumerate().for_each(|(i, out)| {
+        let (x, y) = (i % w, i / w);
+        if *out || x == 0 || y == 0 || x + 1 >= w || y + 1 >= h {
+            *out = true;
+            return;
+        }
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for row in y - 1..=y + 1 {
+            for j in row * w + x - 1..=row * w + x + 1 {
+                let l = level(j);
+                lo = lo.min(l);
+                hi = hi.max(l);
             }
-            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-            for row in y - 1..=y + 1 {
-                for j in row * w + x - 1..=row * w + x + 1 {
-                    let l = level(j);
-                    lo = lo.min(l);
-                    hi = hi.max(l);
-                }
-            }
-            let sigma = (model.variance(f64::from(level(i))) / 2.0).sqrt();
-            f64::from(hi - lo) > FLAT_RANGE_SIGMAS * sigma
-        })
-        .collect()
+        }
+        let sigma = (model.variance(f64::from(level(i))) / 2.0).sqrt();
+        *out = f64::from(hi - lo) > FLAT_RANGE_SIGMAS * sigma;
+    });
 }
 
 #[cfg(test)]

@@ -73,7 +73,7 @@ pub(crate) struct Temporal {
 
 /// Exact sums of the differences of one pair in one level bin.
 #[derive(Debug, Clone, Copy, Default)]
-struct BinSums {
+pub(crate) struct BinSums {
     /// Differences.
     n: u64,
     /// Σ d.
@@ -176,6 +176,7 @@ pub(crate) fn temporal_noise(
         floor_dn2,
         Pooling::Samples,
     )
+    .map(|fitted| fitted.temporal)
 }
 
 /// How a bin's variance is pooled over pairs, each pair's own bin mean
@@ -192,6 +193,16 @@ pub(crate) enum Pooling {
     DegreesOfFreedom,
 }
 
+/// The temporal noise of pairs as fitted, and the sums it was fitted to:
+/// one vector of level bins per pair, which pool with other pairs' sums
+/// ([`fit_sums`]).
+pub(crate) struct PairsNoise {
+    /// The fit.
+    pub(crate) temporal: Temporal,
+    /// Each pair's sums per level bin, outliers left out.
+    pub(crate) sums: Vec<Vec<BinSums>>,
+}
+
 /// The temporal noise of pairs of frames of `width` px a row and
 /// `container_bits` bits (`None` without pairs): each pair's `½·var(A − B)`
 /// over the pixels not excluded, binned by level and fitted against it,
@@ -203,7 +214,7 @@ pub(crate) fn pairs_noise(
     container_bits: u8,
     floor_dn2: f64,
     pooling: Pooling,
-) -> Option<Temporal> {
+) -> Option<PairsNoise> {
     if pairs.is_empty() {
         return None;
     }
@@ -221,21 +232,28 @@ pub(crate) fn pairs_noise(
                 pair_means,
             }),
         );
-        let kept: u64 = sums.iter().flatten().map(|b| b.n).sum();
-        let model = fit_model(&sums, floor_dn2, pooling);
-        let (var_dn2, pair_means) = pair_variance(&sums);
-        result = Some(Temporal {
-            var_dn2,
-            model,
-            samples: kept,
-        });
-        if kept_before == Some(kept) {
+        let temporal = fit_sums(&sums, floor_dn2, pooling);
+        let converged = kept_before == Some(temporal.samples);
+        kept_before = Some(temporal.samples);
+        clip = Some((temporal.model, pair_variance(&sums).1));
+        result = Some(PairsNoise { temporal, sums });
+        if converged {
             break;
         }
-        kept_before = Some(kept);
-        clip = Some((model, pair_means));
     }
     result
+}
+
+/// The temporal noise of sums of pairs' differences per level bin (one
+/// vector of bins per pair): `σ²_y` over the pairs, and the model of the
+/// bins' variance against their levels, bins pooled as `pooling` says.
+pub(crate) fn fit_sums(sums: &[Vec<BinSums>], floor_dn2: f64, pooling: Pooling) -> Temporal {
+    let (var_dn2, _) = pair_variance(sums);
+    Temporal {
+        var_dn2,
+        model: fit_model(sums, floor_dn2, pooling),
+        samples: sums.iter().flatten().map(|b| b.n).sum(),
+    }
 }
 
 /// Per pair, per level bin: the exact sums of `A − B` over the pixels not

@@ -8,7 +8,7 @@
 
 mod sim;
 
-use sensor::{Frame, SensorError, gain_from_repeats};
+use sensor::{Frame, RepeatGainEstimate, SensorError, gain_from_repeats};
 use sim::{Pattern, Sensor, frames};
 
 /// Background electrons.
@@ -140,4 +140,32 @@ fn a_scene_without_bright_flat_regions_is_refused() {
     assert!(e.to_string().contains("no system gain"), "{e}");
     let e = gain_from_repeats(&[], sensor.saturation()).unwrap_err();
     assert!(e.to_string().contains("repeated-capture"), "{e}");
+}
+
+/// Pairs given one at a time (`RepeatGainEstimate`, as `measure` reads
+/// them): a pair of another size than the first is refused, naming its
+/// frame, and leaves the estimate as it was.
+#[test]
+fn pairs_given_one_at_a_time_refuse_another_size() {
+    let sensor = Sensor::twelve_bit(&Pattern::realistic(), 33);
+    let stack = captures(&sensor, 2, [0.0, 0.0]);
+    let all = frames(&stack, &sensor, None);
+    let mut estimate = RepeatGainEstimate::new(sensor.saturation());
+    for (a, b) in as_pairs(&all) {
+        estimate.add_pair(&a, &b).unwrap();
+    }
+    let short = Frame {
+        height: all[0].height - 1,
+        values: &all[0].values[..all[0].values.len() - all[0].width as usize],
+        ..all[0]
+    };
+    let e = estimate.add_pair(&all[0], &short).unwrap_err();
+    assert!(
+        matches!(e, SensorError::SizeDiffers { frame: 5, .. }),
+        "{e}"
+    );
+    let one_at_a_time = estimate.finish().unwrap();
+    let g = gain_from_repeats(&as_pairs(&all), sensor.saturation()).unwrap();
+    assert_eq!(one_at_a_time, g);
+    assert!((g.gain_dn_per_e / sensor.gain - 1.0).abs() < 0.1, "{g:?}");
 }
