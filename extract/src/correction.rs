@@ -44,9 +44,14 @@ pub struct Mapped {
     pub illumination: f64,
 }
 
-/// Pixels of a run mapped together: one [`NODE_SPACING_PX`] interval of
-/// the lattice, whose arithmetic the compiler can spread over vector lanes.
-pub const LANES: usize = NODE_SPACING_PX as usize;
+/// Pixels of a run mapped together, whose arithmetic the compiler can
+/// spread over vector lanes.
+pub const LANES: usize = 16;
+
+/// Pixels of a run interpolated together from one node interval's four node
+/// columns: the fine node spacing, half the coarse one
+/// ([`Lattice::spacing_px`]), half of [`LANES`].
+const PIECE: usize = 8;
 
 /// Lane offsets `0, 1, …, LANES − 1` as reals.
 const LANE_OFFSETS: [f64; LANES] = {
@@ -156,15 +161,25 @@ fn pixel_by_pixel<M: PixelMap + ?Sized>(
     Some(())
 }
 
-/// Spacing (px) of the lattice of exactly mapped nodes of
-/// [`CameraMap::map_run`]: between them the map is the bicubic (tensor
-/// Lagrange cubic) through the 4 × 4 nearest nodes. The undistortion, its
-/// area Jacobian and the relative illumination are smooth over the field,
-/// so the interpolation's error, ≈ (3/128)·h⁴·|f⁗| per direction at
-/// mid-interval, is small: ≤ 5e-7 px in the corner of a wide-angle lens
-/// whose distortion shifts it by 570 px, 1e-10 px on the campaigns'
-/// lenses, against the 1e-4 px a centroid may move (`docs/performance.md`).
-pub const NODE_SPACING_PX: u32 = 8;
+/// Spacings (px) of the lattice of exactly mapped nodes of
+/// [`CameraMap::map_run`], coarse then fine: between the nodes the map is
+/// the bicubic (tensor Lagrange cubic) through the 4 × 4 nearest nodes. The
+/// undistortion, its area Jacobian and the relative illumination are smooth
+/// over the field, so the interpolation's error, ≈ (3/128)·h⁴·|f⁗| per
+/// direction at mid-interval, is small: at 16 px 7.2e-6 px in the corner of
+/// a wide-angle lens whose distortion shifts it by 570 px, 4e-9 px on a
+/// long lens; at 8 px 16 × less. A camera's lattice takes the coarsest
+/// spacing whose error ([`interpolation_error`]) is within
+/// [`LATTICE_TOLERANCE_PX`]; with neither, its pixels are mapped exactly, one
+/// by one (`docs/performance.md`).
+pub const NODE_SPACINGS_PX: [u32; 2] = [16, 8];
+
+/// The largest interpolation error of a lattice's positions (px): half the
+/// 1e-4 px a centroid may move (a centroid, a mean of its pixels' positions
+/// with positive weights, errs by no more than its worst pixel), for the
+/// estimate ([`interpolation_error`], within 0.7–1.4 × of the error
+/// measured over whole sensors) missing the worst interval.
+pub const LATTICE_TOLERANCE_PX: f64 = 5e-5;
 
 /// A node's shift p − (u, v), J and 1/RI.
 type Node = [f64; 4];
@@ -180,31 +195,39 @@ const fn cubic_weights(t: f64) -> [f64; 4] {
     ]
 }
 
-/// The weight of node column m (of the four) at each offset a pixel can
-/// have within a node interval, by lane.
-const OFFSET_WEIGHTS: [[f64; LANES]; 4] = {
-    let mut w = [[0.0; LANES]; 4];
+/// The weights of the node columns (of the four around a node interval
+/// of `PIECES`·[`PIECE`] px) at each pixel of the interval: piece p,
+/// column m, lane l is pixel p·PIECE + l.
+const fn offset_weights<const PIECES: usize>() -> [[[f64; PIECE]; 4]; PIECES] {
+    let mut w = [[[0.0; PIECE]; 4]; PIECES];
     let mut o = 0;
-    while o < LANES {
-        let c = cubic_weights(o as f64 / NODE_SPACING_PX as f64);
+    while o < PIECES * PIECE {
+        let c = cubic_weights(o as f64 / (PIECES * PIECE) as f64);
         let mut m = 0;
         while m < 4 {
-            w[m][o] = c[m];
+            w[o / PIECE][m][o % PIECE] = c[m];
             m += 1;
         }
         o += 1;
     }
     w
-};
+}
+
+/// [`offset_weights`] of the coarse and of the fine spacing.
+const COARSE_WEIGHTS: [[[f64; PIECE]; 4]; 2] = offset_weights::<2>();
+const FINE_WEIGHTS: [[[f64; PIECE]; 4]; 1] = offset_weights::<1>();
 
 /// The lattice of a camera's exactly mapped nodes every
-/// [`NODE_SPACING_PX`] over its sensor, node (i, j) from (−1, −1), each
+/// [`Lattice::spacing_px`] over its sensor, node (i, j) from (−1, −1), each
 /// solved on first use and kept for the whole run, shared by every frame
 /// and thread. A node is solved from the same start whoever needs it first,
 /// so results do not depend on the order of frames or the number of
 /// threads. Nodes are held in tiles of `TILE_NODES`² made on first use:
 /// only the parts of the sensor the spheres cross take memory.
 pub struct Lattice {
+    /// Node spacing (px), one of [`NODE_SPACINGS_PX`]; `None`: no nodes,
+    /// every pixel mapped exactly.
+    spacing: Option<u32>,
     /// Nodes per lattice row and column.
     size: [usize; 2],
     /// Tiles per lattice row.
@@ -223,17 +246,35 @@ type Tile = Box<[NodeCell]>;
 pub const TILE_NODES: usize = 16;
 
 impl Lattice {
-    /// The (unsolved) lattice of `camera`'s sensor.
+    /// The (unsolved) lattice of `camera`'s sensor: the coarsest of
+    /// [`NODE_SPACINGS_PX`] within [`LATTICE_TOLERANCE_PX`]
+    /// ([`interpolation_error`]), or none.
     pub fn new(camera: &Camera) -> Self {
+        let spacing = NODE_SPACINGS_PX
+            .into_iter()
+            .find(|&h| interpolation_error(camera, h) <= LATTICE_TOLERANCE_PX);
+        Self::with_spacing(camera, spacing)
+    }
+
+    /// The (unsolved) lattice of `camera`'s sensor, nodes every `spacing`
+    /// px (none for `None`).
+    fn with_spacing(camera: &Camera, spacing: Option<u32>) -> Self {
         // Nodes −1 ..= ⌊(size − 1)/h⌋ + 2 along each side.
-        let count = |size: u32| (size.saturating_sub(1) / NODE_SPACING_PX) as usize + 4;
+        let count = |size: u32| spacing.map_or(0, |h| (size.saturating_sub(1) / h) as usize + 4);
         let size = [count(camera.width), count(camera.height)];
         let [tc, tr] = size.map(|n| n.div_ceil(TILE_NODES));
         Self {
+            spacing,
             size,
             tile_columns: tc,
             tiles: (0..tc * tr).map(|_| std::sync::OnceLock::new()).collect(),
         }
+    }
+
+    /// The node spacing (px), one of [`NODE_SPACINGS_PX`]; `None` where the
+    /// lens bends too fast for either, and every pixel is mapped exactly.
+    pub fn spacing_px(&self) -> Option<u32> {
+        self.spacing
     }
 
     /// The cell of node (c, r) (from 0), its tile made on first use.
@@ -253,11 +294,50 @@ impl Lattice {
     }
 }
 
+/// The largest error of the position interpolated through a lattice of
+/// nodes every `h` px: at the middle of node intervals (in both directions,
+/// where a cubic's error peaks) on a 5 × 5 grid of them from corner to
+/// corner — a lens's distortion changes fastest at the edges. Intervals with
+/// a node the model cannot map are left out (their runs are mapped pixel by
+/// pixel).
+fn interpolation_error(camera: &Camera, h: u32) -> f64 {
+    let shift = |i: u32, j: u32, t: f64| {
+        let (u, v) = (
+            (f64::from(i) + t) * f64::from(h),
+            (f64::from(j) + t) * f64::from(h),
+        );
+        let p = camera.undistort_pixel(Point2::new(u, v)).ok()?;
+        Some([p.x - u, p.y - v])
+    };
+    let weights = cubic_weights(0.5);
+    let last = [camera.width, camera.height].map(|n| n.saturating_sub(1) / h);
+    let mut worst = 0.0f64;
+    for a in 0..=4 {
+        for b in 0..=4 {
+            let (i, j) = (last[0] * a / 4, last[1] * b / 4);
+            let mut interpolated = Some([0.0; 2]);
+            for (m, wm) in weights.iter().enumerate() {
+                for (n, wn) in weights.iter().enumerate() {
+                    // Node (i + m − 1, j + n − 1): −1 as t = −1 about i.
+                    let node = shift(i + m as u32, j + n as u32, -1.0);
+                    interpolated = interpolated
+                        .zip(node)
+                        .map(|(s, d)| [s[0] + wm * wn * d[0], s[1] + wm * wn * d[1]]);
+                }
+            }
+            if let Some((s, exact)) = interpolated.zip(shift(i, j, 0.5)) {
+                worst = worst.max((s[0] - exact[0]).hypot(s[1] - exact[1]));
+            }
+        }
+    }
+    worst
+}
+
 /// Observed pixels of a calibrated camera → ideal (undistorted) pixels, with
 /// the area Jacobian and the camera's relative illumination. A single pixel
 /// is solved by Newton's method started from the previous one's solution
 /// (one or two steps); runs go through the camera's [`Lattice`] of exact
-/// nodes every [`NODE_SPACING_PX`].
+/// nodes.
 pub struct CameraMap<'a> {
     camera: &'a Camera,
     illumination: &'a Illumination,
@@ -350,15 +430,12 @@ impl<'a> CameraMap<'a> {
     /// model's own start); `None` outside the sensor's lattice or where the
     /// model cannot map it.
     fn node(&self, i: i64, j: i64) -> Option<&Node> {
-        let lattice = match &self.lattice {
-            Nodes::Own(l) => l,
-            Nodes::Shared(l) => l,
-        };
+        let lattice = self.lattice();
         let (c, r) = (usize::try_from(i + 1).ok()?, usize::try_from(j + 1).ok()?);
         lattice
             .cell(c, r)?
             .get_or_init(|| {
-                let h = f64::from(NODE_SPACING_PX);
+                let h = f64::from(lattice.spacing?);
                 let (u, v) = (i as f64 * h, j as f64 * h);
                 let (p, jac) = self.camera.undistort_pixel_area(Point2::new(u, v)).ok()?;
                 let m = self.mapped([u, v], p, jac, self.camera.intrinsics.to_normalized(p));
@@ -370,6 +447,14 @@ impl<'a> CameraMap<'a> {
                 ])
             })
             .as_ref()
+    }
+
+    /// The camera's lattice.
+    fn lattice(&self) -> &Lattice {
+        match &self.lattice {
+            Nodes::Own(l) => l,
+            Nodes::Shared(l) => l,
+        }
     }
 
     /// Observed pixel `observed` mapped to ideal pixel `p` (normalised
@@ -385,7 +470,7 @@ impl<'a> CameraMap<'a> {
     /// The pixels `x0..=x1` of row `y` through the lattice, pushed onto
     /// `out` a node interval at a time; `None` when a node cannot be mapped.
     fn lattice_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<MappedLanes>) -> Option<()> {
-        let h = NODE_SPACING_PX;
+        let h = self.lattice().spacing?;
         let (j, ty) = (i64::from(y / h), f64::from(y % h) / f64::from(h));
         let wy = cubic_weights(ty);
         // The run's node columns, each interpolated to row y.
@@ -414,6 +499,11 @@ impl<'a> CameraMap<'a> {
             .dispatch(Intervals {
                 rows: [a?, b?, c?, d?],
                 weights: wy,
+                pieces: if h == NODE_SPACINGS_PX[0] {
+                    &COARSE_WEIGHTS
+                } else {
+                    &FINE_WEIGHTS
+                },
                 columns: &mut rows.interpolated,
                 x0,
                 x1,
@@ -426,10 +516,12 @@ impl<'a> CameraMap<'a> {
 
 /// A run's four rows of node columns, to be interpolated to its row `v`
 /// with `weights` (into `columns`) and spread over the run's pixels
-/// `x0..=x1` interval by interval.
+/// `x0..=x1`, [`PIECE`] pixels at a time with the weights of the pieces of
+/// a node interval, `pieces` ([`offset_weights`]), into [`LANES`].
 struct Intervals<'a> {
     rows: [&'a [Node]; 4],
     weights: [f64; 4],
+    pieces: &'a [[[f64; PIECE]; 4]],
     columns: &'a mut Vec<Node>,
     x0: u32,
     x1: u32,
@@ -466,16 +558,31 @@ impl pulp::WithSimd for Intervals<'_> {
         {
             return false;
         }
-        let (h, x0, x1) = (NODE_SPACING_PX, self.x0, self.x1);
+        let (h, x0, x1) = ((self.pieces.len() * PIECE) as u32, self.x0, self.x1);
         debug_assert_eq!(columns.len() as u32, x1 / h - x0 / h + 4);
-        let mut start = (x0 / h) * h;
-        for c in columns.windows(4) {
-            let [sx, sy, jacobian, inverse_illumination] = interval(c);
+        let (lanes, piece) = (LANES as u32, PIECE as u32);
+        let mut start = (x0 / lanes) * lanes;
+        while start <= x1 {
+            // Shift u, shift v, J and 1/RI of each lane; a piece without
+            // pixels of the run keeps finite values that count for nothing.
+            let mut q = [[0.0; LANES], [0.0; LANES], [1.0; LANES], [1.0; LANES]];
+            for p in 0..LANES / PIECE {
+                let at = start + p as u32 * piece;
+                if at <= x1 && at + piece > x0 {
+                    // Node interval at / h: columns from its index in the run's.
+                    let c = &columns[(at / h - x0 / h) as usize..];
+                    let w = &self.pieces[((at % h) / piece) as usize];
+                    for (n, values) in interval(c, w).into_iter().enumerate() {
+                        q[n][p * PIECE..(p + 1) * PIECE].copy_from_slice(&values);
+                    }
+                }
+            }
+            let [sx, sy, jacobian, inverse_illumination] = q;
             let u0 = f64::from(start);
             self.out.push(MappedLanes {
                 x: start,
                 first: (x0.max(start) - start) as usize,
-                end: (x1 - start).min(h - 1) as usize + 1,
+                end: (x1 - start).min(lanes - 1) as usize + 1,
                 position: [
                     std::array::from_fn(|l| (u0 + LANE_OFFSETS[l]) + sx[l]),
                     std::array::from_fn(|l| self.v + sy[l]),
@@ -483,21 +590,21 @@ impl pulp::WithSimd for Intervals<'_> {
                 jacobian,
                 inverse_illumination,
             });
-            start += h;
+            start += lanes;
         }
         true
     }
 }
 
-/// The four quantities of a [`Node`] at each pixel of a node interval,
-/// from the four node columns around it (already interpolated to the row).
+/// The four quantities of a [`Node`] at [`PIECE`] pixels of a node
+/// interval, from the four node columns around it, `c[..4]` (already
+/// interpolated to the row), with the columns' weights `w` at those pixels.
 #[inline(always)]
-fn interval(c: &[Node]) -> [[f64; LANES]; 4] {
-    let w = &OFFSET_WEIGHTS;
-    let mut q = [[0.0; LANES]; 4];
+fn interval(c: &[Node], w: &[[f64; PIECE]; 4]) -> [[f64; PIECE]; 4] {
+    let mut q = [[0.0; PIECE]; 4];
     for (n, qn) in q.iter_mut().enumerate() {
         let (c0, c1, c2, c3) = (c[0][n], c[1][n], c[2][n], c[3][n]);
-        for l in 0..LANES {
+        for l in 0..PIECE {
             qn[l] = w[0][l] * c0 + w[1][l] * c1 + w[2][l] * c2 + w[3][l] * c3;
         }
     }
@@ -505,9 +612,10 @@ fn interval(c: &[Node]) -> [[f64; LANES]; 4] {
 }
 
 impl PixelMap for CameraMap<'_> {
-    /// Through the lattice of exact nodes ([`NODE_SPACING_PX`]): each pixel
+    /// Through the lattice of exact nodes ([`Lattice::spacing_px`]): each pixel
     /// the bicubic of the shift p − (u, v), J and 1/RI; a run near a node
-    /// the model cannot map (beyond the lens model's reach) pixel by pixel.
+    /// the model cannot map (beyond the lens model's reach), or of a camera
+    /// without a lattice, pixel by pixel.
     fn map_run(&self, y: u32, x0: u32, x1: u32, out: &mut Vec<MappedLanes>) -> Option<()> {
         out.clear();
         if self.lattice_run(y, x0, x1, out).is_some() {
@@ -695,8 +803,11 @@ impl RunTop {
     fn raise_lane(&mut self, l: usize, k: f64, lanes: &MappedLanes, p: &PixelLanes) {
         let t = (p.level[l] - p.background[l]) * lanes.inverse_illumination[l];
         let higher = lanes.holds(l) & (t > self.level[l]);
-        self.level[l] = if higher { t } else { self.level[l] };
-        self.interval[l] = if higher { k } else { self.interval[l] };
+        // Stored whatever `higher`, as maxima (k grows along the run): a
+        // store of "new or as it was" compiles to a masked store, which
+        // stalls AMD's cores (a fifth of the pass).
+        self.level[l] = self.level[l].max(if higher { t } else { f64::NEG_INFINITY });
+        self.interval[l] = self.interval[l].max(if higher { k } else { -1.0 });
     }
 }
 
@@ -1228,13 +1339,40 @@ mod tests {
     /// Runs mapped through exact nodes and cubics agree with the exact map
     /// pixel by pixel, on a wide-angle lens with strong barrel distortion
     /// (k1 = −0.2: ≈ 570 px of shift at the corner of a full frame), in the
-    /// corners where the map bends most, for runs of every length.
+    /// corners where the map bends most, for runs of every length — through
+    /// the coarse lattice the lens is given and through the fine one.
     #[test]
     fn runs_mapped_through_nodes_agree_with_the_exact_map() {
         let (w, h) = (4096u32, 3072u32);
         let camera = lens(2600.0, [-0.2, 0.05, 4e-4, -3e-4], w, h);
         let illumination = Illumination::Ideal;
-        let map = CameraMap::new(&camera, &illumination);
+        assert_eq!(
+            Lattice::new(&camera).spacing_px(),
+            Some(NODE_SPACINGS_PX[0])
+        );
+        for (spacing, bound) in NODE_SPACINGS_PX
+            .into_iter()
+            .zip([LATTICE_TOLERANCE_PX, 1e-6])
+        {
+            let lattice = Lattice::with_spacing(&camera, Some(spacing));
+            let map = CameraMap::with_lattice(&camera, &illumination, &lattice);
+            let worst = worst_against_exact(&map, &camera, &illumination);
+            // 7.2e-6 px (coarse) and 4.6e-7 px (fine) here, against the
+            // 1e-4 px centroids must agree to.
+            println!("{spacing} px: worst {worst:?}");
+            assert!(worst[0] < bound, "position {:e} px", worst[0]);
+            assert!(worst[1] < 1e-7 && worst[2] < 1e-7, "{worst:?}");
+        }
+    }
+
+    /// The largest differences of `map` from the exact map over runs of
+    /// every length in the corners and the middle of a 4096 × 3072 sensor:
+    /// position (px), J and RI (relative).
+    fn worst_against_exact(
+        map: &CameraMap<'_>,
+        camera: &Camera,
+        illumination: &Illumination,
+    ) -> [f64; 3] {
         let mut out = Vec::new();
         let mut worst = [0.0f64; 3];
         for (y, x0, x1) in [
@@ -1248,7 +1386,7 @@ mod tests {
             let pixels: Vec<(u32, Mapped)> = out.iter().flat_map(MappedLanes::pixels).collect();
             assert!(pixels.iter().map(|p| p.0).eq(x0..=x1));
             for (x, m) in pixels {
-                let exact = CameraMap::new(&camera, &illumination)
+                let exact = CameraMap::new(camera, illumination)
                     .map(f64::from(x), f64::from(y))
                     .unwrap();
                 let dp =
@@ -1258,10 +1396,52 @@ mod tests {
                 worst[2] = worst[2].max((m.illumination / exact.illumination - 1.0).abs());
             }
         }
-        // 4.6e-7 px here, against the 1e-4 px centroids must agree to.
-        println!("worst: {worst:?}");
-        assert!(worst[0] < 1e-6, "position {:e} px", worst[0]);
-        assert!(worst[1] < 1e-8 && worst[2] < 1e-8, "{worst:?}");
+        worst
+    }
+
+    /// A camera's lattice takes the coarsest spacing whose largest error,
+    /// measured against the exact map over the whole sensor, is within the
+    /// tolerance, and none where neither is: from a long lens to wide
+    /// angles on small sensors; the estimate it is chosen by follows the
+    /// measured error.
+    #[test]
+    fn the_lattice_is_as_coarse_as_the_lens_allows() {
+        let illumination = Illumination::Ideal;
+        for camera in [
+            lens(12_000.0, [0.3, 0.0, 1e-4, 0.0], 4096, 3072),
+            lens(2600.0, [-0.2, 0.05, 4e-4, -3e-4], 4096, 3072),
+            lens(1500.0, [-0.3, 0.08, 1e-3, 0.0], 2048, 1536),
+            lens(700.0, [-0.3, 0.08, 1e-3, 0.0], 1280, 1024),
+        ] {
+            let exact = CameraMap::new(&camera, &illumination);
+            let mut out = Vec::new();
+            let mut within = None;
+            for h in NODE_SPACINGS_PX {
+                let lattice = Lattice::with_spacing(&camera, Some(h));
+                let map = CameraMap::with_lattice(&camera, &illumination, &lattice);
+                // Every 16th row, from edge to edge.
+                let mut worst = 0.0f64;
+                for y in (0..camera.height).step_by(16).chain([camera.height - 1]) {
+                    map.map_run(y, 0, camera.width - 1, &mut out).unwrap();
+                    for (x, m) in out.iter().flat_map(MappedLanes::pixels) {
+                        let e = exact.map(f64::from(x), f64::from(y)).unwrap();
+                        worst = worst.max(
+                            (m.position[0] - e.position[0]).hypot(m.position[1] - e.position[1]),
+                        );
+                    }
+                }
+                let estimate = interpolation_error(&camera, h);
+                println!(
+                    "f = {} px, h = {h} px: error {worst:.2e} px, estimated {estimate:.2e} px",
+                    camera.intrinsics.fx
+                );
+                assert!(estimate > 0.5 * worst && estimate < 2.0 * worst);
+                if within.is_none() && worst <= LATTICE_TOLERANCE_PX {
+                    within = Some(h);
+                }
+            }
+            assert_eq!(Lattice::new(&camera).spacing_px(), within);
+        }
     }
 
     /// A run whose lattice nodes reach beyond where the lens model can be
@@ -1272,9 +1452,13 @@ mod tests {
     fn runs_near_where_the_model_folds_are_mapped_pixel_by_pixel() {
         let camera = lens(100.0, [-0.5, 0.0, 0.0, 0.0], W, H);
         let illumination = Illumination::Ideal;
-        let map = CameraMap::new(&camera, &illumination);
+        let lattice = fine(&camera);
+        let map = CameraMap::with_lattice(&camera, &illumination, &lattice);
         let (y, x0, x1) = (60u32, 90u32, 126u32);
-        assert!(map.node(i64::from(x1 / NODE_SPACING_PX) + 2, 7).is_none());
+        assert!(
+            map.node(i64::from(x1 / NODE_SPACINGS_PX[1]) + 2, 7)
+                .is_none()
+        );
         let mut out = Vec::new();
         map.map_run(y, x0, x1, &mut out).unwrap();
         let exact = CameraMap::new(&camera, &illumination);
@@ -1350,7 +1534,11 @@ mod tests {
         let frame = FrameView::new(W, H, 16, &pixels).unwrap();
         let (ex, params) = extract_one(frame);
         let blob = &ex.blobs[0];
-        assert!(blob.runs.iter().any(|r| r.x1 - r.x0 > 4 * NODE_SPACING_PX));
+        assert!(
+            blob.runs
+                .iter()
+                .any(|r| r.x1 - r.x0 > 4 * NODE_SPACINGS_PX[1])
+        );
         let illumination = Illumination::Ideal;
         let light = |map: &dyn PixelMap| {
             mapped_light(
@@ -1363,7 +1551,8 @@ mod tests {
             )
             .unwrap()
         };
-        let lattice = light(&CameraMap::new(&camera, &illumination));
+        let nodes = fine(&camera);
+        let lattice = light(&CameraMap::with_lattice(&camera, &illumination, &nodes));
         let exact = light(&Exact(CameraMap::new(&camera, &illumination)));
         let [u, v] = lattice.centroid;
         let d = (u - exact.centroid[0]).hypot(v - exact.centroid[1]);
@@ -1373,6 +1562,13 @@ mod tests {
         assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() + (a.2 - b.2).abs() < 1e-5 * a.0);
         let (ka, kb) = (lattice.covariance.unwrap(), exact.covariance.unwrap());
         assert!((ka.uu_px2 / kb.uu_px2 - 1.0).abs() < 1e-5, "{ka:?} {kb:?}");
+    }
+
+    /// The fine lattice of `camera`, whatever its lens: the small test
+    /// frame's wide angles bend too fast for [`Lattice::new`] to give one,
+    /// and the tests of the lattice's arithmetic want one.
+    fn fine(camera: &Camera) -> Lattice {
+        Lattice::with_spacing(camera, Some(NODE_SPACINGS_PX[1]))
     }
 
     /// A wide angle on the small test frame: 44° across, k1 = −0.2.
@@ -1499,9 +1695,14 @@ mod tests {
             let frame = FrameView::new(W, H, 16, &pixels).unwrap();
             let (ex, params) = extract_one(frame);
             let blob = &ex.blobs[0];
-            assert!(blob.runs.iter().any(|r| r.x1 - r.x0 > 5 * NODE_SPACING_PX));
+            assert!(
+                blob.runs
+                    .iter()
+                    .any(|r| r.x1 - r.x0 > 5 * NODE_SPACINGS_PX[1])
+            );
             let illumination = Illumination::Ideal;
-            let map = CameraMap::new(&camera, &illumination);
+            let lattice = fine(&camera);
+            let map = CameraMap::with_lattice(&camera, &illumination, &lattice);
             let k = 3.5;
             let light = Light {
                 frame: &frame,
@@ -1582,7 +1783,8 @@ mod tests {
         let blob = &ex.blobs[0];
         let illumination = Illumination::Ideal;
         // A map each: a run mapped pixel by pixel is solved from the previous pixel's.
-        let maps = [0, 1].map(|_| CameraMap::new(&camera, &illumination));
+        let lattice = fine(&camera);
+        let maps = [0, 1].map(|_| CameraMap::with_lattice(&camera, &illumination, &lattice));
         let light = |map| Light {
             frame: &frame,
             blob,
@@ -1602,7 +1804,8 @@ mod tests {
         });
         assert!(scalar.is_some_and(|s| s.covariance.is_some()));
         assert_eq!(light(&maps[1]).of(), scalar);
-        // Node columns 13/8 − 1 ..= 70/8 + 2 around the run 13..=70.
+        // Node columns 13/h − 1 ..= 70/h + 2 around the run 13..=70: 11 at
+        // the fine spacing, the first 8 of them at the coarse.
         let rows: [Vec<Node>; 4] = std::array::from_fn(|r| {
             (0..11)
                 .map(|i| {
@@ -1618,12 +1821,16 @@ mod tests {
         });
         fn intervals<'a>(
             rows: &'a [Vec<Node>; 4],
+            pieces: &'a [[[f64; PIECE]; 4]],
             columns: &'a mut Vec<Node>,
             out: &'a mut Vec<MappedLanes>,
         ) -> Intervals<'a> {
+            let h = pieces.len() * PIECE;
+            let nodes = 70 / h - 13 / h + 4;
             Intervals {
-                rows: rows.each_ref().map(Vec::as_slice),
+                rows: rows.each_ref().map(|r| &r[..nodes]),
                 weights: cubic_weights(0.375),
+                pieces,
                 columns,
                 x0: 13,
                 x1: 70,
@@ -1631,14 +1838,27 @@ mod tests {
                 out,
             }
         }
-        let (mut vector, mut scalar, mut columns) = (Vec::new(), Vec::new(), Vec::new());
-        assert!(pulp::Arch::new().dispatch(intervals(&rows, &mut columns, &mut vector)));
-        assert!(pulp::WithSimd::with_simd(
-            intervals(&rows, &mut columns, &mut scalar),
-            pulp::Scalar::new()
-        ));
-        assert_eq!(vector.len(), 8);
-        assert_eq!(vector, scalar);
+        for pieces in [&COARSE_WEIGHTS[..], &FINE_WEIGHTS[..]] {
+            let (mut vector, mut scalar, mut columns) = (Vec::new(), Vec::new(), Vec::new());
+            assert!(pulp::Arch::new().dispatch(intervals(
+                &rows,
+                pieces,
+                &mut columns,
+                &mut vector
+            )));
+            assert!(pulp::WithSimd::with_simd(
+                intervals(&rows, pieces, &mut columns, &mut scalar),
+                pulp::Scalar::new()
+            ));
+            // Lanes from pixel 0 to pixel 64, each with some of the run.
+            assert_eq!(vector.len(), 70 / LANES + 1);
+            assert_eq!(vector, scalar);
+            let pixels: Vec<u32> = vector
+                .iter()
+                .flat_map(|l| l.pixels().map(|p| p.0))
+                .collect();
+            assert!(pixels.into_iter().eq(13..=70));
+        }
     }
 
     /// Observed positions stretched by `s` along u about `cu`: ideal

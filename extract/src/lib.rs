@@ -40,8 +40,8 @@ pub use background::MIN_MESH_PX;
 pub use batch::{FrameBlobs, Radiometry, extract_file, extract_files, extract_files_flat};
 pub use blob::{Blob, BoundingBox, MomentEllipse, Moments};
 pub use correction::{
-    CameraMap, FlatFieldMap, LANES, Lattice, Mapped, MappedLanes, MappedLight, NODE_SPACING_PX,
-    PixelMap, mapped_centroid, mapped_light, observed_centroids,
+    CameraMap, FlatFieldMap, LANES, LATTICE_TOLERANCE_PX, Lattice, Mapped, MappedLanes,
+    MappedLight, NODE_SPACINGS_PX, PixelMap, mapped_centroid, mapped_light, observed_centroids,
 };
 pub use decode::FrameReader;
 pub use denoise::{Denoise, apply as denoise};

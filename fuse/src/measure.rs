@@ -145,6 +145,10 @@ pub struct Summary {
     /// Cameras whose relative illumination is the assumed ideal lens (no
     /// flat-field model in `rig.json`).
     pub assumed_ideal_lens: Vec<u8>,
+    /// Cameras whose lens bends too fast for any lattice of interpolated
+    /// nodes (`extract::Lattice::spacing_px`): their pixels are mapped
+    /// exactly, one by one, which is many times slower.
+    pub mapped_pixel_by_pixel: Vec<u8>,
     /// Each camera's noise model, which the centroids' covariances in
     /// `<stem>.observations.csv` come from.
     pub noise: BTreeMap<u8, CameraNoise>,
@@ -1309,6 +1313,12 @@ pub fn measure(
         problems_file: written.problems_file,
         poses: paths.poses,
         assumed_ideal_lens: assumed_ideal,
+        mapped_pixel_by_pixel: ctx
+            .lattices
+            .iter()
+            .filter(|(_, lattice)| lattice.spacing_px().is_none())
+            .map(|(&id, _)| id)
+            .collect(),
         noise: ctx.noise.clone(),
         saturation,
         frames_read: ctx.frames_read.into_inner(),

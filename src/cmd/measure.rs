@@ -118,6 +118,13 @@ pub fn run(args: &Args) -> Result<()> {
             args.rig.display()
         );
     }
+    for camera in &summary.mapped_pixel_by_pixel {
+        eprintln!(
+            "trinocular: note: camera {camera}: the lens distorts too fast for a lattice of interpolated \
+             nodes (within {} px): its pixels are undistorted exactly, one by one (slower)",
+            extract::LATTICE_TOLERANCE_PX
+        );
+    }
     for (camera, noise) in &summary.noise {
         eprintln!(
             "trinocular: camera {camera}: image noise {}",
