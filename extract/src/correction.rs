@@ -45,13 +45,9 @@ pub struct Mapped {
 }
 
 /// Pixels of a run mapped together, whose arithmetic the compiler can
-/// spread over vector lanes.
-pub const LANES: usize = 16;
-
-/// Pixels of a run interpolated together from one node interval's four node
-/// columns: the fine node spacing, half the coarse one
-/// ([`Lattice::spacing_px`]), half of [`LANES`].
-const PIECE: usize = 8;
+/// spread over vector lanes: a node interval of the lattice is one or two
+/// such groups ([`Lattice::spacing_px`]).
+pub const LANES: usize = 8;
 
 /// Lane offsets `0, 1, …, LANES − 1` as reals.
 const LANE_OFFSETS: [f64; LANES] = {
@@ -196,16 +192,16 @@ const fn cubic_weights(t: f64) -> [f64; 4] {
 }
 
 /// The weights of the node columns (of the four around a node interval
-/// of `PIECES`·[`PIECE`] px) at each pixel of the interval: piece p,
-/// column m, lane l is pixel p·PIECE + l.
-const fn offset_weights<const PIECES: usize>() -> [[[f64; PIECE]; 4]; PIECES] {
-    let mut w = [[[0.0; PIECE]; 4]; PIECES];
+/// of `GROUPS`·[`LANES`] px) at each pixel of the interval: group g, column
+/// m, lane l is pixel g·LANES + l.
+const fn offset_weights<const GROUPS: usize>() -> [[[f64; LANES]; 4]; GROUPS] {
+    let mut w = [[[0.0; LANES]; 4]; GROUPS];
     let mut o = 0;
-    while o < PIECES * PIECE {
-        let c = cubic_weights(o as f64 / (PIECES * PIECE) as f64);
+    while o < GROUPS * LANES {
+        let c = cubic_weights(o as f64 / (GROUPS * LANES) as f64);
         let mut m = 0;
         while m < 4 {
-            w[o / PIECE][m][o % PIECE] = c[m];
+            w[o / LANES][m][o % LANES] = c[m];
             m += 1;
         }
         o += 1;
@@ -214,8 +210,8 @@ const fn offset_weights<const PIECES: usize>() -> [[[f64; PIECE]; 4]; PIECES] {
 }
 
 /// [`offset_weights`] of the coarse and of the fine spacing.
-const COARSE_WEIGHTS: [[[f64; PIECE]; 4]; 2] = offset_weights::<2>();
-const FINE_WEIGHTS: [[[f64; PIECE]; 4]; 1] = offset_weights::<1>();
+const COARSE_WEIGHTS: [[[f64; LANES]; 4]; 2] = offset_weights::<2>();
+const FINE_WEIGHTS: [[[f64; LANES]; 4]; 1] = offset_weights::<1>();
 
 /// The lattice of a camera's exactly mapped nodes every
 /// [`Lattice::spacing_px`] over its sensor, node (i, j) from (−1, −1), each
@@ -499,7 +495,7 @@ impl<'a> CameraMap<'a> {
             .dispatch(Intervals {
                 rows: [a?, b?, c?, d?],
                 weights: wy,
-                pieces: if h == NODE_SPACINGS_PX[0] {
+                groups: if h == NODE_SPACINGS_PX[0] {
                     &COARSE_WEIGHTS
                 } else {
                     &FINE_WEIGHTS
@@ -516,12 +512,12 @@ impl<'a> CameraMap<'a> {
 
 /// A run's four rows of node columns, to be interpolated to its row `v`
 /// with `weights` (into `columns`) and spread over the run's pixels
-/// `x0..=x1`, [`PIECE`] pixels at a time with the weights of the pieces of
-/// a node interval, `pieces` ([`offset_weights`]), into [`LANES`].
+/// `x0..=x1` interval by interval, [`LANES`] pixels at a time with the
+/// weights of `groups` ([`offset_weights`]).
 struct Intervals<'a> {
     rows: [&'a [Node]; 4],
     weights: [f64; 4],
-    pieces: &'a [[[f64; PIECE]; 4]],
+    groups: &'a [[[f64; LANES]; 4]],
     columns: &'a mut Vec<Node>,
     x0: u32,
     x1: u32,
@@ -558,53 +554,43 @@ impl pulp::WithSimd for Intervals<'_> {
         {
             return false;
         }
-        let (h, x0, x1) = ((self.pieces.len() * PIECE) as u32, self.x0, self.x1);
+        let (h, x0, x1) = ((self.groups.len() * LANES) as u32, self.x0, self.x1);
         debug_assert_eq!(columns.len() as u32, x1 / h - x0 / h + 4);
-        let (lanes, piece) = (LANES as u32, PIECE as u32);
-        let mut start = (x0 / lanes) * lanes;
-        while start <= x1 {
-            // Shift u, shift v, J and 1/RI of each lane; a piece without
-            // pixels of the run keeps finite values that count for nothing.
-            let mut q = [[0.0; LANES], [0.0; LANES], [1.0; LANES], [1.0; LANES]];
-            for p in 0..LANES / PIECE {
-                let at = start + p as u32 * piece;
-                if at <= x1 && at + piece > x0 {
-                    // Node interval at / h: columns from its index in the run's.
-                    let c = &columns[(at / h - x0 / h) as usize..];
-                    let w = &self.pieces[((at % h) / piece) as usize];
-                    for (n, values) in interval(c, w).into_iter().enumerate() {
-                        q[n][p * PIECE..(p + 1) * PIECE].copy_from_slice(&values);
-                    }
+        let mut start = (x0 / h) * h;
+        for c in columns.windows(4) {
+            for weights in self.groups {
+                // The lanes' pixels start ..= start + LANES − 1, if the run's.
+                if start <= x1 && start + LANES as u32 > x0 {
+                    let [sx, sy, jacobian, inverse_illumination] = interval(c, weights);
+                    let u0 = f64::from(start);
+                    self.out.push(MappedLanes {
+                        x: start,
+                        first: (x0.max(start) - start) as usize,
+                        end: (x1 - start).min(LANES as u32 - 1) as usize + 1,
+                        position: [
+                            std::array::from_fn(|l| (u0 + LANE_OFFSETS[l]) + sx[l]),
+                            std::array::from_fn(|l| self.v + sy[l]),
+                        ],
+                        jacobian,
+                        inverse_illumination,
+                    });
                 }
+                start += LANES as u32;
             }
-            let [sx, sy, jacobian, inverse_illumination] = q;
-            let u0 = f64::from(start);
-            self.out.push(MappedLanes {
-                x: start,
-                first: (x0.max(start) - start) as usize,
-                end: (x1 - start).min(lanes - 1) as usize + 1,
-                position: [
-                    std::array::from_fn(|l| (u0 + LANE_OFFSETS[l]) + sx[l]),
-                    std::array::from_fn(|l| self.v + sy[l]),
-                ],
-                jacobian,
-                inverse_illumination,
-            });
-            start += lanes;
         }
         true
     }
 }
 
-/// The four quantities of a [`Node`] at [`PIECE`] pixels of a node
-/// interval, from the four node columns around it, `c[..4]` (already
-/// interpolated to the row), with the columns' weights `w` at those pixels.
+/// The four quantities of a [`Node`] at [`LANES`] pixels of a node
+/// interval, from the four node columns around it (already interpolated to
+/// the row) with the columns' weights `w` at those pixels.
 #[inline(always)]
-fn interval(c: &[Node], w: &[[f64; PIECE]; 4]) -> [[f64; PIECE]; 4] {
-    let mut q = [[0.0; PIECE]; 4];
+fn interval(c: &[Node], w: &[[f64; LANES]; 4]) -> [[f64; LANES]; 4] {
+    let mut q = [[0.0; LANES]; 4];
     for (n, qn) in q.iter_mut().enumerate() {
         let (c0, c1, c2, c3) = (c[0][n], c[1][n], c[2][n], c[3][n]);
-        for l in 0..PIECE {
+        for l in 0..LANES {
             qn[l] = w[0][l] * c0 + w[1][l] * c1 + w[2][l] * c2 + w[3][l] * c3;
         }
     }
@@ -804,8 +790,8 @@ impl RunTop {
         let t = (p.level[l] - p.background[l]) * lanes.inverse_illumination[l];
         let higher = lanes.holds(l) & (t > self.level[l]);
         // Stored whatever `higher`, as maxima (k grows along the run): a
-        // store of "new or as it was" compiles to a masked store, which
-        // stalls AMD's cores (a fifth of the pass).
+        // store of "new or as it was" compiles to a masked store, slow on
+        // AMD's cores.
         self.level[l] = self.level[l].max(if higher { t } else { f64::NEG_INFINITY });
         self.interval[l] = self.interval[l].max(if higher { k } else { -1.0 });
     }
@@ -1821,16 +1807,15 @@ mod tests {
         });
         fn intervals<'a>(
             rows: &'a [Vec<Node>; 4],
-            pieces: &'a [[[f64; PIECE]; 4]],
+            groups: &'a [[[f64; LANES]; 4]],
             columns: &'a mut Vec<Node>,
             out: &'a mut Vec<MappedLanes>,
         ) -> Intervals<'a> {
-            let h = pieces.len() * PIECE;
-            let nodes = 70 / h - 13 / h + 4;
+            let nodes = 70 / (groups.len() * LANES) - 13 / (groups.len() * LANES) + 4;
             Intervals {
                 rows: rows.each_ref().map(|r| &r[..nodes]),
                 weights: cubic_weights(0.375),
-                pieces,
+                groups,
                 columns,
                 x0: 13,
                 x1: 70,
@@ -1838,20 +1823,20 @@ mod tests {
                 out,
             }
         }
-        for pieces in [&COARSE_WEIGHTS[..], &FINE_WEIGHTS[..]] {
+        for groups in [&COARSE_WEIGHTS[..], &FINE_WEIGHTS[..]] {
             let (mut vector, mut scalar, mut columns) = (Vec::new(), Vec::new(), Vec::new());
             assert!(pulp::Arch::new().dispatch(intervals(
                 &rows,
-                pieces,
+                groups,
                 &mut columns,
                 &mut vector
             )));
             assert!(pulp::WithSimd::with_simd(
-                intervals(&rows, pieces, &mut columns, &mut scalar),
+                intervals(&rows, groups, &mut columns, &mut scalar),
                 pulp::Scalar::new()
             ));
-            // Lanes from pixel 0 to pixel 64, each with some of the run.
-            assert_eq!(vector.len(), 70 / LANES + 1);
+            // Lanes from pixel 8 to pixel 64, each with some of the run.
+            assert_eq!(vector.len(), 8);
             assert_eq!(vector, scalar);
             let pixels: Vec<u32> = vector
                 .iter()
