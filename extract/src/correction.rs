@@ -166,8 +166,9 @@ fn pixel_by_pixel<M: PixelMap + ?Sized>(
 /// a wide-angle lens whose distortion shifts it by 570 px, 4e-9 px on a
 /// long lens; at 8 px 16 × less. A camera's lattice takes the coarsest
 /// spacing whose error ([`interpolation_error`]) is within
-/// [`LATTICE_TOLERANCE_PX`]; with neither, its pixels are mapped exactly, one
-/// by one (`docs/performance.md`).
+/// [`LATTICE_TOLERANCE_PX`]; with neither, or where the lens model folds over
+/// within reach of the sensor, its pixels are mapped exactly, one by one
+/// (`docs/performance.md`).
 pub const NODE_SPACINGS_PX: [u32; 2] = [16, 8];
 
 /// The largest interpolation error of a lattice's positions (px): half the
@@ -293,9 +294,11 @@ impl Lattice {
 /// The largest error of the position interpolated through a lattice of
 /// nodes every `h` px: at the middle of node intervals (in both directions,
 /// where a cubic's error peaks) on a 5 × 5 grid of them from corner to
-/// corner — a lens's distortion changes fastest at the edges. Intervals with
-/// a node the model cannot map are left out (their runs are mapped pixel by
-/// pixel).
+/// corner — a lens's distortion changes fastest at the edges. Infinite where
+/// the model cannot map one of those nodes: its distortion folds over
+/// within reach of the sensor (the corners reach farthest), and near the
+/// fold the map bends faster than any lattice follows (0.2–0.8 px off at
+/// 8 px on such lenses).
 fn interpolation_error(camera: &Camera, h: u32) -> f64 {
     let shift = |i: u32, j: u32, t: f64| {
         let (u, v) = (
@@ -321,9 +324,10 @@ fn interpolation_error(camera: &Camera, h: u32) -> f64 {
                         .map(|(s, d)| [s[0] + wm * wn * d[0], s[1] + wm * wn * d[1]]);
                 }
             }
-            if let Some((s, exact)) = interpolated.zip(shift(i, j, 0.5)) {
-                worst = worst.max((s[0] - exact[0]).hypot(s[1] - exact[1]));
-            }
+            let Some((s, exact)) = interpolated.zip(shift(i, j, 0.5)) else {
+                return f64::INFINITY;
+            };
+            worst = worst.max((s[0] - exact[0]).hypot(s[1] - exact[1]));
         }
     }
     worst
@@ -1389,7 +1393,8 @@ mod tests {
     /// measured against the exact map over the whole sensor, is within the
     /// tolerance, and none where neither is: from a long lens to wide
     /// angles on small sensors; the estimate it is chosen by follows the
-    /// measured error.
+    /// measured error. A lens model that folds over inside the sensor gets
+    /// none.
     #[test]
     fn the_lattice_is_as_coarse_as_the_lens_allows() {
         let illumination = Illumination::Ideal;
@@ -1428,6 +1433,32 @@ mod tests {
             }
             assert_eq!(Lattice::new(&camera).spacing_px(), within);
         }
+        // A model that folds over inside the sensor (k1 = −0.6 at
+        // f = 2000 px: nothing maps beyond ≈ 990 px from the centre) has no
+        // lattice: next to the fold, where the nodes still map, even the
+        // fine one is off by a large fraction of a pixel.
+        let folding = lens(2000.0, [-0.6, 0.0, 0.0, 0.0], 4096, 3072);
+        assert_eq!(Lattice::new(&folding).spacing_px(), None);
+        let lattice = Lattice::with_spacing(&folding, Some(NODE_SPACINGS_PX[1]));
+        let map = CameraMap::with_lattice(&folding, &illumination, &lattice);
+        let exact = CameraMap::new(&folding, &illumination);
+        let (mut worst, mut out) = (0.0f64, Vec::new());
+        for y in (1300..1400).step_by(8) {
+            for x0 in (0..4096).step_by(64) {
+                if map.lattice_run(y, x0, x0 + 63, &mut out).is_none() {
+                    continue;
+                }
+                for (x, m) in out.iter().flat_map(MappedLanes::pixels) {
+                    if let Some(e) = exact.map(f64::from(x), f64::from(y)) {
+                        worst = worst.max(
+                            (m.position[0] - e.position[0]).hypot(m.position[1] - e.position[1]),
+                        );
+                    }
+                }
+            }
+        }
+        println!("folding model, fine lattice beside the fold: {worst:.2e} px");
+        assert!(worst > 100.0 * LATTICE_TOLERANCE_PX, "{worst:e} px");
     }
 
     /// A run whose lattice nodes reach beyond where the lens model can be

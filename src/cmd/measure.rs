@@ -120,8 +120,9 @@ pub fn run(args: &Args) -> Result<()> {
     }
     for camera in &summary.mapped_pixel_by_pixel {
         eprintln!(
-            "trinocular: note: camera {camera}: the lens distorts too fast for a lattice of interpolated \
-             nodes (within {} px): its pixels are undistorted exactly, one by one (slower)",
+            "trinocular: note: camera {camera}: the lens model bends too fast for a lattice of interpolated \
+             nodes (within {} px), or folds over within the sensor's reach: its pixels are undistorted \
+             exactly, one by one (slower)",
             extract::LATTICE_TOLERANCE_PX
         );
     }
