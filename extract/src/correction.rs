@@ -1785,8 +1785,9 @@ mod tests {
     }
 
     /// The corrected light and the lattice's runs compiled for the CPU's
-    /// widest vector units give the bits of the same code without them
-    /// (pulp's scalar build): results do not depend on the machine's CPU.
+    /// widest vector units (AVX-512 where it has them), and for AVX2, give
+    /// the bits of the same code without them (pulp's scalar build): results
+    /// do not depend on the machine's CPU.
     #[test]
     fn vector_units_give_the_scalar_codes_bits() {
         let camera = wide_angle();
@@ -1801,7 +1802,7 @@ mod tests {
         let illumination = Illumination::Ideal;
         // A map each: a run mapped pixel by pixel is solved from the previous pixel's.
         let lattice = fine(&camera);
-        let maps = [0, 1].map(|_| CameraMap::with_lattice(&camera, &illumination, &lattice));
+        let maps = [0, 1, 2].map(|_| CameraMap::with_lattice(&camera, &illumination, &lattice));
         let light = |map| Light {
             frame: &frame,
             blob,
@@ -1821,6 +1822,20 @@ mod tests {
         });
         assert!(scalar.is_some_and(|s| s.covariance.is_some()));
         assert_eq!(light(&maps[1]).of(), scalar);
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = pulp::x86::V3::try_new() {
+            let light = light(&maps[2]);
+            let on_avx2 = with_ring(|ring| {
+                pulp::Simd::vectorize(
+                    avx2,
+                    Passes {
+                        light: &light,
+                        ring,
+                    },
+                )
+            });
+            assert_eq!(on_avx2, scalar);
+        }
         // Node columns 13/h − 1 ..= 70/h + 2 around the run 13..=70: 11 at
         // the fine spacing, the first 8 of them at the coarse.
         let rows: [Vec<Node>; 4] = std::array::from_fn(|r| {
@@ -1869,6 +1884,13 @@ mod tests {
             // Lanes from pixel 8 to pixel 64, each with some of the run.
             assert_eq!(vector.len(), 8);
             assert_eq!(vector, scalar);
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx2) = pulp::x86::V3::try_new() {
+                let mut on_avx2 = Vec::new();
+                let op = intervals(&rows, groups, &mut columns, &mut on_avx2);
+                assert!(pulp::Simd::vectorize(avx2, op));
+                assert_eq!(on_avx2, scalar);
+            }
             let pixels: Vec<u32> = vector
                 .iter()
                 .flat_map(|l| l.pixels().map(|p| p.0))

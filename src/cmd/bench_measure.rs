@@ -2,7 +2,9 @@
 //! image format. A full-size campaign (4096×3072, 16-bit, the three
 //! cameras) is rendered and calibrated once per format (uncompressed,
 //! Deflate and LZW TIFF, 16-bit PNG); then, each as a child process timed
-//! over `--repeat` runs (median) with its peak resident memory (its
+//! over `--repeat` runs (median; the commands in turn, one run of each per
+//! round, so that a drift of the shared machine meets them all alike) with
+//! its peak resident memory (its
 //! `VmHWM`, [`record_peak`]): decode only (`bench decode`), decode + extract (`extract`) and
 //! `measure --all-cameras`, on the same files, all threads; and `measure` as
 //! run by default, which reads two of an instant's three frames (the two
@@ -172,17 +174,30 @@ fn run_child(args: &[&OsStr]) -> Result<(Duration, Option<u64>)> {
     Ok((elapsed, peak))
 }
 
-/// Median wall time and the largest peak memory of `repeat` runs.
-fn timed(repeat: usize, args: &[&OsStr]) -> Result<(Duration, Option<u64>)> {
-    let mut times = Vec::new();
-    let mut peak = None;
+/// Per command, the median wall time and the largest peak memory of
+/// `repeat` runs, the commands taken in turn (one run of each, `repeat`
+/// times over): on a shared machine whose speed drifts, every command meets
+/// the same states, so their ratios compare like with like.
+fn timed_in_turn(
+    repeat: usize,
+    commands: &[Vec<OsString>],
+) -> Result<Vec<(Duration, Option<u64>)>> {
+    let mut runs = vec![(Vec::new(), None); commands.len()];
     for _ in 0..repeat {
-        let (t, p) = run_child(args)?;
-        times.push(t);
-        peak = peak.max(p);
+        for (command, (times, peak)) in commands.iter().zip(&mut runs) {
+            let args: Vec<&OsStr> = command.iter().map(OsString::as_os_str).collect();
+            let (t, p) = run_child(&args)?;
+            times.push(t);
+            *peak = (*peak).max(p);
+        }
     }
-    times.sort();
-    Ok((times[times.len() / 2], peak))
+    Ok(runs
+        .into_iter()
+        .map(|(mut times, peak)| {
+            times.sort();
+            (times[times.len() / 2], peak)
+        })
+        .collect())
 }
 
 /// Render a full-size campaign of `format` into `dir` and calibrate its rig.
@@ -278,7 +293,7 @@ pub fn bench(args: &MeasureArgs) -> Result<()> {
     };
     let threads = rayon::current_num_threads();
     println!(
-        "measure: full-size campaigns (4096×3072, 16-bit, 3 cameras), {threads} threads, median of {} runs",
+        "measure: full-size campaigns (4096×3072, 16-bit, 3 cameras), {threads} threads, median of {} runs taken in turn",
         args.repeat
     );
     for format in formats {
@@ -333,17 +348,18 @@ pub fn bench(args: &MeasureArgs) -> Result<()> {
             .filter(|a| a.as_os_str() != "--all-cameras")
             .cloned()
             .collect();
-        let mut rows = Vec::new();
-        for (what, command) in [
-            ("decode", decode),
-            ("decode + extract", extract),
-            ("measure", measure),
-            ("measure, 2 cameras", default_cameras),
-        ] {
-            let refs: Vec<&OsStr> = command.iter().map(OsString::as_os_str).collect();
-            let (t, peak) = timed(args.repeat, &refs)?;
-            rows.push((what, frames / t.as_secs_f64(), peak));
-        }
+        let names = [
+            "decode",
+            "decode + extract",
+            "measure",
+            "measure, 2 cameras",
+        ];
+        let timed = timed_in_turn(args.repeat, &[decode, extract, measure, default_cameras])?;
+        let rows: Vec<(&str, f64, Option<u64>)> = names
+            .into_iter()
+            .zip(timed)
+            .map(|(what, (t, peak))| (what, frames / t.as_secs_f64(), peak))
+            .collect();
         let bytes: u64 = files
             .iter()
             .map(|f| std::fs::metadata(f).map(|m| m.len()).unwrap_or(0))
