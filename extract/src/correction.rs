@@ -292,7 +292,8 @@ impl Lattice {
 }
 
 /// The largest error of the position interpolated through a lattice of
-/// nodes every `h` px: at the middle of node intervals (in both directions,
+/// nodes every `h` px (one of its own, as runs are): at the middle of node
+/// intervals (in both directions,
 /// where a cubic's error peaks) on a 5 × 5 grid of them from corner to
 /// corner — a lens's distortion changes fastest at the edges. Infinite where
 /// the model cannot map one of those nodes: its distortion folds over
@@ -300,34 +301,27 @@ impl Lattice {
 /// fold the map bends faster than any lattice follows (0.2–0.8 px off at
 /// 8 px on such lenses).
 fn interpolation_error(camera: &Camera, h: u32) -> f64 {
-    let shift = |i: u32, j: u32, t: f64| {
-        let (u, v) = (
-            (f64::from(i) + t) * f64::from(h),
-            (f64::from(j) + t) * f64::from(h),
-        );
-        let p = camera.undistort_pixel(Point2::new(u, v)).ok()?;
-        Some([p.x - u, p.y - v])
-    };
-    let weights = cubic_weights(0.5);
+    let lattice = Lattice::with_spacing(camera, Some(h));
+    let ideal = Illumination::Ideal;
+    let map = CameraMap::with_lattice(camera, &ideal, &lattice);
     let last = [camera.width, camera.height].map(|n| n.saturating_sub(1) / h);
+    let mut out = Vec::new();
     let mut worst = 0.0f64;
     for a in 0..=4 {
         for b in 0..=4 {
-            let (i, j) = (last[0] * a / 4, last[1] * b / 4);
-            let mut interpolated = Some([0.0; 2]);
-            for (m, wm) in weights.iter().enumerate() {
-                for (n, wn) in weights.iter().enumerate() {
-                    // Node (i + m − 1, j + n − 1): −1 as t = −1 about i.
-                    let node = shift(i + m as u32, j + n as u32, -1.0);
-                    interpolated = interpolated
-                        .zip(node)
-                        .map(|(s, d)| [s[0] + wm * wn * d[0], s[1] + wm * wn * d[1]]);
-                }
-            }
-            let Some((s, exact)) = interpolated.zip(shift(i, j, 0.5)) else {
+            // The middle of node interval (i, j): pixel ((i + ½)·h, (j + ½)·h).
+            let [x, y] = [(last[0] * a / 4), (last[1] * b / 4)].map(|i| i * h + h / 2);
+            out.clear();
+            let through_lattice = map
+                .lattice_run(y, x, x, &mut out)
+                .and_then(|()| out.iter().flat_map(MappedLanes::pixels).next());
+            let exact = camera
+                .undistort_pixel(Point2::new(f64::from(x), f64::from(y)))
+                .ok();
+            let Some(((_, m), p)) = through_lattice.zip(exact) else {
                 return f64::INFINITY;
             };
-            worst = worst.max((s[0] - exact[0]).hypot(s[1] - exact[1]));
+            worst = worst.max((m.position[0] - p.x).hypot(m.position[1] - p.y));
         }
     }
     worst
@@ -1336,6 +1330,7 @@ mod tests {
         let (w, h) = (4096u32, 3072u32);
         let camera = lens(2600.0, [-0.2, 0.05, 4e-4, -3e-4], w, h);
         let illumination = Illumination::Ideal;
+        let exact = CameraMap::new(&camera, &illumination);
         assert_eq!(
             Lattice::new(&camera).spacing_px(),
             Some(NODE_SPACINGS_PX[0])
@@ -1349,44 +1344,50 @@ mod tests {
         {
             let lattice = Lattice::with_spacing(&camera, Some(spacing));
             let map = CameraMap::with_lattice(&camera, &illumination, &lattice);
-            let worst = worst_against_exact(&map, &camera, &illumination);
+            let runs = [
+                (40u32, 30u32, 330u32),
+                (1536, 3700, 4050),
+                (3000, 10, 45),
+                (2900, 3800, 3831),
+                (700, 100, 112),
+            ];
+            let (worst, off) = worst_through_lattice(&map, &exact, runs);
+            assert_eq!(off, 0, "runs off the lattice");
             println!("{spacing} px: worst {worst:?}");
             assert!(worst[0] < bounds[0], "position {:e} px", worst[0]);
             assert!(worst[1] < bounds[1] && worst[2] < bounds[1], "{worst:?}");
         }
     }
 
-    /// The largest differences of `map` from the exact map over runs of
-    /// every length in the corners and the middle of a 4096 × 3072 sensor:
-    /// position (px), J and RI (relative).
-    fn worst_against_exact(
+    /// The largest differences of `map` through its lattice from the exact
+    /// map `exact` over `runs` (y, x0, x1), at the pixels the exact map
+    /// maps: position (px), J and RI (relative); and how many of the runs
+    /// left the lattice (near a node the model cannot map).
+    fn worst_through_lattice(
         map: &CameraMap<'_>,
-        camera: &Camera,
-        illumination: &Illumination,
-    ) -> [f64; 3] {
-        let exact = CameraMap::new(camera, illumination);
-        let mut out = Vec::new();
-        let mut worst = [0.0f64; 3];
-        for (y, x0, x1) in [
-            (40u32, 30u32, 330u32),
-            (1536, 3700, 4050),
-            (3000, 10, 45),
-            (2900, 3800, 3831),
-            (700, 100, 112),
-        ] {
-            map.map_run(y, x0, x1, &mut out).unwrap();
+        exact: &CameraMap<'_>,
+        runs: impl IntoIterator<Item = (u32, u32, u32)>,
+    ) -> ([f64; 3], usize) {
+        let (mut worst, mut off, mut out) = ([0.0f64; 3], 0, Vec::new());
+        for (y, x0, x1) in runs {
+            out.clear();
+            if map.lattice_run(y, x0, x1, &mut out).is_none() {
+                off += 1;
+                continue;
+            }
             let pixels: Vec<(u32, Mapped)> = out.iter().flat_map(MappedLanes::pixels).collect();
             assert!(pixels.iter().map(|p| p.0).eq(x0..=x1));
             for (x, m) in pixels {
-                let exact = exact.map(f64::from(x), f64::from(y)).unwrap();
-                let dp =
-                    (m.position[0] - exact.position[0]).hypot(m.position[1] - exact.position[1]);
+                let Some(e) = exact.map(f64::from(x), f64::from(y)) else {
+                    continue;
+                };
+                let dp = (m.position[0] - e.position[0]).hypot(m.position[1] - e.position[1]);
                 worst[0] = worst[0].max(dp);
-                worst[1] = worst[1].max((m.jacobian / exact.jacobian - 1.0).abs());
-                worst[2] = worst[2].max((m.illumination / exact.illumination - 1.0).abs());
+                worst[1] = worst[1].max((m.jacobian / e.jacobian - 1.0).abs());
+                worst[2] = worst[2].max((m.illumination / e.illumination - 1.0).abs());
             }
         }
-        worst
+        (worst, off)
     }
 
     /// A camera's lattice takes the coarsest spacing whose largest error,
@@ -1405,22 +1406,15 @@ mod tests {
             lens(700.0, [-0.3, 0.08, 1e-3, 0.0], 1280, 1024),
         ] {
             let exact = CameraMap::new(&camera, &illumination);
-            let mut out = Vec::new();
             let mut within = None;
             for h in NODE_SPACINGS_PX {
                 let lattice = Lattice::with_spacing(&camera, Some(h));
                 let map = CameraMap::with_lattice(&camera, &illumination, &lattice);
                 // Every 16th row, from edge to edge.
-                let mut worst = 0.0f64;
-                for y in (0..camera.height).step_by(16).chain([camera.height - 1]) {
-                    map.map_run(y, 0, camera.width - 1, &mut out).unwrap();
-                    for (x, m) in out.iter().flat_map(MappedLanes::pixels) {
-                        let e = exact.map(f64::from(x), f64::from(y)).unwrap();
-                        worst = worst.max(
-                            (m.position[0] - e.position[0]).hypot(m.position[1] - e.position[1]),
-                        );
-                    }
-                }
+                let rows = (0..camera.height).step_by(16).chain([camera.height - 1]);
+                let runs = rows.map(|y| (y, 0, camera.width - 1));
+                let ([worst, ..], off) = worst_through_lattice(&map, &exact, runs);
+                assert_eq!(off, 0, "runs off the lattice");
                 let estimate = interpolation_error(&camera, h);
                 println!(
                     "f = {} px, h = {h} px: error {worst:.2e} px, estimated {estimate:.2e} px",
@@ -1442,21 +1436,10 @@ mod tests {
         let lattice = Lattice::with_spacing(&folding, Some(NODE_SPACINGS_PX[1]));
         let map = CameraMap::with_lattice(&folding, &illumination, &lattice);
         let exact = CameraMap::new(&folding, &illumination);
-        let (mut worst, mut out) = (0.0f64, Vec::new());
-        for y in (1300..1400).step_by(8) {
-            for x0 in (0..4096).step_by(64) {
-                if map.lattice_run(y, x0, x0 + 63, &mut out).is_none() {
-                    continue;
-                }
-                for (x, m) in out.iter().flat_map(MappedLanes::pixels) {
-                    if let Some(e) = exact.map(f64::from(x), f64::from(y)) {
-                        worst = worst.max(
-                            (m.position[0] - e.position[0]).hypot(m.position[1] - e.position[1]),
-                        );
-                    }
-                }
-            }
-        }
+        let runs = (1300..1400)
+            .step_by(8)
+            .flat_map(|y| (0..4096).step_by(64).map(move |x0| (y, x0, x0 + 63)));
+        let ([worst, ..], _) = worst_through_lattice(&map, &exact, runs);
         println!("folding model, fine lattice beside the fold: {worst:.2e} px");
         assert!(worst > 100.0 * LATTICE_TOLERANCE_PX, "{worst:e} px");
     }

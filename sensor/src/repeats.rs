@@ -155,7 +155,7 @@ impl RepeatGainEstimate {
             });
         };
         let floor = depth_of(first.container_bits, self.all).step_dn().powi(2);
-        let fine = fit_sums(&self.sums, floor, Pooling::DegreesOfFreedom);
+        let (fine, _) = fit_sums(&self.sums, floor, Pooling::DegreesOfFreedom);
         let (low, high) = fine.model.levels();
         let gain = fine.model.slope();
         let background = self.background.unwrap_or(low);

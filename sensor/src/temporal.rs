@@ -232,10 +232,10 @@ pub(crate) fn pairs_noise(
                 pair_means,
             }),
         );
-        let temporal = fit_sums(&sums, floor_dn2, pooling);
+        let (temporal, pair_means) = fit_sums(&sums, floor_dn2, pooling);
         let converged = kept_before == Some(temporal.samples);
         kept_before = Some(temporal.samples);
-        clip = Some((temporal.model, pair_variance(&sums).1));
+        clip = Some((temporal.model, pair_means));
         result = Some(PairsNoise { temporal, sums });
         if converged {
             break;
@@ -246,14 +246,20 @@ pub(crate) fn pairs_noise(
 
 /// The temporal noise of sums of pairs' differences per level bin (one
 /// vector of bins per pair): `σ²_y` over the pairs, and the model of the
-/// bins' variance against their levels, bins pooled as `pooling` says.
-pub(crate) fn fit_sums(sums: &[Vec<BinSums>], floor_dn2: f64, pooling: Pooling) -> Temporal {
-    let (var_dn2, _) = pair_variance(sums);
-    Temporal {
+/// bins' variance against their levels, bins pooled as `pooling` says; with
+/// each pair's mean difference.
+pub(crate) fn fit_sums(
+    sums: &[Vec<BinSums>],
+    floor_dn2: f64,
+    pooling: Pooling,
+) -> (Temporal, Vec<f64>) {
+    let (var_dn2, pair_means) = pair_variance(sums);
+    let temporal = Temporal {
         var_dn2,
         model: fit_model(sums, floor_dn2, pooling),
         samples: sums.iter().flatten().map(|b| b.n).sum(),
-    }
+    };
+    (temporal, pair_means)
 }
 
 /// Per pair, per level bin: the exact sums of `A − B` over the pixels not
