@@ -292,8 +292,7 @@ impl Lattice {
 }
 
 /// The largest error of the position interpolated through a lattice of
-/// nodes every `h` px (one of its own, as runs are): at the middle of node
-/// intervals (in both directions,
+/// nodes every `h` px: at the middle of node intervals (in both directions,
 /// where a cubic's error peaks) on a 5 × 5 grid of them from corner to
 /// corner — a lens's distortion changes fastest at the edges. Infinite where
 /// the model cannot map one of those nodes: its distortion folds over
@@ -301,27 +300,34 @@ impl Lattice {
 /// fold the map bends faster than any lattice follows (0.2–0.8 px off at
 /// 8 px on such lenses).
 fn interpolation_error(camera: &Camera, h: u32) -> f64 {
-    let lattice = Lattice::with_spacing(camera, Some(h));
-    let ideal = Illumination::Ideal;
-    let map = CameraMap::with_lattice(camera, &ideal, &lattice);
+    let shift = |i: u32, j: u32, t: f64| {
+        let (u, v) = (
+            (f64::from(i) + t) * f64::from(h),
+            (f64::from(j) + t) * f64::from(h),
+        );
+        let p = camera.undistort_pixel(Point2::new(u, v)).ok()?;
+        Some([p.x - u, p.y - v])
+    };
+    let weights = cubic_weights(0.5);
     let last = [camera.width, camera.height].map(|n| n.saturating_sub(1) / h);
-    let mut out = Vec::new();
     let mut worst = 0.0f64;
     for a in 0..=4 {
         for b in 0..=4 {
-            // The middle of node interval (i, j): pixel ((i + ½)·h, (j + ½)·h).
-            let [x, y] = [(last[0] * a / 4), (last[1] * b / 4)].map(|i| i * h + h / 2);
-            out.clear();
-            let through_lattice = map
-                .lattice_run(y, x, x, &mut out)
-                .and_then(|()| out.iter().flat_map(MappedLanes::pixels).next());
-            let exact = camera
-                .undistort_pixel(Point2::new(f64::from(x), f64::from(y)))
-                .ok();
-            let Some(((_, m), p)) = through_lattice.zip(exact) else {
+            let (i, j) = (last[0] * a / 4, last[1] * b / 4);
+            let mut interpolated = Some([0.0; 2]);
+            for (m, wm) in weights.iter().enumerate() {
+                for (n, wn) in weights.iter().enumerate() {
+                    // Node (i + m − 1, j + n − 1): −1 as t = −1 about i.
+                    let node = shift(i + m as u32, j + n as u32, -1.0);
+                    interpolated = interpolated
+                        .zip(node)
+                        .map(|(s, d)| [s[0] + wm * wn * d[0], s[1] + wm * wn * d[1]]);
+                }
+            }
+            let Some((s, exact)) = interpolated.zip(shift(i, j, 0.5)) else {
                 return f64::INFINITY;
             };
-            worst = worst.max((m.position[0] - p.x).hypot(m.position[1] - p.y));
+            worst = worst.max((s[0] - exact[0]).hypot(s[1] - exact[1]));
         }
     }
     worst
