@@ -237,9 +237,13 @@ where
         .iter()
         .enumerate()
         .map(|(s, name)| {
-            let only: Vec<bool> = (0..sources.len()).map(|i| i == s).collect();
-            let (trials, _) = run(options, &only, &model);
-            let u = expanded_all(nominal, &trials)
+            // A single source's own run draws the same streams as the full
+            // run: its trials are those.
+            let own = (sources.len() > 1).then(|| {
+                let only: Vec<bool> = (0..sources.len()).map(|i| i == s).collect();
+                run(options, &only, &model).0
+            });
+            let u = expanded_all(nominal, own.as_deref().unwrap_or(&trials))
                 .into_iter()
                 .map(|(k, v)| (k, v / COVERAGE_FACTOR))
                 .collect();
