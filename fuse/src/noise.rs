@@ -18,7 +18,10 @@ use formats::InstantKey;
 use crate::plan::InstantPlan;
 
 /// Pairs of repeated captures read per camera for K.
-const REPEAT_PAIRS: usize = 2;
+pub(crate) const REPEAT_PAIRS: usize = 2;
+/// Pairs tried at most per camera: a pair that cannot be read or gives no
+/// sums is passed over for the next one, up to this many.
+const REPEAT_TRIES: usize = 3 * REPEAT_PAIRS;
 
 /// Where a camera's noise model comes from.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,6 +34,9 @@ pub enum NoiseSource {
         pairs: usize,
         /// Pixel differences used.
         pixels: u64,
+        /// Pairs passed over (unreadable, or refused by the photon
+        /// transfer), and the first one's reason.
+        passed_over: Option<(usize, String)>,
     },
     /// Unknown, and why.
     Unknown(String),
@@ -52,23 +58,41 @@ impl CameraNoise {
             (NoiseSource::Stacks, Some(k)) => {
                 format!("K = {k:.3} DN/e⁻ from the flat and dark stacks (rig.json)")
             }
-            (NoiseSource::Repeats { pairs, pixels }, Some(k)) => format!(
-                "K = {k:.3} DN/e⁻ from {pairs} pair{} of repeated captures ({pixels} pixel differences)",
-                if *pairs == 1 { "" } else { "s" }
-            ),
+            (
+                NoiseSource::Repeats {
+                    pairs,
+                    pixels,
+                    passed_over,
+                },
+                Some(k),
+            ) => {
+                let passed = passed_over.as_ref().map_or(String::new(), |(n, why)| {
+                    format!(
+                        "; {n} pair{} passed over, the first because its images {why}",
+                        if *n == 1 { "" } else { "s" }
+                    )
+                });
+                format!(
+                    "K = {k:.3} DN/e⁻ from {pairs} pair{} of repeated captures ({pixels} pixel \
+                     differences{passed})",
+                    if *pairs == 1 { "" } else { "s" }
+                )
+            }
             (NoiseSource::Unknown(why), _) => format!("unknown: {why}"),
             (_, None) => "unknown".into(),
         }
     }
 }
 
-/// The first [`REPEAT_PAIRS`] pairs of images of `camera` taken at one
+/// Two images of one camera at one instant, captures 1 and 2, with their
+/// instants.
+pub(crate) type RepeatPair<'p> = [(&'p InstantPlan, &'p std::path::Path); 2];
+
+/// The first [`REPEAT_TRIES`] pairs of images of `camera` taken at one
 /// instant: captures 1 and 2 of the same axis, direction, run and target,
-/// with their instants.
-pub(crate) fn repeat_pairs(
-    plans: &[InstantPlan],
-    camera: u8,
-) -> Vec<[(&InstantPlan, &std::path::Path); 2]> {
+/// with their instants; K is taken from the first [`REPEAT_PAIRS`] of them
+/// that can be used.
+pub(crate) fn repeat_pairs(plans: &[InstantPlan], camera: u8) -> Vec<RepeatPair<'_>> {
     let by_key: BTreeMap<InstantKey, &InstantPlan> = plans.iter().map(|p| (p.key, p)).collect();
     plans
         .iter()
@@ -83,64 +107,81 @@ pub(crate) fn repeat_pairs(
                 (*second, second.images.get(&camera)?.as_path()),
             ])
         })
-        .take(REPEAT_PAIRS)
+        .take(REPEAT_TRIES)
         .collect()
 }
 
-/// K from the pairs of repeated captures as they are read, and the first
-/// reason none can be given.
+/// The photon transfer of pair `index` of a camera's repeated captures,
+/// frames `a` and `b` taken with exposures `exposure_a` and `exposure_b`
+/// (s), or why it gives none.
+pub(crate) fn pair_transfer(
+    index: usize,
+    a: &extract::FrameView<'_>,
+    exposure_a: Option<f64>,
+    b: &extract::FrameView<'_>,
+    exposure_b: Option<f64>,
+) -> Result<sensor::PairTransfer, String> {
+    // The container's top code: saturated pixels are left out.
+    let saturation = if a.bit_depth == 8 {
+        u16::from(u8::MAX)
+    } else {
+        u16::MAX
+    };
+    sensor::RepeatGainEstimate::new(saturation)
+        .transfer(index, &as_frame(a, exposure_a), &as_frame(b, exposure_b))
+        .map_err(|e| format!("give no gain: {e}"))
+}
+
+/// K from the pairs of repeated captures as they are read, in their order:
+/// the pairs used, and those passed over with the first one's reason.
 #[derive(Default)]
 pub(crate) struct RepeatsRead {
     estimate: Option<sensor::RepeatGainEstimate>,
-    failure: Option<String>,
+    used: usize,
+    passed_over: usize,
+    first_failure: Option<String>,
 }
 
 impl RepeatsRead {
-    /// Takes in the pair of frames `a` and `b`, taken with exposures
-    /// `exposure_a` and `exposure_b` (s).
-    pub(crate) fn add_pair(
-        &mut self,
-        a: &extract::FrameView<'_>,
-        exposure_a: Option<f64>,
-        b: &extract::FrameView<'_>,
-        exposure_b: Option<f64>,
-    ) {
-        if self.failure.is_some() {
-            return;
-        }
-        // The container's top code: saturated pixels are left out.
-        let saturation = if a.bit_depth == 8 {
-            u16::from(u8::MAX)
-        } else {
-            u16::MAX
-        };
-        let estimate = self
-            .estimate
-            .get_or_insert_with(|| sensor::RepeatGainEstimate::new(saturation));
-        if let Err(e) = estimate.add_pair(&as_frame(a, exposure_a), &as_frame(b, exposure_b)) {
-            self.failure = Some(format!("give no gain: {e}"));
-        }
+    /// Pairs still to be used.
+    pub(crate) fn still_needed(&self) -> usize {
+        REPEAT_PAIRS.saturating_sub(self.used)
     }
 
-    /// A frame that could not be read, and why: no K.
-    pub(crate) fn unreadable(&mut self, why: String) {
-        self.failure.get_or_insert(format!("cannot be read: {why}"));
+    /// Takes in the next pair's photon transfer, or passes the pair over
+    /// with the reason it gives none.
+    pub(crate) fn take(&mut self, outcome: Result<sensor::PairTransfer, String>) {
+        let estimate = self
+            .estimate
+            .get_or_insert_with(|| sensor::RepeatGainEstimate::new(u16::MAX));
+        let added = outcome.and_then(|t| estimate.add(t).map_err(|e| format!("give no gain: {e}")));
+        match added {
+            Ok(()) => self.used += 1,
+            Err(why) => {
+                self.passed_over += 1;
+                self.first_failure.get_or_insert(why);
+            }
+        }
     }
 
     /// The camera's noise model from the pairs read (the first of them from
     /// `first`).
     pub(crate) fn finish(self, first: &std::path::Path) -> CameraNoise {
-        let gain = match (self.failure, self.estimate) {
-            (Some(why), _) => Err(why),
-            (None, None) => Err("give no gain: no pair was read".to_owned()),
-            (None, Some(estimate)) => estimate.finish().map_err(|e| format!("give no gain: {e}")),
+        let gain = match (self.used, self.estimate) {
+            (0, _) | (_, None) => Err(self
+                .first_failure
+                .clone()
+                .unwrap_or_else(|| "give no gain: no pair was read".to_owned())),
+            (_, Some(estimate)) => estimate.finish().map_err(|e| format!("give no gain: {e}")),
         };
+        let passed_over = self.first_failure.map(|why| (self.passed_over, why));
         match gain {
             Ok(g) => CameraNoise {
                 gain_dn_per_e: Some(g.gain_dn_per_e),
                 source: NoiseSource::Repeats {
                     pairs: g.pairs,
                     pixels: g.pixels,
+                    passed_over,
                 },
             },
             Err(why) => unknown(format!("the repeated captures ({}) {why}", first.display())),

@@ -93,3 +93,56 @@ fn k_from_repeats_reads_each_frame_once_and_gives_the_covariances_at_that_k() {
     }
     assert_eq!(checked, rows.len());
 }
+
+/// One frame of the first pair of repeated captures cannot be read: K comes
+/// from the pairs that remain (the next one taken in its place), the
+/// passed-over pair is said, every observation keeps its σ, and only the
+/// unreadable frame's camera is left out of its instant.
+#[test]
+fn an_unreadable_frame_of_the_first_pair_leaves_k_to_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    common::campaign_captured(dir, 640, 3, 1, 2, 5, |_| {});
+    let rows = read_csv::<ManifestRow>(&dir.join("manifest.csv")).unwrap();
+    let first = rows
+        .iter()
+        .filter(|r| r.record.camera == 2 && r.record.capture == 1)
+        .min_by_key(|r| r.record.instant())
+        .unwrap();
+    let image = dir.join(&first.record.image);
+    let bytes = std::fs::read(&image).unwrap();
+    std::fs::write(&image, &bytes[..bytes.len() / 3]).unwrap();
+    let options = MeasureOptions {
+        all_cameras: true,
+        ..MeasureOptions::default()
+    };
+    let summary = common::measure_with(dir, "points.csv", &options, &|_, _| {}, false).unwrap();
+    let noise = &summary.noise[&2];
+    let described = noise.describe();
+    println!("camera 2: {described}");
+    match &noise.source {
+        NoiseSource::Repeats {
+            pairs: 2,
+            passed_over: Some((1, why)),
+            ..
+        } => assert!(why.contains("cannot be read"), "{why}"),
+        other => panic!("{other:?}"),
+    }
+    assert!(described.contains("1 pair passed over"), "{described}");
+    let k = noise.gain_dn_per_e.unwrap();
+    let k1 = summary.noise[&1].gain_dn_per_e.unwrap();
+    assert!(
+        (k / k1 - 1.0).abs() < 0.1,
+        "camera 2 K {k}, camera 1 K {k1}"
+    );
+    let observations: Vec<ObservationRow> = common::records(&dir.join("points.observations.csv"));
+    assert!(observations.iter().any(|r| r.camera == 2));
+    assert!(
+        observations.iter().all(|r| r.u_sigma_px.is_some()),
+        "every observation has its σ"
+    );
+    assert_eq!(
+        summary.problems, 1,
+        "the unreadable frame's camera left out"
+    );
+}

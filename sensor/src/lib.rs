@@ -63,5 +63,5 @@ pub use defect_map::{Cluster, Defect, DefectKind, DefectMap};
 pub use error::{Result, SensorError};
 pub use frame::{Frame, StackKind, check_stack};
 pub use master::{Master, master};
-pub use repeats::{RepeatGain, RepeatGainEstimate, gain_from_repeats};
+pub use repeats::{PairTransfer, RepeatGain, RepeatGainEstimate, gain_from_repeats};
 pub use transfer::{PhotonTransfer, photon_transfer};

@@ -76,6 +76,9 @@ pub(crate) struct Temporal {
 pub(crate) struct BinSums {
     /// Differences.
     n: u64,
+    /// The pixels they stand for (each difference its span's weight): the
+    /// bin's weight in the fit of the model, as if every pixel had been taken.
+    weight: u64,
     /// Σ d.
     s1: i64,
     /// Σ d².
@@ -85,8 +88,9 @@ pub(crate) struct BinSums {
 }
 
 impl BinSums {
-    fn add(&mut self, d: i64, level2: u64) {
+    fn add(&mut self, d: i64, level2: u64, weight: u64) {
         self.n += 1;
+        self.weight += weight;
         self.s1 += d;
         self.s2 += d.unsigned_abs().pow(2);
         self.level2 += level2;
@@ -94,6 +98,7 @@ impl BinSums {
 
     fn merge(&mut self, other: &BinSums) {
         self.n += other.n;
+        self.weight += other.weight;
         self.s1 += other.s1;
         self.s2 += other.s2;
         self.level2 += other.level2;
@@ -116,18 +121,67 @@ struct Clip<'a> {
     pair_means: &'a [f64],
 }
 
-/// Two frames of one scene (`A − B` holds their temporal noise alone) and
-/// what each pixel's difference is binned by.
+/// Two frames of one scene (`A − B` holds their temporal noise alone): the
+/// pixels taken of each, what each pixel's difference is binned by, and the
+/// spans they were taken in. Values, levels and exclusions are held in the
+/// spans' order (pixel `k` of a span at `first + k`): for every pixel of a
+/// frame ([`Span::rows`]) that is the frame itself.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Pair<'a> {
-    /// Frame A.
+    /// Frame A's pixels taken.
     pub(crate) a: &'a [u16],
-    /// Frame B.
+    /// Frame B's pixels taken.
     pub(crate) b: &'a [u16],
     /// Each pixel's level (DN).
     pub(crate) levels: Levels<'a>,
-    /// Pixels left out (saturated, or not usable for another reason).
+    /// The spans the pixels were taken in (their weights).
+    pub(crate) spans: &'a [Span],
+    /// Whether each pixel is left out (saturated, or not usable for another
+    /// reason).
     pub(crate) excluded: &'a [bool],
+}
+
+/// Pixels of one row taken at a fixed step, each standing for `weight`
+/// pixels of the frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Span {
+    /// Index of the first pixel in the frame.
+    pub(crate) start: usize,
+    /// Pixels taken.
+    pub(crate) count: usize,
+    /// Step between them (px).
+    pub(crate) step: usize,
+    /// Pixels of the frame each stands for.
+    pub(crate) weight: u64,
+    /// Index of the first in the order of all spans' pixels.
+    pub(crate) first: usize,
+}
+
+impl Span {
+    /// Every pixel of a frame, a span a row.
+    pub(crate) fn rows(width: u32, pixels: usize) -> Vec<Span> {
+        let w = (width as usize).max(1);
+        (0..pixels / w)
+            .map(|y| Span {
+                start: y * w,
+                count: w,
+                step: 1,
+                weight: 1,
+                first: y * w,
+            })
+            .collect()
+    }
+
+    /// The frame indices of its pixels.
+    pub(crate) fn pixels(&self) -> impl Iterator<Item = usize> + use<> {
+        let (start, step) = (self.start, self.step);
+        (0..self.count).map(move |k| start + k * step)
+    }
+
+    /// Pixels taken by `spans` in all.
+    pub(crate) fn total(spans: &[Span]) -> usize {
+        spans.last().map_or(0, |s| s.first + s.count)
+    }
 }
 
 /// What a pair's pixels are binned by.
@@ -159,24 +213,20 @@ pub(crate) fn temporal_noise(
     if frames.len() < 2 {
         return None;
     }
+    let first = frames.first()?;
+    let spans = Span::rows(first.width, first.values.len());
     let pairs: Vec<Pair<'_>> = frames
         .windows(2)
         .map(|ab| Pair {
             a: ab[0].values,
             b: ab[1].values,
             levels: Levels::Given(levels),
+            spans: &spans,
             excluded: saturated,
         })
         .collect();
-    let first = frames.first()?;
-    pairs_noise(
-        &pairs,
-        first.width,
-        first.container_bits,
-        floor_dn2,
-        Pooling::Samples,
-    )
-    .map(|fitted| fitted.temporal)
+    pairs_noise(&pairs, first.container_bits, floor_dn2, Pooling::Samples)
+        .map(|fitted| fitted.temporal)
 }
 
 /// How a bin's variance is pooled over pairs, each pair's own bin mean
@@ -203,14 +253,13 @@ pub(crate) struct PairsNoise {
     pub(crate) sums: Vec<Vec<BinSums>>,
 }
 
-/// The temporal noise of pairs of frames of `width` px a row and
-/// `container_bits` bits (`None` without pairs): each pair's `½·var(A − B)`
-/// over the pixels not excluded, binned by level and fitted against it,
+/// The temporal noise of pairs of frames of `container_bits` bits (`None`
+/// without pairs): each pair's `½·var(A − B)` over the pixels taken and not
+/// excluded, binned by level and fitted against it,
 /// outliers beyond [`CLIP_SIGMAS`] of the model left out in up to
 /// [`MAX_PASSES`] passes; bins pooled as `pooling` says.
 pub(crate) fn pairs_noise(
     pairs: &[Pair<'_>],
-    width: u32,
     container_bits: u8,
     floor_dn2: f64,
     pooling: Pooling,
@@ -225,7 +274,6 @@ pub(crate) fn pairs_noise(
     for _ in 0..MAX_PASSES {
         let sums = pair_sums(
             pairs,
-            width,
             bin_shift,
             clip.as_ref().map(|(model, pair_means)| Clip {
                 model: *model,
@@ -262,53 +310,49 @@ pub(crate) fn fit_sums(
     (temporal, pair_means)
 }
 
-/// Per pair, per level bin: the exact sums of `A − B` over the pixels not
-/// excluded (and within the clip, when one is given).
-fn pair_sums(
-    pairs: &[Pair<'_>],
-    width: u32,
-    bin_shift: u32,
-    clip: Option<Clip<'_>>,
-) -> Vec<Vec<BinSums>> {
-    let width = (width as usize).max(1);
+/// Per pair, per level bin: the exact sums of `A − B` over the pixels taken
+/// and not excluded (and within the clip, when one is given). Integer sums:
+/// the same whatever the spans' split among threads.
+fn pair_sums(pairs: &[Pair<'_>], bin_shift: u32, clip: Option<Clip<'_>>) -> Vec<Vec<BinSums>> {
     pairs
         .iter()
         .enumerate()
         .map(|(index, pair)| {
-            // (mean difference, squared half-width of the kept interval).
-            let limit = |level: f64| -> Option<(f64, f64)> {
-                clip.as_ref().map(|c| {
-                    let var = 2.0 * c.model.variance(level);
-                    (c.pair_means[index], CLIP_SIGMAS * CLIP_SIGMAS * var)
-                })
-            };
-            pair.a
-                .par_chunks(width)
-                .zip(pair.b.par_chunks(width))
-                .zip(pair.excluded.par_chunks(width))
-                .enumerate()
+            // The pair's mean difference and the model of the clip.
+            let clip = clip.as_ref().map(|c| (c.pair_means[index], c.model));
+            pair.spans
+                .par_iter()
                 .fold(
                     || vec![BinSums::default(); BINS],
-                    |mut bins, (y, ((ra, rb), rs))| {
-                        let row_levels = match pair.levels {
-                            Levels::Given(levels) => levels.get(y * width..(y + 1) * width),
+                    |mut bins, span| {
+                        let taken = span.first..span.first + span.count;
+                        let levels = match pair.levels {
+                            Levels::Given(levels) => Some(&levels[taken.clone()]),
                             Levels::Mean => None,
                         };
-                        for (x, ((&va, &vb), &out)) in ra.iter().zip(rb).zip(rs).enumerate() {
+                        let pixels = pair.a[taken.clone()]
+                            .iter()
+                            .zip(&pair.b[taken.clone()])
+                            .zip(&pair.excluded[taken]);
+                        for (k, ((&va, &vb), &out)) in pixels.enumerate() {
                             if out {
                                 continue;
                             }
                             let d = i64::from(va) - i64::from(vb);
-                            let level = f64::from(
-                                row_levels.map_or_else(|| mean_level(va, vb), |row| row[x]),
+                            let level = levels.map_or_else(
+                                || f64::from(mean_level(va, vb)),
+                                |levels| f64::from(levels[k]),
                             );
-                            if let Some((mean, half_width2)) = limit(level)
-                                && (d as f64 - mean).powi(2) > half_width2
-                            {
-                                continue;
+                            if let Some((mean, model)) = &clip {
+                                // The kept interval's squared half-width.
+                                let half_width2 =
+                                    CLIP_SIGMAS * CLIP_SIGMAS * (2.0 * model.variance(level));
+                                if (d as f64 - mean).powi(2) > half_width2 {
+                                    continue;
+                                }
                             }
                             let bin = ((level as u32) >> bin_shift).min(BINS as u32 - 1) as usize;
-                            bins[bin].add(d, (2.0 * level) as u64);
+                            bins[bin].add(d, (2.0 * level) as u64, span.weight);
                         }
                         bins
                     },
@@ -345,30 +389,35 @@ fn pair_variance(sums: &[Vec<BinSums>]) -> (f64, Vec<f64>) {
 
 /// Weighted least squares of each bin's `½·var(A − B)` (pooled over pairs,
 /// each pair's own bin mean removed) against the bin's mean level, weights
-/// the numbers of differences: `σ²_y(μ) = a + b·μ`. A single populated bin
+/// the numbers of pixels the differences stand for: `σ²_y(μ) = a + b·μ`. A single populated bin
 /// (a dark frame) or a negative slope gives the constant model; with no
 /// bin populated enough, the variance pooled over all bins.
 fn fit_model(sums: &[Vec<BinSums>], floor_dn2: f64, pooling: Pooling) -> NoiseModel {
     let mut points = Vec::new();
     for bin in 0..BINS {
         let mut n = 0u64;
+        let mut weight = 0u64;
         let mut centred = 0.0;
         let mut level2 = 0u64;
         let mut means = 0u64;
         for bins in sums {
             let b = &bins[bin];
             n += b.n;
+            weight += b.weight;
             centred += b.centred_s2();
             level2 += b.level2;
             means += u64::from(b.n > 0);
         }
         if n >= MIN_BIN_SAMPLES {
-            let w = n as f64;
             let dof = match pooling {
-                Pooling::Samples => w,
+                Pooling::Samples => n as f64,
                 Pooling::DegreesOfFreedom => (n - means).max(1) as f64,
             };
-            points.push((level2 as f64 / (2.0 * w), 0.5 * centred / dof, w));
+            points.push((
+                level2 as f64 / (2.0 * n as f64),
+                0.5 * centred / dof,
+                weight as f64,
+            ));
         }
     }
     if points.is_empty() {

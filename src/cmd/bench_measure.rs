@@ -1,7 +1,9 @@
 //! `trinocular bench measure`: `measure` against what it cannot beat, per
 //! image format. A full-size campaign (4096×3072, 16-bit, the three
 //! cameras) is rendered and calibrated once per format (uncompressed,
-//! Deflate and LZW TIFF, 16-bit PNG); then, each as a child process timed
+//! Deflate and LZW TIFF, 16-bit PNG, and uncompressed TIFF with every
+//! instant captured twice, whose system gain `measure` takes from the
+//! repeated captures); then, each as a child process timed
 //! over `--repeat` runs (median; the commands in turn, one run of each per
 //! round, so that a drift of the shared machine meets them all alike) with
 //! its peak resident memory (its
@@ -30,7 +32,8 @@ pub struct MeasureArgs {
     /// Timed runs of each phase (the median is reported).
     #[arg(long, default_value_t = 3, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     repeat: usize,
-    /// Formats to measure (default: all four).
+    /// Campaigns to measure (default: all five: the four formats, and
+    /// uncompressed TIFF captured twice, K from the repeated captures).
     #[arg(long, value_delimiter = ',', value_enum)]
     formats: Vec<Format>,
     /// Folder for the campaigns (kept; a campaign already there, with its
@@ -50,14 +53,19 @@ enum Format {
     TiffLzw,
     /// 16-bit PNG.
     Png,
+    /// Uncompressed TIFF, every instant captured twice: without stacks of
+    /// flats and darks `measure` takes the system gain K from the repeated
+    /// captures (the README's walk-through campaign).
+    TiffRepeats,
 }
 
 impl Format {
-    const ALL: [Format; 4] = [
+    const ALL: [Format; 5] = [
         Format::Tiff,
         Format::TiffDeflate,
         Format::TiffLzw,
         Format::Png,
+        Format::TiffRepeats,
     ];
 
     fn name(self) -> &'static str {
@@ -66,6 +74,15 @@ impl Format {
             Format::TiffDeflate => "TIFF Deflate",
             Format::TiffLzw => "TIFF LZW",
             Format::Png => "PNG",
+            Format::TiffRepeats => "TIFF, 2 captures (K from repeats)",
+        }
+    }
+
+    /// Captures per instant of its campaign.
+    fn captures(self) -> &'static str {
+        match self {
+            Format::TiffRepeats => "2",
+            _ => "1",
         }
     }
 
@@ -73,7 +90,7 @@ impl Format {
     fn output(self, config: &mut synth::Config) {
         use synth::config::{ImageFormat, TiffCompression};
         let (format, compression) = match self {
-            Format::Tiff => (ImageFormat::Tiff, TiffCompression::None),
+            Format::Tiff | Format::TiffRepeats => (ImageFormat::Tiff, TiffCompression::None),
             Format::TiffDeflate => (ImageFormat::Tiff, TiffCompression::Deflate),
             Format::TiffLzw => (ImageFormat::Tiff, TiffCompression::Lzw),
             Format::Png => (ImageFormat::Png, TiffCompression::None),
@@ -213,29 +230,22 @@ fn campaign(dir: &Path, format: Format, args: &MeasureArgs) -> Result<()> {
     let c = dir.join("c");
     let ext = config.output.format.extension();
     let steps: [Vec<OsString>; 2] = [
-        [
-            "synth",
-            "campaign",
-            "--width",
-            "4096",
-            "--height",
-            "3072",
-            "--captures",
-            "1",
-        ]
-        .map(os)
-        .into_iter()
-        .chain([
-            os("--targets"),
-            os(&targets),
-            os("--runs"),
-            os(&runs),
-            os("--config"),
-            cfg.into_os_string(),
-            os("--out"),
-            c.clone().into_os_string(),
-        ])
-        .collect(),
+        ["synth", "campaign", "--width", "4096", "--height", "3072"]
+            .map(os)
+            .into_iter()
+            .chain([
+                os("--captures"),
+                os(format.captures()),
+                os("--targets"),
+                os(&targets),
+                os("--runs"),
+                os(&runs),
+                os("--config"),
+                cfg.into_os_string(),
+                os("--out"),
+                c.clone().into_os_string(),
+            ])
+            .collect(),
         [os("calibrate"), os("--target"), p("c/target.csv")]
             .into_iter()
             .chain([os("--nominal"), p("c/nominal.json"), os("--images")])
