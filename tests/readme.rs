@@ -6,7 +6,9 @@
 //! neither run nor listed fails the test, so a new block is dealt with, and
 //! a page with shell blocks that is not in `readme_blocks::PAGES` fails too.
 //! Every `trinocular` command of every block, those not run included, also
-//! parses (src/main.rs, `every_readme_command_parses`).
+//! parses (src/main.rs, `every_readme_command_parses`). And every relative
+//! link of README.md, ARCHITECTURE.md and `docs/` reaches its file and
+//! heading.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -151,14 +153,7 @@ fn blocks_not_run_are_on_their_pages() {
 /// listed as not run like the rest.
 #[test]
 fn every_page_with_shell_blocks_is_held() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut pages = vec!["README.md".to_string(), "ARCHITECTURE.md".to_string()];
-    for entry in std::fs::read_dir(root.join("docs")).unwrap() {
-        let name = entry.unwrap().file_name().into_string().unwrap();
-        if name.ends_with(".md") {
-            pages.push(format!("docs/{name}"));
-        }
-    }
+    let pages = repository_pages();
     let unheld: Vec<&String> = pages
         .iter()
         .filter(|p| !PAGES.contains(&p.as_str()) && !sh_blocks(&read_page(p)).is_empty())
@@ -167,4 +162,109 @@ fn every_page_with_shell_blocks_is_held() {
         unheld.is_empty(),
         "pages with shell blocks missing from readme_blocks::PAGES: {unheld:?}"
     );
+}
+
+/// The pages of [`every_page_with_shell_blocks_is_held`] and the links
+/// check: README.md, ARCHITECTURE.md and every page of `docs/`.
+fn repository_pages() -> Vec<String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut pages = vec!["README.md".to_string(), "ARCHITECTURE.md".to_string()];
+    let mut docs: Vec<String> = std::fs::read_dir(root.join("docs"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|name| name.ends_with(".md"))
+        .map(|name| format!("docs/{name}"))
+        .collect();
+    docs.sort();
+    pages.extend(docs);
+    pages
+}
+
+/// A page's lines outside fenced code blocks.
+fn prose(page: &str) -> Vec<String> {
+    let mut fenced = false;
+    let mut lines = Vec::new();
+    for line in page.lines() {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+        } else if !fenced {
+            lines.push(line.to_string());
+        }
+    }
+    lines
+}
+
+/// The anchors of a page's headings, as GitHub makes them: the text
+/// lowercased, every character but letters, digits, spaces, `-` and `_`
+/// dropped, spaces turned into `-`; a repeated anchor takes `-1`, `-2`, ….
+fn anchors(page: &str) -> Vec<String> {
+    let mut anchors: Vec<String> = Vec::new();
+    let mut slugs: Vec<String> = Vec::new();
+    for line in prose(page) {
+        let Some(title) = line
+            .strip_prefix('#')
+            .map(|t| t.trim_start_matches('#'))
+            .filter(|t| t.starts_with(' '))
+        else {
+            continue;
+        };
+        let slug: String = title
+            .trim()
+            .to_lowercase()
+            .chars()
+            .filter(|c| c.is_alphanumeric() || matches!(c, ' ' | '-' | '_'))
+            .map(|c| if c == ' ' { '-' } else { c })
+            .collect();
+        let repeats = slugs.iter().filter(|s| **s == slug).count();
+        anchors.push(if repeats == 0 {
+            slug.clone()
+        } else {
+            format!("{slug}-{repeats}")
+        });
+        slugs.push(slug);
+    }
+    anchors
+}
+
+/// Every relative link `[text](path#anchor)` of README.md, ARCHITECTURE.md
+/// and `docs/` names a file of the repository and, with an anchor, a heading
+/// of that page: moving a section elsewhere breaks no link to it.
+#[test]
+fn relative_links_resolve() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut broken = Vec::new();
+    let mut checked = 0;
+    for page in repository_pages() {
+        let here = Path::new(&page).parent().unwrap_or(Path::new(""));
+        for line in prose(&read_page(&page)) {
+            for (at, _) in line.match_indices("](") {
+                let rest = &line[at + 2..];
+                let Some(end) = rest.find(')') else { continue };
+                let target = &rest[..end];
+                if target.contains("://") || target.contains(' ') {
+                    continue;
+                }
+                checked += 1;
+                let (path, anchor) = target.split_once('#').unwrap_or((target, ""));
+                let file = if path.is_empty() {
+                    Path::new(&page).to_path_buf()
+                } else {
+                    here.join(path)
+                };
+                if !root.join(&file).exists() {
+                    broken.push(format!("{page}: {target}: no file {}", file.display()));
+                } else if !anchor.is_empty() {
+                    let text = std::fs::read_to_string(root.join(&file)).unwrap_or_default();
+                    if !anchors(&text).iter().any(|a| a == anchor) {
+                        broken.push(format!(
+                            "{page}: {target}: no heading #{anchor} in {}",
+                            file.display()
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked >= 50, "only {checked} links found");
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
 }
