@@ -189,33 +189,35 @@ mod tests {
     use super::readme_blocks;
     use clap::{CommandFactory, FromArgMatches};
 
-    /// Every `trinocular` command line the README shows parses as written,
-    /// those its test cannot run included (full-size renders, the reader's
-    /// own files, a GPU).
+    /// Every `trinocular` command line the README and its guides in `docs/`
+    /// show (`readme_blocks::PAGES`) parses as written, those their test
+    /// cannot run included (full-size renders, the reader's own files, a
+    /// GPU).
     #[test]
     fn every_readme_command_parses() {
-        let readme = include_str!("../README.md");
         let mut failures = Vec::new();
         let mut count = 0;
-        for block in readme_blocks::sh_blocks(readme) {
-            for args in readme_blocks::trinocular_commands(&block.text) {
-                count += 1;
-                let mut command = super::negative_numbers(super::Cli::command());
-                let parsed = command
-                    .try_get_matches_from_mut(
-                        std::iter::once("trinocular".to_string()).chain(args.clone()),
-                    )
-                    .and_then(|m| super::Cli::from_arg_matches(&m));
-                if let Err(e) = parsed {
-                    failures.push(format!(
-                        "README line {}: trinocular {}: {e}",
-                        block.line,
-                        args.join(" ")
-                    ));
+        for page in readme_blocks::PAGES {
+            for block in readme_blocks::sh_blocks(&readme_blocks::read_page(page)) {
+                for args in readme_blocks::trinocular_commands(&block.text) {
+                    count += 1;
+                    let mut command = super::negative_numbers(super::Cli::command());
+                    let parsed = command
+                        .try_get_matches_from_mut(
+                            std::iter::once("trinocular".to_string()).chain(args.clone()),
+                        )
+                        .and_then(|m| super::Cli::from_arg_matches(&m));
+                    if let Err(e) = parsed {
+                        failures.push(format!(
+                            "{page} line {}: trinocular {}: {e}",
+                            block.line,
+                            args.join(" ")
+                        ));
+                    }
                 }
             }
         }
-        assert!(count >= 20, "only {count} commands found in the README");
+        assert!(count >= 20, "only {count} commands found in the pages");
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 }

@@ -4,8 +4,8 @@
 //! refuse an input with an error; a panic is a bug, and an abort (a huge
 //! allocation under `ulimit -v`) ends the run.
 //!
-//! The default test run feeds 10³ inputs per reader; the long run (README,
-//! "Fuzzing") 10⁵ or `TRINOCULAR_FUZZ_INPUTS`:
+//! The default test run feeds 10³ inputs per reader; the long run
+//! (docs/bad-input.md) 10⁵ or `TRINOCULAR_FUZZ_INPUTS`:
 //!
 //! ```sh
 //! (ulimit -v 4194304; cargo test --test fuzz -- --ignored --nocapture)
@@ -581,7 +581,7 @@ fn every_reader_survives_mutated_input() {
 
 /// 10⁵ inputs per reader (or `TRINOCULAR_FUZZ_INPUTS`): run under `ulimit -v`.
 #[test]
-#[ignore = "long: 10⁵ inputs per reader (README, Fuzzing)"]
+#[ignore = "long: 10⁵ inputs per reader (docs/bad-input.md)"]
 fn every_reader_survives_mutated_input_long() {
     let count = std::env::var("TRINOCULAR_FUZZ_INPUTS")
         .ok()

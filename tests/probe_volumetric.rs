@@ -681,7 +681,7 @@ fn from_report_on_exact_positions_follows_the_conventions() {
 
 #[test]
 fn from_report_on_a_demo_campaign_agrees_within_its_accuracy() {
-    // The README's example of `--from-report`, run as written in a fresh
+    // docs/probe-methods.md's example of `--from-report`, run as written in a fresh
     // folder: `trinocular demo` (into ./trinocular-demo), then
     // `trinocular probe volumetric --from-report trinocular-demo/report --out vol`.
     let dir = tempfile::tempdir().unwrap();

@@ -250,7 +250,7 @@ fn calibrated_cameras_reproduce_the_truth() {
             cal.outliers
         );
         // Twice the largest figures measured over the three cameras (the
-        // README's): P 0.0075 px RMS, focal length 6.3e-6, centre 0.0034 mm.
+        // docs/calibrating.md's): P 0.0075 px RMS, focal length 6.3e-6, centre 0.0034 mm.
         assert!(
             rms <= 0.015,
             "camera {}: P reprojects the target with {rms} px RMS",

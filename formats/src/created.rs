@@ -1,7 +1,7 @@
 //! What this run created: the output folders it made, the files it put in
 //! place where none was, the report sets it put in place where none was —
 //! so that a run that fails removes exactly that ([`discard`]) and never a
-//! file or folder that existed before it (README, "Outputs": a failure
+//! file or folder that existed before it (docs/formats.md, "How outputs are written": a failure
 //! leaves the output location as it was).
 //!
 //! The record is process-wide, as [`crate::interrupt`]'s list is: a run is

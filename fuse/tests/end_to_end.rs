@@ -95,7 +95,7 @@ fn triangulated_displacements_match_the_truth() {
         rms * 1e3,
         errs.len()
     );
-    // README: 1.57 µm RMS (seed 11); twice that.
+    // docs/measuring.md: 1.57 µm RMS (seed 11); twice that.
     assert!(rms < 3.2e-3, "{} µm RMS", rms * 1e3);
 
     // Without the bias correction sphere A's displacements are scaled.
@@ -115,7 +115,7 @@ fn triangulated_displacements_match_the_truth() {
         let with = scale(&measured, axis);
         let without = scale(&biased, axis);
         println!("{axis}: scale error {with:+.0} ppm corrected, {without:+.0} ppm uncorrected");
-        // README: +478 (X) and +473 (Y) ppm without the correction, the
+        // docs/measuring.md: +478 (X) and +473 (Y) ppm without the correction, the
         // ≈ 480 ppm the sphere-image model predicts for sphere A (r²/Z² at its
         // depth); +2 and −3 ppm with it. Within 10 % of the prediction, and
         // twice the larger corrected figure.
@@ -173,7 +173,7 @@ fn seed_fusion_matches_the_truth_where_its_model_holds() {
         against_truth * 1e3,
         tilted_error * 1e3
     );
-    // README: 1.34 µm RMS (seed 12); twice that.
+    // docs/measuring.md: 1.34 µm RMS (seed 12); twice that.
     assert!(against_truth < 2.7e-3, "{} µm RMS", against_truth * 1e3);
     // The tilt's model error dominates there: more than ten times the aligned figure.
     assert!(

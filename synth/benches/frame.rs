@@ -1,6 +1,6 @@
 //! Throughput of the renderer: one seed-size frame (4096×3072, 16-bit, three
 //! spheres A/B/C, full noise, through the lens) rendered and encoded as
-//! uncompressed TIFF in memory, on all cores. `cargo bench -p synth`; the README quotes the median.
+//! uncompressed TIFF in memory, on all cores. `cargo bench -p synth`; docs/synthetic-campaigns.md quotes the median.
 
 #![allow(clippy::expect_used)]
 

@@ -1,9 +1,36 @@
-//! The shell blocks of the README (fenced ```sh, also indented inside a list
-//! item), and the `trinocular` command lines in them: read by the test that
-//! runs the blocks (tests/readme.rs) and by the binary's test that parses
-//! every command line (src/main.rs).
+//! The shell blocks of the README and of the guides in `docs/` (fenced
+//! ```sh, also indented inside a list item), and the `trinocular` command
+//! lines in them: read by the test that runs the blocks (tests/readme.rs) and
+//! by the binary's test that parses every command line (src/main.rs).
 
-/// A fenced `sh` block: its first line's number in the README (1-based) and
+use std::path::Path;
+
+/// The pages whose shell blocks are held, relative to the repository root:
+/// the README and the guides it links to. tests/readme.rs checks that every
+/// page of the README and `docs/` with a shell block is listed.
+pub const PAGES: &[&str] = &[
+    "README.md",
+    "docs/synthetic-campaigns.md",
+    "docs/calibrating.md",
+    "docs/extracting.md",
+    "docs/gpu.md",
+    "docs/measuring.md",
+    "docs/ingest.md",
+    "docs/evaluating.md",
+    "docs/probe-methods.md",
+    "docs/bad-input.md",
+    "docs/performance.md",
+    "docs/formats.md",
+    "docs/radiometry.md",
+];
+
+/// The text of a page of [`PAGES`] (or any file of the repository).
+pub fn read_page(page: &str) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(page);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// A fenced `sh` block: its first line's number in its page (1-based) and
 /// its text, the fence's indentation removed.
 #[derive(Debug, Clone)]
 pub struct Block {
@@ -11,11 +38,11 @@ pub struct Block {
     pub text: String,
 }
 
-/// Every `sh` block of `readme`, in order.
-pub fn sh_blocks(readme: &str) -> Vec<Block> {
+/// Every `sh` block of a page's text, in order.
+pub fn sh_blocks(page: &str) -> Vec<Block> {
     let mut blocks = Vec::new();
     let mut open: Option<(usize, usize, String)> = None;
-    for (i, line) in readme.lines().enumerate() {
+    for (i, line) in page.lines().enumerate() {
         let trimmed = line.trim_start();
         let indent = line.len() - trimmed.len();
         match open.take() {
