@@ -12,7 +12,8 @@ use clap::ValueEnum;
 use formats::{OutputPlan, Rig, SphereRow, read_rig, read_spheres};
 use fuse::{Fusion, Inputs, MeasureOptions, measure};
 
-use crate::cmd::extract::{ExtractOptions, print_notes};
+use crate::cmd::extraction::ExtractOptions;
+use crate::cmd::output::print_notes;
 use crate::cmd::{Finished, progress};
 
 /// What the interrupt message says of a rerun: it resumes.

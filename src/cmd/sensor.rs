@@ -13,7 +13,7 @@ use formats::commissioning::FlatFieldFit;
 use formats::{MapFile, OutputPlan, SensorJson, SensorMapFiles};
 use sensor::{SensorCalibration, SensorMaps, StackKind};
 
-use super::extract::expand_images;
+use super::images::expand_images;
 
 /// The frames of one stack, in file-name order.
 pub struct Stack {
