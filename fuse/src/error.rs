@@ -22,6 +22,30 @@ pub enum FuseError {
     /// A partial output belongs to a different run.
     #[error("{}: partial output of a run with other inputs or options; give --force to discard it and start afresh", .0.display())]
     ResumeMismatch(PathBuf),
+    /// A map file named in a camera's `sensor` record cannot be read.
+    #[error("{}: camera {camera}: the map {} named in it", rig.display(), file.display())]
+    MapRead {
+        /// `rig.json`.
+        rig: PathBuf,
+        /// Camera id.
+        camera: u8,
+        /// The map file.
+        file: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A map file of a camera that does not fit its record or the camera.
+    #[error("{}: camera {camera}: {}: {fault}", rig.display(), file.display())]
+    SensorMap {
+        /// `rig.json`.
+        rig: PathBuf,
+        /// Camera id.
+        camera: u8,
+        /// The map file.
+        file: PathBuf,
+        /// What is wrong with it.
+        fault: sensor::SensorError,
+    },
     /// A rig camera's model is unusable.
     #[error("rig camera {camera}: {source}")]
     RigCamera {

@@ -45,6 +45,7 @@ mod observe;
 mod plan;
 mod plausibility;
 mod pose;
+mod rig;
 mod triangulate;
 
 pub use error::{CampaignProblem, FuseError, Result};
@@ -54,4 +55,5 @@ pub use noise::{CameraNoise, NoiseSource};
 pub use observe::MIN_CIRCULARITY;
 pub use plan::RigModel;
 pub use plausibility::ResidualGate;
+pub use rig::CalibratedRig;
 pub use triangulate::seed_displacement;

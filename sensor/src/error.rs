@@ -3,6 +3,7 @@
 use thiserror::Error;
 
 use crate::frame::StackKind;
+use crate::maps::MapKind;
 
 /// Result with [`SensorError`].
 pub type Result<T> = std::result::Result<T, SensorError>;
@@ -241,6 +242,36 @@ pub enum SensorError {
     /// A map file that cannot be encoded or decoded.
     #[error("map file: {0}")]
     MapFile(String),
+    /// A map file whose bytes are not those its record's checksum was taken of.
+    #[error(
+        "its checksum is {found}, but the rig records {recorded} (the file was changed or replaced)"
+    )]
+    MapChecksum {
+        /// CRC-32 of the file's bytes.
+        found: String,
+        /// CRC-32 the record gives.
+        recorded: String,
+    },
+    /// A map file of another size than its camera's.
+    #[error("the map is {width}×{height} px, but the camera is {camera_width}×{camera_height} px")]
+    MapOfOtherSize {
+        /// The map's width (px).
+        width: u32,
+        /// The map's height (px).
+        height: u32,
+        /// The camera's width (px).
+        camera_width: u32,
+        /// The camera's height (px).
+        camera_height: u32,
+    },
+    /// One of a camera's map files cannot be used ([`crate::maps::decode_maps`]).
+    #[error("the {kind} map: {fault}")]
+    Map {
+        /// Which map.
+        kind: MapKind,
+        /// Why.
+        fault: Box<SensorError>,
+    },
 }
 
 /// An exposure time for a message: `1/250 s`, `0.004 s` or `absent`.

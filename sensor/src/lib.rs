@@ -35,7 +35,9 @@
 //!   and the decisions ([`DarkModel`]: per-pixel dark, column/row pattern or
 //!   black level; gain map used or not; and why, with numbers).
 //! - `maps::{encode_f32, decode_f32, encode_u8, decode_u8, checksum}`: the
-//!   map files (32-bit float / 8-bit TIFF) and their CRC-32.
+//!   map files (32-bit float / 8-bit TIFF) and their CRC-32;
+//!   `maps::{encode_maps, decode_maps}`: a camera's maps as the files its
+//!   `rig.json` record names, and back from their bytes, checked against it.
 
 mod adc;
 mod calibrate;

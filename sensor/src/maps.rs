@@ -1,6 +1,8 @@
 //! The map files stored beside `rig.json`: a 32-bit float one-channel TIFF
 //! per per-pixel map (dark, gain), an 8-bit one-channel TIFF of the defect
-//! codes, and the CRC-32 that `rig.json` records for each.
+//! codes, and the CRC-32 that `rig.json` records for each; a camera's maps
+//! as the files its record names ([`encode_maps`]) and back from their bytes,
+//! each checked against its record ([`decode_maps`]).
 //!
 //! Decoding trusts nothing in the file: the size is checked against the
 //! limits of any sensor and against what the file's bytes can hold before
@@ -10,11 +12,12 @@
 use std::io::Cursor;
 
 use formats::limits::{DEFAULT_MAX_PIXELS, check_image_size};
+use formats::{MapFile, SensorJson, SensorMapFiles};
 use tiff::decoder::{Decoder, DecodingResult, Limits};
 use tiff::encoder::{Compression, DeflateLevel, TiffEncoder, TiffValue, colortype};
 use tiff::tags::{CompressionMethod, SampleFormat, Tag};
 
-use crate::{Result, SensorError};
+use crate::{DefectMap, Result, SensorError, SensorMaps};
 
 /// Deflate (RFC 1951) never expands data more than 1032 : 1 on decoding (a
 /// 258-byte match coded in at least 2 bits); a file whose size cannot hold
@@ -116,6 +119,156 @@ pub fn decode_u8(bytes: &[u8]) -> Result<(Vec<u8>, u32, u32)> {
 /// CRC-32 (IEEE) of the file's bytes as 8 lower-case hex digits.
 pub fn checksum(bytes: &[u8]) -> String {
     format!("{:08x}", crc32fast::hash(bytes))
+}
+
+/// A map file of a camera, as its record in `rig.json` names it
+/// ([`SensorMapFiles`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MapKind {
+    /// The master dark (32-bit float, DN).
+    Dark,
+    /// The relative gain map (32-bit float).
+    Gain,
+    /// The defect codes (8-bit).
+    Defects,
+}
+
+impl MapKind {
+    /// Every kind, in the order the files are written and read.
+    pub const ALL: [MapKind; 3] = [MapKind::Dark, MapKind::Gain, MapKind::Defects];
+
+    /// `dark`, `gain` or `defects`: how file names and messages name the map.
+    pub fn name(self) -> &'static str {
+        match self {
+            MapKind::Dark => "dark",
+            MapKind::Gain => "gain",
+            MapKind::Defects => "defects",
+        }
+    }
+
+    /// The record's entry of this map, when it has one.
+    pub fn entry(self, files: &SensorMapFiles) -> Option<&MapFile> {
+        match self {
+            MapKind::Dark => files.dark.as_ref(),
+            MapKind::Gain => files.gain.as_ref(),
+            MapKind::Defects => files.defects.as_ref(),
+        }
+    }
+
+    fn entry_mut(self, files: &mut SensorMapFiles) -> &mut Option<MapFile> {
+        match self {
+            MapKind::Dark => &mut files.dark,
+            MapKind::Gain => &mut files.gain,
+            MapKind::Defects => &mut files.defects,
+        }
+    }
+}
+
+impl std::fmt::Display for MapKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One map file: its kind and its bytes.
+pub type MapBytes = (MapKind, Vec<u8>);
+
+/// The files of `maps` — the maps that are applied (dark, gain) and the
+/// defect map — encoded, in [`MapKind::ALL`] order, and the record that
+/// names them: each kind's `file_name`, with the CRC-32 of its bytes.
+pub fn encode_maps(
+    maps: &SensorMaps,
+    file_name: impl Fn(MapKind) -> String,
+) -> Result<(Vec<MapBytes>, SensorMapFiles)> {
+    let (width, height) = (maps.width, maps.height);
+    let mut files = Vec::new();
+    let mut record = SensorMapFiles::default();
+    for kind in MapKind::ALL {
+        let bytes = match kind {
+            MapKind::Dark => maps.dark.as_deref().map(|d| encode_f32(d, width, height)),
+            MapKind::Gain => maps.gain.as_deref().map(|g| encode_f32(g, width, height)),
+            MapKind::Defects => Some(encode_u8(&maps.defects.codes(), width, height)),
+        };
+        if let Some(bytes) = bytes.transpose()? {
+            *kind.entry_mut(&mut record) = Some(MapFile {
+                file: file_name(kind),
+                crc32: checksum(&bytes),
+            });
+            files.push((kind, bytes));
+        }
+    }
+    Ok((files, record))
+}
+
+/// A camera's maps from its `sensor` record and the bytes of the files the
+/// record names (`files`, by kind), each file checked in [`MapKind::ALL`]
+/// order: its bytes against the recorded CRC-32, then decoded
+/// ([`decode_f32`], [`decode_u8`]) and of the camera's `size` (px). Without a
+/// defect map, no pixel is defective. A fault is [`SensorError::Map`], naming
+/// the map's kind for the caller to name the file.
+pub fn decode_maps(
+    record: &SensorJson,
+    size: (u32, u32),
+    files: &[MapBytes],
+) -> Result<SensorMaps> {
+    let checked = |kind: MapKind| -> Result<Option<&[u8]>> {
+        let Some(entry) = kind.entry(&record.maps) else {
+            return Ok(None);
+        };
+        let Some((_, bytes)) = files.iter().find(|(k, _)| *k == kind) else {
+            return Err(file_error("named in the record, but not given"));
+        };
+        let found = checksum(bytes);
+        if found != entry.crc32 {
+            return Err(SensorError::MapChecksum {
+                found,
+                recorded: entry.crc32.clone(),
+            });
+        }
+        Ok(Some(bytes))
+    };
+    let of_size = |width: u32, height: u32| -> Result<()> {
+        if (width, height) != size {
+            return Err(SensorError::MapOfOtherSize {
+                width,
+                height,
+                camera_width: size.0,
+                camera_height: size.1,
+            });
+        }
+        Ok(())
+    };
+    let f32_map = |kind: MapKind| -> Result<Option<Vec<f32>>> {
+        let Some(bytes) = checked(kind)? else {
+            return Ok(None);
+        };
+        let (values, width, height) = decode_f32(bytes)?;
+        of_size(width, height)?;
+        Ok(Some(values))
+    };
+    let defect_map = || -> Result<DefectMap> {
+        let Some(bytes) = checked(MapKind::Defects)? else {
+            return Ok(DefectMap::empty(size.0, size.1));
+        };
+        let (codes, width, height) = decode_u8(bytes)?;
+        of_size(width, height)?;
+        DefectMap::from_codes(width, height, &codes)
+    };
+    let in_map = |kind: MapKind| {
+        move |e: SensorError| SensorError::Map {
+            kind,
+            fault: Box::new(e),
+        }
+    };
+    Ok(SensorMaps {
+        width: size.0,
+        height: size.1,
+        black_level_dn: record.black_level_dn as f32,
+        dark: f32_map(MapKind::Dark).map_err(in_map(MapKind::Dark))?,
+        gain: f32_map(MapKind::Gain).map_err(in_map(MapKind::Gain))?,
+        defects: defect_map().map_err(in_map(MapKind::Defects))?,
+        saturation: record.saturation_dn,
+    })
 }
 
 /// A deflate-compressed one-channel TIFF of colour type `C`, its size

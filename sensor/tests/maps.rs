@@ -3,8 +3,11 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use sensor::maps::{checksum, decode_f32, decode_u8, encode_f32, encode_u8};
-use sensor::{DefectMap, SensorError};
+use formats::{DefectCounts, SensorJson, SensorMapFiles, StackRecord};
+use sensor::maps::{
+    MapKind, checksum, decode_f32, decode_maps, decode_u8, encode_f32, encode_maps, encode_u8,
+};
+use sensor::{DefectMap, SensorError, SensorMaps};
 
 fn gain_like(width: u32, height: u32) -> Vec<f32> {
     (0..width * height)
@@ -157,4 +160,105 @@ fn a_hostile_size_is_refused_before_anything_is_allocated() {
     // A compression the maps never use (LZW).
     let e = decode_f32(&header(4, 4, 5)).unwrap_err();
     assert!(e.to_string().contains("TIFF compression 5"), "{e}");
+}
+
+/// A camera's maps: a per-pixel dark and gain, three defective pixels.
+fn camera_maps(width: u32, height: u32) -> SensorMaps {
+    let mut codes = vec![0u8; (width * height) as usize];
+    codes[3] = 1;
+    codes[17] = 2;
+    codes[40] = 3;
+    SensorMaps {
+        width,
+        height,
+        black_level_dn: 96.0,
+        dark: Some(gain_like(width, height).iter().map(|g| 90.0 + g).collect()),
+        gain: Some(gain_like(width, height)),
+        defects: DefectMap::from_codes(width, height, &codes).unwrap(),
+        saturation: 4095,
+    }
+}
+
+/// `rig.json`'s record of a camera whose map files are `maps`.
+fn record(maps: SensorMapFiles) -> SensorJson {
+    SensorJson {
+        adc_bits: 12,
+        container_bits: 16,
+        gain_dn_per_e: None,
+        read_noise_e: None,
+        prnu: 0.01,
+        dsnu_dn: 0.5,
+        column_dsnu_dn: 0.1,
+        black_level_dn: 96.0,
+        saturation_dn: 4095,
+        defects: DefectCounts::default(),
+        stack: StackRecord {
+            flats: 4,
+            darks: 4,
+            flat_noise_dn: None,
+            dark_noise_dn: None,
+        },
+        maps,
+        extra: Default::default(),
+    }
+}
+
+#[test]
+fn a_cameras_maps_come_back_from_the_files_their_record_names() {
+    let (w, h) = (12, 9);
+    let maps = camera_maps(w, h);
+    let (files, names) = encode_maps(&maps, |k| format!("rig.cam2.{k}.tif")).unwrap();
+    let kinds: Vec<MapKind> = files.iter().map(|(k, _)| *k).collect();
+    assert_eq!(kinds, MapKind::ALL);
+    for (kind, bytes) in &files {
+        let entry = kind.entry(&names).unwrap();
+        assert_eq!(entry.file, format!("rig.cam2.{}.tif", kind.name()));
+        assert_eq!(entry.crc32, checksum(bytes));
+    }
+    assert_eq!(decode_maps(&record(names), (w, h), &files).unwrap(), maps);
+
+    // Maps that are not applied have no file; without a defect map no pixel is defective.
+    let plain = SensorMaps {
+        dark: None,
+        gain: None,
+        defects: DefectMap::empty(w, h),
+        ..maps
+    };
+    let (files, mut names) = encode_maps(&plain, |k| k.name().into()).unwrap();
+    assert_eq!(files.len(), 1);
+    assert!(names.dark.is_none() && names.gain.is_none());
+    names.defects = None;
+    assert_eq!(decode_maps(&record(names), (w, h), &[]).unwrap(), plain);
+}
+
+#[test]
+fn a_map_file_that_is_not_the_recorded_one_is_refused_naming_its_kind() {
+    let (w, h) = (12, 9);
+    let (mut files, names) = encode_maps(&camera_maps(w, h), |k| k.name().into()).unwrap();
+    let camera = record(names);
+    let fault = |files: &[(MapKind, Vec<u8>)], size| match decode_maps(&camera, size, files) {
+        Err(SensorError::Map { kind, fault }) => (kind, *fault),
+        other => panic!("{other:?}"),
+    };
+    // Of another camera's size.
+    let (kind, e) = fault(&files, (w, h + 1));
+    assert_eq!(kind, MapKind::Dark);
+    assert_eq!(
+        e.to_string(),
+        "the map is 12×9 px, but the camera is 12×10 px"
+    );
+    // Changed after it was recorded: its checksum, before it is decoded.
+    let last = files[1].1.len() - 1;
+    files[1].1[last] ^= 0xff;
+    let (kind, e) = fault(&files, (w, h));
+    assert_eq!(kind, MapKind::Gain);
+    assert!(matches!(e, SensorError::MapChecksum { .. }), "{e}");
+    assert!(
+        e.to_string().contains("(the file was changed or replaced)"),
+        "{e}"
+    );
+    // Named in the record, but its bytes not given.
+    let (kind, e) = fault(&files[..1], (w, h));
+    assert_eq!(kind, MapKind::Gain);
+    assert!(e.to_string().contains("not given"), "{e}");
 }

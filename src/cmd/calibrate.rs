@@ -37,7 +37,7 @@ use formats::{
 };
 use geom::{Illumination, Point2};
 
-use crate::cmd::extract::ExtractOptions;
+use crate::cmd::extraction::ExtractOptions;
 use crate::cmd::sensor::Stack;
 use crate::cmd::{OrUsage, Usage, values};
 

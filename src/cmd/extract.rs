@@ -5,130 +5,14 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::ValueEnum;
-use extract::{Backend, Denoise, ExtractParams, Threshold, Weighting};
+use extract::Denoise;
 use formats::{BlobRow, OutputPlan, ProblemRow};
 
-use crate::cmd::backend::{BackendChoice, select_backend};
+use crate::cmd::extraction::ExtractOptions;
+use crate::cmd::images::expand_images;
+use crate::cmd::output::{print_notes, problems_path};
 use crate::cmd::sensor::Stack;
-use crate::cmd::{Finished, OrUsage, progress};
-
-/// Centroid weighting.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum WeightingArg {
-    /// F = f − T (the seed's formula).
-    Subtracted,
-    /// F = f.
-    Raw,
-}
-
-/// Denoising filter.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum DenoiseArg {
-    /// None.
-    None,
-    /// 3×3 median.
-    Median,
-    /// Gaussian (see --sigma).
-    Gaussian,
-}
-
-/// Options shared by every command that extracts blobs.
-#[derive(Debug, Clone, clap::Args)]
-pub struct ExtractOptions {
-    /// Threshold T in DN (e.g. 6000 on 16-bit frames), `auto` (global
-    /// background + k·σ) or `local` (background mesh + k·σ).
-    #[arg(long, default_value = "auto", value_parser = threshold_arg)]
-    threshold: String,
-    /// k of the automatic thresholds.
-    #[arg(long, default_value_t = extract::DEFAULT_K, value_parser = crate::cmd::values::positive)]
-    k: f64,
-    /// Box size of the local background mesh (px).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(
-        i64::from(extract::MIN_MESH_PX)..=i64::from(formats::limits::MAX_IMAGE_SIDE_PX)))]
-    mesh: u32,
-    /// Centroid weights.
-    #[arg(long, value_enum, default_value_t = WeightingArg::Subtracted)]
-    weighting: WeightingArg,
-    /// Denoising before thresholding.
-    #[arg(long, value_enum, default_value_t = DenoiseArg::None)]
-    denoise: DenoiseArg,
-    /// σ of the Gaussian denoising (px).
-    #[arg(long, default_value_t = 1.0, value_parser = crate::cmd::values::positive_f32)]
-    sigma: f32,
-    /// Smallest blob kept (px).
-    #[arg(long, default_value_t = extract::DEFAULT_MIN_AREA)]
-    min_area: u64,
-    /// Largest blob kept (px).
-    #[arg(long)]
-    max_area: Option<u64>,
-    /// Compute backend.
-    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
-    backend: BackendChoice,
-    /// Largest frame decoded (pixels): an image whose header claims more is
-    /// refused before anything is allocated for it (default 2²⁸; each side
-    /// is at most 65536 px whatever the limit).
-    #[arg(long, default_value_t = formats::limits::DEFAULT_MAX_PIXELS,
-        value_parser = clap::value_parser!(u64).range(1..))]
-    max_pixels: u64,
-}
-
-/// `--threshold`: `auto`, `local` or a level of at least 1 DN.
-fn threshold_arg(text: &str) -> std::result::Result<String, String> {
-    match text {
-        "auto" | "local" => Ok(text.to_string()),
-        t => match t.parse::<u16>() {
-            Ok(level) if level >= 1 => Ok(text.to_string()),
-            _ => Err(format!(
-                "expected a level of 1..={} DN, 'auto' or 'local', got '{t}'",
-                u16::MAX
-            )),
-        },
-    }
-}
-
-impl ExtractOptions {
-    /// The extraction parameters these flags describe.
-    pub fn params(&self) -> Result<ExtractParams> {
-        let threshold = match self.threshold.as_str() {
-            "auto" => Threshold::Auto { k: self.k },
-            "local" => Threshold::Local {
-                k: self.k,
-                mesh: self.mesh,
-            },
-            t => Threshold::Fixed(
-                t.parse()
-                    .with_context(|| {
-                        format!("--threshold {t}: expected a level in DN, 'auto' or 'local'")
-                    })
-                    .or_usage()?,
-            ),
-        };
-        let params = ExtractParams {
-            threshold,
-            weighting: match self.weighting {
-                WeightingArg::Subtracted => Weighting::Subtracted,
-                WeightingArg::Raw => Weighting::Raw,
-            },
-            denoise: match self.denoise {
-                DenoiseArg::None => Denoise::None,
-                DenoiseArg::Median => Denoise::Median3,
-                DenoiseArg::Gaussian => Denoise::Gaussian { sigma: self.sigma },
-            },
-            min_area: self.min_area,
-            max_area: self.max_area.unwrap_or(u64::MAX),
-            max_pixels: self.max_pixels,
-            ..ExtractParams::default()
-        };
-        params.validate().or_usage()?;
-        Ok(params)
-    }
-
-    /// The backend these flags choose.
-    pub fn backend(&self) -> Result<std::sync::Arc<dyn Backend>> {
-        select_backend(self.backend)
-    }
-}
+use crate::cmd::{Finished, progress};
 
 /// Arguments of `trinocular extract`.
 #[derive(Debug, clap::Args)]
@@ -167,42 +51,6 @@ pub struct Args {
     images: Vec<PathBuf>,
 }
 
-/// Image files of a folder (TIFF and PNG, sorted by name), or the path
-/// itself; a path that names nothing is an error, before anything is written.
-pub fn expand_images(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
-    let mut files = Vec::new();
-    for input in inputs {
-        if input.symlink_metadata().is_err() {
-            bail!("{}: no such file or folder", input.display());
-        }
-        if input.is_dir() {
-            let mut found: Vec<PathBuf> = std::fs::read_dir(input)
-                .with_context(|| format!("{}", input.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| {
-                    p.is_file()
-                        && p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-                            matches!(e.to_ascii_lowercase().as_str(), "tif" | "tiff" | "png")
-                        })
-                })
-                .collect();
-            if found.is_empty() {
-                bail!("{}: no TIFF or PNG images in this folder", input.display());
-            }
-            found.sort();
-            files.extend(found);
-        } else {
-            files.push(input.clone());
-        }
-    }
-    Ok(files)
-}
-
-/// `<stem>.problems.csv` beside the output `out` of a batch.
-pub fn problems_path(out: &Path) -> PathBuf {
-    formats::beside(out, "out", ".problems.csv")
-}
-
 /// The lens's relative illumination from a flat field and a dark frame
 /// (the first of each stack), without a camera model: centre started at the
 /// image centre, ρ scaled by half the image diagonal; then the sensor's
@@ -238,13 +86,6 @@ fn fit_flat_field(
         eprintln!("trinocular: sensor: {}; {}", s.dark_note, s.gain_note);
     }
     Ok((fit.model, sensor))
-}
-
-/// Print the notes of an output plan (a stale lock taken over).
-pub fn print_notes(plan: &OutputPlan) {
-    for note in plan.notes() {
-        eprintln!("trinocular: note: {note}");
-    }
 }
 
 /// What a batch left out, by kind, with a problem row for each.

@@ -14,7 +14,7 @@ use formats::{ManifestRow, OutputPlan};
 use ingest::{Capture, Inputs, Options};
 
 use crate::cmd::Finished;
-use crate::cmd::extract::{print_notes, problems_path};
+use crate::cmd::output::{print_notes, problems_path};
 
 /// `SERIAL=ID`.
 fn parse_camera(s: &str) -> std::result::Result<(String, u8), String> {

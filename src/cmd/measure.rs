@@ -9,10 +9,11 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::ValueEnum;
-use formats::{OutputPlan, Rig, SphereRow, read_rig, read_spheres};
-use fuse::{Fusion, Inputs, MeasureOptions, measure};
+use formats::{OutputPlan, SphereRow, read_spheres};
+use fuse::{CalibratedRig, Fusion, Inputs, MeasureOptions, measure};
 
-use crate::cmd::extract::{ExtractOptions, print_notes};
+use crate::cmd::extraction::ExtractOptions;
+use crate::cmd::output::print_notes;
 use crate::cmd::{Finished, progress};
 
 /// What the interrupt message says of a rerun: it resumes.
@@ -60,7 +61,7 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
-    let rig: Rig = read_rig(&args.rig)?;
+    let CalibratedRig { rig, sensor } = CalibratedRig::read(&args.rig)?;
     let spheres: Vec<SphereRow> = read_spheres(&args.spheres)?
         .into_iter()
         .map(|r| r.record)
@@ -75,7 +76,6 @@ pub fn run(args: &Args) -> Result<()> {
         extract: args.extract.params()?,
     };
     let backend = args.extract.backend()?;
-    let sensor = super::sensor::rig_maps(&args.rig, &rig)?;
     for (id, maps) in sensor.iter().filter(|(_, m)| !m.is_identity()) {
         eprintln!(
             "trinocular: note: camera {id}: frames corrected pixel by pixel ({})",

@@ -2,18 +2,19 @@
 //! a stack of flat fields and one of dark frames per camera, each a file or a
 //! folder of frames, calibrated by `sensor::calibrate`; the maps written
 //! beside `rig.json` (`R.cam{k}.dark.tif`, `.gain.tif`, `.defects.tif`) and
-//! recorded in it with their checksums; read back, checked, for `measure`.
+//! recorded in it with their checksums (`measure` reads them back through
+//! `fuse::CalibratedRig`).
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use extract::{Frame, FrameReader};
 use formats::commissioning::FlatFieldFit;
-use formats::{MapFile, OutputPlan, SensorJson, SensorMapFiles};
+use formats::{OutputPlan, SensorJson, SensorMapFiles};
+use sensor::maps::MapKind;
 use sensor::{SensorCalibration, SensorMaps, StackKind};
 
-use super::extract::expand_images;
+use super::images::expand_images;
 
 /// The frames of one stack, in file-name order.
 pub struct Stack {
@@ -194,60 +195,40 @@ pub fn fit(
     Ok((fit, sensor))
 }
 
-/// The map files of camera `id` beside `out` (`rig.json`), in the order
-/// dark, gain, defects.
-pub fn map_paths(out: &Path, id: u8) -> [PathBuf; 3] {
-    ["dark", "gain", "defects"].map(|m| formats::beside(out, "rig", &format!(".cam{id}.{m}.tif")))
+/// The map file of kind `kind` of camera `id` beside `out` (`rig.json`):
+/// `R.cam{id}.{kind}.tif`.
+fn map_path(out: &Path, id: u8, kind: MapKind) -> PathBuf {
+    formats::beside(out, "rig", &format!(".cam{id}.{kind}.tif"))
 }
 
 /// Plan the map files of camera `id`.
 pub fn plan_maps(output: &mut OutputPlan, out: &Path, id: u8) {
-    for path in map_paths(out, id) {
-        output.file(path);
+    for kind in MapKind::ALL {
+        output.file(map_path(out, id, kind));
     }
 }
 
 /// A map file to write: its path and bytes.
 pub type MapBytes = (PathBuf, Vec<u8>);
 
-/// The encoded map files of a calibration (only the maps that are applied,
-/// and the defect map), with the record that names them.
+/// The encoded map files of a calibration (`sensor::maps::encode_maps`: only
+/// the maps that are applied, and the defect map) beside `out`, with the
+/// record that names them.
 pub fn encode_maps(
     cal: &SensorCalibration,
     out: &Path,
     id: u8,
 ) -> Result<(Vec<MapBytes>, SensorMapFiles)> {
-    let maps = &cal.maps;
-    let [dark_path, gain_path, defects_path] = map_paths(out, id);
-    let mut files = Vec::new();
-    let mut record = SensorMapFiles::default();
-    let mut add = |path: PathBuf, bytes: Vec<u8>| -> MapFile {
-        let entry = MapFile {
-            file: path
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default(),
-            crc32: sensor::maps::checksum(&bytes),
-        };
-        files.push((path, bytes));
-        entry
-    };
-    if let Some(dark) = &maps.dark {
-        record.dark = Some(add(
-            dark_path,
-            sensor::maps::encode_f32(dark, maps.width, maps.height)?,
-        ));
-    }
-    if let Some(gain) = &maps.gain {
-        record.gain = Some(add(
-            gain_path,
-            sensor::maps::encode_f32(gain, maps.width, maps.height)?,
-        ));
-    }
-    record.defects = Some(add(
-        defects_path,
-        sensor::maps::encode_u8(&maps.defects.codes(), maps.width, maps.height)?,
-    ));
+    let (files, record) = sensor::maps::encode_maps(&cal.maps, |kind| {
+        map_path(out, id, kind)
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    })?;
+    let files = files
+        .into_iter()
+        .map(|(kind, bytes)| (map_path(out, id, kind), bytes))
+        .collect();
     Ok((files, record))
 }
 
@@ -287,81 +268,4 @@ pub fn record(cal: &SensorCalibration, maps: SensorMapFiles) -> SensorJson {
         maps,
         extra,
     }
-}
-
-/// Read one map file named in `rig` (relative to its folder) and check its checksum.
-fn read_map(rig: &Path, map: &MapFile) -> Result<Vec<u8>> {
-    let path = formats::folder_of(rig).join(&map.file);
-    let bytes = std::fs::read(&path)
-        .with_context(|| format!("{}: the map {} named in it", rig.display(), path.display()))?;
-    let crc = sensor::maps::checksum(&bytes);
-    if crc != map.crc32 {
-        bail!(
-            "{}: its checksum is {crc}, but {} records {} (the file was changed or replaced)",
-            path.display(),
-            rig.display(),
-            map.crc32
-        );
-    }
-    Ok(bytes)
-}
-
-/// The per-pixel maps of a camera of `rig.json` (`rig` its path), read and
-/// checked against the record and the camera's size.
-pub fn load_maps(rig: &Path, id: u8, size: (u32, u32), record: &SensorJson) -> Result<SensorMaps> {
-    let in_file = |map: &MapFile| formats::folder_of(rig).join(&map.file);
-    let checked = |map: &MapFile, (w, h): (u32, u32)| -> Result<()> {
-        if (w, h) != size {
-            bail!(
-                "{}: the map is {w}×{h} px, but camera {id} is {}×{} px",
-                in_file(map).display(),
-                size.0,
-                size.1
-            );
-        }
-        Ok(())
-    };
-    let f32_map = |map: &Option<MapFile>| -> Result<Option<Vec<f32>>> {
-        let Some(map) = map else { return Ok(None) };
-        let (values, w, h) = sensor::maps::decode_f32(&read_map(rig, map)?)
-            .with_context(|| in_file(map).display().to_string())?;
-        checked(map, (w, h))?;
-        Ok(Some(values))
-    };
-    let dark = f32_map(&record.maps.dark)?;
-    let gain = f32_map(&record.maps.gain)?;
-    let defects = match &record.maps.defects {
-        Some(map) => {
-            let (codes, w, h) = sensor::maps::decode_u8(&read_map(rig, map)?)
-                .with_context(|| in_file(map).display().to_string())?;
-            checked(map, (w, h))?;
-            sensor::DefectMap::from_codes(w, h, &codes)
-                .with_context(|| in_file(map).display().to_string())?
-        }
-        None => sensor::DefectMap::empty(size.0, size.1),
-    };
-    Ok(SensorMaps {
-        width: size.0,
-        height: size.1,
-        black_level_dn: record.black_level_dn as f32,
-        dark,
-        gain,
-        defects,
-        saturation: record.saturation_dn,
-    })
-}
-
-/// The per-pixel maps of every camera of `rig` (read from `path`) that has
-/// them, by camera id.
-pub fn rig_maps(path: &Path, rig: &formats::Rig) -> Result<BTreeMap<u8, SensorMaps>> {
-    let mut maps = BTreeMap::new();
-    for c in &rig.cameras {
-        if let Some(record) = &c.sensor {
-            let id = c.model.id;
-            let m = load_maps(path, id, (c.model.width, c.model.height), record)
-                .with_context(|| format!("{}: camera {id}", path.display()))?;
-            maps.insert(id, m);
-        }
-    }
-    Ok(maps)
 }

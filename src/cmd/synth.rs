@@ -10,7 +10,7 @@ use indicatif::ProgressBar;
 use synth::{Config, Overrides};
 
 use crate::cmd::OrUsage;
-use crate::cmd::extract::print_notes;
+use crate::cmd::output::print_notes;
 
 /// Arguments of `trinocular synth`.
 #[derive(Debug, clap::Args)]

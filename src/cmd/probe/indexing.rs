@@ -11,9 +11,7 @@ use formats::FormatError;
 use formats::probe::indexing::report::FIGURES;
 use formats::probe::indexing::{CentreRow, IndexingRow, read_centres};
 use probe::indexing::{self as method, Position, layout};
-use synth::probe::indexing::{DEFAULT_TOML, IndexingConfig, generate};
-
-use crate::cmd::OrUsage;
+use synth::probe::indexing::{IndexingConfig, generate};
 
 /// Arguments of `trinocular probe indexing`.
 #[derive(Debug, clap::Args)]
@@ -31,12 +29,7 @@ pub struct Args {
     #[arg(long, value_name = "ARCSEC", value_parser = crate::cmd::values::non_negative)]
     tolerance: Option<f64>,
     #[command(flatten)]
-    propagation: super::PropagationArgs,
-    #[command(flatten)]
-    signoff: crate::cmd::signoff::SignoffArgs,
-    /// Replace output files that already exist.
-    #[arg(long)]
-    force: bool,
+    method: super::MethodArgs,
 }
 
 /// Arguments of `trinocular synth probe indexing`.
@@ -109,11 +102,9 @@ fn positions(path: &Path) -> Result<Vec<Position>> {
 
 /// Run the method.
 pub fn run(args: &Args) -> Result<()> {
-    let mut signing = super::Signing::start(&args.signoff)?;
-    let mut names = vec!["indexing.csv", "report.json", "report.html"];
-    names.extend(signing.names());
-    let inputs = std::iter::once(&args.centres).chain(signing.inputs());
-    let (output, files) = super::outputs(&args.out, &names, inputs, args.force)?;
+    let mut signing = super::Signing::start(&args.method)?;
+    let names = ["indexing.csv", "report.json", "report.html"];
+    let (output, files) = signing.outputs(&args.out, &names, [&args.centres])?;
     let [csv, json_path, html] = [&files[0], &files[1], &files[2]];
     let positions = positions(&args.centres)?;
     let solved = method::solve(&positions)
@@ -125,13 +116,12 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let mut report = method::report(&solved, &options)?;
     signing.read_limits(&report, &FIGURES)?;
-    let propagation = args.propagation.options();
     report.uncertainty = Some(method::uncertainty::propagate(
         &positions,
         &solved,
         &report,
         &options,
-        propagation,
+        signing.propagation(),
     ));
     let json = signing.judge(&report, report.uncertainty.as_ref(), &FIGURES)?;
     let page = method::html(&report, &solved.angles, &signing.signoff)?;
@@ -215,13 +205,8 @@ pub fn run(args: &Args) -> Result<()> {
 
 /// Run the generator.
 pub fn synth(args: &SynthArgs) -> Result<()> {
-    let Some((out, mut config)) = super::synth_start(
-        args.print_config,
-        DEFAULT_TOML,
-        &args.out,
-        &args.config,
-        |path| Ok(IndexingConfig::from_file(path)?),
-    )?
+    let Some((out, mut config)) =
+        super::synth_start::<IndexingConfig>(args.print_config, &args.out, &args.config)?
     else {
         return Ok(());
     };
@@ -231,9 +216,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     config.b_step_deg = args.b_step.unwrap_or(config.b_step_deg);
     config.stylus_mm = args.stylus.unwrap_or(config.stylus_mm);
     config.noise_um = args.noise_um.unwrap_or(config.noise_um);
-    // The file's configuration is valid (from_file checks it): what the
-    // options break is a usage error.
-    config.validate().or_usage()?;
+    let config = super::overridden(config)?;
     let (output, [centres, truth]) =
         super::outputs_n(out, ["centres.csv", "truth.json"], &args.config, args.force)?;
     let generated = generate(&config)?;

@@ -17,7 +17,7 @@ use formats::uncertainty::{FigureKeys, Uncertainty};
 use serde::Serialize;
 use serde_json::Value;
 
-use super::signoff;
+use super::{OrUsage, signoff};
 
 /// Arguments of `trinocular probe`.
 #[derive(Debug, clap::Args)]
@@ -48,8 +48,20 @@ pub fn run(args: &Args) -> Result<()> {
     }
 }
 
-/// The Monte Carlo options of a probe method (docs/methods.md §7),
-/// flattened into each method's arguments.
+/// The options every probe method shares, flattened into each method's
+/// arguments: the Monte Carlo propagation, the sign-off and `--force`.
+#[derive(Debug, clap::Args)]
+struct MethodArgs {
+    #[command(flatten)]
+    propagation: PropagationArgs,
+    #[command(flatten)]
+    signoff: signoff::SignoffArgs,
+    /// Replace output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
+
+/// The Monte Carlo options of a probe method (docs/methods.md §7).
 #[derive(Debug, Clone, Copy, clap::Args)]
 struct PropagationArgs {
     /// Monte Carlo trials of the expanded uncertainties U (k = 2) of every figure; 0 turns the
@@ -83,6 +95,7 @@ fn print_uncertainty(u: &formats::uncertainty::Uncertainty) {
 /// `--tolerances`, `--pdf`; docs/formats.md): the tolerance file's keys are
 /// the report's figures by their paths (`[location] X0C_um`).
 struct Signing<'a> {
+    method: &'a MethodArgs,
     args: &'a signoff::SignoffArgs,
     browser: Option<PathBuf>,
     limits: Option<Vec<Limit>>,
@@ -92,8 +105,10 @@ struct Signing<'a> {
 impl<'a> Signing<'a> {
     /// Find the browser and read the conditions, before anything is
     /// computed.
-    fn start(args: &'a signoff::SignoffArgs) -> Result<Self> {
+    fn start(method: &'a MethodArgs) -> Result<Self> {
+        let args = &method.signoff;
         Ok(Signing {
+            method,
             args,
             browser: args.browser()?,
             limits: None,
@@ -102,6 +117,30 @@ impl<'a> Signing<'a> {
                 ..SignOff::default()
             },
         })
+    }
+
+    /// The Monte Carlo settings of `--trials` and `--seed`.
+    fn propagation(&self) -> probe::uncertainty::Propagation {
+        self.method.propagation.options()
+    }
+
+    /// The checked output plan of the method writing `names` into `dir`,
+    /// and their paths, with what the sign-off adds ([`outputs`]: the
+    /// sign-off's files are inputs too, `--force` replaces).
+    fn outputs<P: AsRef<Path>>(
+        &self,
+        dir: &Path,
+        names: &[&str],
+        inputs: impl IntoIterator<Item = P>,
+    ) -> Result<(OutputPlan, Vec<PathBuf>)> {
+        let mut names = names.to_vec();
+        names.extend(self.browser.iter().map(|_| "report.pdf"));
+        let inputs: Vec<PathBuf> = inputs
+            .into_iter()
+            .map(|p| p.as_ref().to_path_buf())
+            .chain(self.args.inputs().cloned())
+            .collect();
+        outputs(dir, &names, inputs, self.method.force)
     }
 
     /// Read the tolerance file against `report`'s figures (`keys`, by
@@ -140,16 +179,6 @@ impl<'a> Signing<'a> {
             report.extend(signed);
         }
         Ok(json)
-    }
-
-    /// The output names the sign-off adds (`report.pdf` with `--pdf`).
-    fn names(&self) -> Vec<&'static str> {
-        self.browser.iter().map(|_| "report.pdf").collect()
-    }
-
-    /// The files it reads, inputs of the output plan.
-    fn inputs(&self) -> impl Iterator<Item = &PathBuf> {
-        self.args.inputs()
     }
 
     /// With `--pdf`, print the `report.html` written into `out` beside it.
@@ -230,26 +259,62 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
     }
 }
 
+/// The configuration file of a `synth probe …` generator.
+trait GeneratorConfig: Default {
+    /// The documented default configuration (`--print-config`).
+    const DEFAULT_TOML: &'static str;
+    /// Read and check a configuration file.
+    fn read(path: &Path) -> Result<Self>;
+    /// Check the configuration after the command line's overrides.
+    fn check(&self) -> Result<()>;
+}
+
+impl GeneratorConfig for synth::probe::rotary::RotaryConfig {
+    const DEFAULT_TOML: &'static str = synth::probe::rotary::DEFAULT_TOML;
+    fn read(path: &Path) -> Result<Self> {
+        Ok(Self::from_file(path)?)
+    }
+    fn check(&self) -> Result<()> {
+        Ok(self.validate()?)
+    }
+}
+
+impl GeneratorConfig for synth::probe::indexing::IndexingConfig {
+    const DEFAULT_TOML: &'static str = synth::probe::indexing::DEFAULT_TOML;
+    fn read(path: &Path) -> Result<Self> {
+        Ok(Self::from_file(path)?)
+    }
+    fn check(&self) -> Result<()> {
+        Ok(self.validate()?)
+    }
+}
+
 /// The start of a `synth probe …` run: `None` when `--print-config` printed
-/// the default configuration `default_toml`; else the output folder and the
-/// configuration, `--config`'s (read by `read`) or the default.
-fn synth_start<'a, C: Default>(
+/// the default configuration; else the output folder and the configuration,
+/// `--config`'s or the default.
+fn synth_start<'a, C: GeneratorConfig>(
     print_config: bool,
-    default_toml: &str,
     out: &'a Option<PathBuf>,
     config: &Option<PathBuf>,
-    read: impl FnOnce(&Path) -> Result<C>,
 ) -> Result<Option<(&'a Path, C)>> {
     if print_config {
-        print!("{default_toml}");
+        print!("{}", C::DEFAULT_TOML);
         return Ok(None);
     }
     let Some(out) = out else {
         return Err(crate::cmd::Usage::error("--out DIR is required"));
     };
     let config = match config {
-        Some(path) => read(path)?,
+        Some(path) => C::read(path)?,
         None => C::default(),
     };
     Ok(Some((out, config)))
+}
+
+/// The configuration once the command line's options are applied: the
+/// file's is valid (its reader checks it), so what the options break is a
+/// usage error.
+fn overridden<C: GeneratorConfig>(config: C) -> Result<C> {
+    config.check().or_usage()?;
+    Ok(config)
 }

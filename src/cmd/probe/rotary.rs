@@ -20,9 +20,9 @@ use probe::rotary::report::{Report, report};
 use probe::rotary::uncertainty::Measured;
 use probe::rotary::{Interpolated, Measurement, NAMES, Solution};
 use probe::{CentreFault, ProbeError};
-use synth::probe::rotary::{DEFAULT_TOML, RotaryConfig};
+use synth::probe::rotary::RotaryConfig;
 
-use crate::cmd::{OrUsage, Usage};
+use crate::cmd::Usage;
 
 /// Arguments of `trinocular probe rotary`.
 #[derive(Debug, clap::Args)]
@@ -44,12 +44,7 @@ pub struct Args {
     #[arg(long, num_args = 1.., allow_negative_numbers = true, value_name = "DEG", value_parser = crate::cmd::values::finite)]
     at: Vec<f64>,
     #[command(flatten)]
-    propagation: super::PropagationArgs,
-    #[command(flatten)]
-    signoff: crate::cmd::signoff::SignoffArgs,
-    /// Replace output files that already exist.
-    #[arg(long)]
-    force: bool,
+    method: super::MethodArgs,
 }
 
 /// Arguments of `trinocular synth probe rotary`.
@@ -176,7 +171,7 @@ pub fn run(args: &Args) -> Result<()> {
         (None, Some(p)) => (p, true),
         _ => return Err(Usage::error("give exactly one of --centres and --points")),
     };
-    let mut signing = super::Signing::start(&args.signoff)?;
+    let mut signing = super::Signing::start(&args.method)?;
     let input = if points {
         read_points(path)?
     } else {
@@ -213,12 +208,11 @@ pub fn run(args: &Args) -> Result<()> {
     } else {
         Measured::Centres(&m)
     };
-    let propagation = args.propagation.options();
     report.uncertainty = Some(probe::rotary::uncertainty::propagate(
         measured,
         &solution,
         &report,
-        propagation,
+        signing.propagation(),
     ));
     let json = signing.judge(&report, report.uncertainty.as_ref(), &FIGURES)?;
     let html = probe::rotary::html(&report, &signing.signoff)?;
@@ -230,9 +224,7 @@ pub fn run(args: &Args) -> Result<()> {
     if points {
         names.push("spheres.csv");
     }
-    names.extend(signing.names());
-    let inputs = std::iter::once(path).chain(signing.inputs());
-    let (output, files) = super::outputs(&args.out, &names, inputs, args.force)?;
+    let (output, files) = signing.outputs(&args.out, &names, [path])?;
     let rows: Vec<ErrorRow> = solution
         .errors
         .iter()
@@ -287,13 +279,8 @@ pub fn run(args: &Args) -> Result<()> {
 
 /// Run the generator and write its files.
 pub fn synth(args: &SynthArgs) -> Result<()> {
-    let Some((out, mut config)) = super::synth_start(
-        args.print_config,
-        DEFAULT_TOML,
-        &args.out,
-        &args.config,
-        |path| Ok(RotaryConfig::from_file(path)?),
-    )?
+    let Some((out, mut config)) =
+        super::synth_start::<RotaryConfig>(args.print_config, &args.out, &args.config)?
     else {
         return Ok(());
     };
@@ -307,9 +294,7 @@ pub fn synth(args: &SynthArgs) -> Result<()> {
         config.noise_um = n;
         config.probe_noise_um = n;
     }
-    // The file's configuration is valid (from_file checks it): what the
-    // options break is a usage error.
-    config.validate().or_usage()?;
+    let config = super::overridden(config)?;
     let data = synth::probe::rotary::generate(&config)?;
     let (output, files) = super::outputs(
         out,

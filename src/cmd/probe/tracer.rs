@@ -48,12 +48,7 @@ pub struct Args {
     #[arg(long, value_name = "UM", value_parser = crate::cmd::values::positive)]
     sigma_um: Option<f64>,
     #[command(flatten)]
-    propagation: super::PropagationArgs,
-    #[command(flatten)]
-    signoff: crate::cmd::signoff::SignoffArgs,
-    /// Replace output files that already exist.
-    #[arg(long)]
-    force: bool,
+    method: super::MethodArgs,
 }
 
 /// Arguments of `trinocular synth probe tracer`. Defaults are those of
@@ -161,7 +156,7 @@ struct Tables {
 /// refused before solving), refuse outputs that exist, solve, tabulate,
 /// write, print the summary.
 pub fn run(args: &Args) -> Result<()> {
-    let mut signing = super::Signing::start(&args.signoff)?;
+    let mut signing = super::Signing::start(&args.method)?;
     let grid = read_grid(&args.nominal)?;
     let readings = read_readings(&args.readings, &grid, &args.nominal)?;
     let query = args.query.as_deref().map(read_query).transpose()?;
@@ -181,9 +176,7 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let mut inputs = vec![args.nominal.as_path(), args.readings.as_path()];
     inputs.extend(args.query.as_deref());
-    inputs.extend(signing.inputs().map(PathBuf::as_path));
-    names.extend(signing.names());
-    let (output, _) = super::outputs(&args.out, &names, inputs, args.force)?;
+    let (output, files) = signing.outputs(&args.out, &names, inputs)?;
 
     let options = Options {
         outlier_k: args.k,
@@ -199,7 +192,7 @@ pub fn run(args: &Args) -> Result<()> {
     })?;
     let report = tracer::report(&net, &solution);
     signing.read_limits(&report, &FIGURES)?;
-    let uncertainty = tracer::uncertainty(&net, &solution, &options, args.propagation.options())?;
+    let uncertainty = tracer::uncertainty(&net, &solution, &options, signing.propagation())?;
     let json = signing.judge(&report, Some(&uncertainty), &FIGURES)?;
     let page = tracer::html(&net, &solution, &report, &uncertainty, &signing.signoff)?;
     let tables = tables(&net, &solution, &readings, query.as_deref())?;
@@ -217,7 +210,7 @@ pub fn run(args: &Args) -> Result<()> {
 
     print_summary(&report, tables.corrected.as_ref().map(Vec::len));
     super::print_uncertainty(&uncertainty);
-    println!("wrote {} files into {}", names.len(), out.display());
+    println!("wrote {} files into {}", files.len(), out.display());
     signing.finish(out)
 }
 

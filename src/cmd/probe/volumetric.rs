@@ -78,12 +78,7 @@ pub struct Args {
     #[arg(long, value_name = "URAD", value_parser = crate::cmd::values::positive)]
     squareness_u_urad: Option<f64>,
     #[command(flatten)]
-    propagation: super::PropagationArgs,
-    #[command(flatten)]
-    signoff: crate::cmd::signoff::SignoffArgs,
-    /// Overwrite output files that exist.
-    #[arg(long)]
-    force: bool,
+    method: super::MethodArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -171,7 +166,7 @@ struct Curves {
 /// Run the method: gather the curves, set up the model, analyse, write the
 /// outputs (refusing before anything is written), print the summary.
 pub fn run(args: &Args) -> Result<()> {
-    let mut signing = super::Signing::start(&args.signoff)?;
+    let mut signing = super::Signing::start(&args.method)?;
     let given = args
         .chain
         .as_deref()
@@ -223,7 +218,7 @@ pub fn run(args: &Args) -> Result<()> {
         curves.campaign.as_ref(),
         &analysis,
         &inputs,
-        args.propagation.options(),
+        signing.propagation(),
     );
     let json = signing.judge(&analysis.report, Some(&u), &FIGURES)?;
     let page = html(&analysis, &u, &signing.signoff)?;
@@ -384,10 +379,8 @@ fn write_outputs(
     for (axis, _) in &analysis.compensation {
         names.push(comp_name(*axis));
     }
-    let mut names: Vec<&str> = names.iter().map(String::as_str).collect();
-    names.extend(signing.names());
-    let inputs = inputs.iter().chain(signing.inputs());
-    let (output, _) = super::outputs(out, &names, inputs, args.force)?;
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let (output, files) = signing.outputs(out, &names, inputs)?;
 
     let fits: Vec<FitRow> = analysis
         .report
@@ -445,7 +438,7 @@ fn write_outputs(
     }
     output.write_json(&out.join("report.json"), json)?;
     output.write_bytes(&out.join("report.html"), page.as_bytes())?;
-    Ok(names.len())
+    Ok(files.len())
 }
 
 /// The compensation file of an axis.
