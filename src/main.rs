@@ -101,14 +101,16 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(err) => {
-            // One line: clap's first paragraph, without its "error: " prefix.
+            // One line: clap's first paragraph, without its "error: " prefix,
+            // and its tips ("a similar subcommand exists: 'evaluate'").
             let text = err.to_string();
             let reason: Vec<&str> = text
                 .lines()
                 .take_while(|l| !l.trim().is_empty())
+                .chain(text.lines().filter(|l| l.trim_start().starts_with("tip:")))
                 .map(str::trim)
                 .collect();
-            return usage_error(reason.join(" ").trim_start_matches("error: "));
+            return usage_error(reason.join("; ").trim_start_matches("error: "));
         }
     };
     interrupt::install(match cli.command {

@@ -156,12 +156,14 @@ pub fn depth_of_field(focal_mm: f64, f_number: f64, coc_mm: f64, s: f64) -> Dept
 /// images farther from the principal point.
 fn illumination_report(
     c: &CameraInput,
-    wp: &Point3<f64>,
+    wp: Option<&Point3<f64>>,
     options: &CommissionOptions,
 ) -> IlluminationReport {
     let cam = &c.camera;
     let mut scale_costs = Vec::new();
-    for &(axis, length) in &options.travel_mm {
+    // The travels run through the working point: without one, no ends.
+    let travels = wp.map(|wp| options.travel_mm.iter().map(move |t| (t, wp)));
+    for (&(axis, length), wp) in travels.into_iter().flatten() {
         let dir = axis.unit();
         if Axis::of_camera(c.id).is_none_or(|n| n == axis) {
             continue;
@@ -219,23 +221,29 @@ pub fn commission(cameras: &[CameraInput], options: &CommissionOptions) -> Repor
         .iter()
         .map(|c| (c.camera.centre(), c.camera.optical_axis().into_inner()))
         .collect();
+    // Given, or where the optical axes meet: one camera's axis alone fixes
+    // no point, and with none neither the pixel size at the working
+    // distance nor the travels can be given.
     let wp = options
         .working_point
-        .or_else(|| (cameras.len() >= 2).then(|| nearest_point(&axes)).flatten())
-        .or_else(|| axes.first().map(|(p, d)| p + d))
-        .unwrap_or_else(Point3::origin);
+        .or_else(|| (cameras.len() >= 2).then(|| nearest_point(&axes)).flatten());
     let reports: Vec<CameraReport> = cameras
         .iter()
-        .map(|c| camera_report(c, &wp, options, &mut warnings))
+        .map(|c| camera_report(c, wp.as_ref(), options, &mut warnings))
         .collect();
     let axis_pairs = axis_pairs(cameras, &axes, options, &mut warnings);
-    let travel = options
-        .travel_mm
-        .iter()
-        .map(|&(axis, length)| travel_report(cameras, &reports, &wp, axis, length, &mut warnings))
-        .collect();
+    let travel = match &wp {
+        Some(wp) => options
+            .travel_mm
+            .iter()
+            .map(|&(axis, length)| {
+                travel_report(cameras, &reports, wp, axis, length, &mut warnings)
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     Report {
-        working_point_mm: wp.coords.into(),
+        working_point_mm: wp.map(|p| p.coords.into()),
         cameras: reports,
         axis_pairs,
         travel,
@@ -285,15 +293,15 @@ fn alignment(
 /// One camera's figures at the working point `wp`, its warnings appended.
 fn camera_report(
     c: &CameraInput,
-    wp: &Point3<f64>,
+    wp: Option<&Point3<f64>>,
     options: &CommissionOptions,
     warnings: &mut Vec<String>,
 ) -> CameraReport {
     let cam = &c.camera;
     let k = cam.intrinsics;
     let (machine, axis_angle) = alignment(c, options, warnings);
-    let z = cam.to_camera(wp).z;
-    if z <= 0.0 {
+    let z = wp.map(|wp| cam.to_camera(wp).z);
+    if z.is_some_and(|z| z <= 0.0) {
         warnings.push(format!(
             "camera {}: the working point is behind the camera",
             c.id
@@ -321,13 +329,14 @@ fn camera_report(
             c.id, c.rms_px, options.rms_tolerance_px
         ));
     }
-    let dof = c.optics.map(|o| {
-        let s = o.focus_distance_mm.unwrap_or(z);
+    // Focused at the working point unless the focus is given.
+    let dof = c.optics.and_then(|o| {
+        let s = o.focus_distance_mm.or(z)?;
         let b = k.fx * o.pixel_mm;
         let f = o.focal_mm.unwrap_or(s * b / (s + b));
-        depth_of_field(f, o.f_number, o.coc_px * o.pixel_mm, s)
+        Some(depth_of_field(f, o.f_number, o.coc_px * o.pixel_mm, s))
     });
-    let (pu, pv) = (z / k.fx, z / k.fy);
+    let (pu, pv) = (z.map(|z| z / k.fx), z.map(|z| z / k.fy));
     let relative_illumination = illumination_report(c, wp, options);
     if let Some(w) = c.flat_field.as_ref().and_then(|f| f.warning.as_ref()) {
         warnings.push(format!("camera {}: {w}", c.id));
@@ -352,7 +361,7 @@ fn camera_report(
         working_distance_mm: z,
         pixel_size_u_mm: pu,
         pixel_size_v_mm: pv,
-        pixel_size_mm: 0.5 * (pu + pv),
+        pixel_size_mm: pu.zip(pv).map(|(pu, pv)| 0.5 * (pu + pv)),
         principal_point_px: [k.cx, k.cy],
         principal_point_offset_px: offset,
         rms_px: c.rms_px,

@@ -69,6 +69,37 @@ pub struct BlobRow {
     pub uv_correlation: Option<f64>,
 }
 
+impl BlobRow {
+    /// Every column of the file, in order: the header of a file of no blobs
+    /// (a row's fields serialise in this order; a test holds them together).
+    pub const HEADER: &'static [&'static str] = &[
+        "image",
+        "blob",
+        "u",
+        "v",
+        "area_px",
+        "diameter_px",
+        "peak",
+        "saturated",
+        "touches_border",
+        "sphere",
+        "signal",
+        "major_px",
+        "minor_px",
+        "orientation_rad",
+        "circularity",
+        "threshold",
+        "camera_model",
+        "camera_serial",
+        "datetime",
+        "exposure_s",
+        "defect_pixels",
+        "u_sigma_px",
+        "v_sigma_px",
+        "uv_correlation",
+    ];
+}
+
 impl Record for BlobRow {
     const COLUMNS: &'static [&'static str] = &[
         "image",
@@ -104,5 +135,47 @@ impl Record for ProblemRow {
 
     fn validate(&self) -> Result<(), Invalid> {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The header of a file of no blobs is the one rows are written under.
+    #[test]
+    fn the_header_is_the_rows_fields_in_order() {
+        let row = BlobRow {
+            image: "a.tif".into(),
+            blob: 0,
+            u: 1.0,
+            v: 2.0,
+            area_px: 3,
+            diameter_px: 2.0,
+            peak: 4,
+            saturated: false,
+            touches_border: false,
+            sphere: None,
+            signal: 5.0,
+            major_px: 1.0,
+            minor_px: 1.0,
+            orientation_rad: 0.0,
+            circularity: 1.0,
+            threshold: "6".into(),
+            camera_model: None,
+            camera_serial: None,
+            datetime: None,
+            exposure_s: None,
+            defect_pixels: None,
+            u_sigma_px: None,
+            v_sigma_px: None,
+            uv_correlation: None,
+        };
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(&row).unwrap();
+        let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+        assert_eq!(header, BlobRow::HEADER);
+        assert!(BlobRow::HEADER.starts_with(BlobRow::COLUMNS));
     }
 }

@@ -31,14 +31,18 @@ pub struct CameraReport {
     pub axis_angle_deg: f64,
     /// Cosine error of that angle, `(1 − cos α)·10⁶`.
     pub cosine_error_ppm: f64,
-    /// Depth of the working point (mm).
-    pub working_distance_mm: f64,
+    /// Depth of the working point (mm); absent without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub working_distance_mm: Option<f64>,
     /// Pixel size at the working distance along u, `Z/fx` (mm/px).
-    pub pixel_size_u_mm: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pixel_size_u_mm: Option<f64>,
     /// Pixel size at the working distance along v, `Z/fy` (mm/px).
-    pub pixel_size_v_mm: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pixel_size_v_mm: Option<f64>,
     /// Mean of the two (the seed's p_k, mm/px).
-    pub pixel_size_mm: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pixel_size_mm: Option<f64>,
     /// Principal point (px).
     pub principal_point_px: [f64; 2],
     /// Principal point minus the image centre `((W − 1)/2, (H − 1)/2)` (px).
@@ -241,11 +245,17 @@ pub struct TravelReport {
     pub cameras: Vec<TravelCamera>,
 }
 
+/// What the report says without a working point.
+pub const NO_WORKING_POINT: &str = "Working point: unknown (one camera, and no second optical axis \
+     to meet: the working distance, the pixel size there and the travels through it cannot be given)";
+
 /// The commissioning report (`<stem>.commissioning.json`; [`Report::text`] for `<stem>.commissioning.txt`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
-    /// Working point (mm).
-    pub working_point_mm: [f64; 3],
+    /// Working point (mm): given, or where the optical axes meet; absent
+    /// for one camera without one given (its axis alone fixes no point).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub working_point_mm: Option<[f64; 3]>,
     /// Per camera.
     pub cameras: Vec<CameraReport>,
     /// Between each pair of optical axes.
@@ -372,14 +382,20 @@ impl Report {
     pub fn text(&self) -> String {
         use std::fmt::Write;
         let mut s = String::new();
-        let wp = self.working_point_mm;
         let _ = writeln!(s, "Rig commissioning");
         let _ = writeln!(s, "=================");
-        let _ = writeln!(
-            s,
-            "Working point: ({:.2}, {:.2}, {:.2}) mm (nearest point to the optical axes unless given)",
-            wp[0], wp[1], wp[2]
-        );
+        match self.working_point_mm {
+            Some(wp) => {
+                let _ = writeln!(
+                    s,
+                    "Working point: ({:.2}, {:.2}, {:.2}) mm (nearest point to the optical axes unless given)",
+                    wp[0], wp[1], wp[2]
+                );
+            }
+            None => {
+                let _ = writeln!(s, "{NO_WORKING_POINT}");
+            }
+        }
         let _ = writeln!(s);
         for c in &self.cameras {
             let _ = writeln!(s, "Camera {} (looks along {})", c.id, c.machine_axis);
@@ -393,11 +409,17 @@ impl Report {
                 c.centre_mm[1],
                 c.centre_mm[2]
             );
-            let _ = writeln!(
-                s,
-                "  working distance {:.2} mm; pixel size {:.6} mm/px (u {:.6}, v {:.6})",
-                c.working_distance_mm, c.pixel_size_mm, c.pixel_size_u_mm, c.pixel_size_v_mm
-            );
+            if let (Some(z), Some(p), Some(pu), Some(pv)) = (
+                c.working_distance_mm,
+                c.pixel_size_mm,
+                c.pixel_size_u_mm,
+                c.pixel_size_v_mm,
+            ) {
+                let _ = writeln!(
+                    s,
+                    "  working distance {z:.2} mm; pixel size {p:.6} mm/px (u {pu:.6}, v {pv:.6})"
+                );
+            }
             let _ = writeln!(
                 s,
                 "  principal point ({:.2}, {:.2}) px, ({:+.2}, {:+.2}) px from the image centre; reprojection RMS {:.4} px",
@@ -434,6 +456,9 @@ impl Report {
             let _ = writeln!(s);
         }
         let _ = writeln!(s, "Angles between optical axes (the method needs 90°):");
+        if self.axis_pairs.is_empty() {
+            let _ = writeln!(s, "  one camera: no pair of axes");
+        }
         for p in &self.axis_pairs {
             let _ = writeln!(
                 s,
@@ -446,6 +471,9 @@ impl Report {
             s,
             "Travel through the working point, cameras used for each axis:"
         );
+        if self.working_point_mm.is_none() {
+            let _ = writeln!(s, "  not checked: no working point");
+        }
         for t in &self.travel {
             for c in &t.cameras {
                 let dof = match c.within_depth_of_field {

@@ -139,7 +139,8 @@ pub struct Summary {
     pub first_problem: Option<String>,
     /// `points.csv`.
     pub points: PathBuf,
-    /// `<stem>.problems.csv`, when there were problems.
+    /// `<stem>.problems.csv`, when there were problems (it is written
+    /// always, its header alone when there were none).
     pub problems_file: Option<PathBuf>,
     /// `<stem>.poses.csv`.
     pub poses: PathBuf,
@@ -1390,7 +1391,7 @@ struct Written {
     problems: usize,
     /// The first problem, described.
     first_problem: Option<String>,
-    /// The problems file, when written.
+    /// The problems file, when it lists problems.
     problems_file: Option<PathBuf>,
 }
 
@@ -1732,10 +1733,9 @@ fn sort_observations(
     });
 }
 
-/// Write the problems in manifest order (within an instant, as found), or
-/// remove a file of them left by an interrupted run or replaced with
-/// `--force` when there is none; its path when written, and the first
-/// problem described.
+/// Write the problems in manifest order (within an instant, as found): the
+/// header alone when there is none; its path when it lists any, and the
+/// first problem described.
 fn write_problems(
     mut problems: Vec<(usize, InstantProblemRow)>,
     path: &Path,
@@ -1744,7 +1744,9 @@ fn write_problems(
     // A stable sort.
     problems.sort_by_key(|(i, _)| *i);
     let Some((_, first)) = problems.first() else {
-        output.remove(path)?;
+        // Written whatever it holds: a file of no problems says none were
+        // found (and replaces a stale one).
+        output.write_records(path, &Vec::<InstantProblemRow>::new())?;
         return Ok((None, None));
     };
     let first = match &first.image {

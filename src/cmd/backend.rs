@@ -53,18 +53,51 @@ pub fn select_backend(choice: BackendChoice) -> Result<Arc<dyn Backend>> {
     Ok(backend)
 }
 
-/// [`select_backend`] with explicit GPU options and log.
+/// [`select_backend`] with explicit GPU options and log. With `auto`, what
+/// the Vulkan drivers print while their adapters are probed (Mesa's
+/// "error: XDG_RUNTIME_DIR is invalid …" on a headless machine) is kept off
+/// the user's stderr: the choice and its reason are this command's to say.
 pub fn select_backend_logged(
     choice: BackendChoice,
     options: &GpuOptions,
     log: &mut dyn Write,
 ) -> Result<Box<dyn Backend>> {
-    let selection = extract::gpu::select(choice.mode(), options)?;
+    let select = || extract::gpu::select(choice.mode(), options);
+    let selection = if choice == BackendChoice::Auto {
+        without_stderr(select)
+    } else {
+        select()
+    }?;
     if let Some(reason) = &selection.cpu_reason {
         // A log that cannot be written is no reason to stop.
         let _ = writeln!(log, "trinocular: note: using the CPU backend: {reason}");
     }
     Ok(selection.backend)
+}
+
+/// `f` run with the process's stderr (file descriptor 2, where libraries
+/// write directly) sent to a temporary file that is then dropped; run as is
+/// where stderr cannot be redirected.
+#[cfg(unix)]
+fn without_stderr<T>(f: impl FnOnce() -> T) -> T {
+    use std::os::fd::AsFd;
+    let stderr = std::io::stderr();
+    let redirected = tempfile::tempfile().ok().and_then(|sink| {
+        let saved = rustix::io::dup(stderr.as_fd()).ok()?;
+        rustix::stdio::dup2_stderr(&sink).ok()?;
+        Some(saved)
+    });
+    let result = f();
+    if let Some(saved) = redirected {
+        // Restoring fd 2 from its own duplicate cannot fail but on a closed fd.
+        let _ = rustix::stdio::dup2_stderr(&saved);
+    }
+    result
+}
+
+#[cfg(not(unix))]
+fn without_stderr<T>(f: impl FnOnce() -> T) -> T {
+    f()
 }
 
 #[cfg(test)]

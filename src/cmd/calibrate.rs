@@ -199,6 +199,16 @@ fn radiometry(
     let size = Some((nominal.width, nominal.height));
     let flats = Stack::read(flat, reader, size, &camera)?;
     let darks = Stack::read(dark, reader, size, &camera)?;
+    // The flats and darks are the camera's own: their serials against its
+    // calibration image's (when it has one), the darks' against the flats'.
+    if let Some(image) = args.images.get(k) {
+        let serial = ingest::read_metadata(image).ok().and_then(|m| m.serial);
+        let what = format!("{camera}'s image {}", image.display());
+        flats.check_camera(serial.as_deref(), &what)?;
+        darks.check_camera(serial.as_deref(), &what)?;
+    }
+    let what = format!("its flat field {}", flat.display());
+    darks.check_camera(flats.serial(), &what)?;
     let start = nominal
         .to_camera()
         .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path(args).display()))?;
@@ -699,18 +709,26 @@ fn write_outputs(
     )?;
     output.write_json(&beside(&args.out, ".commissioning.json"), &report)?;
     for c in &report.cameras {
+        let scale = match (c.pixel_size_mm, c.working_distance_mm) {
+            (Some(p), Some(z)) => format!("{p:.6} mm/px at {z:.1} mm, "),
+            _ => String::new(),
+        };
         println!(
-            "camera {}: {:.6} mm/px at {:.1} mm, optical axis {:.3}° from {}",
-            c.id, c.pixel_size_mm, c.working_distance_mm, c.axis_angle_deg, c.machine_axis
+            "camera {}: {scale}optical axis {:.3}° from {}",
+            c.id, c.axis_angle_deg, c.machine_axis
         );
+    }
+    if report.working_point_mm.is_none() {
+        println!("{}", formats::commissioning::NO_WORKING_POINT);
     }
     for w in &report.warnings {
         eprintln!("trinocular: warning: {w}");
     }
+    let n = rig.cameras.len();
     println!(
-        "wrote {} ({} cameras), OpenCV YAML, residuals and the commissioning report beside it",
+        "wrote {} ({n} camera{}), OpenCV YAML, residuals and the commissioning report beside it",
         args.out.display(),
-        rig.cameras.len()
+        if n == 1 { "" } else { "s" }
     );
     Ok(())
 }

@@ -33,7 +33,7 @@ pub struct Args {
     /// Captures per target.
     #[arg(long, default_value_t = 2)]
     captures: u32,
-    /// Replace the files of an earlier demo in --out (each step is run with --force).
+    /// Replace the files of an earlier demo in --out.
     #[arg(long)]
     force: bool,
 }
@@ -67,17 +67,15 @@ fn path(p: &Path) -> String {
 }
 
 /// Run one step: print its command line, parse it, run it, report the time.
-/// With `force`, the step replaces the files of an earlier run.
+/// Every step runs with `--force` (the demo has checked its folder: fresh,
+/// or `--force` given), so that the line printed reruns it as it is.
 fn step<A: ClapArgs + FromArgMatches>(
     title: &str,
     name: &'static str,
     mut args: Vec<String>,
-    force: bool,
     run: fn(&A) -> Result<()>,
 ) -> Result<()> {
-    if force {
-        args.push("--force".into());
-    }
+    args.push("--force".into());
     let mut line = name.split(' ').map(str::to_string).collect::<Vec<_>>();
     line.extend(args.iter().cloned());
     show(title, &line);
@@ -172,6 +170,15 @@ fn compare(report: &ReportFigures, truth: &ReportFigures) {
 pub fn run(args: &Args) -> Result<()> {
     // Made by the first step's plan, so that a failed demo removes it again.
     let out = args.out.clone().unwrap_or_else(fresh_folder);
+    // Said once, for the command typed, before anything is rendered.
+    let earlier = std::fs::read_dir(&out).is_ok_and(|mut entries| entries.next().is_some());
+    if earlier && !args.force {
+        anyhow::bail!(
+            "{}: the folder holds files already (an earlier demo?): give --force to replace \
+             them, or another --out",
+            out.display()
+        );
+    }
     let campaign = out.join("campaign");
     let height = args.width * 3 / 4;
     let start = Instant::now();
@@ -204,7 +211,6 @@ pub fn run(args: &Args) -> Result<()> {
         ]
         .map(str::to_string)
         .to_vec(),
-        args.force,
         cmd::synth::run,
     )?;
     let c = |f: &str| path(&campaign.join(f));
@@ -232,7 +238,6 @@ pub fn run(args: &Args) -> Result<()> {
             "--out".into(),
             rig.clone(),
         ],
-        args.force,
         cmd::calibrate::run,
     )?;
     let points = path(&out.join("points.csv"));
@@ -251,7 +256,6 @@ pub fn run(args: &Args) -> Result<()> {
             "--out".into(),
             points.clone(),
         ],
-        args.force,
         cmd::measure::run,
     );
     let unmeasured = match measured {
@@ -276,7 +280,6 @@ pub fn run(args: &Args) -> Result<()> {
             "--out".into(),
             path(&report_dir),
         ],
-        args.force,
         cmd::evaluate::run,
     )?;
 

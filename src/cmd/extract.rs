@@ -9,7 +9,7 @@ use extract::Denoise;
 use formats::{BlobRow, OutputPlan, ProblemRow};
 
 use crate::cmd::extraction::ExtractOptions;
-use crate::cmd::images::expand_images;
+use crate::cmd::images::{Subfolders, expand_images};
 use crate::cmd::output::{print_notes, problems_path};
 use crate::cmd::sensor::Stack;
 use crate::cmd::{Finished, progress};
@@ -46,24 +46,32 @@ pub struct Args {
     /// frames each); with single frames the columns stay empty.
     #[arg(long, requires = "flat_field", value_parser = crate::cmd::values::positive)]
     gain_dn_per_e: Option<f64>,
-    /// Images (8/16-bit grayscale TIFF or PNG) or folders of them.
+    /// Images (8/16-bit grayscale TIFF or PNG) or folders of them (searched
+    /// into their subfolders, in the order of their paths).
     #[arg(required = true)]
     images: Vec<PathBuf>,
+}
+
+/// A camera's flat field as `extract` applies it: the lens's relative
+/// illumination, the sensor's per-pixel calibration (from stacks), and the
+/// camera serial its frames' tags name.
+struct FlatField {
+    illumination: geom::RadialIllumination,
+    sensor: Option<sensor::SensorCalibration>,
+    serial: Option<String>,
 }
 
 /// The lens's relative illumination from a flat field and a dark frame
 /// (the first of each stack), without a camera model: centre started at the
 /// image centre, ρ scaled by half the image diagonal; then the sensor's
-/// per-pixel calibration from the stacks against it.
-fn fit_flat_field(
-    flat: &Path,
-    dark: &Path,
-    max_pixels: u64,
-) -> Result<(geom::RadialIllumination, Option<sensor::SensorCalibration>)> {
+/// per-pixel calibration from the stacks against it. The darks must be the
+/// flats' camera's.
+fn fit_flat_field(flat: &Path, dark: &Path, max_pixels: u64) -> Result<FlatField> {
     let mut reader = extract::FrameReader::new().limit_pixels(max_pixels);
     let flats = Stack::read(flat, &mut reader, None, "the camera")?;
     let first = flats.first().map(|f| (f.width, f.height));
     let darks = Stack::read(dark, &mut reader, first, "its flat field")?;
+    darks.check_camera(flats.serial(), &format!("the flat field {}", flat.display()))?;
     let Some(view) = flats.first().map(extract::Frame::view) else {
         bail!("{}: an empty stack of flat fields", flat.display());
     };
@@ -85,7 +93,11 @@ fn fit_flat_field(
     if let Some(s) = &sensor {
         eprintln!("trinocular: sensor: {}; {}", s.dark_note, s.gain_note);
     }
-    Ok((fit.model, sensor))
+    Ok(FlatField {
+        illumination: fit.model,
+        sensor,
+        serial: flats.serial().map(str::to_string),
+    })
 }
 
 /// What a batch left out, by kind, with a problem row for each.
@@ -98,6 +110,10 @@ struct Tally {
     saturated: usize,
     /// Blobs that kept their plain centroid.
     uncorrected: usize,
+    /// Frames without a blob above the threshold.
+    without_blobs: usize,
+    /// Blobs written.
+    blobs: usize,
 }
 
 impl Tally {
@@ -121,12 +137,18 @@ impl Tally {
             failed_frames,
             saturated,
             uncorrected,
+            without_blobs,
             ..
         } = *self;
         let mut what = Vec::new();
         if failed_frames > 0 {
             what.push(format!(
                 "{failed_frames} of {images} images could not be used"
+            ));
+        }
+        if without_blobs > 0 {
+            what.push(format!(
+                "{without_blobs} of {images} images without a blob"
             ));
         }
         if saturated > 0 {
@@ -198,7 +220,7 @@ pub fn run(args: &Args) -> Result<()> {
         .bit_depth
         .as_deref()
         .map(|d| if d == "8" { 8 } else { 16 });
-    let files = expand_images(&args.images)?;
+    let files = expand_images(&args.images, Subfolders::Searched)?;
     let problems_file = problems_path(&args.out);
     let mut plan = OutputPlan::new(args.force);
     plan.inputs(&args.images)
@@ -214,15 +236,16 @@ pub fn run(args: &Args) -> Result<()> {
         (Some(flat), Some(dark)) => Some(fit_flat_field(flat, dark, params.max_pixels)?),
         _ => None,
     };
-    let radiometry = flat_field.as_ref().map(|(ri, sensor)| extract::Radiometry {
-        illumination: ri,
-        sensor: sensor.as_ref().map(|s| &s.maps),
+    let radiometry = flat_field.as_ref().map(|f| extract::Radiometry {
+        illumination: &f.illumination,
+        sensor: f.sensor.as_ref().map(|s| &s.maps),
         gain_dn_per_e: args.gain_dn_per_e.or_else(|| {
-            sensor
+            f.sensor
                 .as_ref()
                 .and_then(|s| s.transfer.map(|t| t.gain_dn_per_e))
         }),
     });
+    let flat_serial = flat_field.as_ref().and_then(|f| f.serial.as_deref());
     if radiometry.is_some_and(|r| r.gain_dn_per_e.is_some()) && params.denoise != Denoise::None {
         eprintln!(
             "trinocular: note: no centroid uncertainties with --denoise (its pixels' noise is \
@@ -237,8 +260,32 @@ pub fn run(args: &Args) -> Result<()> {
     let sink = |_: usize, path: &Path, result: extract::Result<extract::FrameBlobs>| {
         bar.inc(1);
         let name = path.display().to_string();
+        // A frame of another camera than the flat field's is corrected with
+        // the wrong lens and sensor: it is left out.
+        let result = result.and_then(|frame| match (&frame.metadata.serial, flat_serial) {
+            (Some(got), Some(want)) if got != want => Err(extract::ExtractError::Unsupported {
+                path: path.to_path_buf(),
+                message: format!(
+                    "taken by the camera of serial {got}, but the flat field is serial \
+                     {want}: a flat field corrects its own camera's frames only"
+                ),
+            }),
+            _ => Ok(frame),
+        });
         match result {
             Ok(frame) => {
+                if frame.blobs.is_empty() {
+                    tally.without_blobs += 1;
+                    let reason = format!(
+                        "no blob above the threshold ({}, at least {} px)",
+                        frame.threshold, params.min_area
+                    );
+                    bar.suspend(|| eprintln!("trinocular: warning: {name}: {reason}"));
+                    tally.problems.push(ProblemRow {
+                        item: name.clone(),
+                        reason,
+                    });
+                }
                 if let Some(reason) = &frame.saturation {
                     tally.saturated += 1;
                     bar.suspend(|| eprintln!("trinocular: warning: {name}: {reason}"));
@@ -255,6 +302,7 @@ pub fn run(args: &Args) -> Result<()> {
                     });
                 }
                 for row in blob_rows(&name, &frame) {
+                    tally.blobs += 1;
                     if let Err(e) = csv.serialize(row) {
                         write_error.get_or_insert(e.into());
                     }
@@ -279,15 +327,28 @@ pub fn run(args: &Args) -> Result<()> {
         return Err(e.context(format!("{}", args.out.display())));
     }
     tally.nothing_usable(files.len())?;
+    if tally.blobs == 0 {
+        // The header alone: a file of no blobs still says what it holds.
+        csv.write_record(BlobRow::HEADER)
+            .with_context(|| format!("{}", args.out.display()))?;
+    }
     csv.flush()
         .with_context(|| format!("{}", args.out.display()))?;
     drop(csv);
     out.commit()?;
+    let used = files.len() - tally.failed_frames;
+    println!(
+        "extract: {} blob{} from {used} of {} image{} → {}",
+        tally.blobs,
+        if tally.blobs == 1 { "" } else { "s" },
+        files.len(),
+        if files.len() == 1 { "" } else { "s" },
+        args.out.display()
+    );
+    // Written whatever it holds: a file of no problems says none were found.
+    plan.write_records(&problems_file, &tally.problems)?;
     if tally.problems.is_empty() {
-        // A stale problems file from an earlier run (replaced with --force) would mislead.
-        plan.remove(&problems_file)?;
         return Ok(());
     }
-    plan.write_records(&problems_file, &tally.problems)?;
     tally.outcome(files.len(), &problems_file)
 }

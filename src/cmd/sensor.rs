@@ -14,7 +14,7 @@ use formats::{OutputPlan, SensorJson, SensorMapFiles};
 use sensor::maps::MapKind;
 use sensor::{SensorCalibration, SensorMaps, StackKind};
 
-use super::images::expand_images;
+use super::images::{Subfolders, expand_images};
 
 /// The frames of one stack, in file-name order.
 pub struct Stack {
@@ -24,6 +24,8 @@ pub struct Stack {
     pub paths: Vec<PathBuf>,
     frames: Vec<Frame>,
     exposures: Vec<Option<f64>>,
+    /// Each frame's camera serial from its tags, where it has one.
+    serials: Vec<Option<String>>,
 }
 
 impl Stack {
@@ -35,9 +37,10 @@ impl Stack {
         size: Option<(u32, u32)>,
         camera: &str,
     ) -> Result<Self> {
-        let paths = expand_images(std::slice::from_ref(&input.to_path_buf()))?;
+        let paths = expand_images(std::slice::from_ref(&input.to_path_buf()), Subfolders::NotSearched)?;
         let mut frames = Vec::with_capacity(paths.len());
         let mut exposures = Vec::with_capacity(paths.len());
+        let mut serials = Vec::with_capacity(paths.len());
         for path in &paths {
             let (view, meta) = reader.read(path)?;
             if let Some((w, h)) = size
@@ -57,13 +60,43 @@ impl Stack {
                 pixels: view.pixels.to_vec(),
             });
             exposures.push(meta.exposure_s);
+            serials.push(meta.serial);
         }
         Ok(Self {
             input: input.to_path_buf(),
             paths,
             frames,
             exposures,
+            serials,
         })
+    }
+
+    /// The camera serial of the first frame that has one in its tags.
+    pub fn serial(&self) -> Option<&str> {
+        self.serials.iter().flatten().next().map(String::as_str)
+    }
+
+    /// Refuses a frame whose tags name another camera than `serial` (of
+    /// `what`, e.g. the camera's calibration image): a flat field or dark
+    /// frame of another camera would correct this one with the wrong lens
+    /// and sensor. Frames without a serial, or no serial to compare with,
+    /// pass.
+    pub fn check_camera(&self, serial: Option<&str>, what: &str) -> Result<()> {
+        let Some(want) = serial else {
+            return Ok(());
+        };
+        for (path, got) in self.paths.iter().zip(&self.serials) {
+            if let Some(got) = got.as_deref()
+                && got != want
+            {
+                bail!(
+                    "{}: taken by the camera of serial {got}, but {what} is serial {want}: is \
+                     this the right frame for this camera (the order of the cameras)?",
+                    path.display()
+                );
+            }
+        }
+        Ok(())
     }
 
     /// The frames as the sensor crate takes them.

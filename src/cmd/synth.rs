@@ -165,7 +165,7 @@ fn campaign(args: &CampaignArgs) -> Result<()> {
         config.procedure.fps = fps;
     }
     config.validate()?;
-    print_size(&config)?;
+    print_size(&config, &args.out)?;
     let bars = Bars(Mutex::new(None));
     let mut output = output_plan(&args.config);
     let written = synth::write_campaign(&config, &args.out, &mut output, &bars);
@@ -199,9 +199,28 @@ fn campaign(args: &CampaignArgs) -> Result<()> {
     Ok(())
 }
 
-/// The frames and bytes the campaign will write, on stderr before the first frame.
-fn print_size(config: &Config) -> Result<()> {
+/// The frames and bytes the campaign will write, on stderr before the first
+/// frame; a campaign the file system holding `out` has no room for is
+/// refused (compressed images are counted at half their pixels: noise
+/// compresses little, so a campaign refused would not have fitted).
+fn print_size(config: &Config, out: &Path) -> Result<()> {
     let size = synth::campaign_size(config)?;
+    let pixels = size.pixel_bytes + size.calibration_bytes;
+    let compressed = config.output.format == synth::config::ImageFormat::Png
+        || config.output.compression != synth::config::TiffCompression::None;
+    let (needed, what) = if compressed {
+        (pixels / 2, "the compressed images")
+    } else {
+        (pixels, "the images")
+    };
+    crate::cmd::output::check_room(
+        out,
+        needed,
+        &format!(
+            "{} frames of {}×{} px: {what}",
+            size.frames, config.sensor.width, config.sensor.height
+        ),
+    )?;
     let recording = size.recording_s.map_or(String::new(), |s| {
         format!(
             "; {} cameras recording {s:.1} s at {} fps (--fps)",

@@ -138,6 +138,9 @@ pub struct CampaignSize {
     /// Their pixels (bytes, before any compression): frames × width × height
     /// × bytes per sample.
     pub pixel_bytes: u64,
+    /// The calibration images' pixels beside them (bytes, before any
+    /// compression): per camera the target, its flat fields and dark frames.
+    pub calibration_bytes: u64,
     /// Continuous capture: how long the cameras record (s); each records
     /// `fps` frames a second of it.
     pub recording_s: Option<f64>,
@@ -157,9 +160,11 @@ pub fn campaign_size(config: &Config) -> Result<CampaignSize> {
     };
     let s = &config.sensor;
     let pixel = u64::from(s.width) * u64::from(s.height) * u64::from(s.bits.div_ceil(8));
+    let calibration = rig.cameras.len() as u64 * (1 + 2 * u64::from(s.calibration_frames));
     Ok(CampaignSize {
         frames,
         pixel_bytes: frames as u64 * pixel,
+        calibration_bytes: calibration * pixel,
         recording_s,
     })
 }
