@@ -507,10 +507,11 @@ mod tests {
     fn ideal_seed_rig_has_no_warnings_and_the_seed_pixel_size() {
         let r = commission(&seed_rig(), &CommissionOptions::default());
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
-        assert!((Vector3::from(r.working_point_mm) - Vector3::new(0.0, 0.0, 30.0)).norm() < 1e-9);
+        let point = r.working_point_mm.expect("a working point with three cameras");
+        assert!((Vector3::from(point) - Vector3::new(0.0, 0.0, 30.0)).norm() < 1e-9);
         for c in &r.cameras {
             // ≈ 58 µm per pixel at 460 mm (docs/methods.md).
-            assert!((c.pixel_size_mm - 460.0 / 7966.0).abs() < 1e-12);
+            assert!((c.pixel_size_mm.expect("a pixel size") - 460.0 / 7966.0).abs() < 1e-12);
             assert!(c.axis_angle_deg.abs() < 1e-6);
             let d = c.depth_of_field.unwrap();
             // Lens equation: b = 43.81 mm at s = 460 mm gives f = 40 mm.

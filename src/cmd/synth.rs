@@ -22,10 +22,14 @@ pub struct Args {
 #[derive(Debug, clap::Subcommand)]
 enum What {
     /// Render a measurement campaign: images, manifest.csv, spheres.csv, nominal.json,
-    /// target.csv, calibration images, truth.json, truth_points.csv.
+    /// target.csv, the calibration images (calib/: target, flat fields, dark frames, as
+    /// `synth target` writes them), truth.json, truth_points.csv.
     Campaign(CampaignArgs),
     /// Render the calibration target once per camera: target.csv, nominal.json,
-    /// truth.json, calib/cam{1,2,3}.tif, calib/points_cam{1,2,3}.csv.
+    /// truth.json, calib/cam{1,2,3}.tif, calib/points_cam{1,2,3}.csv, and each
+    /// camera's flat field and dark frame, calib/flat_cam{k}.tif and
+    /// calib/dark_cam{k}.tif (stacks calib/flat_cam{k}/flat_001.tif … and
+    /// calib/dark_cam{k}/dark_001.tif … with [sensor] calibration_frames > 1).
     Target(TargetArgs),
     /// Print the default configuration (the seed's rig and procedure), documented, as TOML.
     Config,
