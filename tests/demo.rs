@@ -105,12 +105,54 @@ fn demo_measures_the_injected_errors() {
         "{commissioning}"
     );
 
+    // Each step's printed command reruns it as written (issue 39: they
+    // lacked --force and failed on the demo's own outputs).
+    let said = String::from_utf8_lossy(&run.stderr);
+    let evaluate = said
+        .lines()
+        .find_map(|l| l.strip_prefix("$ trinocular evaluate "))
+        .unwrap_or_else(|| panic!("no evaluate step printed: {said}"));
+    let rerun = Command::new(env!("CARGO_BIN_EXE_trinocular"))
+        .arg("evaluate")
+        .args(evaluate.split(' '))
+        .output()
+        .unwrap();
+    assert!(
+        rerun.status.success(),
+        "trinocular evaluate {evaluate}: {}",
+        String::from_utf8_lossy(&rerun.stderr)
+    );
+
     let f = judge(&out);
     assert!(f.rms_um <= 2.0 * 1.59, "{f:?}");
     assert!(f.iso_um <= 2.0 * 0.73, "{f:?}");
     assert!(f.straightness_um <= 2.0 * 0.70, "{f:?}");
     assert!(f.flatness_um <= 2.0 * 0.20, "{f:?}");
     assert!(f.angular_urad <= 2.0 * 30.3, "{f:?}");
+}
+
+/// A second demo into a folder that holds files is refused at once, for the
+/// command the user typed, before anything is rendered (issue 39: its inner
+/// step asked for --force after announcing the frames).
+#[test]
+fn a_demo_into_a_used_folder_asks_for_force_at_the_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("points.csv"), "an earlier run's\n").unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_trinocular"))
+        .args(["demo", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{said}");
+    assert_eq!(said.trim_end().lines().count(), 1, "{said}");
+    assert!(said.contains("--force") && said.contains("demo"), "{said}");
+    assert_eq!(
+        std::fs::read_dir(&out).unwrap().count(),
+        1,
+        "the demo wrote into the used folder"
+    );
 }
 
 /// The demo's largest differences from the truth.

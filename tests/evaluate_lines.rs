@@ -13,7 +13,7 @@ mod common;
 use std::path::Path;
 
 use common::{ok, read, s, trinocular};
-use formats::{Axis, Direction, PointRow};
+use formats::{Axis, Direction, InstantKey, PointRow};
 use serde_json::Value;
 
 /// Commanded X of the targets (mm).
@@ -52,28 +52,21 @@ impl Line {
                 for (k, &c) in TARGETS.iter().enumerate() {
                     let along = self.p[k] + sign * self.reversal / 2.0 + self.scatter * z;
                     for capture in 1..=2 {
-                        rows.push(PointRow {
-                            axis: Axis::X,
-                            direction,
-                            run,
-                            target: k as u32,
-                            capture,
-                            nominal_x: c,
-                            nominal_y: self.y,
-                            nominal_z: 0.0,
-                            sphere: "A".into(),
-                            x: c + along,
-                            y: self.y + self.sag_um * UM * SAG[k],
-                            z: self.bow_um * UM * BOW[k],
-                            cameras: "2+3".into(),
-                            residual_px: 0.1,
-                            u_x: None,
-                            u_y: None,
-                            u_z: None,
-                            u_cal_x: None,
-                            u_cal_y: None,
-                            u_cal_z: None,
-                        });
+                        rows.push(PointRow::new(
+                            InstantKey::new(
+                                (Axis::X, direction),
+                                [run, k as u32, capture],
+                                [c, self.y, 0.0],
+                            ),
+                            "A",
+                            [
+                                c + along,
+                                self.y + self.sag_um * UM * SAG[k],
+                                self.bow_um * UM * BOW[k],
+                            ],
+                            "2+3",
+                            0.1,
+                        ));
                     }
                 }
             }

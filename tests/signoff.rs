@@ -19,7 +19,7 @@ mod common;
 use std::path::Path;
 
 use common::{failure, ok, read, s, trinocular};
-use formats::{Axis, Direction, PointRow};
+use formats::{Axis, Direction, InstantKey, PointRow};
 use serde_json::Value;
 
 /// Commanded X of the targets (mm).
@@ -37,28 +37,13 @@ fn rows() -> Vec<PointRow> {
         for (direction, sign) in [(Direction::Up, 1.0), (Direction::Down, -1.0)] {
             for (k, &c) in TARGETS.iter().enumerate() {
                 let along_um = ERROR_UM[k] + sign * REVERSAL_UM / 2.0 + SCATTER_UM * z;
-                rows.push(PointRow {
-                    axis: Axis::X,
-                    direction,
-                    run,
-                    target: k as u32,
-                    capture: 1,
-                    nominal_x: c,
-                    nominal_y: 0.0,
-                    nominal_z: 0.0,
-                    sphere: "A".into(),
-                    x: c + along_um * 1e-3,
-                    y: 0.0,
-                    z: 0.0,
-                    cameras: "2+3".into(),
-                    residual_px: 0.1,
-                    u_x: None,
-                    u_y: None,
-                    u_z: None,
-                    u_cal_x: None,
-                    u_cal_y: None,
-                    u_cal_z: None,
-                });
+                rows.push(PointRow::new(
+                    InstantKey::new((Axis::X, direction), [run, k as u32, 1], [c, 0.0, 0.0]),
+                    "A",
+                    [c + along_um * 1e-3, 0.0, 0.0],
+                    "2+3",
+                    0.1,
+                ));
             }
         }
     }

@@ -103,28 +103,17 @@ fn check_vector_through_points() {
             (formats::Direction::Down, &t.down),
         ] {
             for (j, x) in values.iter().enumerate() {
-                rows.push(formats::PointRow {
-                    axis: formats::Axis::X,
-                    direction,
-                    run: j as u32 + 1,
-                    target: i as u32,
-                    capture: 1,
-                    nominal_x: nominal,
-                    nominal_y: 0.0,
-                    nominal_z: 0.0,
-                    sphere: "A".into(),
-                    x: nominal + x,
-                    y: 0.0,
-                    z: 0.0,
-                    cameras: "2+3".into(),
-                    residual_px: 0.0,
-                    u_x: None,
-                    u_y: None,
-                    u_z: None,
-                    u_cal_x: None,
-                    u_cal_y: None,
-                    u_cal_z: None,
-                });
+                rows.push(formats::PointRow::new(
+                    formats::InstantKey::new(
+                        (formats::Axis::X, direction),
+                        [j as u32 + 1, i as u32, 1],
+                        [nominal, 0.0, 0.0],
+                    ),
+                    "A",
+                    [nominal + x, 0.0, 0.0],
+                    "2+3",
+                    0.0,
+                ));
             }
         }
     }

@@ -196,18 +196,7 @@ instant_row! {
 }
 
 impl Record for ManifestRow {
-    const COLUMNS: &'static [&'static str] = &[
-        "image",
-        "camera",
-        "axis",
-        "direction",
-        "run",
-        "target",
-        "capture",
-        "nominal_x",
-        "nominal_y",
-        "nominal_z",
-    ];
+    const COLUMNS: &'static [&'static str] = instant_columns!["image", "camera"; ..InstantKey];
 
     fn validate(&self) -> std::result::Result<(), Invalid> {
         if self.image.trim().is_empty() {
@@ -219,15 +208,7 @@ impl Record for ManifestRow {
                 format!("camera {} is not 1, 2 or 3", self.camera),
             ));
         }
-        if self.run < 1 {
-            return Err(Invalid::new("run", "runs are numbered from 1"));
-        }
-        if self.capture < 1 {
-            return Err(Invalid::new("capture", "captures are numbered from 1"));
-        }
-        finite("nominal_x", self.nominal_x)?;
-        finite("nominal_y", self.nominal_y)?;
-        finite("nominal_z", self.nominal_z)
+        self.validate_instant()
     }
 }
 

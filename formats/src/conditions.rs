@@ -293,19 +293,10 @@ instant_row! {
 }
 
 impl Record for InstantTemperatureRow {
-    const COLUMNS: &'static [&'static str] = &[
-        "axis",
-        "direction",
-        "run",
-        "target",
-        "capture",
-        "nominal_x",
-        "nominal_y",
-        "nominal_z",
-        "machine_c",
-    ];
+    const COLUMNS: &'static [&'static str] = instant_columns![..InstantKey, "machine_c"];
 
     fn validate(&self) -> std::result::Result<(), Invalid> {
+        self.validate_instant()?;
         let (lo, hi) = TEMPERATURE_RANGE_C;
         if !(lo..=hi).contains(&self.machine_c) {
             return Err(Invalid::new(

@@ -70,7 +70,46 @@ macro_rules! instant_row {
                     self.nominal(),
                 )
             }
+
+            /// The instant's own checks: runs and captures numbered from 1,
+            /// a finite commanded position.
+            #[allow(dead_code)]
+            fn validate_instant(&self) -> ::std::result::Result<(), $crate::table::Invalid> {
+                use $crate::table::{Invalid, finite};
+                if self.run < 1 {
+                    return Err(Invalid::new("run", "runs are numbered from 1"));
+                }
+                if self.capture < 1 {
+                    return Err(Invalid::new("capture", "captures are numbered from 1"));
+                }
+                finite("nominal_x", self.nominal_x)?;
+                finite("nominal_y", self.nominal_y)?;
+                finite("nominal_z", self.nominal_z)
+            }
         }
+    };
+}
+
+/// The column names of a row declared with `instant_row!`, the instant's
+/// eight in their place: `instant_columns!["image", "camera"; ..InstantKey]`,
+/// `instant_columns![..InstantKey, "sphere", "x"]`.
+macro_rules! instant_columns {
+    (..InstantKey $(, $own:literal)* $(,)?) => {
+        instant_columns![; ..InstantKey $(, $own)*]
+    };
+    ($($lead:literal),* ; ..InstantKey $(, $own:literal)* $(,)?) => {
+        &[
+            $($lead,)*
+            "axis",
+            "direction",
+            "run",
+            "target",
+            "capture",
+            "nominal_x",
+            "nominal_y",
+            "nominal_z",
+            $($own),*
+        ]
     };
 }
 

@@ -184,15 +184,8 @@ impl ObservationRow {
 }
 
 impl Record for ObservationRow {
-    const COLUMNS: &'static [&'static str] = &[
-        "axis",
-        "direction",
-        "run",
-        "target",
-        "capture",
-        "nominal_x",
-        "nominal_y",
-        "nominal_z",
+    const COLUMNS: &'static [&'static str] = instant_columns![
+        ..InstantKey,
         "sphere",
         "camera",
         "radius_mm",
@@ -200,16 +193,11 @@ impl Record for ObservationRow {
         "v",
         "u_sigma_px",
         "v_sigma_px",
-        "uv_correlation",
+        "uv_correlation"
     ];
 
     fn validate(&self) -> Result<(), Invalid> {
-        if self.run < 1 {
-            return Err(Invalid::new("run", "runs are numbered from 1"));
-        }
-        if self.capture < 1 {
-            return Err(Invalid::new("capture", "captures are numbered from 1"));
-        }
+        self.validate_instant()?;
         if self.sphere.trim().is_empty() {
             return Err(Invalid::new("sphere", "empty sphere name"));
         }

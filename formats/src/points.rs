@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::InstantKey;
 use crate::table::{Invalid, Record, finite};
 
 instant_row! {
@@ -49,6 +50,57 @@ instant_row! {
 }
 
 impl PointRow {
+    /// A sphere's centre at an instant, its uncertainties unknown (every
+    /// `u_*` empty: the renderer's truth, a series written by hand; measured
+    /// centres add theirs with [`PointRow::with_uncertainty`]).
+    pub fn new(
+        instant: InstantKey,
+        sphere: &str,
+        [x, y, z]: [f64; 3],
+        cameras: &str,
+        residual_px: f64,
+    ) -> Self {
+        let [nominal_x, nominal_y, nominal_z] = instant.nominal();
+        Self {
+            axis: instant.axis,
+            direction: instant.direction,
+            run: instant.run,
+            target: instant.target,
+            capture: instant.capture,
+            nominal_x,
+            nominal_y,
+            nominal_z,
+            sphere: sphere.to_string(),
+            x,
+            y,
+            z,
+            cameras: cameras.to_string(),
+            residual_px,
+            u_x: None,
+            u_y: None,
+            u_z: None,
+            u_cal_x: None,
+            u_cal_y: None,
+            u_cal_z: None,
+        }
+    }
+
+    /// The row with the standard uncertainties of its centre (mm): the
+    /// centroids' random part and the calibration's, x, y, z.
+    pub fn with_uncertainty(self, random: Option<[f64; 3]>, calibration: Option<[f64; 3]>) -> Self {
+        let part = |u: Option<[f64; 3]>| u.map_or([None; 3], |u| u.map(Some));
+        let ([u_x, u_y, u_z], [u_cal_x, u_cal_y, u_cal_z]) = (part(random), part(calibration));
+        Self {
+            u_x,
+            u_y,
+            u_z,
+            u_cal_x,
+            u_cal_y,
+            u_cal_z,
+            ..self
+        }
+    }
+
     /// Measured position (mm).
     pub fn position(&self) -> [f64; 3] {
         [self.x, self.y, self.z]
@@ -56,38 +108,23 @@ impl PointRow {
 }
 
 impl Record for PointRow {
-    const COLUMNS: &'static [&'static str] = &[
-        "axis",
-        "direction",
-        "run",
-        "target",
-        "capture",
-        "nominal_x",
-        "nominal_y",
-        "nominal_z",
+    const COLUMNS: &'static [&'static str] = instant_columns![
+        ..InstantKey,
         "sphere",
         "x",
         "y",
         "z",
         "cameras",
-        "residual_px",
+        "residual_px"
     ];
     const OPTIONAL_COLUMNS: &'static [&'static str] =
         &["u_x", "u_y", "u_z", "u_cal_x", "u_cal_y", "u_cal_z"];
 
     fn validate(&self) -> Result<(), Invalid> {
-        if self.run < 1 {
-            return Err(Invalid::new("run", "runs are numbered from 1"));
-        }
-        if self.capture < 1 {
-            return Err(Invalid::new("capture", "captures are numbered from 1"));
-        }
+        self.validate_instant()?;
         if self.sphere.trim().is_empty() {
             return Err(Invalid::new("sphere", "empty sphere name"));
         }
-        finite("nominal_x", self.nominal_x)?;
-        finite("nominal_y", self.nominal_y)?;
-        finite("nominal_z", self.nominal_z)?;
         finite("x", self.x)?;
         finite("y", self.y)?;
         finite("z", self.z)?;

@@ -868,36 +868,14 @@ struct Fused {
 }
 
 fn rows_for(key: &InstantKey, spheres: &[SphereRow], centres: &[Option<Fused>]) -> Vec<PointRow> {
-    let [nx, ny, nz] = key.nominal();
     spheres
         .iter()
         .zip(centres)
         .filter_map(|(s, c)| c.as_ref().map(|f| (s, f)))
         .map(|(s, f)| {
-            let random = |i: usize| f.u_random.map(|u| u[i]);
-            let calibration = |i: usize| f.u_calibration.map(|u| u[i]);
-            PointRow {
-                axis: key.axis,
-                direction: key.direction,
-                run: key.run,
-                target: key.target,
-                capture: key.capture,
-                nominal_x: nx,
-                nominal_y: ny,
-                nominal_z: nz,
-                sphere: s.name.clone(),
-                x: f.point.x,
-                y: f.point.y,
-                z: f.point.z,
-                cameras: f.cameras.clone(),
-                residual_px: f.residual_px,
-                u_x: random(0),
-                u_y: random(1),
-                u_z: random(2),
-                u_cal_x: calibration(0),
-                u_cal_y: calibration(1),
-                u_cal_z: calibration(2),
-            }
+            let centre = [f.point.x, f.point.y, f.point.z];
+            PointRow::new(*key, &s.name, centre, &f.cameras, f.residual_px)
+                .with_uncertainty(f.u_random, f.u_calibration)
         })
         .collect()
 }

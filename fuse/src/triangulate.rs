@@ -63,42 +63,28 @@ pub fn seed_displacement(
 mod tests {
     use super::*;
     use geom::triangulate::predict;
-    use geom::{Camera, Intrinsics, Point2, Point3};
-
-    fn rig() -> Vec<Camera> {
-        let k = Intrinsics::centred(7966.0, 4096, 3072);
-        let look = |pos: Point3<f64>, up: Vector3<f64>| {
-            let mut c =
-                Camera::look_at(pos, Point3::new(0.0, 0.0, 30.0), up, k, 4096, 3072).unwrap();
-            c.distortion.k1 = -0.04;
-            c
-        };
-        vec![
-            look(Point3::new(-460.0, 0.0, 30.0), Vector3::z()),
-            look(Point3::new(0.0, -460.0, 30.0), Vector3::z()),
-            look(Point3::new(0.0, 0.0, 490.0), Vector3::y()),
-        ]
-    }
-
-    fn views<'a>(cams: &'a [Camera], x: &Point3<f64>, radius: f64) -> Vec<View<'a>> {
-        cams.iter()
-            .map(|c| View {
-                camera: c,
-                ideal_px: {
-                    let (p, _) = predict(c, x, radius).unwrap();
-                    Point2::new(p.x, p.y)
-                },
-            })
-            .collect()
-    }
+    use geom::{Point2, Point3};
+    use synth::{Config, SynthRig};
 
     #[test]
     fn seed_fusion_recovers_an_x_displacement() {
-        let cams = rig();
+        // The renderer's default rig (cameras 460 mm from the working point).
+        let rig = SynthRig::from_config(&Config::default()).unwrap();
+        let cams: Vec<_> = rig.cameras[1..].iter().map(|c| &c.camera).collect();
         let x0 = Point3::new(0.0, 0.0, 30.0);
         let x1 = Point3::new(30.0, 0.002, -0.001);
-        let ideal = |x: &Point3<f64>| -> Vec<View<'_>> { views(&cams, x, 0.0)[1..].to_vec() };
-        let depths: Vec<f64> = cams[1..].iter().map(|c| c.to_camera(&x0).z).collect();
+        let ideal = |x: &Point3<f64>| -> Vec<View<'_>> {
+            cams.iter()
+                .map(|&camera| {
+                    let (p, _) = predict(camera, x, 0.0).unwrap();
+                    View {
+                        camera,
+                        ideal_px: Point2::new(p.x, p.y),
+                    }
+                })
+                .collect()
+        };
+        let depths: Vec<f64> = cams.iter().map(|c| c.to_camera(&x0).z).collect();
         let (d, _) = seed_displacement(&ideal(&x0), &ideal(&(x0 + x1.coords)), &depths).unwrap();
         // Pixel scale at the reference depth: the motion across the field is
         // recovered to the (small) perspective error of the seed's model.

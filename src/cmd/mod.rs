@@ -1,23 +1,33 @@
-//! One module per subcommand: argument struct and `run`.
+//! The subcommands, one module each (argument struct and `run`), and the
+//! parts they share, each in one module of its own. A command uses the
+//! shared modules and never another command's helpers; `demo` runs the
+//! commands themselves (their `Args` and `run`), `bench` and `synth`
+//! only dispatch to the `bench` and `synth` entry points of the commands
+//! they time or render for (`bench_measure` is `bench measure`'s own).
 
-pub mod backend;
+// The subcommands.
 pub mod bench;
 pub mod bench_measure;
 pub mod calibrate;
 pub mod demo;
 pub mod evaluate;
 pub mod extract;
-pub mod extraction;
 pub mod fit;
-pub mod images;
 pub mod manifest;
 pub mod measure;
-pub mod output;
 pub mod probe;
+pub mod synth;
+
+// What they share: the backend choice, the extraction options, the images
+// given, outputs and problems files, progress bars, flat and dark stacks,
+// the sign-off options, the option value parsers.
+pub mod backend;
+pub mod extraction;
+pub mod images;
+pub mod output;
 pub mod progress;
 pub mod sensor;
 pub mod signoff;
-pub mod synth;
 pub mod values;
 
 /// A batch that finished but left items unprocessed (listed in a problems

@@ -8,7 +8,7 @@
 //! every target downward (−). The overshoot takes up the backlash, so the
 //! approach direction decides the reversal error.
 
-use formats::{Axis, Direction, ManifestRow, PointRow};
+use formats::{Axis, Direction, InstantKey, ManifestRow, PointRow};
 use geom::nalgebra::{Point3, Vector3};
 use geom::transform::SmallError;
 
@@ -197,28 +197,17 @@ impl Plan {
         let mut rows = Vec::with_capacity(self.instants.len() * self.spheres.len());
         for i in &self.instants {
             for (c, s) in self.centres(i).iter().zip(&self.spheres) {
-                rows.push(PointRow {
-                    axis: i.axis,
-                    direction: i.direction,
-                    run: i.run,
-                    target: i.target,
-                    capture: i.capture,
-                    nominal_x: i.nominal[0],
-                    nominal_y: i.nominal[1],
-                    nominal_z: i.nominal[2],
-                    sphere: s.name.clone(),
-                    x: c.x,
-                    y: c.y,
-                    z: c.z,
-                    cameras: "truth".into(),
-                    residual_px: 0.0,
-                    u_x: None,
-                    u_y: None,
-                    u_z: None,
-                    u_cal_x: None,
-                    u_cal_y: None,
-                    u_cal_z: None,
-                });
+                rows.push(PointRow::new(
+                    InstantKey::new(
+                        (i.axis, i.direction),
+                        [i.run, i.target, i.capture],
+                        i.nominal,
+                    ),
+                    &s.name,
+                    [c.x, c.y, c.z],
+                    "truth",
+                    0.0,
+                ));
             }
         }
         rows

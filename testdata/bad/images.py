@@ -68,6 +68,8 @@ def main():
                  "extract_colour_png"]:
         write(f"{case}/ok.tif", ok)
     write("_shared/ok.tif", ok)
+    # A dark frame given by mistake: a flat level, no blob.
+    write("extract_no_blob/dark.tif", tiff(8, 8, u16([100] * 64)))
     # Headers that claim more than any sensor (4 bytes of data).
     write("extract_tiff_header_huge/huge.tif", tiff(4294967295, 4294967295, u16([0, 0])))
     write("extract_tiff_header_1e6x1e5/big.tif", tiff(1000000, 100000, u16([0, 0])))

@@ -14,7 +14,7 @@
 
 #![allow(dead_code, clippy::unwrap_used)]
 
-use formats::{Axis, Direction, PointRow};
+use formats::{Axis, Direction, InstantKey, PointRow};
 use geom::{Point3, Rotation3, Vector3};
 
 /// Sphere names and their offsets from the table reference point (mm): the
@@ -269,28 +269,17 @@ impl LineModel {
                         for (name, offset) in SPHERES {
                             let p = a + rot * (Vector3::from(offset) - a_offset);
                             let nominal = self.nominal(k);
-                            rows.push(PointRow {
-                                axis: self.axis,
-                                direction,
-                                run: run as u32 + 1,
-                                target: k as u32,
-                                capture: capture as u32 + 1,
-                                nominal_x: nominal[0],
-                                nominal_y: nominal[1],
-                                nominal_z: nominal[2],
-                                sphere: name.to_string(),
-                                x: p.x,
-                                y: p.y,
-                                z: p.z,
-                                cameras: "2+3".into(),
-                                residual_px: 0.0,
-                                u_x: None,
-                                u_y: None,
-                                u_z: None,
-                                u_cal_x: None,
-                                u_cal_y: None,
-                                u_cal_z: None,
-                            });
+                            rows.push(PointRow::new(
+                                InstantKey::new(
+                                    (self.axis, direction),
+                                    [run as u32 + 1, k as u32, capture as u32 + 1],
+                                    [nominal[0], nominal[1], nominal[2]],
+                                ),
+                                &name,
+                                [p.x, p.y, p.z],
+                                "2+3",
+                                0.0,
+                            ));
                         }
                     }
                 }

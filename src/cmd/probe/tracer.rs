@@ -436,7 +436,8 @@ fn median_time<T>(repeat: usize, mut f: impl FnMut() -> Result<T>) -> Result<(Du
 }
 
 /// `trinocular bench tracer`: the generator's data written and read back
-/// through the file readers, then the solve timed on all threads and on one.
+/// through the file readers, then the solve timed on all threads and on one,
+/// and the Monte Carlo of the figures' U that `probe tracer` adds by default.
 pub fn bench(args: &BenchArgs) -> Result<()> {
     let config = TracerConfig {
         counts: args.counts,
@@ -460,10 +461,15 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     let (one, _) = median_time(args.repeat, || {
         Ok(one_pool.install(|| tracer::solve(&net, &options))?)
     })?;
+    // The figures' U as `probe tracer` computes it by default (200 trials
+    // and the budget), against the solve: what `--trials 0` saves.
+    let propagation = probe::uncertainty::Propagation::default();
+    let (mc, uncertainty) = median_time(args.repeat, || {
+        Ok(tracer::uncertainty(&net, &solution, &options, propagation)?)
+    })?;
     let start = Instant::now();
     let report = tracer::report(&net, &solution);
-    let none = probe::uncertainty::not_given("not computed by the benchmark");
-    let page = tracer::html(&net, &solution, &report, &none, &Default::default())?;
+    let page = tracer::html(&net, &solution, &report, &uncertainty, &Default::default())?;
     let html = start.elapsed();
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     println!(
@@ -482,6 +488,12 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         solution.residual_rms * UM
     );
     println!("solve, 1 thread:                {:8.1} ms", ms(one));
+    println!(
+        "U of the figures, {threads} threads:   {:8.1} ms  ({} trials and the budget, as `probe tracer` \
+         by default; none with --trials 0)",
+        ms(mc),
+        propagation.trials
+    );
     println!(
         "report.json + report.html:      {:8.1} ms  ({:.1} MB of HTML)",
         ms(html),
