@@ -543,3 +543,32 @@ fn flatness_section(h: &mut Page, report: &Report, f: &FlatnessReport) -> Result
     );
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::figure_label;
+
+    #[test]
+    fn figures_are_labelled_by_axis_name_and_unit() {
+        for (path, label) in [
+            ("axes.X.positioning.A_down_um", "X, A↓, µm"),
+            ("axes.Z.positioning.vdi3441.P_um", "Z, P (VDI/DGQ 3441), µm"),
+            (
+                "axes.Y.lines.2.angular.roll_urad",
+                "Y line 2, roll range, µrad",
+            ),
+            (
+                "axes.X.straightness.Z.lsq_um",
+                "X, straightness in Z (LSQ), µm",
+            ),
+            ("flatness.min_zone_um", "flatness (min zone), µm"),
+            // A figure the page does not name keeps its path.
+            (
+                "axes.X.positioning.unknown_um",
+                "axes.X.positioning.unknown_um",
+            ),
+        ] {
+            assert_eq!(figure_label(path), label);
+        }
+    }
+}
