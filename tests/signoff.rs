@@ -18,7 +18,7 @@ mod common;
 
 use std::path::Path;
 
-use common::{failure, ok, read, s, trinocular};
+use common::{failure, ok, ok_stdout, read, s, trinocular};
 use formats::{Axis, Direction, InstantKey, PointRow};
 use serde_json::Value;
 
@@ -143,6 +143,32 @@ fn a_warm_machine_tilts_the_mean_deviations_by_its_expansion() {
     ] {
         assert!(html.contains(text), "{text} not on the page");
     }
+    // Said on the terminal before the figures, with each unit right after its number.
+    let out = tmp.path().join("warm-terminal");
+    let stdout = ok_stdout(&trinocular(&[
+        "evaluate",
+        "--points",
+        s(&tmp.path().join("points.csv")),
+        "--out",
+        s(&out),
+        "--conditions",
+        s(&cfg),
+    ]));
+    let said = stdout
+        .find("conditions: positioning deviations corrected to 20 °C")
+        .unwrap_or_else(|| panic!("no correction on the terminal: {stdout}"));
+    assert!(said < stdout.find("X: A ").unwrap(), "{stdout}");
+    assert!(stdout.contains(" µm, E "), "{stdout}");
+    assert_eq!(
+        warm["correction"],
+        warm["conventions"]
+            .as_array()
+            .unwrap()
+            .last()
+            .unwrap()
+            .clone()
+    );
+    assert!(html.contains("id=\"correction\">Conditions applied: positioning deviations"));
     // Without conditions: nothing of the kind.
     assert!(plain.get("conditions").is_none() && plain.get("uncorrected").is_none());
     assert!(!plain_html.contains("Test conditions"));

@@ -534,7 +534,7 @@ fn the_budget_follows_the_physics() {
     assert_eq!(report["verdict"], "does not conform");
     let html = String::from_utf8(std::fs::read(dir.join("judged/report.html")).unwrap()).unwrap();
     assert!(
-        html.contains(&format!("{e:.3} ± ")),
+        html.contains(&report::plus_minus(e, Some(ue), 3)),
         "E ± U not on the page"
     );
 }

@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use ::report::{Page, escape, num, num_u};
+use ::report::{Page, escape, num, num_u, num_u_in};
 use formats::evaluation::{AxisReport, FlatnessReport, LineReport, PositioningReport, Report};
 
 use crate::{Result, plot};
@@ -25,7 +25,7 @@ pub fn render(report: &Report) -> Result<String> {
     ));
     ::report::conformance::header(&mut h, &report.signoff);
     summary(&mut h, report);
-    ::report::uncertainty::section(&mut h, report.uncertainty.as_ref());
+    ::report::uncertainty::section_labelled(&mut h, report.uncertainty.as_ref(), &figure_label);
     for (axis, a) in report.axes.iter() {
         axis_section(&mut h, report, axis.name(), a)?;
     }
@@ -39,63 +39,53 @@ pub fn render(report: &Report) -> Result<String> {
 
 /// The one table a reader checks first: every axis's headline figures.
 fn summary(h: &mut Page, report: &Report) {
-    h.raw("<h2>Summary</h2>\n<table id=\"summary\">\n<tr><th class=\"l\">figure (µm / µrad)</th>");
+    h.raw("<h2>Summary</h2>\n");
+    // The figures are corrected to 20 °C: said where they are read.
+    if let Some(correction) = &report.correction {
+        let _ = writeln!(
+            h,
+            "<p class=\"meta\" id=\"correction\">Conditions applied: {}</p>",
+            escape(correction)
+        );
+    }
+    h.raw("<table id=\"summary\">\n<tr><th class=\"l\">figure (µm / µrad)</th>");
     let axes: Vec<(&str, &AxisReport)> = report.axes.iter().map(|(a, r)| (a.name(), r)).collect();
     for (name, _) in &axes {
         let _ = write!(h, "<th>{name} axis</th>");
     }
     h.raw("</tr>\n");
     type Get = fn(&LineReport) -> Option<f64>;
-    // (label, the figure's key under axes.<axis>, value)
-    let rows: [(&str, &str, Get); 13] = [
-        ("A — bidirectional accuracy", "positioning.A_um", |l| {
-            l.positioning.a_um
-        }),
-        (
-            "A↑ — unidirectional accuracy",
-            "positioning.A_up_um",
-            |l| l.positioning.a_up_um,
-        ),
-        (
-            "A↓ — unidirectional accuracy",
-            "positioning.A_down_um",
-            |l| l.positioning.a_down_um,
-        ),
-        (
-            "E — systematic positional deviation",
-            "positioning.E_um",
-            |l| l.positioning.e_um,
-        ),
-        (
-            "M — mean bidirectional positional deviation",
-            "positioning.M_um",
-            |l| l.positioning.m_um,
-        ),
-        (
-            "R — bidirectional repeatability",
-            "positioning.R_um",
-            |l| l.positioning.r_um,
-        ),
-        ("R↑", "positioning.R_up_um", |l| l.positioning.r_up_um),
-        ("R↓", "positioning.R_down_um", |l| l.positioning.r_down_um),
-        ("B — reversal value", "positioning.B_um", |l| {
-            l.positioning.b_um
-        }),
-        ("seed 3σ figure", "positioning.seed_3sigma_um", |l| {
+    // (the figure's key under axes.<axis>, value); labelled by `figure_name`.
+    let rows: [(&str, Get); 13] = [
+        ("positioning.A_um", |l| l.positioning.a_um),
+        ("positioning.A_up_um", |l| l.positioning.a_up_um),
+        ("positioning.A_down_um", |l| l.positioning.a_down_um),
+        ("positioning.E_um", |l| l.positioning.e_um),
+        ("positioning.M_um", |l| l.positioning.m_um),
+        ("positioning.R_um", |l| l.positioning.r_um),
+        ("positioning.R_up_um", |l| l.positioning.r_up_um),
+        ("positioning.R_down_um", |l| l.positioning.r_down_um),
+        ("positioning.B_um", |l| l.positioning.b_um),
+        ("positioning.seed_3sigma_um", |l| {
             l.positioning.seed_3sigma_um
         }),
-        ("roll range", "angular.roll_urad", |l| {
+        ("angular.roll_urad", |l| {
             l.angular.as_ref().map(|a| a.roll_urad)
         }),
-        ("pitch range", "angular.pitch_urad", |l| {
+        ("angular.pitch_urad", |l| {
             l.angular.as_ref().map(|a| a.pitch_urad)
         }),
-        ("yaw range", "angular.yaw_urad", |l| {
+        ("angular.yaw_urad", |l| {
             l.angular.as_ref().map(|a| a.yaw_urad)
         }),
     ];
-    for (label, key, get) in rows {
-        let _ = write!(h, "<tr><td class=\"l\">{}</td>", escape(label));
+    for (key, get) in rows {
+        let label = match figure_name(key) {
+            Some((name, "")) => name,
+            Some((name, what)) => format!("{name} — {what}"),
+            None => key.to_string(),
+        };
+        let _ = write!(h, "<tr><td class=\"l\">{}</td>", escape(&label));
         for (name, a) in &axes {
             let u = report.expanded(&format!("axes.{name}.{key}"));
             let _ = write!(h, "<td>{}</td>", num_u(get(&a.main), u));
@@ -109,6 +99,17 @@ fn summary(h: &mut Page, report: &Report) {
         h.raw("<tr><td class=\"l\">positioning left out</td>");
         for (_, a) in &axes {
             let reason = a.main.positioning.left_out.as_deref().unwrap_or("");
+            let _ = write!(h, "<td class=\"l warn\">{}</td>", escape(reason));
+        }
+        h.raw("</tr>\n");
+    }
+    if axes
+        .iter()
+        .any(|(_, a)| a.main.straightness_left_out.is_some())
+    {
+        h.raw("<tr><td class=\"l\">straightness left out</td>");
+        for (_, a) in &axes {
+            let reason = a.main.straightness_left_out.as_deref().unwrap_or("");
             let _ = write!(h, "<td class=\"l warn\">{}</td>", escape(reason));
         }
         h.raw("</tr>\n");
@@ -146,6 +147,116 @@ fn summary(h: &mut Page, report: &Report) {
         );
     }
     h.raw("</table>\n");
+}
+
+/// The figures of a line as the page names them (ISO 230-2 §2 symbols,
+/// VDI/DGQ 3441, the angular ranges): (key under the line, name, what it
+/// is; empty when the name says it). The one home of the labels of the
+/// summary and the uncertainty budget.
+const FIGURE_NAMES: [(&str, &str, &str); 21] = [
+    ("positioning.A_um", "A", "bidirectional accuracy"),
+    ("positioning.A_up_um", "A↑", "unidirectional accuracy"),
+    ("positioning.A_down_um", "A↓", "unidirectional accuracy"),
+    ("positioning.E_um", "E", "systematic positional deviation"),
+    (
+        "positioning.E_up_um",
+        "E↑",
+        "unidirectional systematic positional deviation",
+    ),
+    (
+        "positioning.E_down_um",
+        "E↓",
+        "unidirectional systematic positional deviation",
+    ),
+    (
+        "positioning.M_um",
+        "M",
+        "mean bidirectional positional deviation",
+    ),
+    ("positioning.R_um", "R", "bidirectional repeatability"),
+    ("positioning.R_up_um", "R↑", ""),
+    ("positioning.R_down_um", "R↓", ""),
+    ("positioning.B_um", "B", "reversal value"),
+    ("positioning.B_mean_um", "B̄", "mean reversal value"),
+    ("positioning.seed_3sigma_um", "seed 3σ figure", ""),
+    (
+        "positioning.vdi3441.P_um",
+        "P (VDI/DGQ 3441)",
+        "positional uncertainty",
+    ),
+    (
+        "positioning.vdi3441.Ps_um",
+        "Ps (VDI/DGQ 3441)",
+        "positional scatter",
+    ),
+    (
+        "positioning.vdi3441.U_um",
+        "U (VDI/DGQ 3441)",
+        "reversal span",
+    ),
+    (
+        "positioning.vdi3441.U_mean_um",
+        "Ū (VDI/DGQ 3441)",
+        "mean reversal span",
+    ),
+    (
+        "positioning.vdi3441.Pa_um",
+        "Pa (VDI/DGQ 3441)",
+        "position deviation",
+    ),
+    ("angular.roll_urad", "roll range", ""),
+    ("angular.pitch_urad", "pitch range", ""),
+    ("angular.yaw_urad", "yaw range", ""),
+];
+
+/// Name and description of the figure at `key` under a line
+/// (`positioning.A_down_um` → `A↓`, `straightness.Y.lsq_um` → `straightness
+/// in Y (LSQ)`); `None` for a key the page does not name.
+fn figure_name(key: &str) -> Option<(String, &'static str)> {
+    if let Some(&(_, name, what)) = FIGURE_NAMES.iter().find(|(k, _, _)| *k == key) {
+        return Some((name.to_string(), what));
+    }
+    let (direction, figure) = key.strip_prefix("straightness.")?.split_once('.')?;
+    Some((
+        format!("straightness in {direction} ({})", zone_name(figure)?),
+        "",
+    ))
+}
+
+/// `LSQ` or `min zone` for a straightness or flatness key.
+fn zone_name(figure: &str) -> Option<&'static str> {
+    match figure {
+        "lsq_um" => Some("LSQ"),
+        "min_zone_um" => Some("min zone"),
+        _ => None,
+    }
+}
+
+/// A figure of `report.json` by its path as a reader names it, axis,
+/// figure and unit (`axes.X.positioning.A_down_um` → `X, A↓, µm`,
+/// `axes.Y.lines.2.angular.roll_urad` → `Y line 2, roll range, µrad`,
+/// `flatness.lsq_um` → `flatness (LSQ), µm`); the path itself when the page
+/// does not name it.
+pub(crate) fn figure_label(path: &str) -> String {
+    let unit = ::report::uncertainty::unit_of(path);
+    let named = if let Some(figure) = path.strip_prefix("flatness.") {
+        zone_name(figure).map(|z| format!("flatness ({z})"))
+    } else {
+        path.strip_prefix("axes.")
+            .and_then(|rest| rest.split_once('.'))
+            .and_then(|(axis, key)| {
+                let (axis, key) = match key.strip_prefix("lines.").and_then(|k| k.split_once('.')) {
+                    Some((line, key)) => (format!("{axis} line {line}"), key),
+                    None => (axis.to_string(), key),
+                };
+                figure_name(key).map(|(name, _)| format!("{axis}, {name}"))
+            })
+    };
+    match named {
+        Some(label) if unit.is_empty() => label,
+        Some(label) => format!("{label}, {unit}"),
+        None => path.to_string(),
+    }
 }
 
 /// `y = 0, z = 0 mm` for a line's off-axis coordinates.
@@ -195,12 +306,15 @@ fn axis_section(h: &mut Page, report: &Report, name: &str, a: &AxisReport) -> Re
     }
 
     h.raw("<h3>Straightness</h3>\n");
+    if let Some(reason) = &l.straightness_left_out {
+        let _ = writeln!(h, "<p class=\"warn\">{}</p>", escape(reason));
+    }
     for (dir, s) in &l.straightness {
         let u = |k: &str| main_u(&format!("straightness.{dir}.{k}"));
         let title = format!(
-            "{name} axis — straightness in {dir}: LSQ {} µm, min zone {} µm",
-            num_u(Some(s.lsq_um), u("lsq_um")),
-            num_u(Some(s.min_zone_um), u("min_zone_um"))
+            "{name} axis — straightness in {dir}: LSQ {}, min zone {}",
+            num_u_in(Some(s.lsq_um), u("lsq_um"), "µm"),
+            num_u_in(Some(s.min_zone_um), u("min_zone_um"), "µm")
         );
         h.figure(
             &format!("plot-{name}-straightness-{dir}"),
@@ -234,11 +348,13 @@ fn axis_section(h: &mut Page, report: &Report, name: &str, a: &AxisReport) -> Re
         let _ = write!(
             h,
             "<h3>All lines of the {name} axis</h3>\n<table><tr><th class=\"l\">line</th><th class=\"l\">off-axis position</th>\
-             <th>runs</th><th>A</th><th>E</th><th>M</th><th>R</th><th>B</th>"
+             <th>runs</th><th>A (µm)</th><th>E (µm)</th><th>M (µm)</th><th>R (µm)</th><th>B (µm)</th>"
         );
-        let dirs: Vec<&String> = l.straightness.keys().collect();
+        // Every line's directions: the main line's may be left out.
+        let dirs: std::collections::BTreeSet<&String> =
+            a.lines.iter().flat_map(|l| l.straightness.keys()).collect();
         for d in &dirs {
-            let _ = write!(h, "<th>straightness {d} LSQ / MZ</th>");
+            let _ = write!(h, "<th>straightness {d} LSQ / MZ (µm)</th>");
         }
         h.raw("</tr>\n");
         let mut partial = Vec::new();
@@ -278,6 +394,9 @@ fn axis_section(h: &mut Page, report: &Report, name: &str, a: &AxisReport) -> Re
                         partial.push(format!("line {}: {reason}", line.line));
                     }
                 }
+            }
+            if let Some(reason) = &line.straightness_left_out {
+                partial.push(format!("line {}: {reason}", line.line));
             }
             for d in &dirs {
                 match line.straightness.get(*d) {
@@ -371,8 +490,8 @@ fn positioning_tables(h: &mut Page, p: &PositioningReport, u: &dyn Fn(&str) -> O
         );
     }
     h.raw(
-        "<table><tr><th>target</th><th>nominal (mm)</th><th>x̄↑</th><th>s↑</th><th>x̄↓</th><th>s↓</th>\
-         <th>B</th><th>x̄</th><th>R↑</th><th>R↓</th><th>R</th></tr>\n",
+        "<table><tr><th>target</th><th>nominal (mm)</th><th>x̄↑ (µm)</th><th>s↑ (µm)</th><th>x̄↓ (µm)</th>\
+         <th>s↓ (µm)</th><th>B (µm)</th><th>x̄ (µm)</th><th>R↑ (µm)</th><th>R↓ (µm)</th><th>R (µm)</th></tr>\n",
     );
     for t in &p.targets {
         let _ = writeln!(
@@ -398,7 +517,15 @@ fn flatness_section(h: &mut Page, report: &Report, f: &FlatnessReport) -> Result
     h.raw("<h2 id=\"flatness\">Flatness</h2>\n");
     let lsq = num_u(Some(f.lsq_um), report.expanded("flatness.lsq_um"));
     let min_zone = num_u(Some(f.min_zone_um), report.expanded("flatness.min_zone_um"));
-    let title = format!("Flatness: LSQ {lsq} µm, min zone {min_zone} µm");
+    let title = format!(
+        "Flatness: LSQ {}, min zone {}",
+        num_u_in(Some(f.lsq_um), report.expanded("flatness.lsq_um"), "µm"),
+        num_u_in(
+            Some(f.min_zone_um),
+            report.expanded("flatness.min_zone_um"),
+            "µm"
+        )
+    );
     h.figure(
         "plot-flatness",
         &plot::flatness(&title, f)?,
@@ -415,4 +542,33 @@ fn flatness_section(h: &mut Page, report: &Report, f: &FlatnessReport) -> Result
         f.points.len()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::figure_label;
+
+    #[test]
+    fn figures_are_labelled_by_axis_name_and_unit() {
+        for (path, label) in [
+            ("axes.X.positioning.A_down_um", "X, A↓, µm"),
+            ("axes.Z.positioning.vdi3441.P_um", "Z, P (VDI/DGQ 3441), µm"),
+            (
+                "axes.Y.lines.2.angular.roll_urad",
+                "Y line 2, roll range, µrad",
+            ),
+            (
+                "axes.X.straightness.Z.lsq_um",
+                "X, straightness in Z (LSQ), µm",
+            ),
+            ("flatness.min_zone_um", "flatness (min zone), µm"),
+            // A figure the page does not name keeps its path.
+            (
+                "axes.X.positioning.unknown_um",
+                "axes.X.positioning.unknown_um",
+            ),
+        ] {
+            assert_eq!(figure_label(path), label);
+        }
+    }
 }

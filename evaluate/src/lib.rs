@@ -220,6 +220,7 @@ fn evaluate_located(rows: &[Located<'_>], source: &str, options: &Options) -> Re
         warnings: Vec::new(),
         uncertainty: None,
         uncorrected: None,
+        correction: None,
         signoff: Default::default(),
     };
     let lines = lines::group(rows);

@@ -192,8 +192,17 @@ pub(crate) fn evaluate_line(
         strains: strains(line, options.machine.as_ref()),
     };
     let positioning = sweep.positioning(options.vdi3441)?;
-    let straightness = sweep.straightness(&means)?;
+    // A reference line through two points is zero by construction: left
+    // out, said why (ISO 230-1 §3.4.8; straightness::MIN_TARGETS).
+    let straightness_left_out = straightness::left_out(means.len());
+    let straightness = match straightness_left_out {
+        Some(_) => BTreeMap::new(),
+        None => sweep.straightness(&means)?,
+    };
     let mut warnings = Vec::new();
+    if let Some(reason) = &straightness_left_out {
+        warnings.push(format!("{what}: {reason}"));
+    }
     let angular = angular_errors(line, &data, all_spheres, &sweep, &mut warnings);
 
     let off_axis = line
@@ -210,6 +219,7 @@ pub(crate) fn evaluate_line(
             direction: [frame.direction.x, frame.direction.y, frame.direction.z],
             positioning,
             straightness,
+            straightness_left_out,
             angular,
         },
         means: targets.iter().copied().zip(means).collect(),

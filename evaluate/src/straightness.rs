@@ -8,6 +8,24 @@
 //! axis direction does not change them.
 
 use geom::Point2;
+
+/// Targets a straightness figure needs: a line through two points passes
+/// through both, so their deviations are zero by construction and say
+/// nothing of the axis (ISO 230-1 §3.4.8 takes the reference line from the
+/// profile itself).
+pub const MIN_TARGETS: usize = 3;
+
+/// Why a line of `targets` targets has no straightness, as the report says
+/// it; `None` with [`MIN_TARGETS`] or more.
+pub fn left_out(targets: usize) -> Option<String> {
+    (targets < MIN_TARGETS).then(|| {
+        format!(
+            "straightness left out: the line has {targets} targets, and a reference line through \
+             {targets} points passes through them (0 µm by construction); it needs at least \
+             {MIN_TARGETS}"
+        )
+    })
+}
 use geom::fit::line_2d;
 use geom::min_zone;
 

@@ -46,6 +46,11 @@ pub struct Report {
     /// the conditions asked for one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub uncorrected: Option<std::collections::BTreeMap<String, f64>>,
+    /// What the correction to 20 °C did, in words (ISO 230-2 §3.2, 5.3;
+    /// also among the conventions); present when the conditions asked for
+    /// one, and said beside the results on the page and the terminal.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub correction: Option<String>,
     /// The test conditions, decisions and verdict (`--conditions`,
     /// `--tolerances`).
     #[serde(flatten)]
@@ -124,8 +129,14 @@ pub struct LineReport {
     pub direction: [f64; 3],
     /// Positioning (ISO 230-2, seed 3σ, optional VDI/DGQ 3441).
     pub positioning: PositioningReport,
-    /// Straightness in the two directions perpendicular to the axis, keyed by world axis.
+    /// Straightness in the two directions perpendicular to the axis, keyed
+    /// by world axis; empty when the line has too few targets
+    /// (`straightness_left_out`).
     pub straightness: std::collections::BTreeMap<String, StraightnessReport>,
+    /// Why the line has no straightness (a line of two targets: the
+    /// reference line passes through both); absent when it has.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub straightness_left_out: Option<String>,
     /// Roll, pitch and yaw, when the points carry three spheres at every target.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub angular: Option<AngularReport>,

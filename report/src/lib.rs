@@ -24,4 +24,4 @@ pub mod uncertainty;
 
 pub use error::{BrowserFault, ReportError, Result};
 pub use page::{Page, escape, figures, num};
-pub use uncertainty::{num_u, plus_minus, plus_minus_in};
+pub use uncertainty::{num_u, num_u_in, plus_minus, plus_minus_in};

@@ -24,6 +24,9 @@ pub fn num(v: Option<f64>) -> String {
     v.map_or_else(|| "—".into(), |v| format!("{v:.3}"))
 }
 
+/// The one style sheet; its last line is for the printed page (report.pdf):
+/// a heading stays with the block after it, a plot or a table row on one page
+/// (CSS Fragmentation §3, break-after / break-inside).
 const STYLE: &str = "
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-serif;margin:0;background:#f5f6f8;color:#1d2127}
 main{max-width:960px;margin:0 auto;padding:16px 24px 48px}
@@ -35,6 +38,7 @@ td.l,th.l{text-align:left}
 figure.plot{margin:10px 0 16px;background:#fff;border:1px solid #d0d5dd;padding:6px;width:min-content}
 figure.plot svg{display:block}figcaption{font-size:13px;color:#444;padding:4px 2px 0}
 ul.notes{font-size:13px;color:#444}.warn{color:#8a4b00}
+h1,h2,h3,p.meta{break-after:avoid;page-break-after:avoid}figure.plot,tr{break-inside:avoid;page-break-inside:avoid}
 ";
 
 /// An HTML page being written; [`Page::finish`] closes it.
@@ -188,6 +192,20 @@ impl Write for Page {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The printed page (`report.pdf`; CSS Fragmentation §3) keeps a
+    /// heading, and the grey line under it, with the block that follows,
+    /// and a plot or a table row on one page.
+    #[test]
+    fn printed_headings_stay_with_their_block() {
+        let html = Page::new("t", "h").finish();
+        for rule in [
+            "h1,h2,h3,p.meta{break-after:avoid;page-break-after:avoid}",
+            "figure.plot,tr{break-inside:avoid;page-break-inside:avoid}",
+        ] {
+            assert!(html.contains(rule), "{rule}");
+        }
+    }
 
     #[test]
     fn escapes_markup() {

@@ -12,6 +12,7 @@ use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::element::ComposedElement;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// The colour type of the plot constants.
 pub use plotters::style::RGBColor;
@@ -152,6 +153,103 @@ pub fn line_chart<'a, 'b>(
         .max_light_lines(2)
         .draw()
         .map_err(|e| e.to_string())?;
+    Ok(chart)
+}
+
+/// At most this many ticks on an angle axis ([`angle_ticks`]).
+pub const MAX_ANGLE_TICKS: usize = 13;
+
+/// Ticks of an angle axis at the data's step (°): the lattice `a₀ + k·g`
+/// through the distinct `angles_deg` (`g` their smallest gap, every angle on
+/// it within 1e-6°) over `range`, every m-th tick with the smallest m of
+/// 1, 2, 3, 4, 5, 6, … (divisors of 360) that leaves at most
+/// [`MAX_ANGLE_TICKS`]: 30° steps are ticked every 30°, 5° steps every 30°.
+/// `None` when the angles lie on no lattice (fewer than two, or uneven).
+pub fn angle_ticks(angles_deg: &[f64], (x0, x1): (f64, f64)) -> Option<Vec<f64>> {
+    const TOLERANCE_DEG: f64 = 1e-6;
+    const MULTIPLES: [f64; 24] = [
+        1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 9.0, 10.0, 12.0, 15.0, 18.0, 20.0, 24.0, 30.0, 36.0,
+        40.0, 45.0, 60.0, 72.0, 90.0, 120.0, 180.0, 360.0,
+    ];
+    let mut sorted: Vec<f64> = angles_deg
+        .iter()
+        .copied()
+        .filter(|a| a.is_finite())
+        .collect();
+    sorted.sort_by(f64::total_cmp);
+    sorted.dedup_by(|a, b| (*a - *b).abs() < TOLERANCE_DEG);
+    let first = *sorted.first()?;
+    let gap = sorted
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .min_by(f64::total_cmp)?;
+    let on_lattice = |a: f64, step: f64| {
+        let k = ((a - first) / step).round();
+        (first + k * step - a).abs() < TOLERANCE_DEG
+    };
+    let ordered = x0 < x1;
+    if !ordered || !sorted.iter().all(|&a| on_lattice(a, gap)) {
+        return None;
+    }
+    MULTIPLES.iter().find_map(|m| {
+        let step = gap * m;
+        let k0 = ((x0 - first) / step - TOLERANCE_DEG).ceil();
+        let k1 = ((x1 - first) / step + TOLERANCE_DEG).floor();
+        let n = k1 - k0 + 1.0;
+        (n >= 1.0 && n <= MAX_ANGLE_TICKS as f64).then(|| {
+            (0..n as usize)
+                .map(|k| first + (k0 + k as f64) * step)
+                .collect()
+        })
+    })
+}
+
+/// [`line_chart`] with the x axis labelled and gridded at `x_ticks` (an
+/// angle axis at its data's step, [`angle_ticks`]) instead of plotters'
+/// round numbers; an empty `x_ticks` is [`line_chart`].
+pub fn line_chart_ticked<'a, 'b>(
+    root: &'a Area<'b>,
+    title: &str,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    (x_desc, y_desc): (&str, &str),
+    x_ticks: &[f64],
+) -> std::result::Result<LineChart<'a, 'b>, String> {
+    if x_ticks.is_empty() {
+        return line_chart(root, title, (x0, x1), (y0, y1), x_desc, y_desc);
+    }
+    let mut chart = chart_builder(root, title)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| e.to_string())?;
+    mesh(&mut chart)
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .max_light_lines(2)
+        .x_labels(0)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    chart
+        .draw_series(
+            x_ticks
+                .iter()
+                .map(|&t| PathElement::new(vec![(t, y0), (t, y1)], BLACK.mix(0.2).stroke_width(1))),
+        )
+        .map_err(|e| e.to_string())?;
+    let (bx, by) = root.get_base_pixel();
+    let label = text_style().pos(Pos::new(HPos::Center, VPos::Top));
+    for &t in x_ticks {
+        let (px, py) = chart.backend_coord(&(t, y0));
+        let (x, y) = (px - bx, py - by);
+        root.draw(&PathElement::new(vec![(x, y), (x, y + 5)], BLACK))
+            .map_err(|e| e.to_string())?;
+        let text = if t.fract() == 0.0 {
+            format!("{t:.0}")
+        } else {
+            format!("{t}")
+        };
+        root.draw(&Text::new(text, (x, y + 8), label.clone()))
+            .map_err(|e| e.to_string())?;
+    }
     Ok(chart)
 }
 
@@ -441,6 +539,49 @@ pub fn svg_texts(svg: &str) -> Vec<SvgText> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn angle_axes_are_ticked_at_the_data_step() {
+        let every = |step: f64| -> Vec<f64> {
+            (0..)
+                .map(|k| step * f64::from(k))
+                .take_while(|a| *a < 360.0)
+                .collect()
+        };
+        // 30° steps over the turn: every 30° (plotters' own ticks were every 50°).
+        assert_eq!(
+            super::angle_ticks(&every(30.0), (0.0, 360.0)),
+            Some(every(30.0).into_iter().chain([360.0]).collect())
+        );
+        // 5° steps: every sixth, 30°.
+        let ticks = super::angle_ticks(&every(5.0), (0.0, 360.0)).unwrap();
+        assert_eq!(ticks[1] - ticks[0], 30.0);
+        // A lattice through 15°: 15, 45, …; uneven angles: none.
+        assert_eq!(
+            super::angle_ticks(&[15.0, 45.0, 75.0], (0.0, 100.0)),
+            Some(vec![15.0, 45.0, 75.0])
+        );
+        assert_eq!(super::angle_ticks(&[0.0, 30.0, 50.0], (0.0, 60.0)), None);
+        assert_eq!(super::angle_ticks(&[10.0], (0.0, 60.0)), None);
+    }
+
+    #[test]
+    fn ticked_charts_label_their_ticks() {
+        let ticks: Vec<f64> = (0..=12).map(|k| 30.0 * f64::from(k)).collect();
+        let svg = super::svg("t", (super::WIDTH, super::HEIGHT), |root| {
+            super::line_chart_ticked(root, "t", (0.0, 360.0), (-1.0, 1.0), ("θ (°)", "e"), &ticks)
+                .map(|_| ())
+        })
+        .unwrap();
+        let texts: Vec<String> = super::svg_texts(&svg).into_iter().map(|t| t.text).collect();
+        for label in ["30", "90", "330", "360"] {
+            assert!(
+                texts.iter().any(|t| t == label),
+                "no tick {label}: {texts:?}"
+            );
+        }
+        assert!(!texts.iter().any(|t| t == "50"), "{texts:?}");
+    }
+
     use super::*;
 
     #[test]

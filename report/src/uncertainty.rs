@@ -37,16 +37,27 @@ fn decimals(u: f64) -> usize {
 /// measurement cannot tell it from none.
 pub const NOT_SIGNIFICANT: &str = "not significant";
 
-/// `value ± U` with `decimals` decimals in the value and U with two
-/// significant digits — followed by "(not significant)" when |value| < U —
-/// or the value alone without U.
+/// The decimals of a value stated with its U: those of U's last digit
+/// (GUM 7.2.6: the value rounded to the last digit of its uncertainty); a
+/// value without U, or with a U that is zero or not finite, `otherwise`.
+pub fn value_decimals(expanded: Option<f64>, otherwise: usize) -> usize {
+    match expanded {
+        Some(u) if u.is_finite() && u > 0.0 => decimals(u),
+        _ => otherwise,
+    }
+}
+
+/// `value ± U`, U with two significant digits and the value rounded to U's
+/// last digit (GUM 7.2.6: `7.9 ± 2.9`) — followed by "(not significant)"
+/// when |value| < U — or the value alone with `decimals` decimals without U.
 pub fn plus_minus(value: f64, expanded: Option<f64>, decimals: usize) -> String {
     plus_minus_in(value, expanded, decimals, "")
 }
 
-/// [`plus_minus`] with `unit` after U (`3.000 ± 0.046 µm`, `3.0 ± 12 µm
-/// (not significant)`).
+/// [`plus_minus`] with `unit` right after the number (`3.000 ± 0.046 µm`,
+/// `3 ± 12 µm (not significant)`).
 pub fn plus_minus_in(value: f64, expanded: Option<f64>, decimals: usize, unit: &str) -> String {
+    let decimals = value_decimals(expanded, decimals);
     let shown = match expanded {
         Some(u) => format!("{value:.decimals$} ± {}", significant(u)),
         None => format!("{value:.decimals$}"),
@@ -58,10 +69,16 @@ pub fn plus_minus_in(value: f64, expanded: Option<f64>, decimals: usize, unit: &
     }
 }
 
-/// A figure as [`plus_minus`] with 3 decimals, or an em dash when absent.
+/// A figure as [`plus_minus`] (3 decimals without U), or an em dash when absent.
 pub fn num_u(value: Option<f64>, expanded: Option<f64>) -> String {
+    num_u_in(value, expanded, "")
+}
+
+/// [`num_u`] with `unit` right after the number (before "(not
+/// significant)"); an absent figure is an em dash without a unit.
+pub fn num_u_in(value: Option<f64>, expanded: Option<f64>, unit: &str) -> String {
     match value {
-        Some(v) => plus_minus(v, expanded, 3),
+        Some(v) => plus_minus_in(v, expanded, 3, unit),
         None => num(value),
     }
 }
@@ -95,8 +112,20 @@ fn with_unit(text: String, unit: &str) -> String {
 /// `uncertainty` object: how U was found, the budget table (`#budget`) of
 /// the headline figures (value, U and each source's standard uncertainty
 /// alone), the sources and what is not included; or why the figures carry
-/// no U. Nothing when the report has no such object.
+/// no U. Nothing when the report has no such object. The budget names each
+/// figure by its path; [`section_labelled`] as the page names them.
 pub fn section(page: &mut Page, uncertainty: Option<&Uncertainty>) {
+    section_labelled(page, uncertainty, &|path| path.to_string());
+}
+
+/// [`section`] with each figure of the budget named by `label` (its path
+/// in, its name on the page out: `axes.X.positioning.A_down_um` →
+/// `X, A↓, µm`).
+pub fn section_labelled(
+    page: &mut Page,
+    uncertainty: Option<&Uncertainty>,
+    label: &dyn Fn(&str) -> String,
+) {
     let Some(uncertainty) = uncertainty else {
         return;
     };
@@ -109,12 +138,12 @@ pub fn section(page: &mut Page, uncertainty: Option<&Uncertainty>) {
                 escape(reason)
             );
         }
-        Uncertainty::Given(p) => given(page, p),
+        Uncertainty::Given(p) => given(page, p, label),
     }
 }
 
 /// The section of a propagated uncertainty.
-fn given(page: &mut Page, p: &Propagated) {
+fn given(page: &mut Page, p: &Propagated, label: &dyn Fn(&str) -> String) {
     let failed = if p.failed_trials > 0 {
         format!("; {} failed and were left out", p.failed_trials)
     } else {
@@ -128,7 +157,11 @@ fn given(page: &mut Page, p: &Propagated) {
     let titles: Vec<String> = names.iter().map(|n| format!("u {n} alone")).collect();
     let mut header = vec!["figure", "value", "U (k = 2)"];
     header.extend(titles.iter().map(String::as_str));
-    let rows: Vec<Vec<String>> = p.budget.iter().map(|b| budget_row(b, &names)).collect();
+    let rows: Vec<Vec<String>> = p
+        .budget
+        .iter()
+        .map(|b| budget_row(b, &names, label))
+        .collect();
     page.table(Some("budget"), &header, &rows);
     let sources: Vec<String> = p.sources.iter().map(|(n, d)| format!("{n}: {d}")).collect();
     page.notes("Sources of uncertainty", &sources, false);
@@ -137,16 +170,12 @@ fn given(page: &mut Page, p: &Propagated) {
 
 /// One row of the budget: the figure, its value to the last digit of its U
 /// (GUM 7.2.6), U and each source's u to one digit more (a negligible
-/// source reads 0), each with the figure's unit.
-fn budget_row(b: &BudgetEntry, sources: &[&String]) -> Vec<String> {
+/// source reads 0), each with the figure's unit; the figure named by `label`.
+fn budget_row(b: &BudgetEntry, sources: &[&String], label: &dyn Fn(&str) -> String) -> Vec<String> {
     let unit = unit_of(&b.figure);
-    let value_decimals = if b.expanded.is_finite() && b.expanded > 0.0 {
-        decimals(b.expanded)
-    } else {
-        3
-    };
+    let value_decimals = value_decimals(Some(b.expanded), 3);
     let mut row = vec![
-        b.figure.clone(),
+        label(&b.figure),
         with_unit(format!("{:.value_decimals$}", b.value), unit),
         with_unit(significant(b.expanded), unit),
     ];
@@ -180,8 +209,16 @@ mod tests {
         assert_eq!(num_u(None, Some(1.0)), "—");
         assert_eq!(
             plus_minus_in(3.0, Some(12.34), 1, "µm"),
-            "3.0 ± 12 µm (not significant)"
+            "3 ± 12 µm (not significant)"
         );
+        // The value to U's last digit (GUM 7.2.6), whatever the decimals asked.
+        assert_eq!(plus_minus(7.894, Some(2.9), 3), "7.9 ± 2.9");
+        assert_eq!(plus_minus(7.894, Some(0.0), 3), "7.894 ± 0");
+        assert_eq!(
+            num_u_in(Some(0.5), Some(2.9), "µm"),
+            "0.5 ± 2.9 µm (not significant)"
+        );
+        assert_eq!(num_u_in(None, Some(2.9), "µm"), "—");
         assert_eq!(plus_minus(-3.0, Some(2.5), 1), "-3.0 ± 2.5");
         assert_eq!(plus_minus_in(3.0, None, 1, "″"), "3.0″");
         assert_eq!(unit_of("a.max_dA_arcsec"), "″");

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 
 use crate::cmd::Usage;
-use report::num_u;
+use report::num_u_in;
 
 /// Arguments of `trinocular evaluate`.
 #[derive(Debug, clap::Args)]
@@ -523,9 +523,8 @@ pub fn run(args: &Args) -> Result<()> {
             &before,
             &evaluate::uncertainty::FIGURE_KEYS,
         )?);
-        report
-            .conventions
-            .extend(temperature.map(|t| correction_statement(t, machine.as_ref())));
+        report.correction = temperature.map(|t| correction_statement(t, machine.as_ref()));
+        report.conventions.extend(report.correction.clone());
     }
     if machine.is_none() && temperature.is_some_and(|t| t.expansion_um_per_m_k.is_some()) {
         report.warnings.push(
@@ -560,42 +559,46 @@ pub fn run(args: &Args) -> Result<()> {
         super::signoff::printed(&args.out.join("report.pdf"));
     }
     let u = |path: String| report.expanded(&path);
+    // The figures below are corrected to 20 °C: said before them.
+    if let Some(correction) = &report.correction {
+        println!("conditions: {correction}");
+    }
     for (axis, a) in report.axes.iter() {
         let p = &a.main.positioning;
         let at = |key: &str| format!("axes.{}.positioning.{key}", axis.name());
         let [(shown_a, key_a), (shown_e, key_e), (shown_r, key_r)] = p.shown_a_e_r();
         println!(
-            "{axis}: A {} µm, E {} µm, M {} µm, R {} µm, B {} µm, seed 3σ {} µm",
-            num_u(shown_a, u(at(key_a))),
-            num_u(shown_e, u(at(key_e))),
-            num_u(p.m_um, u(at("M_um"))),
-            num_u(shown_r, u(at(key_r))),
-            num_u(p.b_um, u(at("B_um"))),
-            num_u(p.seed_3sigma_um, u(at("seed_3sigma_um")))
+            "{axis}: A {}, E {}, M {}, R {}, B {}, seed 3σ {}",
+            num_u_in(shown_a, u(at(key_a)), "µm"),
+            num_u_in(shown_e, u(at(key_e)), "µm"),
+            num_u_in(p.m_um, u(at("M_um")), "µm"),
+            num_u_in(shown_r, u(at(key_r)), "µm"),
+            num_u_in(p.b_um, u(at("B_um")), "µm"),
+            num_u_in(p.seed_3sigma_um, u(at("seed_3sigma_um")), "µm")
         );
         for (dir, s) in &a.main.straightness {
             let at = |key: &str| format!("axes.{}.straightness.{dir}.{key}", axis.name());
             println!(
-                "{axis}: straightness in {dir}: LSQ {} µm, min zone {} µm",
-                num_u(Some(s.lsq_um), u(at("lsq_um"))),
-                num_u(Some(s.min_zone_um), u(at("min_zone_um")))
+                "{axis}: straightness in {dir}: LSQ {}, min zone {}",
+                num_u_in(Some(s.lsq_um), u(at("lsq_um")), "µm"),
+                num_u_in(Some(s.min_zone_um), u(at("min_zone_um")), "µm")
             );
         }
         if let Some(ang) = &a.main.angular {
             let at = |key: &str| format!("axes.{}.angular.{key}", axis.name());
             println!(
-                "{axis}: roll {} µrad, pitch {} µrad, yaw {} µrad (ranges)",
-                num_u(Some(ang.roll_urad), u(at("roll_urad"))),
-                num_u(Some(ang.pitch_urad), u(at("pitch_urad"))),
-                num_u(Some(ang.yaw_urad), u(at("yaw_urad")))
+                "{axis}: roll {}, pitch {}, yaw {} (ranges)",
+                num_u_in(Some(ang.roll_urad), u(at("roll_urad")), "µrad"),
+                num_u_in(Some(ang.pitch_urad), u(at("pitch_urad")), "µrad"),
+                num_u_in(Some(ang.yaw_urad), u(at("yaw_urad")), "µrad")
             );
         }
     }
     if let Some(f) = &report.flatness {
         println!(
-            "flatness: LSQ {} µm, min zone {} µm",
-            num_u(Some(f.lsq_um), u("flatness.lsq_um".into())),
-            num_u(Some(f.min_zone_um), u("flatness.min_zone_um".into()))
+            "flatness: LSQ {}, min zone {}",
+            num_u_in(Some(f.lsq_um), u("flatness.lsq_um".into()), "µm"),
+            num_u_in(Some(f.min_zone_um), u("flatness.min_zone_um".into()), "µm")
         );
     }
     match &report.uncertainty {

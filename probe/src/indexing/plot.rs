@@ -4,8 +4,9 @@
 
 use plotters::prelude::*;
 use report::plot::{
-    DOWN, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, UP, WIDTH, colour_bar, diverging, legend, line_chart,
-    outlier_key, outlier_mark, padded, robust_limit, svg, with_legend_room,
+    DOWN, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, UP, WIDTH, angle_ticks, colour_bar, diverging,
+    legend, line_chart, line_chart_ticked, outlier_key, outlier_mark, padded, robust_limit, svg,
+    with_legend_room,
 };
 
 use super::Angles;
@@ -143,7 +144,17 @@ pub(crate) fn curve(
     let tol = tolerance.into_iter().flat_map(|t| [t, -t]);
     let (y0, y1) = with_legend_room(padded(dots.iter().map(|p| p.1).chain(tol), 0.5));
     Ok(svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(root, title, (x0, x1), (y0, y1), x_desc, "error (″)")?;
+        // The commanded angles ticked at their step.
+        let xs: Vec<f64> = dots.iter().map(|p| p.0).collect();
+        let ticks = angle_ticks(&xs, (x0, x1)).unwrap_or_default();
+        let mut chart = line_chart_ticked(
+            root,
+            title,
+            (x0, x1),
+            (y0, y1),
+            (x_desc, "error (″)"),
+            &ticks,
+        )?;
         chart
             .draw_series(
                 dots.iter()

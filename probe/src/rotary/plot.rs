@@ -5,8 +5,8 @@
 
 use plotters::prelude::*;
 use report::plot::{
-    DOWN, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, WIDTH, ZONE, legend, line_chart, padded, svg,
-    with_legend_room,
+    DOWN, HEIGHT, MAP_HEIGHT, MEAN, RGBColor, WIDTH, ZONE, angle_ticks, legend, line_chart,
+    line_chart_ticked, padded, svg, with_legend_room,
 };
 
 use super::FULL_TURN_DEG;
@@ -47,13 +47,15 @@ pub(super) fn against_angle(
     });
     let (y0, y1) = with_legend_room(padded(ys, 0.5));
     Ok(svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(
+        // Ticked at the measured angles' step (30° steps every 30°).
+        let ticks = angle_ticks(angles_deg, (0.0, FULL_TURN_DEG)).unwrap_or_default();
+        let mut chart = line_chart_ticked(
             root,
             title,
             (0.0, FULL_TURN_DEG),
             (y0, y1),
-            "table angle θ (°)",
-            y_desc,
+            ("table angle θ (°)", y_desc),
+            &ticks,
         )?;
         for s in series {
             let colour = s.colour;

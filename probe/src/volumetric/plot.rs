@@ -4,8 +4,8 @@
 
 use plotters::prelude::*;
 use report::plot::{
-    CAPTION_SIZE, DOWN, FONT, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, ZONE, legend, line_chart, mesh,
-    padded, svg, text_style, with_legend_room,
+    CAPTION_SIZE, DOWN, FONT, HEIGHT, MAP_HEIGHT, MEAN, UP, WIDTH, ZONE, angle_ticks, legend,
+    line_chart, line_chart_ticked, mesh, padded, svg, text_style, with_legend_room,
 };
 
 use super::circle::CirclePrediction;
@@ -227,14 +227,20 @@ pub(crate) fn radial(title: &str, c: &Circles) -> Result<String> {
         .iter()
         .flat_map(|(p, _, _)| p.points.iter().map(|q| q.radial * 1e3));
     let (y0, y1) = with_legend_room(padded(ys, 0.05));
+    // Ticked at the angles' step.
+    let angles: Vec<f64> = series
+        .iter()
+        .flat_map(|(p, _, _)| p.points.iter().map(|q| q.angle_deg))
+        .collect();
+    let ticks = angle_ticks(&angles, (0.0, 360.0)).unwrap_or_default();
     Ok(svg(title, (WIDTH, HEIGHT), |root| {
-        let mut chart = line_chart(
+        let mut chart = line_chart_ticked(
             root,
             title,
             (0.0, 360.0),
             (y0, y1),
-            "angle θ (°)",
-            "radial deviation (µm)",
+            ("angle θ (°)", "radial deviation (µm)"),
+            &ticks,
         )?;
         for (p, colour, name) in series {
             let pts: Vec<(f64, f64)> = p
