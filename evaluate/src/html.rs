@@ -178,7 +178,7 @@ const FIGURE_NAMES: [(&str, &str, &str); 21] = [
     ("positioning.R_down_um", "R↓", ""),
     ("positioning.B_um", "B", "reversal value"),
     ("positioning.B_mean_um", "B̄", "mean reversal value"),
-    ("positioning.seed_3sigma_um", "seed 3σ figure", ""),
+    ("positioning.seed_3sigma_um", "3σ band", ""),
     (
         "positioning.vdi3441.P_um",
         "P (VDI/DGQ 3441)",
@@ -472,7 +472,7 @@ fn positioning_tables(h: &mut Page, p: &PositioningReport, u: &dyn Fn(&str) -> O
     let _ = writeln!(
         h,
         "<tr><td class=\"l\">B — reversal value (B̄ mean)</td><td>{} ({})</td><td></td><td></td></tr>\n\
-         <tr><td class=\"l\">seed figure max(x̄+3s) − min(x̄−3s)</td><td>{}</td><td></td><td></td></tr>\n</table>",
+         <tr><td class=\"l\">3σ band max(x̄+3s) − min(x̄−3s)</td><td>{}</td><td></td><td></td></tr>\n</table>",
         num_u(p.b_um, pu("B_um")),
         num_u(p.b_mean_um, pu("B_mean_um")),
         num_u(p.seed_3sigma_um, pu("seed_3sigma_um"))

@@ -137,7 +137,7 @@ pub(crate) struct LineResult {
 /// Evaluate one line with `sphere` carrying positioning and straightness:
 /// the commanded coordinate of each target, the captures per sphere, the axis
 /// frame through the sphere's per-target means, then positioning (ISO 230-2,
-/// the seed's 3σ, VDI/DGQ 3441), straightness and angular errors; the
+/// the 3σ band, VDI/DGQ 3441), straightness and angular errors; the
 /// positioning deviations corrected for the machine's expansion
 /// (`options.machine`).
 pub(crate) fn evaluate_line(
@@ -403,7 +403,7 @@ impl Sweep<'_> {
         Coverage::Enough
     }
 
-    /// ISO 230-2 from the directions with enough runs, the seed's 3σ and
+    /// ISO 230-2 from the directions with enough runs, the 3σ band and
     /// (when `vdi`) VDI/DGQ 3441; what is left out, and why, in `left_out`.
     fn positioning(&self, vdi: bool) -> Result<PositioningReport> {
         let deviations = self.deviations();

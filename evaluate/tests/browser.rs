@@ -165,7 +165,6 @@ fn report_html_without_positioning_renders_in_chromium() {
 #[test]
 fn the_verdict_table_is_shown_first_in_chromium() {
     use formats::conformance::{Decision, Limit, Rule};
-    use formats::uncertainty::{Propagated, Uncertainty};
     let Some(chromium) = browser::browser_or_skip("the verdict in Chromium").unwrap() else {
         return;
     };
@@ -179,17 +178,7 @@ fn the_verdict_table_is_shown_first_in_chromium() {
         .iter()
         .map(|(k, v)| (k.clone(), (0.1 * v.abs()).max(0.1)))
         .collect();
-    report.uncertainty = Some(Uncertainty::Given(Propagated {
-        method: "test".into(),
-        k: 2.0,
-        trials: 1,
-        seed: 1,
-        failed_trials: 0,
-        sources: Default::default(),
-        not_included: Vec::new(),
-        budget: Vec::new(),
-        expanded: expanded.clone(),
-    }));
+    report.uncertainty = Some(common::given(Vec::new(), expanded.clone()));
     let limit = |key: &str, factor: f64| {
         let path = format!("axes.X.positioning.{key}");
         Limit {

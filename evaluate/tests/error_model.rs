@@ -195,7 +195,7 @@ fn check_line(what: &str, l: &LineModel, r: &LineReport) {
         close(&format!("{what} {name}"), got, want, UM);
     }
     close(
-        &format!("{what} seed 3σ"),
+        &format!("{what} 3σ band"),
         p.seed_3sigma_um.unwrap(),
         t.seed,
         UM,

@@ -9,7 +9,8 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use formats::uncertainty::{BudgetEntry, Propagated, Uncertainty};
+use formats::uncertainty::BudgetEntry;
+use formats::{Axis, Direction, InstantKey, PointRow};
 
 /// The page `write_outputs` writes for `report`.
 fn page(report: &evaluate::Report) -> String {
@@ -42,22 +43,15 @@ fn the_budget_names_its_figures_as_the_summary_does() {
         expanded: 0.29,
         contributions: BTreeMap::from([("centroids".to_string(), 0.1)]),
     };
-    report.uncertainty = Some(Uncertainty::Given(Propagated {
-        method: "test".into(),
-        k: 2.0,
-        trials: 1,
-        seed: 1,
-        failed_trials: 0,
-        sources: BTreeMap::from([("centroids".to_string(), "noise".to_string())]),
-        not_included: Vec::new(),
-        budget: vec![
+    report.uncertainty = Some(common::given(
+        vec![
             entry("axes.X.positioning.A_down_um", 7.894),
             entry("axes.X.straightness.Y.min_zone_um", 1.0),
             entry("axes.Y.angular.roll_urad", 3.0),
             entry("flatness.lsq_um", 2.0),
         ],
-        expanded: BTreeMap::new(),
-    }));
+        BTreeMap::new(),
+    ));
     let html = page(&report);
     let budget = table(&html, "budget");
     for label in [
@@ -80,7 +74,6 @@ fn the_budget_names_its_figures_as_the_summary_does() {
 /// An X line of `targets` targets 50 mm apart, two runs each way, bowed
 /// 2 µm in y and z at its middle targets.
 fn x_line(targets: u32) -> Vec<formats::PointRow> {
-    use formats::{Axis, Direction, PointRow};
     let mut rows = Vec::new();
     for target in 0..targets {
         let nominal = 50.0 * f64::from(target);
@@ -91,28 +84,13 @@ fn x_line(targets: u32) -> Vec<formats::PointRow> {
         };
         for direction in [Direction::Up, Direction::Down] {
             for run in 1..=2 {
-                rows.push(PointRow {
-                    axis: Axis::X,
-                    direction,
-                    run,
-                    target,
-                    capture: 1,
-                    nominal_x: nominal,
-                    nominal_y: 0.0,
-                    nominal_z: 0.0,
-                    sphere: "A".into(),
-                    x: nominal + 1e-4 * f64::from(run),
-                    y: bow,
-                    z: -bow,
-                    cameras: "2+3".into(),
-                    residual_px: 0.0,
-                    u_x: None,
-                    u_y: None,
-                    u_z: None,
-                    u_cal_x: None,
-                    u_cal_y: None,
-                    u_cal_z: None,
-                });
+                rows.push(PointRow::new(
+                    InstantKey::new((Axis::X, direction), [run, target, 1], [nominal, 0.0, 0.0]),
+                    "A",
+                    [nominal + 1e-4 * f64::from(run), bow, -bow],
+                    "2+3",
+                    0.0,
+                ));
             }
         }
     }
@@ -201,17 +179,7 @@ fn figures_are_rounded_to_their_uncertainty() {
     let expanded: BTreeMap<String, f64> = figures.keys().map(|k| (k.clone(), 2.9)).collect();
     let a = figures["axes.X.positioning.A_um"];
     let lsq = figures["axes.X.straightness.Y.lsq_um"];
-    report.uncertainty = Some(Uncertainty::Given(Propagated {
-        method: "test".into(),
-        k: 2.0,
-        trials: 1,
-        seed: 1,
-        failed_trials: 0,
-        sources: BTreeMap::new(),
-        not_included: Vec::new(),
-        budget: Vec::new(),
-        expanded,
-    }));
+    report.uncertainty = Some(common::given(Vec::new(), expanded));
     let html = page(&report);
     let summary = table(&html, "summary");
     assert!(summary.contains(&format!("<td>{a:.1} ± 2.9")), "{summary}");

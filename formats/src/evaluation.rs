@@ -127,7 +127,7 @@ pub struct LineReport {
     pub targets: usize,
     /// Fitted axis direction (unit vector, world frame) through the per-target mean positions.
     pub direction: [f64; 3],
-    /// Positioning (ISO 230-2, seed 3σ, optional VDI/DGQ 3441).
+    /// Positioning (ISO 230-2, the 3σ band, optional VDI/DGQ 3441).
     pub positioning: PositioningReport,
     /// Straightness in the two directions perpendicular to the axis, keyed
     /// by world axis; empty when the line has too few targets
@@ -186,7 +186,7 @@ pub struct PositioningReport {
     /// Mean reversal value B̄ = mean Bᵢ.
     #[serde(rename = "B_mean_um", skip_serializing_if = "Option::is_none")]
     pub b_mean_um: Option<f64>,
-    /// The seed's figure: max(x̄ₖ + 3sₖ) − min(x̄ₖ − 3sₖ) over all measurements
+    /// The source method's 3σ band: max(x̄ₖ + 3sₖ) − min(x̄ₖ − 3sₖ) over all measurements
     /// per target; given with ISO 230-2 figures of at least one direction.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seed_3sigma_um: Option<f64>,
@@ -280,11 +280,11 @@ pub struct PositioningTarget {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub runs_down_um: Vec<f64>,
     /// Mean of every measurement at the target (all runs, directions,
-    /// captures); given with the line's seed figure.
+    /// captures); given with the line's 3σ band.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seed_mean_um: Option<f64>,
     /// Sample standard deviation of every measurement at the target; given
-    /// with the line's seed figure.
+    /// with the line's 3σ band.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seed_s_um: Option<f64>,
 }

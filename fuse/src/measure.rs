@@ -69,8 +69,9 @@ pub enum Fusion {
     /// Rigorous triangulation: linear, then least squares on the reprojection error.
     #[default]
     Triangulate,
-    /// The seed's pixel-scale fusion relative to the first instant of each line.
-    Seed,
+    /// The source method's pixel-scale fusion relative to the first instant of each line.
+    #[serde(alias = "Seed")]
+    PixelScale,
 }
 
 /// Everything that decides a measurement's result.
@@ -271,11 +272,11 @@ fn left_out(row: Failure, measured: &str) -> Failure {
     }
 }
 
-/// A sphere's reference for the seed's fusion: its image centres and
+/// A sphere's reference for the pixel-scale fusion: its image centres and
 /// triangulated centre at the first instant of the line that measured it.
 type SphereReference = std::result::Result<(Seen, Point3<f64>), String>;
 
-/// The seed's fusion's references per line and sphere, and what the
+/// The pixel-scale fusion's references per line and sphere, and what the
 /// instants looked at to find them saw: each is measured from that, not
 /// decoded again.
 #[derive(Default)]
@@ -736,13 +737,13 @@ impl Context<'_> {
     }
 
     /// Cameras a sphere is measured from, of the `cams` used: two or more
-    /// for triangulation; every one for the seed's fusion, whose pixel-scale
+    /// for triangulation; every one for the pixel-scale fusion, whose pixel-scale
     /// model fails for the camera that looks along the motion, which is what
     /// would remain of `all_cameras` without one of the others.
     fn views_needed(&self, cams: usize) -> usize {
         match self.options.fusion {
             Fusion::Triangulate => MIN_VIEWS,
-            Fusion::Seed => cams,
+            Fusion::PixelScale => cams,
         }
     }
 
@@ -807,7 +808,7 @@ impl Context<'_> {
         (random, calibration)
     }
 
-    /// The seed's fusion of one sphere against its reference: the reference
+    /// The pixel-scale fusion of one sphere against its reference: the reference
     /// centre plus the pixel-scale displacement. The residual is, as for
     /// triangulation, the RMS reprojection residual of this instant's images
     /// at their least-squares centre: how well the images agree, whatever the
@@ -1008,7 +1009,7 @@ fn measure_one(ctx: &Context<'_>, ip: &InstantPlan, references: &References) -> 
         }
         let centre = match ctx.options.fusion {
             Fusion::Triangulate => ctx.triangulate_one(s, &seen),
-            Fusion::Seed => match references.lines.get(&ip.line).and_then(|r| r.get(s)) {
+            Fusion::PixelScale => match references.lines.get(&ip.line).and_then(|r| r.get(s)) {
                 Some(reference) => ctx.seed_one(s, &seen, reference),
                 None => Err("no reference instant for the line".into()),
             },
@@ -1074,7 +1075,7 @@ fn measure_one(ctx: &Context<'_>, ip: &InstantPlan, references: &References) -> 
     }
 }
 
-/// References of the seed's fusion: per line and sphere, the first instant
+/// References of the pixel-scale fusion: per line and sphere, the first instant
 /// of the line (manifest order) at which the sphere was measured; with what
 /// the instants looked at for them saw.
 fn seed_references(ctx: &Context<'_>, plans: &[InstantPlan]) -> References {
@@ -1124,7 +1125,7 @@ fn seed_references(ctx: &Context<'_>, plans: &[InstantPlan]) -> References {
                 .map(|(s, f)| {
                     f.ok_or_else(|| {
                         format!(
-                            "no instant of the line measured sphere {}, which the seed's fusion needs as its reference{}",
+                            "no instant of the line measured sphere {}, which the pixel-scale fusion needs as its reference{}",
                             ctx.spheres[s].name,
                             first_failure
                                 .as_deref()
@@ -1295,7 +1296,7 @@ pub fn measure(
         ctx
     };
     let todo: Vec<&InstantPlan> = plans.iter().filter(|p| !done.contains(&p.key)).collect();
-    let references = if options.fusion == Fusion::Seed {
+    let references = if options.fusion == Fusion::PixelScale {
         seed_references(&ctx, &plans)
     } else {
         References::default()

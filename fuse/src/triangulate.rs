@@ -1,4 +1,4 @@
-//! The seed's pixel-scale fusion of sphere centres (docs/methods.md); the
+//! The source method's pixel-scale fusion of sphere centres (docs/methods.md); the
 //! rigorous triangulation is `geom::triangulate`.
 
 use geom::Vector3;
@@ -7,7 +7,7 @@ use geom::triangulate::View;
 
 use crate::{FuseError, Result};
 
-/// The seed's pixel-scale fusion (docs/methods.md): the displacement of a sphere
+/// The source method's pixel-scale fusion (docs/methods.md): the displacement of a sphere
 /// since a reference instant from each camera's image displacement, scaled by
 /// the camera's mm per pixel at the sphere's depth. Each camera sees the
 /// displacement's components along its image axes, `[x̂_c; ŷ_c]·Δ = Z_c·Δn`
@@ -63,19 +63,29 @@ pub fn seed_displacement(
 mod tests {
     use super::*;
     use geom::triangulate::predict;
-    use geom::{Point2, Point3};
-    use synth::{Config, SynthRig};
+    use geom::{Camera, Intrinsics, Point2, Point3};
 
     #[test]
-    fn seed_fusion_recovers_an_x_displacement() {
-        // The renderer's default rig (cameras 460 mm from the working point).
-        let rig = SynthRig::from_config(&Config::default()).unwrap();
-        let cams: Vec<_> = rig.cameras[1..].iter().map(|c| &c.camera).collect();
+    fn the_pixel_scale_fusion_recovers_an_x_displacement() {
+        // Cameras 2 and 3 of an X sweep, aimed at the working point without
+        // tilt (the pixel-scale model's assumption), with barrel distortion.
+        let k = Intrinsics::centred(7966.0, 4096, 3072);
         let x0 = Point3::new(0.0, 0.0, 30.0);
+        let cams: Vec<Camera> = [
+            (Point3::new(0.0, -460.0, 30.0), Vector3::z()),
+            (Point3::new(0.0, 0.0, 490.0), Vector3::y()),
+        ]
+        .into_iter()
+        .map(|(position, up)| {
+            let mut c = Camera::look_at(position, x0, up, k, 4096, 3072).unwrap();
+            c.distortion.k1 = -0.04;
+            c
+        })
+        .collect();
         let x1 = Point3::new(30.0, 0.002, -0.001);
         let ideal = |x: &Point3<f64>| -> Vec<View<'_>> {
             cams.iter()
-                .map(|&camera| {
+                .map(|camera| {
                     let (p, _) = predict(camera, x, 0.0).unwrap();
                     View {
                         camera,
@@ -87,7 +97,7 @@ mod tests {
         let depths: Vec<f64> = cams.iter().map(|c| c.to_camera(&x0).z).collect();
         let (d, _) = seed_displacement(&ideal(&x0), &ideal(&(x0 + x1.coords)), &depths).unwrap();
         // Pixel scale at the reference depth: the motion across the field is
-        // recovered to the (small) perspective error of the seed's model.
+        // recovered to the (small) perspective error of the pixel-scale model.
         assert!((d.x - 30.0).abs() < 1e-3, "{d:?}");
     }
 }

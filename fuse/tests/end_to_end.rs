@@ -127,7 +127,7 @@ fn triangulated_displacements_match_the_truth() {
     }
 }
 
-/// The seed's pixel-scale fusion against the truth where its model holds: a
+/// The source method's pixel-scale fusion against the truth where its model holds: a
 /// rig whose cameras look exactly along the axes (no mounting rotation), so a
 /// displacement across a camera's view changes no depth and the pixel scale
 /// f/Z is exact. On the seed rig's tilted cameras the same fusion is off by
@@ -144,7 +144,7 @@ fn seed_fusion_matches_the_truth_where_its_model_holds() {
             .sqrt()
     };
     let seed = MeasureOptions {
-        fusion: Fusion::Seed,
+        fusion: Fusion::PixelScale,
         ..MeasureOptions::default()
     };
     let truth_of = |dir: &Path| -> Vec<PointRow> {
@@ -169,7 +169,7 @@ fn seed_fusion_matches_the_truth_where_its_model_holds() {
     let measured = run(tilted.path(), &seed, "points.csv");
     let tilted_error = rms(&displacement_errors(&measured, &truth_of(tilted.path())));
     println!(
-        "seed fusion, sphere A: {:.2} µm RMS against the truth with aligned cameras, {:.1} µm with the seed rig's tilted ones",
+        "pixel-scale fusion, sphere A: {:.2} µm RMS against the truth with aligned cameras, {:.1} µm with the seed rig's tilted ones",
         against_truth * 1e3,
         tilted_error * 1e3
     );

@@ -36,7 +36,7 @@ fn row_of(rows: &[ManifestRow], k: &InstantKey, camera: u8) -> usize {
 
 /// Damage the manifest of a 3-target, 2-run campaign (36 instants, lines
 /// starting at instants 0, 12, 24) and return the instants damaged. None is
-/// the first of its line, the reference of the seed's fusion.
+/// the first of its line, the reference of the pixel-scale fusion.
 fn damage(dir: &Path) -> BTreeSet<InstantKey> {
     let path = dir.join("manifest.csv");
     let mut rows: Vec<ManifestRow> = common::records(&path);
@@ -147,11 +147,11 @@ fn swapped_repeated_and_foreign_images_are_refused() {
     check_refused(d, "points.csv", &damaged, &summary, 0.01);
     let triangulated: Vec<PointRow> = common::records(&d.join("points.csv"));
 
-    // The seed's fusion is held to the same residual: that of the images at
+    // The pixel-scale fusion is held to the same residual: that of the images at
     // their least-squares centre, the same numbers as triangulation's.
     std::fs::create_dir(d.join("seed")).unwrap();
     let seed = MeasureOptions {
-        fusion: Fusion::Seed,
+        fusion: Fusion::PixelScale,
         ..MeasureOptions::default()
     };
     let summary = common::measure_with(d, "seed/points.csv", &seed, &|_, _| {}, false).unwrap();

@@ -140,7 +140,7 @@ fn compare(report: &ReportFigures, truth: &ReportFigures) {
             ("R_um", "R  repeatability"),
             ("B_um", "B  reversal value"),
             ("M_um", "M  mean deviation"),
-            ("seed_3sigma_um", "seed 3σ positioning error"),
+            ("seed_3sigma_um", "3σ band positioning error"),
         ] {
             row(format!("{axis} {label}"), &|f| {
                 positioning(&of(f)?.positioning, key)

@@ -194,6 +194,9 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     let cal = |name: &str| c.join("calib").join(name).into_os_string();
     let os = |s: &str| std::ffi::OsString::from(s);
     eprintln!("rendering, calibrating and measuring 108 instants (384×288 px) …");
+    // The stages on a bar: the three commands, then every timed Monte Carlo
+    // run (an untimed one and `repeat`, on all threads and on one).
+    let progress = crate::cmd::progress::bar(3 + 2 * (args.repeat as u64 + 1), "bench");
     let mut render: Vec<std::ffi::OsString> = [
         "synth",
         "campaign",
@@ -249,6 +252,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     ] {
         let refs: Vec<&std::ffi::OsStr> = command.iter().map(|a| a.as_os_str()).collect();
         step(&refs)?;
+        progress.inc(1);
     }
     let mut inputs = Propagated::read(&points, &at("points.observations.csv"), &rig)?;
     inputs.points.retain(|p| p.capture == 1);
@@ -267,10 +271,12 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     let timed = |f: &dyn Fn() -> formats::uncertainty::Uncertainty| {
         let mut times = Vec::new();
         let mut last = f();
+        progress.inc(1);
         for _ in 0..args.repeat {
             let start = std::time::Instant::now();
             last = f();
             times.push(start.elapsed());
+            progress.inc(1);
         }
         times.sort();
         (times[times.len() / 2], last)
@@ -278,6 +284,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     let (all, u) = timed(&|| inputs.propagate(&report, &options, propagation));
     let one_pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let (one, _) = timed(&|| one_pool.install(|| inputs.propagate(&report, &options, propagation)));
+    progress.finish_and_clear();
     let given = match &u {
         formats::uncertainty::Uncertainty::Given(p) => p,
         formats::uncertainty::Uncertainty::NotGiven { reason } => {
@@ -568,7 +575,7 @@ pub fn run(args: &Args) -> Result<()> {
         let at = |key: &str| format!("axes.{}.positioning.{key}", axis.name());
         let [(shown_a, key_a), (shown_e, key_e), (shown_r, key_r)] = p.shown_a_e_r();
         println!(
-            "{axis}: A {}, E {}, M {}, R {}, B {}, seed 3σ {}",
+            "{axis}: A {}, E {}, M {}, R {}, B {}, 3σ band {}",
             num_u_in(shown_a, u(at(key_a)), "µm"),
             num_u_in(shown_e, u(at(key_e)), "µm"),
             num_u_in(p.m_um, u(at("M_um")), "µm"),

@@ -24,8 +24,10 @@ pub const RERUN: &str = "run the same command again to resume from the instants 
 pub enum FusionArg {
     /// Rigorous triangulation (linear, then reprojection-error refinement).
     Triangulate,
-    /// The seed's two-camera pixel-scale fusion, relative to the first instant of each line.
-    Seed,
+    /// The source method's two-camera pixel-scale fusion, relative to the first instant of
+    /// each line (`seed`, its former name, is accepted).
+    #[value(alias = "seed")]
+    PixelScale,
 }
 
 /// Arguments of `trinocular measure`.
@@ -69,7 +71,7 @@ pub fn run(args: &Args) -> Result<()> {
     let options = MeasureOptions {
         fusion: match args.fusion {
             FusionArg::Triangulate => Fusion::Triangulate,
-            FusionArg::Seed => Fusion::Seed,
+            FusionArg::PixelScale => Fusion::PixelScale,
         },
         all_cameras: args.all_cameras,
         bias_correction: !args.no_bias_correction,
@@ -210,4 +212,20 @@ pub fn run(args: &Args) -> Result<()> {
         what.join("; "),
         problems.display()
     )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--fusion seed`, the pixel-scale fusion's former name, still works.
+    #[test]
+    fn the_pixel_scale_fusion_answers_to_its_former_name() {
+        for name in ["pixel-scale", "seed"] {
+            assert!(
+                matches!(FusionArg::from_str(name, false), Ok(FusionArg::PixelScale)),
+                "{name}"
+            );
+        }
+    }
 }

@@ -318,3 +318,22 @@ pub fn rows(lines: &[LineModel]) -> Vec<PointRow> {
 pub fn write_points(path: &std::path::Path, rows: &[PointRow]) {
     formats::write_csv(path, rows).unwrap();
 }
+
+/// A report's uncertainty as a test states it: its budget and expanded
+/// uncertainties, with a nominal method, sources and one trial.
+pub fn given(
+    budget: Vec<formats::uncertainty::BudgetEntry>,
+    expanded: std::collections::BTreeMap<String, f64>,
+) -> formats::uncertainty::Uncertainty {
+    formats::uncertainty::Uncertainty::Given(formats::uncertainty::Propagated {
+        method: "test".into(),
+        k: 2.0,
+        trials: 1,
+        seed: 1,
+        failed_trials: 0,
+        sources: std::collections::BTreeMap::from([("centroids".to_string(), "noise".to_string())]),
+        not_included: Vec::new(),
+        budget,
+        expanded,
+    })
+}
