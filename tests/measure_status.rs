@@ -83,7 +83,10 @@ fn exit_status_counts_the_instants_measured() {
     // The problems file is written always: its header alone.
     let problems = std::fs::read_to_string(d.join("all/points.problems.csv")).unwrap();
     assert_eq!(problems.lines().count(), 1, "{problems}");
-    assert!(problems.starts_with("axis,direction,run,target,capture"), "{problems}");
+    assert!(
+        problems.starts_with("axis,direction,run,target,capture"),
+        "{problems}"
+    );
     assert_eq!(
         records::<PointRow>(&d.join("all/points.csv")).len(),
         3 * instants

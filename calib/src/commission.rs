@@ -507,7 +507,9 @@ mod tests {
     fn ideal_seed_rig_has_no_warnings_and_the_seed_pixel_size() {
         let r = commission(&seed_rig(), &CommissionOptions::default());
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
-        let point = r.working_point_mm.expect("a working point with three cameras");
+        let point = r
+            .working_point_mm
+            .expect("a working point with three cameras");
         assert!((Vector3::from(point) - Vector3::new(0.0, 0.0, 30.0)).norm() < 1e-9);
         for c in &r.cameras {
             // ≈ 58 µm per pixel at 460 mm (docs/methods.md).

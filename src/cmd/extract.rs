@@ -71,7 +71,10 @@ fn fit_flat_field(flat: &Path, dark: &Path, max_pixels: u64) -> Result<FlatField
     let flats = Stack::read(flat, &mut reader, None, "the camera")?;
     let first = flats.first().map(|f| (f.width, f.height));
     let darks = Stack::read(dark, &mut reader, first, "its flat field")?;
-    darks.check_camera(flats.serial(), &format!("the flat field {}", flat.display()))?;
+    darks.check_camera(
+        flats.serial(),
+        &format!("the flat field {}", flat.display()),
+    )?;
     let Some(view) = flats.first().map(extract::Frame::view) else {
         bail!("{}: an empty stack of flat fields", flat.display());
     };
@@ -147,9 +150,7 @@ impl Tally {
             ));
         }
         if without_blobs > 0 {
-            what.push(format!(
-                "{without_blobs} of {images} images without a blob"
-            ));
+            what.push(format!("{without_blobs} of {images} images without a blob"));
         }
         if saturated > 0 {
             what.push(format!(

@@ -57,7 +57,10 @@ pub fn expand_images(inputs: &[PathBuf], subfolders: Subfolders) -> Result<Vec<P
                     Subfolders::Searched => " or its subfolders",
                     Subfolders::NotSearched => "",
                 };
-                bail!("{}: no TIFF or PNG images in this folder{below}", input.display());
+                bail!(
+                    "{}: no TIFF or PNG images in this folder{below}",
+                    input.display()
+                );
             }
             files.extend(found);
         } else {

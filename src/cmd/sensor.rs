@@ -37,7 +37,10 @@ impl Stack {
         size: Option<(u32, u32)>,
         camera: &str,
     ) -> Result<Self> {
-        let paths = expand_images(std::slice::from_ref(&input.to_path_buf()), Subfolders::NotSearched)?;
+        let paths = expand_images(
+            std::slice::from_ref(&input.to_path_buf()),
+            Subfolders::NotSearched,
+        )?;
         let mut frames = Vec::with_capacity(paths.len());
         let mut exposures = Vec::with_capacity(paths.len());
         let mut serials = Vec::with_capacity(paths.len());

@@ -211,7 +211,7 @@ impl SeriesFit {
     /// Least-squares fit of `series` of order N to `values` at `positions`
     /// (strictly increasing; the travel L is their span). `what` names the
     /// curve in errors. Needs at least 2N + 1 points that determine the
-    /// coefficients.
+    /// coefficients; order 0 is the constant a0 (the mean of the values).
     pub fn fit(
         series: Series,
         order: usize,
@@ -220,9 +220,6 @@ impl SeriesFit {
         what: &str,
     ) -> Result<SeriesFit> {
         let count = 2 * order + 1;
-        if order == 0 {
-            return Err(ProbeError::Volumetric(VolumetricFault::OrderZero));
-        }
         if positions.len() < count {
             return Err(ProbeError::Volumetric(VolumetricFault::TooFewForOrder {
                 fit: what.to_string(),
@@ -249,6 +246,27 @@ impl SeriesFit {
             length,
             residuals: s.residuals,
         })
+    }
+
+    /// The fit of the highest order N ≤ `max` that the positions allow: the
+    /// first of `max`, `max − 1`, …, 1 with at least 2N + 1 points that
+    /// determine its coefficients (condition number ≤ [`MAX_CONDITION`]),
+    /// else order 0, the mean. Other faults are errors.
+    pub fn highest(
+        series: Series,
+        max: usize,
+        positions: &[f64],
+        values: &[f64],
+        what: &str,
+    ) -> Result<SeriesFit> {
+        for order in (1..=max).rev() {
+            match SeriesFit::fit(series, order, positions, values, what) {
+                Err(ProbeError::Volumetric(VolumetricFault::TooFewForOrder { .. }))
+                | Err(ProbeError::IllConditioned { .. }) => continue,
+                fit => return fit,
+            }
+        }
+        SeriesFit::fit(series, 0, positions, values, what)
     }
 
     /// The series at `p`, which must lie in the measured travel.
