@@ -260,3 +260,79 @@ impl ErrorModel {
         self.axes.iter().find(|a| a.axis() == axis)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volumetric::MeasuredAxis;
+
+    /// Axis X at `n` equally spaced positions over 150 mm, every curve a bow.
+    fn short_axis(n: usize) -> AxisCurves {
+        let rows: Vec<[f64; 7]> = (0..n)
+            .map(|k| {
+                let q = -75.0 + 150.0 * k as f64 / (n - 1) as f64;
+                let bow = (q / 75.0).powi(2) + 0.1 * k as f64;
+                [q, 1e-3 * bow, 2e-3 * bow, 1e-3, 1e-6 * bow, 0.0, 2e-6 * bow]
+            })
+            .collect();
+        AxisCurves::new(MeasuredAxis::from_rows(Axis::X, &rows)).unwrap()
+    }
+
+    #[test]
+    fn short_curves_take_the_highest_order_their_points_allow() {
+        // 4 points: order 3 needs 7 coefficients; the default takes order 1
+        // for both series and says so, --order auto (6 points for order 1)
+        // too, and an explicit --order 3 stays an error.
+        let default = AxisModel::new(short_axis(4), Order::Highest(3)).unwrap();
+        assert!(
+            default.fits.iter().all(|f| f.fourier.order == 1
+                && f.polynomial.order == 1
+                && f.lowered == [true, true])
+        );
+        let note = default.order_note(Order::Highest(3)).unwrap();
+        assert!(
+            note.starts_with("axis X: 4 points, too few for the default order 3 (7 coefficients")
+                && note.contains("fourier N = 1, polynomial N = 1;")
+                && !note.contains("the mean"),
+            "{note}"
+        );
+        let auto = AxisModel::new(short_axis(4), Order::Auto).unwrap();
+        assert!(
+            auto.fits
+                .iter()
+                .all(|f| f.fourier.order == 1 && f.lowered == [true, true])
+        );
+        let note = auto.order_note(Order::Auto).unwrap();
+        assert!(
+            note.contains("too few to cross-validate an order (--order auto needs 6"),
+            "{note}"
+        );
+        let e = AxisModel::new(short_axis(4), Order::Fixed(3)).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("4 points, fewer than the 7 coefficients"),
+            "{e}"
+        );
+        // 3 points: the Fourier series falls to the mean, the polynomial to degree 2.
+        let three = AxisModel::new(short_axis(3), Order::Highest(3)).unwrap();
+        assert!(
+            three
+                .fits
+                .iter()
+                .all(|f| f.fourier.order == 0 && f.polynomial.order == 1)
+        );
+        let note = three.order_note(Order::Highest(3)).unwrap();
+        assert!(
+            note.contains("fourier N = 0, polynomial N = 1 (N = 0: the mean)"),
+            "{note}"
+        );
+        // Enough points: the order asked for, no note.
+        let long = AxisModel::new(short_axis(9), Order::Highest(3)).unwrap();
+        assert!(
+            long.fits
+                .iter()
+                .all(|f| f.fourier.order == 3 && f.lowered == [false, false])
+        );
+        assert_eq!(long.order_note(Order::Highest(3)), None);
+    }
+}

@@ -481,3 +481,101 @@ pub(crate) fn conventions() -> Vec<String> {
     .map(|s| (*s).to_string())
     .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_quantile_follows_the_tables() {
+        // χ²₀.₉₉(ν) from the tables: 6.635, 9.210, 23.209, 50.892.
+        for (dof, table) in [(1, 6.635), (2, 9.210), (10, 23.209), (30, 50.892)] {
+            let w = chi2_99(dof);
+            assert!(
+                (w / table - 1.0).abs() < 0.01,
+                "ν = {dof}: {w} against {table}"
+            );
+        }
+    }
+
+    /// X with 41 positions: `ex` a pseudo-random noise of σ = 1 µm, the
+    /// other curves a wave the series follows.
+    fn noisy_x() -> Vec<MeasuredAxis> {
+        let mut state = 7u64;
+        let mut gauss = || {
+            // Sum of 12 uniforms − 6: σ = 1.
+            (0..12)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    (state >> 11) as f64 / (1u64 << 53) as f64
+                })
+                .sum::<f64>()
+                - 6.0
+        };
+        let rows: Vec<[f64; 7]> = (0..41)
+            .map(|k| {
+                let q = 10.0 * k as f64;
+                let wave = (std::f64::consts::TAU * q / 400.0).sin();
+                [
+                    q,
+                    1e-3 * gauss(),
+                    0.0,
+                    0.0,
+                    1e-6 * wave,
+                    1e-6 * wave,
+                    1e-6 * wave,
+                ]
+            })
+            .collect();
+        vec![MeasuredAxis::from_rows(Axis::X, &rows)]
+    }
+
+    fn setup(model: Model, readings_u: Option<ReadingsU>) -> Setup {
+        Setup {
+            chain: Chain::parse("WXFT").unwrap(),
+            squareness: Squareness::default(),
+            tool: [0.0; 3],
+            model,
+            order: Order::Highest(3),
+            at: vec![],
+            circle: None,
+            source: "noise".into(),
+            readings_u,
+        }
+    }
+
+    #[test]
+    fn a_low_r2_warns_only_when_the_residual_is_more_than_the_noise() {
+        let u = |um: f64| {
+            Some(ReadingsU {
+                translation_mm: um * 1e-3,
+                rotation_rad: 1e-6,
+            })
+        };
+        let warnings = |model, readings| {
+            analyse(noisy_x(), &setup(model, readings), None)
+                .unwrap()
+                .report
+                .warnings
+        };
+        // Without a u, R² alone: the noise curve is flagged.
+        let w = warnings(Model::Fourier, None);
+        assert!(
+            w.len() == 1 && w[0].starts_with("EXX ex: the fourier fit of order 3"),
+            "{w:?}"
+        );
+        // With the noise's own u (1 µm) the residual is what the noise leaves: no warning.
+        assert_eq!(warnings(Model::Fourier, u(1.0)), Vec::<String>::new());
+        assert_eq!(warnings(Model::Polynomial, u(1.0)), Vec::<String>::new());
+        // With a u 5 times smaller the residual is significant: flagged, with its RMS.
+        let w = warnings(Model::Fourier, u(0.2));
+        assert!(
+            w.len() == 1 && w[0].contains("against the readings' u 0.200"),
+            "{w:?}"
+        );
+        // Under raw the predictions use no series: nothing to flag.
+        assert_eq!(warnings(Model::Raw, None), Vec::<String>::new());
+    }
+}

@@ -391,6 +391,39 @@ mod tests {
     }
 
     #[test]
+    fn the_highest_order_the_points_allow() {
+        // 3 equally spaced points: a Fourier series of order 1 would see the
+        // phases 0, π, 2π (= 0) — two — so order 0, the mean; the polynomial
+        // of degree 2 interpolates them. 4 points: order 1 for both. 25
+        // points: the asked order 3.
+        let v3 = [1.0, 4.0, 2.0];
+        let p = grid(3, -75.0, 75.0);
+        let f = SeriesFit::highest(Series::Fourier, 3, &p, &v3, "t").unwrap();
+        assert_eq!(f.order, 0);
+        assert!((f.coefficients[0] - 7.0 / 3.0).abs() < 1e-15);
+        assert!((f.value(0.0).unwrap() - 7.0 / 3.0).abs() < 1e-15);
+        assert_eq!(f.figures.r2, Some(0.0));
+        let f = SeriesFit::highest(Series::Polynomial, 3, &p, &v3, "t").unwrap();
+        assert_eq!(f.order, 1);
+        assert!(f.figures.emax < 1e-14 && (f.value(0.0).unwrap() - 4.0).abs() < 1e-14);
+        let p = grid(4, 0.0, 50.0);
+        for s in Series::BOTH {
+            let f = SeriesFit::highest(s, 3, &p, &[0.0, 1.0, 3.0, 2.0], "t").unwrap();
+            assert_eq!(f.order, 1, "{s:?}");
+            let e = SeriesFit::fit(s, 3, &p, &[0.0; 4], "t").unwrap_err();
+            assert!(e.to_string().contains("fewer than the 7"), "{e}");
+        }
+        let p = grid(25, 0.0, 25.0);
+        let v: Vec<f64> = p.iter().map(|q| (q / 100.0).sin()).collect();
+        assert_eq!(
+            SeriesFit::highest(Series::Fourier, 3, &p, &v, "t")
+                .unwrap()
+                .order,
+            3
+        );
+    }
+
+    #[test]
     fn leave_one_out_scores_are_refits_without_the_point() {
         // PRESS from the hat values equals refitting n times with each point
         // left out; cross-validation rejects the underfitting order 1.
