@@ -318,7 +318,9 @@ fn bad_input_is_one_clear_line() {
         err.contains("E.csv: line 4, column 'position'") && err.contains("increase"),
         "{err}"
     );
-    // A curve with fewer points than coefficients: Z with 5 points, order 3.
+    // A curve with fewer points than the coefficients of an explicit --order:
+    // Z with 5 points, order 3 (without --order it takes the highest order
+    // its points allow: short_campaign_runs_with_the_defaults).
     let short_z = edited_errors(dir.path(), |l| {
         let mut z = 0;
         l.into_iter()
@@ -332,7 +334,7 @@ fn bad_input_is_one_clear_line() {
             })
             .collect()
     });
-    let (code, err) = failure(&probe(&short_z, &[]));
+    let (code, err) = failure(&probe(&short_z, &["--order", "3"]));
     assert_eq!(code, 1);
     assert!(
         err.contains("E.csv: lines 48–52, axis Z: 5 points, fewer than the 7 coefficients")
@@ -863,4 +865,180 @@ fn from_report_of_an_xy_campaign_takes_the_chain_of_its_axes() {
         err.contains("axis Z") && err.contains("in the chain WXYFZT but without error curves"),
         "{err}"
     );
+}
+
+/// stderr lines of `out` that are warnings.
+fn warnings(out: &Output) -> Vec<String> {
+    String::from_utf8_lossy(&out.stderr)
+        .lines()
+        .filter(|l| l.contains("warning:"))
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn short_campaign_runs_with_the_defaults() {
+    // Issue 39, item 5: a campaign of 4 targets per axis failed under the
+    // defaults ("4 points, fewer than the 7 coefficients of a fourier of
+    // order 3"), under --model raw and --order auto, and said the report gave
+    // no U. Now: the highest order the points allow, said per axis; no R²
+    // warning on those fits; the readings' u from the report's U, so every
+    // figure gets its U.
+    let dir = tempfile::tempdir().unwrap();
+    let demo = dir.path().join("demo");
+    ok_stdout(&trinocular(&[
+        "demo",
+        "--targets",
+        "4",
+        "--width",
+        "640",
+        "--out",
+        s(&demo),
+    ]));
+    let report = demo.join("report");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut a = vec![
+            "probe",
+            "volumetric",
+            "--from-report",
+            s(&report),
+            "--circle",
+            "0,0,0,20",
+            "--out",
+            s(&out),
+        ];
+        a.extend_from_slice(extra);
+        (trinocular(&a), out)
+    };
+    let mut default_err = String::new();
+    for (name, extra, why) in [
+        ("default", &[][..], "too few for the default order 3"),
+        (
+            "raw",
+            &["--model", "raw"][..],
+            "too few for the default order 3",
+        ),
+        (
+            "auto",
+            &["--order", "auto"][..],
+            "too few to cross-validate an order",
+        ),
+    ] {
+        let (output, out) = run(name, extra);
+        let err = common::ok(&output);
+        if name == "default" {
+            default_err = err.clone();
+        }
+        for axis in ["X", "Y"] {
+            let note = format!("note: axis {axis}: 4 points, {why}");
+            let line = err.lines().find(|l| l.contains(&note));
+            let line = line.unwrap_or_else(|| panic!("{name}: no '{note}' in {err}"));
+            assert!(
+                line.contains("fourier N = 1, polynomial N = 1"),
+                "{name}: {line}"
+            );
+        }
+        assert!(warnings(&output).is_empty(), "{name}: {err}");
+        assert!(
+            err.contains(
+                "note: the curves' readings take their uncertainty from the evaluate report"
+            ),
+            "{err}"
+        );
+        let r = read_json(&out.join("report.json"));
+        assert_eq!(r["notes"].as_array().unwrap().len(), 2, "{name}");
+        for f in &r["fits"].as_array().unwrap()[..] {
+            assert_eq!(f["order"], 1, "{name}: {f}");
+        }
+        // U from the report: every figure has one, and the source says where from.
+        assert!(
+            r["uncertainty"].get("reason").is_none(),
+            "{name}: {}",
+            r["uncertainty"]
+        );
+        let u = r["circle"]["circular_deviation_U_um"].as_f64().unwrap();
+        assert!(u > 0.0, "{name}: {u}");
+        let source = r["uncertainty"]["sources"]["curves"].as_str().unwrap();
+        assert!(source.contains("evaluate report"), "{source}");
+    }
+    // The translation u is U/(2√2) of the largest range U of the report.
+    let eval = read_json(&report.join("report.json"));
+    let mut largest: f64 = 0.0;
+    for axis in ["X", "Y"] {
+        let a = &eval["axes"][axis];
+        largest = largest.max(a["positioning"]["M_U_um"].as_f64().unwrap());
+        for s in a["straightness"].as_object().unwrap().values() {
+            largest = largest.max(s["lsq_U_um"].as_f64().unwrap());
+        }
+    }
+    let want = format!(
+        "{:.3} µm → {:.3} µm (translations)",
+        largest,
+        largest / 8f64.sqrt()
+    );
+    assert!(default_err.contains(&want), "{want} not in {default_err}");
+    // The flags override the report.
+    let (output, _) = run("flags", &["--curve-u-um", "0.1", "--curve-u-urad", "1"]);
+    assert!(!common::ok(&output).contains("readings take their uncertainty"));
+    // An explicit order the points cannot carry is still refused, clearly.
+    let (output, _) = run("three", &["--order", "3", "--chain", "WXYFT"]);
+    let (code, err) = failure(&output);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("4 points, fewer than the 7 coefficients"),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_generators_next_command_runs_without_warnings() {
+    // Issue 39, item 5: the generator's printed next: command gave 9 R²
+    // warnings. Under the raw model (its default) the predictions keep the
+    // measured values: no fit is judged. Under --model fourier the fits are
+    // the model, and a warning stands only where the residual is significant
+    // against the readings' u (0.05 µm, 0.05 µrad): the generator's waves of
+    // non-integer cycle counts leave 0.5–1.7 µm (µrad) beside an order-3 series.
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("d");
+    let printed = ok_stdout(&trinocular(&[
+        "synth",
+        "probe",
+        "volumetric",
+        "--out",
+        s(&data),
+    ]));
+    let next = printed
+        .lines()
+        .find_map(|l| l.strip_prefix("next: trinocular "))
+        .unwrap();
+    let out = dir.path().join("r");
+    let args: Vec<String> = next
+        .replace("<DIR>", s(&out))
+        .split_whitespace()
+        .map(str::to_string)
+        .collect();
+    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+    let output = trinocular(&refs);
+    let err = common::ok(&output);
+    assert!(warnings(&output).is_empty(), "{err}");
+    assert!(!err.contains("note: axis"), "{err}");
+    assert_eq!(
+        read_json(&out.join("report.json"))["warnings"],
+        Value::Array(vec![])
+    );
+    let mut fourier = refs.clone();
+    fourier.extend(["--model", "fourier", "--force"]);
+    let output = trinocular(&fourier);
+    let w = warnings(&output);
+    assert!(!w.is_empty(), "{}", common::ok(&output));
+    for line in &w {
+        let rms: f64 = line
+            .split("residual RMS ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next())
+            .and_then(|t| t.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"));
+        assert!(rms > 5.0 * 0.05, "{line}");
+    }
 }

@@ -65,6 +65,8 @@ pub use circle::{CirclePoint, CirclePrediction, CircleSpec, predict as predict_c
 pub use curves::{AxisCurves, MeasuredAxis, Motion, measured_axes};
 pub use html::render as html;
 pub use model::{DEFAULT_ORDER, ErrorModel, Evaluation, Model, Order};
-pub use report::{Analysis, POOR_R2, Setup, analyse};
+pub use report::{Analysis, POOR_R2, ReadingsU, Setup, analyse};
 pub use series::{Figures, POINTS_PER_COEFFICIENT, Series, SeriesFit};
-pub use uncertainty::{CURVES_NOT_GIVEN, Inputs as UncertaintyInputs, uncertainty};
+pub use uncertainty::{
+    CURVES_NOT_GIVEN, ERRORS_NEED_U, Inputs as UncertaintyInputs, REPORT_GIVES_NO_U, uncertainty,
+};

@@ -338,6 +338,7 @@ fn compensation_with_a_series_that_fits_exactly_leaves_nothing() {
             radius: 100.0,
         }),
         source: "analytic".into(),
+        readings_u: None,
     };
     let a = analyse(curves, &setup, None).unwrap();
     // At the measured positions the raw curves are the measured values,
@@ -472,6 +473,7 @@ fn poor_fits_are_flagged_with_the_order_cross_validation_chooses() {
         at: vec![],
         circle: None,
         source: "analytic".into(),
+        readings_u: None,
     };
     let fixed = analyse(curves.clone(), &setup(Order::Fixed(3)), None).unwrap();
     let w = &fixed.report.warnings;

@@ -159,6 +159,7 @@ fn the_truth_lies_within_u_as_often_as_k_2_promises() {
                 translation_mm: Some(config.noise_um * 1e-3),
                 rotation_rad: Some(config.noise_urad * 1e-6),
                 squareness_rad: None,
+                from_report: false,
             },
             Propagation {
                 trials: TRIALS,
@@ -216,6 +217,7 @@ fn u_needs_the_curves_uncertainty_and_follows_the_squareness() {
         translation_mm: Some(5e-5),
         rotation_rad: Some(5e-8),
         squareness_rad: None,
+        from_report: false,
     };
     let plain = run(curves).of("volumetric.max_um").unwrap();
     let with_square = run(UncertaintyInputs {

@@ -461,6 +461,10 @@ pub struct EvaluateLine {
 pub struct EvaluatePositioning {
     /// Per target.
     pub targets: Vec<EvaluatePositioningTarget>,
+    /// Expanded uncertainty (k = 2) of M, the range of the mean
+    /// bidirectional deviations (µm; absent when evaluated without trials).
+    #[serde(rename = "M_U_um", default)]
+    pub m_u_um: Option<f64>,
 }
 
 /// Positioning at one target (µm; nominal in mm).
@@ -486,6 +490,10 @@ pub struct EvaluatePositioningTarget {
 pub struct EvaluateStraightness {
     /// Per target.
     pub targets: Vec<EvaluateStraightnessTarget>,
+    /// Expanded uncertainty (k = 2) of the least-squares straightness, the
+    /// range of the deviations (µm; absent when evaluated without trials).
+    #[serde(rename = "lsq_U_um", default)]
+    pub lsq_u_um: Option<f64>,
 }
 
 /// Straightness at one target.
@@ -502,6 +510,16 @@ pub struct EvaluateStraightnessTarget {
 pub struct EvaluateAngular {
     /// Per target, relative to the first target.
     pub targets: Vec<EvaluateAngularTarget>,
+    /// Expanded uncertainty (k = 2) of the roll range (µrad; absent when
+    /// evaluated without trials).
+    #[serde(rename = "roll_U_urad", default)]
+    pub roll_u_urad: Option<f64>,
+    /// Of the pitch range.
+    #[serde(rename = "pitch_U_urad", default)]
+    pub pitch_u_urad: Option<f64>,
+    /// Of the yaw range.
+    #[serde(rename = "yaw_U_urad", default)]
+    pub yaw_u_urad: Option<f64>,
 }
 
 /// Roll, pitch, yaw at one target (µrad).

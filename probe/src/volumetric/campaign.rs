@@ -45,6 +45,7 @@ use geom::Vector3;
 
 use super::chain::{Chain, DEFAULT_CHAIN, Side};
 use super::curves::MeasuredAxis;
+use super::report::ReadingsU;
 use crate::{CampaignFault, ChainFault, ProbeError, Result};
 
 /// µm → mm.
@@ -77,6 +78,93 @@ pub struct CampaignCurves {
     pub sweeps: Vec<SweepInfo>,
     /// Choices worth knowing (a reference at the first target, …).
     pub notes: Vec<String>,
+    /// The readings' standard uncertainty from the report's U, when it has them.
+    pub readings_u: Option<ReportReadingsU>,
+}
+
+/// The standard uncertainty of one reading of the campaign's curves, from
+/// the expanded uncertainties (k = 2) evaluate gives its range figures.
+///
+/// A range is the difference of two readings, `u(range) = √2·u`, so one
+/// reading has `u = U(range)/(2√2)`. Translations: the largest U among the
+/// swept main lines' M (range of the mean bidirectional deviations, the
+/// positioning curve) and least-squares straightness (range of the
+/// deviations); rotations: the largest U of their roll, pitch and yaw
+/// ranges. One u for each kind, as an instrument's certificate states it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReportReadingsU {
+    /// The uncertainties (mm, rad).
+    pub u: ReadingsU,
+    /// The report figure the translation u comes from, and its U (µm).
+    pub translation_from: (String, f64),
+    /// The report figure the rotation u comes from, and its U (µrad).
+    pub rotation_from: (String, f64),
+}
+
+impl ReportReadingsU {
+    /// One line saying where the readings' uncertainty came from.
+    pub fn note(&self) -> String {
+        format!(
+            "the curves' readings take their uncertainty from the evaluate report: u = U/(2√2) of \
+             the largest range U, {} = {:.3} µm → {:.3} µm (translations), {} = {:.2} µrad → \
+             {:.2} µrad (rotations); --curve-u-um/--curve-u-urad override",
+            self.translation_from.0,
+            self.translation_from.1,
+            self.u.translation_mm / UM,
+            self.rotation_from.0,
+            self.rotation_from.1,
+            self.u.rotation_rad / URAD
+        )
+    }
+}
+
+/// The readings' uncertainty from the U of the main lines' range figures
+/// ([`ReportReadingsU`]); `None` when a swept line lacks them (evaluated
+/// with `--trials 0`) or has no angular table.
+fn readings_u(lines: &[(Axis, &EvaluateLine)]) -> Option<ReportReadingsU> {
+    let mut translation: Option<(String, f64)> = None;
+    let mut rotation: Option<(String, f64)> = None;
+    let larger = |best: &mut Option<(String, f64)>, name: String, u: f64| {
+        if best.as_ref().is_none_or(|(_, b)| u > *b) {
+            *best = Some((name, u));
+        }
+    };
+    for &(axis, line) in lines {
+        larger(
+            &mut translation,
+            format!("axes.{axis}.positioning.M_U_um"),
+            line.positioning.m_u_um?,
+        );
+        for (across, s) in &line.straightness {
+            larger(
+                &mut translation,
+                format!("axes.{axis}.straightness.{across}.lsq_U_um"),
+                s.lsq_u_um?,
+            );
+        }
+        let a = line.angular.as_ref()?;
+        for (name, u) in [
+            ("roll", a.roll_u_urad),
+            ("pitch", a.pitch_u_urad),
+            ("yaw", a.yaw_u_urad),
+        ] {
+            larger(
+                &mut rotation,
+                format!("axes.{axis}.angular.{name}_U_urad"),
+                u?,
+            );
+        }
+    }
+    let (translation, rotation) = (translation?, rotation?);
+    let per_reading = 2.0 * std::f64::consts::SQRT_2;
+    Some(ReportReadingsU {
+        u: ReadingsU {
+            translation_mm: translation.1 / per_reading * UM,
+            rotation_rad: rotation.1 / per_reading * URAD,
+        },
+        translation_from: translation,
+        rotation_from: rotation,
+    })
 }
 
 /// The world rotation vector (εx, εy, εz) of `axis`'s roll, pitch, yaw
@@ -319,6 +407,7 @@ pub fn from_evaluate(
         squareness: squareness(&directions),
         sweeps,
         notes,
+        readings_u: readings_u(&lines),
     })
 }
 

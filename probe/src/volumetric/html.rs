@@ -38,6 +38,7 @@ pub fn render(
     report::uncertainty::section(&mut h, Some(u));
     compensation_section(&mut h, &a.report);
     campaign_section(&mut h, &a.report);
+    h.notes("Notes", &a.report.notes, false);
     h.notes("Warnings", &a.report.warnings, true);
     h.notes("Conventions", &a.report.conventions, false);
     Ok(h.finish())

@@ -46,6 +46,19 @@ pub struct Setup {
     pub circle: Option<CircleSpec>,
     /// Where the curves came from (for the report).
     pub source: String,
+    /// Standard uncertainty of the curves' readings, when known: judges
+    /// whether a fit's residual is more than their noise.
+    pub readings_u: Option<ReadingsU>,
+}
+
+/// Standard uncertainty of one reading of a curve (the instrument's, or a
+/// campaign report's; docs/probe-volumetric.md).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadingsU {
+    /// Of a translation value (mm).
+    pub translation_mm: f64,
+    /// Of a rotation value (rad).
+    pub rotation_rad: f64,
 }
 
 /// The predicted circular tests.
@@ -325,6 +338,7 @@ fn report(
         model: setup.model,
         order: match setup.order {
             Order::Fixed(n) => n.to_string(),
+            Order::Highest(n) => format!("{n} (or the highest the points allow)"),
             Order::Auto => "auto".into(),
         },
         axes,
@@ -333,6 +347,11 @@ fn report(
         circle,
         campaign,
         conventions: conventions(),
+        notes: model
+            .axes
+            .iter()
+            .filter_map(|a| a.order_note(model.order))
+            .collect(),
         warnings: poor_fits(model, setup),
     }
 }
@@ -342,61 +361,104 @@ fn report(
 /// that does not suit the curve) more than the machine.
 pub const POOR_R2: f64 = 0.8;
 
-/// A warning for each fit with R² < [`POOR_R2`] of a series the model
-/// uses (both under `raw`: compensation is by either), with the order
+/// Standard normal quantile of the residual test: 99 % one-sided.
+const RESIDUAL_Z: f64 = 2.326;
+
+/// The 99 % quantile of χ² with ν degrees of freedom, Wilson–Hilferty:
+/// `χ²_p(ν) ≈ ν·(1 − 2/(9ν) + z_p·√(2/(9ν)))³` (within 3 % for ν ≥ 1).
+fn chi2_99(dof: usize) -> f64 {
+    let v = dof as f64;
+    let a = 2.0 / (9.0 * v);
+    v * (1.0 - a + RESIDUAL_Z * a.sqrt()).powi(3)
+}
+
+/// Whether a fit's residual is more than readings of standard uncertainty
+/// `u` would leave: `SSE/u² > χ²₉₉(n − (2N + 1))`. An interpolating fit
+/// (no degree of freedom left) leaves nothing to judge.
+fn significant(fit: &SeriesFit, u: f64) -> bool {
+    let dof = fit.residuals.len().saturating_sub(fit.coefficients.len());
+    dof > 0 && fit.figures.sse > chi2_99(dof) * u * u
+}
+
+/// A warning for each fit with R² < [`POOR_R2`] of the series the
+/// predictions use (`--model fourier|polynomial`; under `raw` they keep the
+/// measured values, and the compensated circle shows what each series
+/// leaves), whose order was asked for or cross-validated (not lowered to
+/// the points), and — when the readings' U is known — whose residual is
+/// significant against it ([`significant`]): a low R² of a residual within
+/// the noise only says that the curve is noise. Each names the order
 /// leave-one-out cross-validation chooses (`--order auto`) and its R².
 fn poor_fits(model: &ErrorModel, setup: &Setup) -> Vec<String> {
-    let used: &[Series] = match setup.model {
-        Model::Fourier => &[Series::Fourier],
-        Model::Polynomial => &[Series::Polynomial],
-        Model::Raw => &Series::BOTH,
+    let Some(s) = setup.model.series() else {
+        return Vec::new();
     };
     let mut warnings = Vec::new();
     for a in &model.axes {
         let c = &a.curves;
         for m in Motion::ALL {
             let what = format!("axis {} curve {}", c.axis, m.name());
-            for &s in used {
-                let fit = a.fits[m.index()].get(s);
-                let Some(r2) = fit.figures.r2.filter(|r| *r < POOR_R2) else {
-                    continue;
-                };
-                const NOISE: &str = "the series does not describe the curve (noise against its \
-                     range, or a shape it cannot follow): its fitted shape is not significant, the raw \
-                     model keeps the measured values";
-                let chosen =
-                    || format!("it is the order leave-one-out cross-validation chooses: {NOISE}");
-                // Under --order auto the fit is already cross-validation's choice.
-                let (p, v) = (&c.positions, c.curve(m));
-                let better = match setup.order {
-                    Order::Auto => None,
-                    Order::Fixed(_) => Some(
-                        super::series::choose_order(s, p, v, &what).and_then(|(n, _)| {
-                            Ok((n, SeriesFit::fit(s, n, p, v, &what)?.figures.r2))
-                        }),
-                    ),
-                };
-                let advice = match better {
-                    Some(Ok((n, r))) if n != fit.order => format!(
-                        "--order auto (leave-one-out) chooses N = {n} for it, R² {}{}",
-                        r.map_or_else(|| "—".into(), |r| format!("{r:.3}")),
-                        if r.is_some_and(|r| r >= POOR_R2) {
-                            String::new()
-                        } else {
-                            format!(": {NOISE}")
-                        }
-                    ),
-                    None | Some(Ok(_)) => chosen(),
-                    Some(Err(_)) => "too few points to cross-validate another order".into(),
-                };
-                warnings.push(format!(
-                    "{} {}: the {} fit of order {} has R² {r2:.3} < {POOR_R2}; {advice}",
-                    m.symbol(a.axis()),
-                    m.name(),
-                    s.name(),
-                    fit.order
-                ));
+            let fits = &a.fits[m.index()];
+            let fit = fits.get(s);
+            let lowered = fits.lowered[Series::BOTH.iter().position(|b| *b == s).unwrap_or(0)];
+            let Some(r2) = fit.figures.r2.filter(|r| *r < POOR_R2 && !lowered) else {
+                continue;
+            };
+            let u = setup.readings_u.map(|u| {
+                if m.is_rotation() {
+                    u.rotation_rad
+                } else {
+                    u.translation_mm
+                }
+            });
+            if u.is_some_and(|u| !significant(fit, u)) {
+                continue;
             }
+            const NOISE: &str = "the series does not describe the curve (noise against its \
+                 range, or a shape it cannot follow): its fitted shape is not significant, the raw \
+                 model keeps the measured values";
+            let chosen =
+                || format!("it is the order leave-one-out cross-validation chooses: {NOISE}");
+            // Under --order auto the fit is already cross-validation's choice.
+            let (p, v) = (&c.positions, c.curve(m));
+            let better = match setup.order {
+                Order::Auto => None,
+                Order::Fixed(_) | Order::Highest(_) => Some(
+                    super::series::choose_order(s, p, v, &what)
+                        .and_then(|(n, _)| Ok((n, SeriesFit::fit(s, n, p, v, &what)?.figures.r2))),
+                ),
+            };
+            let advice = match better {
+                Some(Ok((n, r))) if n != fit.order => format!(
+                    "--order auto (leave-one-out) chooses N = {n} for it, R² {}{}",
+                    r.map_or_else(|| "—".into(), |r| format!("{r:.3}")),
+                    if r.is_some_and(|r| r >= POOR_R2) {
+                        String::new()
+                    } else {
+                        format!(": {NOISE}")
+                    }
+                ),
+                None | Some(Ok(_)) => chosen(),
+                Some(Err(_)) => "too few points to cross-validate another order".into(),
+            };
+            let rms = match u {
+                Some(u) => {
+                    let (unit, scale) = unit(m);
+                    format!(
+                        ", residual RMS {:.3} {} against the readings' u {:.3}",
+                        fit.figures.rmse * scale,
+                        if unit == "um" { "µm" } else { "µrad" },
+                        u * scale
+                    )
+                }
+                None => String::new(),
+            };
+            warnings.push(format!(
+                "{} {}: the {} fit of order {} has R² {r2:.3} < {POOR_R2}{rms}; {advice}",
+                m.symbol(a.axis()),
+                m.name(),
+                s.name(),
+                fit.order
+            ));
         }
     }
     warnings
@@ -418,4 +480,102 @@ pub(crate) fn conventions() -> Vec<String> {
     .iter()
     .map(|s| (*s).to_string())
     .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_quantile_follows_the_tables() {
+        // χ²₀.₉₉(ν) from the tables: 6.635, 9.210, 23.209, 50.892.
+        for (dof, table) in [(1, 6.635), (2, 9.210), (10, 23.209), (30, 50.892)] {
+            let w = chi2_99(dof);
+            assert!(
+                (w / table - 1.0).abs() < 0.01,
+                "ν = {dof}: {w} against {table}"
+            );
+        }
+    }
+
+    /// X with 41 positions: `ex` a pseudo-random noise of σ = 1 µm, the
+    /// other curves a wave the series follows.
+    fn noisy_x() -> Vec<MeasuredAxis> {
+        let mut state = 7u64;
+        let mut gauss = || {
+            // Sum of 12 uniforms − 6: σ = 1.
+            (0..12)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    (state >> 11) as f64 / (1u64 << 53) as f64
+                })
+                .sum::<f64>()
+                - 6.0
+        };
+        let rows: Vec<[f64; 7]> = (0..41)
+            .map(|k| {
+                let q = 10.0 * k as f64;
+                let wave = (std::f64::consts::TAU * q / 400.0).sin();
+                [
+                    q,
+                    1e-3 * gauss(),
+                    0.0,
+                    0.0,
+                    1e-6 * wave,
+                    1e-6 * wave,
+                    1e-6 * wave,
+                ]
+            })
+            .collect();
+        vec![MeasuredAxis::from_rows(Axis::X, &rows)]
+    }
+
+    fn setup(model: Model, readings_u: Option<ReadingsU>) -> Setup {
+        Setup {
+            chain: Chain::parse("WXFT").unwrap(),
+            squareness: Squareness::default(),
+            tool: [0.0; 3],
+            model,
+            order: Order::Highest(3),
+            at: vec![],
+            circle: None,
+            source: "noise".into(),
+            readings_u,
+        }
+    }
+
+    #[test]
+    fn a_low_r2_warns_only_when_the_residual_is_more_than_the_noise() {
+        let u = |um: f64| {
+            Some(ReadingsU {
+                translation_mm: um * 1e-3,
+                rotation_rad: 1e-6,
+            })
+        };
+        let warnings = |model, readings| {
+            analyse(noisy_x(), &setup(model, readings), None)
+                .unwrap()
+                .report
+                .warnings
+        };
+        // Without a u, R² alone: the noise curve is flagged.
+        let w = warnings(Model::Fourier, None);
+        assert!(
+            w.len() == 1 && w[0].starts_with("EXX ex: the fourier fit of order 3"),
+            "{w:?}"
+        );
+        // With the noise's own u (1 µm) the residual is what the noise leaves: no warning.
+        assert_eq!(warnings(Model::Fourier, u(1.0)), Vec::<String>::new());
+        assert_eq!(warnings(Model::Polynomial, u(1.0)), Vec::<String>::new());
+        // With a u 5 times smaller the residual is significant: flagged, with its RMS.
+        let w = warnings(Model::Fourier, u(0.2));
+        assert!(
+            w.len() == 1 && w[0].contains("against the readings' u 0.200"),
+            "{w:?}"
+        );
+        // Under raw the predictions use no series: nothing to flag.
+        assert_eq!(warnings(Model::Raw, None), Vec::<String>::new());
+    }
 }

@@ -211,7 +211,7 @@ impl SeriesFit {
     /// Least-squares fit of `series` of order N to `values` at `positions`
     /// (strictly increasing; the travel L is their span). `what` names the
     /// curve in errors. Needs at least 2N + 1 points that determine the
-    /// coefficients.
+    /// coefficients; order 0 is the constant a0 (the mean of the values).
     pub fn fit(
         series: Series,
         order: usize,
@@ -220,9 +220,6 @@ impl SeriesFit {
         what: &str,
     ) -> Result<SeriesFit> {
         let count = 2 * order + 1;
-        if order == 0 {
-            return Err(ProbeError::Volumetric(VolumetricFault::OrderZero));
-        }
         if positions.len() < count {
             return Err(ProbeError::Volumetric(VolumetricFault::TooFewForOrder {
                 fit: what.to_string(),
@@ -249,6 +246,27 @@ impl SeriesFit {
             length,
             residuals: s.residuals,
         })
+    }
+
+    /// The fit of the highest order N ≤ `max` that the positions allow: the
+    /// first of `max`, `max − 1`, …, 1 with at least 2N + 1 points that
+    /// determine its coefficients (condition number ≤ [`MAX_CONDITION`]),
+    /// else order 0, the mean. Other faults are errors.
+    pub fn highest(
+        series: Series,
+        max: usize,
+        positions: &[f64],
+        values: &[f64],
+        what: &str,
+    ) -> Result<SeriesFit> {
+        for order in (1..=max).rev() {
+            match SeriesFit::fit(series, order, positions, values, what) {
+                Err(ProbeError::Volumetric(VolumetricFault::TooFewForOrder { .. }))
+                | Err(ProbeError::IllConditioned { .. }) => continue,
+                fit => return fit,
+            }
+        }
+        SeriesFit::fit(series, 0, positions, values, what)
     }
 
     /// The series at `p`, which must lie in the measured travel.
@@ -370,6 +388,39 @@ mod tests {
         let e = SeriesFit::fit(Series::Fourier, 3, &p, &[0.0; 7], "X ex").unwrap_err();
         assert!(matches!(e, ProbeError::IllConditioned { .. }), "{e}");
         assert!(SeriesFit::fit(Series::Polynomial, 3, &p, &[0.0; 7], "X ex").is_ok());
+    }
+
+    #[test]
+    fn the_highest_order_the_points_allow() {
+        // 3 equally spaced points: a Fourier series of order 1 would see the
+        // phases 0, π, 2π (= 0) — two — so order 0, the mean; the polynomial
+        // of degree 2 interpolates them. 4 points: order 1 for both. 25
+        // points: the asked order 3.
+        let v3 = [1.0, 4.0, 2.0];
+        let p = grid(3, -75.0, 75.0);
+        let f = SeriesFit::highest(Series::Fourier, 3, &p, &v3, "t").unwrap();
+        assert_eq!(f.order, 0);
+        assert!((f.coefficients[0] - 7.0 / 3.0).abs() < 1e-15);
+        assert!((f.value(0.0).unwrap() - 7.0 / 3.0).abs() < 1e-15);
+        assert_eq!(f.figures.r2, Some(0.0));
+        let f = SeriesFit::highest(Series::Polynomial, 3, &p, &v3, "t").unwrap();
+        assert_eq!(f.order, 1);
+        assert!(f.figures.emax < 1e-14 && (f.value(0.0).unwrap() - 4.0).abs() < 1e-14);
+        let p = grid(4, 0.0, 50.0);
+        for s in Series::BOTH {
+            let f = SeriesFit::highest(s, 3, &p, &[0.0, 1.0, 3.0, 2.0], "t").unwrap();
+            assert_eq!(f.order, 1, "{s:?}");
+            let e = SeriesFit::fit(s, 3, &p, &[0.0; 4], "t").unwrap_err();
+            assert!(e.to_string().contains("fewer than the 7"), "{e}");
+        }
+        let p = grid(25, 0.0, 25.0);
+        let v: Vec<f64> = p.iter().map(|q| (q / 100.0).sin()).collect();
+        assert_eq!(
+            SeriesFit::highest(Series::Fourier, 3, &p, &v, "t")
+                .unwrap()
+                .order,
+            3
+        );
     }
 
     #[test]

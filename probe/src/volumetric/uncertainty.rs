@@ -55,12 +55,24 @@ pub struct Inputs {
     pub rotation_rad: Option<f64>,
     /// Standard uncertainty of each squareness error (rad).
     pub squareness_rad: Option<f64>,
+    /// Whether the curves' uncertainties come from a campaign report's U
+    /// (`--from-report`) rather than an instrument's certificate.
+    pub from_report: bool,
 }
 
 /// Why the figures have no U when the curves' uncertainty is not given.
 pub const CURVES_NOT_GIVEN: &str = "the standard uncertainty of the curves' values was not \
      given (--curve-u-um and --curve-u-urad, from the instrument's certificate): the curves alone \
      cannot tell their noise from their waviness between the measured positions";
+
+/// Why a campaign's figures have no U: its report gives none.
+pub const REPORT_GIVES_NO_U: &str = "the evaluate report's range figures carry no U (evaluated \
+     with --trials 0?) and --curve-u-um/--curve-u-urad were not given: the standard uncertainty of \
+     the curves' values is not known";
+
+/// Why a campaign with curves of `--errors` has no U: the report's U covers its own curves only.
+pub const ERRORS_NEED_U: &str = "the evaluate report's U covers its own curves, not those of \
+     --errors: give --curve-u-um and --curve-u-urad (the standard uncertainty of every curve's values)";
 
 /// The headline figures of the budget (those the report has).
 const HEADLINE: [&str; 6] = [
@@ -83,6 +95,13 @@ fn not_included(inputs: &Inputs) -> Vec<String> {
         "thermal drift, load and dynamic effects (outside the 21-error model)".to_string(),
         "the reversal (positioning_up/down) of the compensation tables".to_string(),
     ];
+    if inputs.from_report {
+        out.push(
+            "the machine's scatter between the campaign's runs (evaluate's R and s), as in the \
+             evaluate report's U"
+                .into(),
+        );
+    }
     if inputs.squareness_rad.is_none() {
         out.push("the squareness, taken as exact (give --squareness-u-urad)".into());
     }
@@ -136,7 +155,11 @@ pub fn uncertainty(
     propagation: Propagation,
 ) -> Uncertainty {
     let (Some(u_mm), Some(u_rad)) = (inputs.translation_mm, inputs.rotation_rad) else {
-        return not_given(CURVES_NOT_GIVEN);
+        return not_given(match campaign {
+            Some(c) if c.readings_u.is_some() => ERRORS_NEED_U,
+            Some(_) => REPORT_GIVES_NO_U,
+            None => CURVES_NOT_GIVEN,
+        });
     };
     let nominal = match figures(&analysis.report, &FIGURES) {
         Ok(f) => f,
@@ -148,9 +171,14 @@ pub fn uncertainty(
         name: "curves",
         description: format!(
             "every value of the eighteen curves + N(0, u²), u = {} µm (translations), {} µrad \
-             (rotations): the instrument's standard uncertainty (Type B)",
+             (rotations): {}",
             u_mm * 1e3,
-            u_rad * 1e6
+            u_rad * 1e6,
+            if inputs.from_report {
+                "from the evaluate report's U of its range figures, u = U/(2√2) of the largest"
+            } else {
+                "the instrument's standard uncertainty (Type B)"
+            }
         ),
     }];
     if let Some(u) = inputs.squareness_rad {

@@ -106,6 +106,7 @@ pub fn volumetric() -> String {
             radius: s.circle.radius_mm,
         }),
         source: "check data".into(),
+        readings_u: None,
     };
     let measured = measured_axes(&rows);
     let a = analyse(measured.clone(), &setup, None).unwrap();
@@ -118,6 +119,7 @@ pub fn volumetric() -> String {
             translation_mm: Some(5e-5),
             rotation_rad: Some(5e-8),
             squareness_rad: None,
+            from_report: false,
         },
         geom::montecarlo::Propagation {
             trials: 50,

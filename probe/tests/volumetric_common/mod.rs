@@ -179,6 +179,7 @@ pub fn generator_setup(d: &VolumetricData) -> Setup {
             radius: s.circle.radius_mm,
         }),
         source: "generator".into(),
+        readings_u: None,
     }
 }
 

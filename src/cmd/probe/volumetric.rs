@@ -17,8 +17,8 @@ use formats::probe::volumetric::{
     self as files, AtRow, CircleRow, ErrorRow, FitRow, VolumetricRow,
 };
 use probe::volumetric::{
-    Chain, CircleSpec, MeasuredAxis, Model, Order, Setup, Squareness, UncertaintyInputs, analyse,
-    campaign, html, measured_axes, uncertainty,
+    Chain, CircleSpec, MeasuredAxis, Model, Order, ReadingsU, Setup, Squareness, UncertaintyInputs,
+    analyse, campaign, html, measured_axes, uncertainty,
 };
 
 use crate::cmd::OrUsage;
@@ -56,9 +56,10 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = ModelArg::Raw)]
     model: ModelArg,
     /// Order N of the series (Fourier order N, polynomial degree 2N), or
-    /// `auto` (leave-one-out cross-validation per curve).
-    #[arg(long, default_value = "3", value_parser = order)]
-    order: Order,
+    /// `auto` (leave-one-out cross-validation per curve). Default 3, or for
+    /// an axis with too few points the highest order they allow (said in a note).
+    #[arg(long, value_parser = order)]
+    order: Option<Order>,
     /// Carriage positions `x,y,z` (mm): writes volumetric.csv.
     #[arg(long, value_name = "A.csv")]
     at: Option<PathBuf>,
@@ -203,14 +204,16 @@ pub fn run(args: &Args) -> Result<()> {
         curves_from_errors(path, errors, args.order, &mut curves)?;
     }
     curves.inputs.extend(args.at.clone());
-    let setup = setup(args, chain, &curves)?;
+    let readings = readings_u(args, &curves);
+    let setup = setup(args, chain, &curves, readings.map(|(u, _)| u))?;
     let analysis = analyse(curves.axes.clone(), &setup, curves.campaign.as_ref())
         .with_context(|| format!("volumetric model from {}", setup.source))?;
     signing.read_limits(&analysis.report, &FIGURES)?;
     let inputs = UncertaintyInputs {
-        translation_mm: args.curve_u_um.map(|u| u * 1e-3),
-        rotation_rad: args.curve_u_urad.map(|u| u * 1e-6),
+        translation_mm: readings.map(|(u, _)| u.translation_mm),
+        rotation_rad: readings.map(|(u, _)| u.rotation_rad),
         squareness_rad: args.squareness_u_urad.map(|u| u * 1e-6),
+        from_report: readings.is_some_and(|(_, from_report)| from_report),
     };
     let u = uncertainty(
         &curves.axes,
@@ -220,6 +223,14 @@ pub fn run(args: &Args) -> Result<()> {
         &inputs,
         signing.propagation(),
     );
+    if inputs.from_report
+        && let Some(r) = curves.campaign.as_ref().and_then(|c| c.readings_u.as_ref())
+    {
+        eprintln!("trinocular: note: {}", r.note());
+    }
+    for n in &analysis.report.notes {
+        eprintln!("trinocular: note: {n}");
+    }
     let json = signing.judge(&analysis.report, Some(&u), &FIGURES)?;
     let page = html(&analysis, &u, &signing.signoff)?;
     let written = write_outputs(args, &analysis, &json, &page, &curves.inputs, &signing)?;
@@ -231,6 +242,27 @@ pub fn run(args: &Args) -> Result<()> {
     }
     println!("wrote {written} files into {}", args.out.display());
     signing.finish(&args.out)
+}
+
+/// The readings' standard uncertainty and whether it came from the
+/// campaign report: `--curve-u-um`/`--curve-u-urad` when given, else the
+/// evaluate report's (`--from-report` without `--errors`, whose curves it
+/// does not cover), else none.
+fn readings_u(args: &Args, curves: &Curves) -> Option<(ReadingsU, bool)> {
+    if let (Some(um), Some(urad)) = (args.curve_u_um, args.curve_u_urad) {
+        return Some((
+            ReadingsU {
+                translation_mm: um * 1e-3,
+                rotation_rad: urad * 1e-6,
+            },
+            false,
+        ));
+    }
+    if args.errors.is_some() {
+        return None;
+    }
+    let r = curves.campaign.as_ref()?.readings_u.as_ref()?;
+    Some((r.u, true))
 }
 
 /// How errors name the report of `--from-report DIR`.
@@ -259,16 +291,18 @@ fn curves_from_report(
 }
 
 /// The curves of `E.csv`: each axis once over both sources, and with at
-/// least as many points as the series of `--order` has coefficients.
+/// least as many points as the series of an explicit `--order N` has
+/// coefficients (without `--order`, or with `auto`, a short axis takes the
+/// highest order its points allow).
 fn curves_from_errors(
     path: &Path,
     errors: Vec<(MeasuredAxis, (u64, u64))>,
-    order: Order,
+    order: Option<Order>,
     curves: &mut Curves,
 ) -> Result<()> {
     let order_n = match order {
-        Order::Fixed(n) => Some(n),
-        Order::Auto => None,
+        Some(Order::Fixed(n)) => Some(n),
+        _ => None,
     };
     for (m, (first, last)) in errors {
         if curves.axes.iter().any(|c| c.axis == m.axis) {
@@ -278,18 +312,17 @@ fn curves_from_errors(
                 m.axis
             );
         }
-        let coefficients =
-            order_n.map_or(probe::volumetric::POINTS_PER_COEFFICIENT * 3, |n| 2 * n + 1);
-        if m.positions.len() < coefficients {
+        if let Some(n) = order_n
+            && m.positions.len() < 2 * n + 1
+        {
             bail!(
-                "{}: lines {first}–{last}, axis {}: {} points, fewer than the {coefficients} coefficients {}",
+                "{}: lines {first}–{last}, axis {}: {} points, fewer than the {} coefficients of a \
+                 series of order {n} (--order {n}; without --order the highest order the points \
+                 allow is taken)",
                 path.display(),
                 m.axis,
                 m.positions.len(),
-                match order_n {
-                    Some(n) => format!("of a series of order {n} (--order {n})"),
-                    None => "that --order auto needs for order 1".into(),
-                }
+                2 * n + 1
             );
         }
         curves.axes.push(m);
@@ -302,7 +335,12 @@ fn curves_from_errors(
 /// The model's set-up from the options: squareness (given, else the
 /// campaign's, else 0), tool, model, order, the positions of `--at` (read
 /// here, named by file line) and the circle.
-fn setup(args: &Args, chain: Chain, curves: &Curves) -> Result<Setup> {
+fn setup(
+    args: &Args,
+    chain: Chain,
+    curves: &Curves,
+    readings_u: Option<ReadingsU>,
+) -> Result<Setup> {
     let measured_square = curves.campaign.as_ref().map(|c| c.squareness);
     let squareness = match (args.squareness, measured_square) {
         (Some(s), _) => Squareness {
@@ -340,7 +378,9 @@ fn setup(args: &Args, chain: Chain, curves: &Curves) -> Result<Setup> {
             ModelArg::Fourier => Model::Fourier,
             ModelArg::Polynomial => Model::Polynomial,
         },
-        order: args.order,
+        order: args
+            .order
+            .unwrap_or(Order::Highest(probe::volumetric::DEFAULT_ORDER)),
         at: at_rows
             .iter()
             .map(|r| (at_label(r.line), [r.record.x, r.record.y, r.record.z]))
@@ -350,6 +390,7 @@ fn setup(args: &Args, chain: Chain, curves: &Curves) -> Result<Setup> {
             radius: c[3],
         }),
         source: curves.sources.join(" + "),
+        readings_u,
     })
 }
 

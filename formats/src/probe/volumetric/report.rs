@@ -57,8 +57,12 @@ pub struct Report {
     pub campaign: Option<CampaignReport>,
     /// Conventions of the figures.
     pub conventions: Vec<String>,
-    /// Things worth knowing about the figures: fits that explain little of
-    /// their curve (R² < 0.8), with the order cross-validation chooses.
+    /// Choices made for the data: an axis whose points allow only a lower
+    /// series order than asked, which order its fits use and why.
+    pub notes: Vec<String>,
+    /// Things worth knowing about the figures: fits the predictions use that
+    /// explain little of their curve (R² < 0.8) with a residual significant
+    /// against the readings' uncertainty, with the order cross-validation chooses.
     pub warnings: Vec<String>,
 }
 
