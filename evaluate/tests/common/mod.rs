@@ -275,7 +275,7 @@ impl LineModel {
                                     [run as u32 + 1, k as u32, capture as u32 + 1],
                                     [nominal[0], nominal[1], nominal[2]],
                                 ),
-                                &name,
+                                name,
                                 [p.x, p.y, p.z],
                                 "2+3",
                                 0.0,
