@@ -53,6 +53,12 @@ impl Draws {
         Self(ChaCha8Rng::from_seed(key))
     }
 
+    /// A stream of its own seeded `seed`, outside a propagation (a test's
+    /// or a generator's noise): the same seed, the same deviates.
+    pub fn seeded(seed: u64) -> Self {
+        Self::new(seed, 0, 0)
+    }
+
     /// A standard normal deviate.
     pub fn normal(&mut self) -> f64 {
         StandardNormal.sample(&mut self.0)

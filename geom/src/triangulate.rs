@@ -319,19 +319,9 @@ mod tests {
             .map(|&s: &f64| Matrix2::identity() * (s * s))
             .collect();
         let predicted = centre_covariance(&exact, 10.0, &x, &covs).unwrap();
-        // Deterministic pseudo-normal draws: sums of 12 uniforms (Irwin–Hall).
-        let mut state = 12345u64;
-        let mut normal = || {
-            (0..12)
-                .map(|_| {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    (state >> 11) as f64 / (1u64 << 53) as f64
-                })
-                .sum::<f64>()
-                - 6.0
-        };
+        // Seeded standard normal deviates (σ = 1).
+        let mut draws = crate::montecarlo::Draws::seeded(12345);
+        let mut normal = || draws.normal();
         let n = 4000;
         let mut scatter = Matrix3::zeros();
         for _ in 0..n {

@@ -144,15 +144,28 @@ pub fn line_chart<'a, 'b>(
     x_desc: &str,
     y_desc: &str,
 ) -> std::result::Result<LineChart<'a, 'b>, String> {
+    chart_with_mesh(root, title, (x0, x1), (y0, y1), (x_desc, y_desc), None)
+}
+
+/// The chart of [`line_chart`], its mesh drawn with `x_labels` labels on
+/// the x axis (plotters' choice when `None`).
+fn chart_with_mesh<'a, 'b>(
+    root: &'a Area<'b>,
+    title: &str,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    (x_desc, y_desc): (&str, &str),
+    x_labels: Option<usize>,
+) -> std::result::Result<LineChart<'a, 'b>, String> {
     let mut chart = chart_builder(root, title)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(|e| e.to_string())?;
-    mesh(&mut chart)
-        .x_desc(x_desc)
-        .y_desc(y_desc)
-        .max_light_lines(2)
-        .draw()
-        .map_err(|e| e.to_string())?;
+    let mut style = mesh(&mut chart);
+    style.x_desc(x_desc).y_desc(y_desc).max_light_lines(2);
+    if let Some(n) = x_labels {
+        style.x_labels(n);
+    }
+    style.draw().map_err(|e| e.to_string())?;
     Ok(chart)
 }
 
@@ -218,16 +231,7 @@ pub fn line_chart_ticked<'a, 'b>(
     if x_ticks.is_empty() {
         return line_chart(root, title, (x0, x1), (y0, y1), x_desc, y_desc);
     }
-    let mut chart = chart_builder(root, title)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(|e| e.to_string())?;
-    mesh(&mut chart)
-        .x_desc(x_desc)
-        .y_desc(y_desc)
-        .max_light_lines(2)
-        .x_labels(0)
-        .draw()
-        .map_err(|e| e.to_string())?;
+    let mut chart = chart_with_mesh(root, title, (x0, x1), (y0, y1), (x_desc, y_desc), Some(0))?;
     chart
         .draw_series(
             x_ticks

@@ -501,19 +501,9 @@ mod tests {
     /// X with 41 positions: `ex` a pseudo-random noise of σ = 1 µm, the
     /// other curves a wave the series follows.
     fn noisy_x() -> Vec<MeasuredAxis> {
-        let mut state = 7u64;
-        let mut gauss = || {
-            // Sum of 12 uniforms − 6: σ = 1.
-            (0..12)
-                .map(|_| {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    (state >> 11) as f64 / (1u64 << 53) as f64
-                })
-                .sum::<f64>()
-                - 6.0
-        };
+        // Seeded standard normal deviates (σ = 1).
+        let mut draws = geom::montecarlo::Draws::seeded(7);
+        let mut gauss = || draws.normal();
         let rows: Vec<[f64; 7]> = (0..41)
             .map(|k| {
                 let q = 10.0 * k as f64;
