@@ -221,28 +221,33 @@ pub(super) fn gated_rows(
     Ok((rows, gate, refused))
 }
 
+/// The rank of a row in the finished files: its instant's place in the
+/// manifest, then its sphere's in `spheres` (unknown ones last).
+fn manifest_rank<'s>(
+    index_of: &'s HashMap<InstantKey, usize>,
+    spheres: &'s [SphereRow],
+) -> impl Fn(InstantKey, &str) -> (usize, usize) + 's {
+    let sphere_rank: HashMap<&str, usize> = spheres
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.name.as_str(), i))
+        .collect();
+    move |key, sphere| {
+        (
+            index_of.get(&key).copied().unwrap_or(usize::MAX),
+            sphere_rank.get(sphere).copied().unwrap_or(usize::MAX),
+        )
+    }
+}
+
 /// Rows in manifest order, the spheres of an instant in the order of `spheres`.
 pub(super) fn sort_rows(
     rows: &mut [PointRow],
     index_of: &HashMap<InstantKey, usize>,
     spheres: &[SphereRow],
 ) {
-    let sphere_rank: HashMap<&str, usize> = spheres
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (s.name.as_str(), i))
-        .collect();
-    let rank = |p: &PointRow| {
-        let key = p.instant();
-        (
-            index_of.get(&key).copied().unwrap_or(usize::MAX),
-            sphere_rank
-                .get(p.sphere.as_str())
-                .copied()
-                .unwrap_or(usize::MAX),
-        )
-    };
-    rows.sort_by_key(rank);
+    let rank = manifest_rank(index_of, spheres);
+    rows.sort_by_key(|p| rank(p.instant(), &p.sphere));
 }
 
 /// Observations in manifest order, then sphere order, then camera.
@@ -251,21 +256,8 @@ pub(super) fn sort_observations(
     index_of: &HashMap<InstantKey, usize>,
     spheres: &[SphereRow],
 ) {
-    let sphere_rank: HashMap<&str, usize> = spheres
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (s.name.as_str(), i))
-        .collect();
-    rows.sort_by_key(|o| {
-        (
-            index_of.get(&o.instant()).copied().unwrap_or(usize::MAX),
-            sphere_rank
-                .get(o.sphere.as_str())
-                .copied()
-                .unwrap_or(usize::MAX),
-            o.camera,
-        )
-    });
+    let rank = manifest_rank(index_of, spheres);
+    rows.sort_by_key(|o| (rank(o.instant(), &o.sphere), o.camera));
 }
 
 /// Write the problems in manifest order (within an instant, as found): the
