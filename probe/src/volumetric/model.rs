@@ -63,6 +63,15 @@ impl CurveFits {
             Series::Polynomial => &self.polynomial,
         }
     }
+
+    /// Whether the order of `series` is the highest the points allow
+    /// rather than the order asked for ([`CurveFits::lowered`]).
+    pub fn is_lowered(&self, series: Series) -> bool {
+        match series {
+            Series::Fourier => self.lowered[0],
+            Series::Polynomial => self.lowered[1],
+        }
+    }
 }
 
 /// One axis of the model: its curves and the fits of each.
@@ -139,8 +148,7 @@ impl AxisModel {
         };
         let orders: Vec<String> = Series::BOTH
             .iter()
-            .enumerate()
-            .map(|(i, s)| {
+            .map(|s| {
                 let mut used: Vec<(usize, Vec<&str>)> = Vec::new();
                 for (f, m) in self.fits.iter().zip(Motion::ALL) {
                     let o = f.get(*s).order;
@@ -157,7 +165,7 @@ impl AxisModel {
                         .collect::<Vec<_>>()
                         .join(", "),
                 };
-                let asked = if self.fits.iter().any(|f| f.lowered[i]) {
+                let asked = if self.fits.iter().any(|f| f.is_lowered(*s)) {
                     ""
                 } else {
                     " as asked"

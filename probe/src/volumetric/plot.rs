@@ -21,7 +21,7 @@ const SAMPLES: usize = 240;
 pub(crate) const POLAR_REACH: f64 = 0.2;
 
 /// The plotted unit's label.
-fn unit_label(motion: Motion) -> &'static str {
+pub(crate) fn unit_label(motion: Motion) -> &'static str {
     if motion.is_rotation() { "µrad" } else { "µm" }
 }
 

@@ -399,8 +399,11 @@ fn poor_fits(model: &ErrorModel, setup: &Setup) -> Vec<String> {
             let what = format!("axis {} curve {}", c.axis, m.name());
             let fits = &a.fits[m.index()];
             let fit = fits.get(s);
-            let lowered = fits.lowered[Series::BOTH.iter().position(|b| *b == s).unwrap_or(0)];
-            let Some(r2) = fit.figures.r2.filter(|r| *r < POOR_R2 && !lowered) else {
+            let Some(r2) = fit
+                .figures
+                .r2
+                .filter(|r| *r < POOR_R2 && !fits.is_lowered(s))
+            else {
                 continue;
             };
             let u = setup.readings_u.map(|u| {
@@ -442,11 +445,11 @@ fn poor_fits(model: &ErrorModel, setup: &Setup) -> Vec<String> {
             };
             let rms = match u {
                 Some(u) => {
-                    let (unit, scale) = unit(m);
+                    let (_, scale) = unit(m);
                     format!(
                         ", residual RMS {:.3} {} against the readings' u {:.3}",
                         fit.figures.rmse * scale,
-                        if unit == "um" { "µm" } else { "µrad" },
+                        super::plot::unit_label(m),
                         u * scale
                     )
                 }
