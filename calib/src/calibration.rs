@@ -335,23 +335,7 @@ pub fn calibrate(
     };
 
     let used_res = subset(&all_res, &used);
-    let rvec = camera.rotation().scaled_axis();
-    let values = layout.pack(&camera);
-    let names = layout.names();
-    let rot = names.iter().position(|n| *n == "rx").unwrap_or(0);
-    let parameters = names
-        .iter()
-        .enumerate()
-        .map(|(j, &name)| Parameter {
-            name,
-            value: if (rot..rot + 3).contains(&j) {
-                rvec[j - rot]
-            } else {
-                values[j]
-            },
-            std_dev: refined.std_devs.as_ref().map(|s| s[j]),
-        })
-        .collect();
+    let parameters = parameters(layout, &camera, refined.std_devs.as_deref());
     let residuals = observations
         .iter()
         .zip(&all_res)
@@ -380,6 +364,32 @@ pub fn calibrate(
             .collect(),
         rounds,
     })
+}
+
+/// A camera's parameters in `layout`'s order with their standard
+/// deviations (`rx, ry, rz` the rotation vector of R).
+pub(crate) fn parameters(
+    layout: Layout,
+    camera: &Camera,
+    std_devs: Option<&[f64]>,
+) -> Vec<Parameter> {
+    let rvec = camera.rotation().scaled_axis();
+    let values = layout.pack(camera);
+    let names = layout.names();
+    let rot = names.iter().position(|n| *n == "rx").unwrap_or(0);
+    names
+        .iter()
+        .enumerate()
+        .map(|(j, &name)| Parameter {
+            name,
+            value: if (rot..rot + 3).contains(&j) {
+                rvec[j - rot]
+            } else {
+                values[j]
+            },
+            std_dev: std_devs.map(|s| s[j]),
+        })
+        .collect()
 }
 
 /// The elements whose flag is set.

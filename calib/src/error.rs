@@ -119,6 +119,47 @@ pub enum CalibError {
         /// Depth in the camera frame (mm).
         depth_mm: f64,
     },
+    /// The views of a planar target do not determine the intrinsics.
+    #[error(
+        "the {views} view{s} of the planar target do not determine the focal length and the \
+         principal point: the boards are (nearly) parallel to each other or to the sensor \
+         (condition number {condition:.2e}); tilt the board between views (±20–45°)",
+        s = if *views == 1 { "" } else { "s" }
+    )]
+    ParallelViews {
+        /// Views of the camera.
+        views: usize,
+        /// Condition number of Zhang's system (or of the one-view constraints).
+        condition: f64,
+    },
+    /// A camera that shares no pose with the cameras tied to the world frame.
+    #[error(
+        "camera {camera} never shares a target pose with the other cameras: the view graph is \
+         not connected (cut off from the world frame, pose {world_pose}); add a pose seen by it \
+         and by a camera already tied in"
+    )]
+    CutOff {
+        /// The camera cut off.
+        camera: u8,
+        /// The pose whose frame is the world frame.
+        world_pose: u32,
+    },
+    /// A camera's views hold fewer points than its model needs.
+    #[error(
+        "camera {camera}: {points} points in {views} view{s}, fewer than the {needed} its model \
+         and poses need (each view adds 6 pose unknowns)",
+        s = if *views == 1 { "" } else { "s" }
+    )]
+    TooFewForModel {
+        /// The camera.
+        camera: u8,
+        /// Its points over all its views.
+        points: usize,
+        /// Its views.
+        views: usize,
+        /// Points needed.
+        needed: usize,
+    },
     /// An option or an input is out of range.
     #[error("option {option}: {0}", option = .0.option())]
     Option(OptionProblem),

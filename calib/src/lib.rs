@@ -59,6 +59,7 @@
 
 #![deny(missing_docs)]
 
+mod bundle;
 mod calibration;
 mod commission;
 mod correspond;
@@ -69,8 +70,10 @@ mod illumination;
 mod image;
 mod opencv;
 mod outliers;
+mod planar;
 mod refine;
 
+pub use bundle::{LeftOut, Rig, RigCamera, View, ViewResidual, calibrate_views};
 pub use calibration::{
     Calibration, DEFAULT_MAX_ROUNDS, DEFAULT_OUTLIER_K, Observation, Options, Parameter,
     PointResidual, calibrate, check_target, observations,
@@ -94,4 +97,8 @@ pub use formats::commissioning::{
 pub use illumination::{Pixels, fit_flat_field};
 pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};
 pub use opencv::opencv_yaml;
+pub use planar::{
+    MAX_ZHANG_CONDITION, MIN_HOMOGRAPHY_POINTS, homography, intrinsics as planar_intrinsics,
+    pose as planar_pose,
+};
 pub use refine::{Layout, Model};

@@ -200,14 +200,14 @@ impl Layout {
 }
 
 /// Skew-symmetric matrix `[a]×` with `[a]×·b = a × b`.
-fn cross_matrix(a: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn cross_matrix(a: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
 
 /// Left Jacobian of SO(3): `J(ω) = I + (1 − cos θ)/θ²·[ω]× + (θ − sin θ)/θ³·[ω]×²`,
 /// so that `∂(exp([ω]×)·y)/∂ω = −[exp([ω]×)·y]×·J(ω)` (Barfoot, *State
 /// Estimation for Robotics*, §7.1.5).
-fn left_jacobian(omega: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn left_jacobian(omega: &Vector3<f64>) -> Matrix3<f64> {
     let theta2 = omega.norm_squared();
     let (a, b) = if theta2 < 1e-8 {
         (0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0)
@@ -246,66 +246,94 @@ impl Reprojection<'_> {
         i: usize,
         jac: Option<(&mut DMatrix<f64>, usize)>,
     ) -> Vector2<f64> {
-        let l = &self.layout;
-        let r = l.rotation();
-        let omega = Vector3::new(p[r], p[r + 1], p[r + 2]);
-        let t = Vector3::new(p[r + 3], p[r + 4], p[r + 5]);
-        let z = Rotation3::new(omega) * (self.r0 * self.world[i].coords);
-        let c = z + t;
-        let Ok((e, de_dc)) = ellipse_centre_jacobian(&c, self.radius[i]) else {
-            return Vector2::new(f64::NAN, f64::NAN);
-        };
-        let (k1, k2) = l.radial().map_or((0.0, 0.0), |j| (p[j], p[j + 1]));
-        let (p1, p2) = l.tangential().map_or((0.0, 0.0), |j| (p[j], p[j + 1]));
-        let k3 = l.k3_index().map_or(0.0, |j| p[j]);
-        let dist = Distortion { k1, k2, k3, p1, p2 };
-        let d = dist.distort(e);
-        let skew = if l.skew { p[4] } else { 0.0 };
-        let (fx, fy) = (p[0], p[1]);
-        let pred = Vector2::new(fx * d.x + skew * d.y + p[2], fy * d.y + p[3]);
-        if let Some((jm, row)) = jac {
-            // ∂pixel/∂d = [[fx, skew], [0, fy]].
-            let dpix_dd = geom::nalgebra::Matrix2::new(fx, skew, 0.0, fy);
-            let dd_de = dist.jacobian(e);
-            let dpix_dc = dpix_dd * dd_de * de_dc;
-            let dc_domega = -cross_matrix(&z) * left_jacobian(&omega);
-            let dpix_domega = dpix_dc * dc_domega;
-            // Intrinsics.
-            jm[(row, 0)] = d.x;
-            jm[(row + 1, 1)] = d.y;
-            jm[(row, 2)] = 1.0;
-            jm[(row + 1, 3)] = 1.0;
-            if l.skew {
-                jm[(row, 4)] = d.y;
-            }
-            for k in 0..3 {
-                jm[(row, r + k)] = dpix_domega[(0, k)];
-                jm[(row + 1, r + k)] = dpix_domega[(1, k)];
-                jm[(row, r + 3 + k)] = dpix_dc[(0, k)];
-                jm[(row + 1, r + 3 + k)] = dpix_dc[(1, k)];
-            }
-            let (x, y) = (e.x, e.y);
-            let r2 = x * x + y * y;
-            // ∂d/∂(distortion coefficient), mapped to pixels.
-            let mut coefficient = |j: usize, ddx: f64, ddy: f64| {
-                jm[(row, j)] = fx * ddx + skew * ddy;
-                jm[(row + 1, j)] = fy * ddy;
-            };
-            if let Some(j) = l.radial() {
-                coefficient(j, x * r2, y * r2);
-                coefficient(j + 1, x * r2 * r2, y * r2 * r2);
-            }
-            if let Some(j) = l.tangential() {
-                coefficient(j, 2.0 * x * y, r2 + 2.0 * y * y);
-                coefficient(j + 1, r2 + 2.0 * x * x, 2.0 * x * y);
-            }
-            if let Some(j) = l.k3_index() {
-                let r6 = r2 * r2 * r2;
-                coefficient(j, x * r6, y * r6);
-            }
-        }
-        pred - self.image[i].coords
+        let projected = project(
+            &self.layout,
+            &self.r0,
+            p,
+            0,
+            &self.world[i],
+            self.radius[i],
+            jac.map(|(m, row)| (m, row, 0)),
+        );
+        projected.map_or(Vector2::new(f64::NAN, f64::NAN), |(pixel, _)| {
+            pixel - self.image[i].coords
+        })
     }
+}
+
+/// The pixel a camera predicts for marker `world` of radius `radius` (its
+/// image ellipse's centre; a point for 0), the camera's parameters at
+/// `p[col..col + layout.len()]` in [`Layout`] order with rotation
+/// `exp([ω]×)·r0`, and `∂pixel/∂world`; when asked, the derivatives with
+/// respect to those parameters written into rows `row, row + 1` at columns
+/// `col…` of a Jacobian. `None` for a marker behind the camera.
+pub(crate) fn project(
+    l: &Layout,
+    r0: &Rotation3<f64>,
+    p: &DVector<f64>,
+    col: usize,
+    world: &Point3<f64>,
+    radius: f64,
+    jac: Option<(&mut DMatrix<f64>, usize, usize)>,
+) -> Option<(Vector2<f64>, geom::nalgebra::Matrix2x3<f64>)> {
+    let r = l.rotation();
+    let q = |j: usize| p[col + j];
+    let omega = Vector3::new(q(r), q(r + 1), q(r + 2));
+    let t = Vector3::new(q(r + 3), q(r + 4), q(r + 5));
+    let rotation = Rotation3::new(omega) * r0;
+    let z = Rotation3::new(omega) * (r0 * world.coords);
+    let c = z + t;
+    let (e, de_dc) = ellipse_centre_jacobian(&c, radius).ok()?;
+    let (k1, k2) = l.radial().map_or((0.0, 0.0), |j| (q(j), q(j + 1)));
+    let (p1, p2) = l.tangential().map_or((0.0, 0.0), |j| (q(j), q(j + 1)));
+    let k3 = l.k3_index().map_or(0.0, |j| q(j));
+    let dist = Distortion { k1, k2, k3, p1, p2 };
+    let d = dist.distort(e);
+    let skew = if l.skew { q(4) } else { 0.0 };
+    let (fx, fy) = (q(0), q(1));
+    let pred = Vector2::new(fx * d.x + skew * d.y + q(2), fy * d.y + q(3));
+    // ∂pixel/∂d = [[fx, skew], [0, fy]].
+    let dpix_dd = geom::nalgebra::Matrix2::new(fx, skew, 0.0, fy);
+    let dd_de = dist.jacobian(e);
+    let dpix_dc = dpix_dd * dd_de * de_dc;
+    if let Some((jm, row, col)) = jac {
+        let dc_domega = -cross_matrix(&z) * left_jacobian(&omega);
+        let dpix_domega = dpix_dc * dc_domega;
+        // Intrinsics.
+        jm[(row, col)] = d.x;
+        jm[(row + 1, col + 1)] = d.y;
+        jm[(row, col + 2)] = 1.0;
+        jm[(row + 1, col + 3)] = 1.0;
+        if l.skew {
+            jm[(row, col + 4)] = d.y;
+        }
+        for k in 0..3 {
+            jm[(row, col + r + k)] = dpix_domega[(0, k)];
+            jm[(row + 1, col + r + k)] = dpix_domega[(1, k)];
+            jm[(row, col + r + 3 + k)] = dpix_dc[(0, k)];
+            jm[(row + 1, col + r + 3 + k)] = dpix_dc[(1, k)];
+        }
+        let (x, y) = (e.x, e.y);
+        let r2 = x * x + y * y;
+        // ∂d/∂(distortion coefficient), mapped to pixels.
+        let mut coefficient = |j: usize, ddx: f64, ddy: f64| {
+            jm[(row, col + j)] = fx * ddx + skew * ddy;
+            jm[(row + 1, col + j)] = fy * ddy;
+        };
+        if let Some(j) = l.radial() {
+            coefficient(j, x * r2, y * r2);
+            coefficient(j + 1, x * r2 * r2, y * r2 * r2);
+        }
+        if let Some(j) = l.tangential() {
+            coefficient(j, 2.0 * x * y, r2 + 2.0 * y * y);
+            coefficient(j + 1, r2 + 2.0 * x * x, 2.0 * x * y);
+        }
+        if let Some(j) = l.k3_index() {
+            let r6 = r2 * r2 * r2;
+            coefficient(j, x * r6, y * r6);
+        }
+    }
+    Some((pred, dpix_dc * rotation.matrix()))
 }
 
 impl Residuals for Reprojection<'_> {
