@@ -125,6 +125,7 @@ pub fn calibrate_views(
     for v in views {
         crate::calibration::validate(&v.observations)?;
     }
+    connected(views)?;
     let planar = is_planar(views)?;
     // Each view's start: the camera relative to the target at its pose.
     let mut left_out = Vec::new();
@@ -267,7 +268,7 @@ pub fn calibrate_views(
     let mut keep = vec![true; all.len()];
     let mut params = start;
     let mut rounds = 0;
-    let solution = loop {
+    loop {
         rounds += 1;
         problem.points = all
             .iter()
@@ -278,10 +279,10 @@ pub fn calibrate_views(
         let solution =
             geom::lm::minimize(&problem, params.clone(), &geom::lm::LmOptions::default())
                 .map_err(CalibError::geom("the bundle over the views"))?;
-        params = solution.params.clone();
+        params = solution.params;
         let residuals = problem.residuals_of(&params, &all);
         let Some(k) = options.outlier_k else {
-            break solution;
+            break;
         };
         // The k·σ rejection, per view.
         let mut next = vec![true; all.len()];
@@ -294,12 +295,37 @@ pub fn calibrate_views(
             }
         }
         if next == keep || rounds >= options.max_rounds {
-            break solution;
+            break;
         }
         keep = next;
-    };
+    }
+    // Re-linearised at the solution with ω = 0 (R₀ = R̂): the covariance's
+    // rx, ry, rz are a small rotation about the camera's own axes, as in the
+    // one-image path's rig.json (`geom::Camera::perturbed`).
+    for k in 0..camera_ids.len() {
+        let (w, h) = sizes[&camera_ids[k]];
+        let block = params.rows(k * layout.len(), layout.len()).into_owned();
+        let camera = layout.unpack(&block, &problem.camera_r0[k], w, h);
+        problem.camera_r0[k] = camera.rotation();
+        params
+            .rows_mut(k * layout.len(), layout.len())
+            .copy_from(&layout.pack(&camera));
+    }
+    for k in 0..pose_ids.len() {
+        let o = problem.pose_offset(k);
+        problem.pose_r0[k] = pose_of(&params, o, &problem.pose_r0[k])
+            .rotation
+            .to_rotation_matrix();
+        params.fixed_rows_mut::<3>(o).fill(0.0);
+    }
     let residuals = problem.residuals_of(&params, &all);
-    let covariance = solution.covariance;
+    let ssr = problem.residuals(&params).norm_squared();
+    let covariance = geom::lm::covariance(
+        &problem.jacobian(&params),
+        ssr,
+        2 * problem.points.len(),
+        problem.unknowns(),
+    );
 
     let view_residuals: Vec<ViewResidual> = used
         .iter()
@@ -381,6 +407,35 @@ pub fn calibrate_views(
         rounds,
         layout,
     })
+}
+
+/// Fails with [`CalibError::CutOff`] for the first camera that no chain of
+/// shared poses links to the views of the smallest pose.
+fn connected(views: &[View]) -> Result<()> {
+    let Some(world_pose) = views.iter().map(|v| v.pose).min() else {
+        return Ok(());
+    };
+    let mut poses: BTreeSet<u32> = [world_pose].into();
+    let mut cameras: BTreeSet<u8> = BTreeSet::new();
+    loop {
+        let before = (poses.len(), cameras.len());
+        for v in views {
+            if poses.contains(&v.pose) || cameras.contains(&v.camera) {
+                poses.insert(v.pose);
+                cameras.insert(v.camera);
+            }
+        }
+        if (poses.len(), cameras.len()) == before {
+            break;
+        }
+    }
+    match views.iter().find(|v| !cameras.contains(&v.camera)) {
+        Some(v) => Err(CalibError::CutOff {
+            camera: v.camera,
+            world_pose,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Whether the views' target is planar (every point at z = 0); a target

@@ -16,7 +16,7 @@ pub const MIN_HOMOGRAPHY_POINTS: usize = 4;
 /// Largest condition number of Zhang's system `V·b = 0` (its largest over
 /// its second-smallest singular value, pixels normalised to ≈ 1) before the
 /// views are called parallel: beyond it the focal length is undetermined.
-pub const MAX_ZHANG_CONDITION: f64 = 1e7;
+pub const MAX_ZHANG_CONDITION: f64 = 1e10;
 
 /// The homography `H` (pixel ∝ H·(X, Y, 1)) of one view: normalised DLT
 /// (Hartley & Zisserman Algorithm 4.2) on ≥ 4 points.

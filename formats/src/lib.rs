@@ -142,6 +142,7 @@ mod table;
 mod target;
 mod truth;
 pub mod uncertainty;
+mod views;
 
 pub use atomic::{AtomicFile, beside, folder_of, write_atomic};
 pub use blobs::{BlobRow, ProblemRow};
@@ -168,3 +169,4 @@ pub use sensor::{DefectCounts, MapFile, SensorJson, SensorMapFiles, StackRecord}
 pub use table::{Invalid, Record, Row, finite, read_csv, read_csv_from, write_csv, write_records};
 pub use target::{CorrespondenceRow, ResidualRow, TargetRow, read_correspondences, read_target};
 pub use truth::{Truth, TruthCamera, TruthInstant};
+pub use views::{ViewResidualRow, ViewRow, read_views};

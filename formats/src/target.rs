@@ -76,6 +76,9 @@ impl Record for CorrespondenceRow {
 pub struct ResidualRow {
     /// Camera id.
     pub camera: u8,
+    /// The target's pose, for a calibration over views (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pose: Option<u32>,
     /// Target marker id.
     pub id: u32,
     /// Target x (mm).

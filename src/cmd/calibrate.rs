@@ -41,6 +41,8 @@ use crate::cmd::extraction::ExtractOptions;
 use crate::cmd::sensor::Stack;
 use crate::cmd::{OrUsage, Usage, values};
 
+mod views;
+
 /// Distortion model (`--model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ModelArg {
@@ -64,7 +66,7 @@ pub enum MarkerArg {
 
 /// Arguments of `trinocular calibrate`.
 #[derive(Debug, clap::Args)]
-#[command(group(clap::ArgGroup::new("input").required(true).args(["images", "points"])))]
+#[command(group(clap::ArgGroup::new("input").required(true).args(["images", "points", "views"])))]
 pub struct Args {
     /// Calibration target `target.csv` (`id,x,y,z[,diameter][,u_mm]`, mm).
     #[arg(long)]
@@ -73,10 +75,10 @@ pub struct Args {
     /// correspondences (needed with --images and --flat-fields).
     #[arg(long)]
     nominal: Option<PathBuf>,
-    /// Image width (px) of every camera, with --points and no --nominal.
+    /// Image width (px) of every camera, with --points or --views and no --nominal.
     #[arg(long, conflicts_with = "nominal", requires = "height", value_parser = clap::value_parser!(u32).range(1..=i64::from(formats::limits::MAX_IMAGE_SIDE_PX)))]
     width: Option<u32>,
-    /// Image height (px) of every camera, with --points and no --nominal.
+    /// Image height (px) of every camera, with --points or --views and no --nominal.
     #[arg(long, conflicts_with = "nominal", requires = "width", value_parser = clap::value_parser!(u32).range(1..=i64::from(formats::limits::MAX_IMAGE_SIDE_PX)))]
     height: Option<u32>,
     /// One calibration image per camera, in camera order (the nominal rig's ids, ascending).
@@ -86,6 +88,12 @@ pub struct Args {
     /// of images (without --nominal: cameras 1, 2, 3 in this order).
     #[arg(long, num_args = 1..)]
     points: Vec<PathBuf>,
+    /// Calibration views `views.csv` (`image,camera,pose`, docs/calibrating.md):
+    /// any number of views of the target per camera, the target moved
+    /// between poses, every camera and pose solved in one bundle. Its files
+    /// are `id,u,v` correspondence files; give --width and --height.
+    #[arg(long, conflicts_with_all = ["flat_fields", "nominal"])]
+    views: Option<PathBuf>,
     /// Flat-field frames, one per camera in camera order, each a file or a
     /// folder holding a stack of frames: a uniform radiance source filling the
     /// view, same lens settings and exposure as the measurement (docs/sensor.md).
@@ -256,6 +264,9 @@ struct Calibrated {
 /// Run the command: (1) read and check the inputs, (2) plan the outputs,
 /// (3) calibrate each camera, (4) write the outputs once all are calibrated.
 pub fn run(args: &Args) -> Result<()> {
+    if let Some(views) = &args.views {
+        return views::run(args, views);
+    }
     let setup = setup(args)?;
     let cameras = &setup.cameras;
     let inputs = inputs(args);
@@ -292,18 +303,7 @@ pub fn run(args: &Args) -> Result<()> {
 /// the target file's, not the first camera's), the cameras (one input each),
 /// the marker type and the commissioning report's sphere set.
 fn setup(args: &Args) -> Result<Setup> {
-    let options = Options {
-        model: match args.model {
-            ModelArg::Pinhole => Model::Pinhole,
-            ModelArg::K1k2 => Model::K1K2,
-            ModelArg::K1k2p1p2 => Model::K1K2P1P2,
-        },
-        k3: args.k3,
-        skew: args.skew,
-        outlier_k: (!args.keep_outliers).then_some(args.outlier_k),
-        ..Options::default()
-    };
-    options.validate().or_usage()?;
+    let options = fit_options(args)?;
     let target: Vec<TargetRow> = read_target(&args.target)?
         .into_iter()
         .map(|r| r.record)
@@ -338,6 +338,23 @@ fn setup(args: &Args) -> Result<Setup> {
         sphere_set,
         target_uncertainty,
     })
+}
+
+/// The fit options of the command line, checked.
+fn fit_options(args: &Args) -> Result<Options> {
+    let options = Options {
+        model: match args.model {
+            ModelArg::Pinhole => Model::Pinhole,
+            ModelArg::K1k2 => Model::K1K2,
+            ModelArg::K1k2p1p2 => Model::K1K2P1P2,
+        },
+        k3: args.k3,
+        skew: args.skew,
+        outlier_k: (!args.keep_outliers).then_some(args.outlier_k),
+        ..Options::default()
+    };
+    options.validate().or_usage()?;
+    Ok(options)
 }
 
 /// The cameras in camera order: the nominal rig's (ids ascending), or
@@ -504,6 +521,7 @@ fn calibrate_camera(
         .zip(&cal.residuals)
         .map(|(o, r)| ResidualRow {
             camera: id,
+            pose: None,
             id: o.id,
             x: o.world.x,
             y: o.world.y,

@@ -1,0 +1,259 @@
+//! `trinocular calibrate --views views.csv`: the rig from many views of the
+//! target (`calib::calibrate_views`, docs/methods.md §8): any number of
+//! cameras and poses, one bundle. Each row's file is an `id,u,v`
+//! correspondence file of the target's markers (or a board's corners) seen
+//! by that camera at that pose; the target is `--target` (3-D, or planar
+//! with z = 0). Writes, atomically, once the bundle is solved:
+//! - `--out` (`rig.json`): each camera's model, its parameter covariance
+//!   from the joint solution, and the views summary under `views`;
+//! - `<stem>.views.csv`: per view and camera the points used, RMS and max
+//!   residual, outliers;
+//! - `<stem>.residuals.csv`: per point, with its pose;
+//! - `<stem>.cam<ID>.opencv.yml`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use formats::{
+    CameraCovariance, CorrespondenceRow, OutputPlan, ResidualRow, Rig, RigCamera, TargetRow,
+    ViewResidualRow, read_correspondences, read_target, read_views,
+};
+
+use super::{Args, MarkerArg, beside, fit_options};
+use crate::cmd::Usage;
+
+/// Image files a views.csv row may not name yet (markers and boards are
+/// found in images by a later step; this one takes correspondence files).
+const IMAGE_EXTENSIONS: [&str; 6] = ["tif", "tiff", "png", "jpg", "jpeg", "gif"];
+
+/// Run the calibration over the views of `views`.
+pub fn run(args: &Args, views: &Path) -> Result<()> {
+    let options = fit_options(args)?;
+    let (Some(width), Some(height)) = (args.width, args.height) else {
+        return Err(Usage::error(
+            "--views with correspondence files needs the image size: give --width and --height",
+        ));
+    };
+    let target: Vec<TargetRow> = read_target(&args.target)?
+        .into_iter()
+        .map(|r| r.record)
+        .collect();
+    let spheres = match args.markers {
+        Some(m) => m == MarkerArg::Sphere,
+        None => target.iter().all(|t| t.diameter.is_some()),
+    };
+    // Every row's file checked before any work.
+    let rows = read_views(views)?;
+    let mut inputs = Vec::with_capacity(rows.len());
+    for row in &rows {
+        let path = row.record.path(views);
+        let context = || {
+            format!(
+                "{} line {}: camera {} pose {} ({})",
+                views.display(),
+                row.line,
+                row.record.camera,
+                row.record.pose,
+                path.display()
+            )
+        };
+        if !path.is_file() {
+            bail!("{}: no such file", context());
+        }
+        let extension = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_lowercase())
+            .unwrap_or_default();
+        if IMAGE_EXTENSIONS.contains(&extension.as_str()) {
+            bail!(
+                "{}: an image; calibrate --views takes id,u,v correspondence files in this \
+                 version (finding markers and boards in the views' images is not done yet)",
+                context()
+            );
+        }
+        let points: Vec<CorrespondenceRow> = read_correspondences(&path)?
+            .into_iter()
+            .map(|r| r.record)
+            .collect();
+        let observations = calib::observations(&target, &points, spheres).with_context(context)?;
+        inputs.push((path.clone(), row.record.clone(), observations));
+    }
+    let cameras: std::collections::BTreeSet<u8> = rows.iter().map(|r| r.record.camera).collect();
+    let sizes: BTreeMap<u8, (u32, u32)> = cameras.iter().map(|&c| (c, (width, height))).collect();
+
+    let mut output = OutputPlan::new(args.force);
+    output
+        .inputs([&args.target, &views.to_path_buf()])
+        .inputs(inputs.iter().map(|(p, _, _)| p))
+        .file(&args.out)
+        .file(beside(&args.out, ".views.csv"))
+        .file(beside(&args.out, ".residuals.csv"));
+    for c in &cameras {
+        output.file(beside(&args.out, &format!(".cam{c}.opencv.yml")));
+    }
+    output.check()?;
+
+    let views_in: Vec<calib::View> = inputs
+        .iter()
+        .map(|(_, row, observations)| calib::View {
+            camera: row.camera,
+            pose: row.pose,
+            observations: observations.clone(),
+        })
+        .collect();
+    let rig = calib::calibrate_views(&views_in, &sizes, &options)
+        .with_context(|| format!("calibrating over the views of {}", views.display()))?;
+    for l in &rig.left_out {
+        eprintln!(
+            "trinocular: note: view of camera {} at pose {} left out: {}",
+            l.camera, l.pose, l.reason
+        );
+    }
+    write(args, &mut output, &rig, &views_in)
+}
+
+/// Every output of the solved rig, and the summary on stdout.
+fn write(
+    args: &Args,
+    output: &mut OutputPlan,
+    rig: &calib::Rig,
+    views: &[calib::View],
+) -> Result<()> {
+    let names: Vec<String> = rig.layout.names().iter().map(|n| n.to_string()).collect();
+    let mut file = Rig {
+        cameras: Vec::new(),
+    };
+    for c in &rig.cameras {
+        let mut entry = RigCamera::new(c.id, &c.camera, c.rms_px, c.points_used);
+        entry.covariance = c.covariance.as_ref().map(|m| CameraCovariance {
+            parameters: names.clone(),
+            matrix: (0..m.nrows())
+                .map(|i| m.row(i).iter().copied().collect())
+                .collect(),
+            target: None,
+            target_uncertainty_um: 0.0,
+            target_uncertainty_source: "not included: the bundle over views propagates the image \
+                                        noise only"
+                .into(),
+        });
+        let std_dev: serde_json::Map<String, serde_json::Value> = c
+            .parameters
+            .iter()
+            .filter_map(|p| p.std_dev.map(|s| (p.name.to_string(), s.into())))
+            .collect();
+        let camera_views: Vec<serde_json::Value> = rig
+            .views
+            .iter()
+            .filter(|v| v.camera == c.id)
+            .map(|v| {
+                serde_json::json!({
+                    "pose": v.pose, "points": v.points, "rms_px": v.rms_px, "max_px": v.max_px
+                })
+            })
+            .collect();
+        entry.extra.insert(
+            "calibration".into(),
+            serde_json::json!({
+                "method": "views",
+                "model": rig.layout.model.name(),
+                "k3_estimated": rig.layout.k3,
+                "skew_estimated": rig.layout.skew,
+                "target": if rig.planar { "planar" } else { "3-D" },
+                "world_pose": rig.world_pose,
+                "sigma_px": c.sigma_px,
+                "std_dev": std_dev,
+            }),
+        );
+        entry
+            .extra
+            .insert("views".into(), serde_json::Value::Array(camera_views));
+        file.cameras.push(entry);
+    }
+    file.validate()
+        .map_err(|e| anyhow::anyhow!("the calibrated rig cannot be written as rig.json: {e}"))?;
+    let view_rows: Vec<ViewResidualRow> = rig
+        .views
+        .iter()
+        .map(|v| ViewResidualRow {
+            camera: v.camera,
+            pose: v.pose,
+            points: v.points,
+            rms_px: v.rms_px,
+            max_px: v.max_px,
+            outliers: v.residuals.iter().filter(|r| r.outlier).count(),
+        })
+        .collect();
+    let mut residual_rows = Vec::new();
+    for v in &rig.views {
+        let Some(input) = views
+            .iter()
+            .find(|i| i.camera == v.camera && i.pose == v.pose)
+        else {
+            continue;
+        };
+        for (o, r) in input.observations.iter().zip(&v.residuals) {
+            residual_rows.push(ResidualRow {
+                camera: v.camera,
+                pose: Some(v.pose),
+                id: o.id,
+                x: o.world.x,
+                y: o.world.y,
+                z: o.world.z,
+                u: o.pixel.x,
+                v: o.pixel.y,
+                du: r.du,
+                dv: r.dv,
+                outlier: r.outlier,
+            });
+        }
+    }
+    for c in &rig.cameras {
+        output.write_bytes(
+            &beside(&args.out, &format!(".cam{}.opencv.yml", c.id)),
+            calib::opencv_yaml(c.id, &c.camera, c.rms_px, None).as_bytes(),
+        )?;
+    }
+    output.write_json(&args.out, &file)?;
+    output.write_csv(&beside(&args.out, ".views.csv"), &view_rows)?;
+    output.write_csv(&beside(&args.out, ".residuals.csv"), &residual_rows)?;
+    for c in &rig.cameras {
+        let k = c.camera.intrinsics;
+        let d = c.camera.distortion;
+        let sd = |n: &str| {
+            c.parameters
+                .iter()
+                .find(|p| p.name == n)
+                .and_then(|p| p.std_dev)
+                .unwrap_or(f64::NAN)
+        };
+        println!(
+            "camera {}: {} views, {} points, RMS {:.4} px, fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, \
+             cx {:.2} ± {:.2}, cy {:.2} ± {:.2} px, k1 {:.5}, k2 {:.5}",
+            c.id,
+            c.views,
+            c.points_used,
+            c.rms_px,
+            k.fx,
+            sd("fx"),
+            k.fy,
+            sd("fy"),
+            k.cx,
+            sd("cx"),
+            k.cy,
+            sd("cy"),
+            d.k1,
+            d.k2
+        );
+    }
+    println!(
+        "wrote {} ({} camera{}, {} poses, the world frame the target at pose {}), the views' \
+         residuals and OpenCV YAML beside it",
+        args.out.display(),
+        rig.cameras.len(),
+        if rig.cameras.len() == 1 { "" } else { "s" },
+        rig.poses.len(),
+        rig.world_pose
+    );
+    Ok(())
+}
