@@ -29,6 +29,14 @@ use crate::planar;
 use crate::refine::{Layout, cross_matrix, left_jacobian, project};
 use crate::{CalibError, Result};
 
+/// The solver's settings: a relative tolerance of 1e-12 on the cost and the
+/// step (far below any figure reported; MINPACK's 1e-15 spends a large
+/// bundle's last iterations on round-off).
+const BUNDLE_LM: geom::lm::LmOptions = geom::lm::LmOptions {
+    tolerance: 1e-12,
+    patience: 200,
+};
+
 /// One camera's image of the target at one pose: its markers' target
 /// coordinates and observed pixels.
 #[derive(Debug, Clone, PartialEq)]
@@ -276,9 +284,8 @@ pub fn calibrate_views(
             .filter(|(_, k)| **k)
             .map(|(p, _)| *p)
             .collect();
-        let solution =
-            geom::lm::minimize(&problem, params.clone(), &geom::lm::LmOptions::default())
-                .map_err(CalibError::geom("the bundle over the views"))?;
+        let solution = geom::lm::minimize(&problem, params.clone(), &BUNDLE_LM)
+            .map_err(CalibError::geom("the bundle over the views"))?;
         params = solution.params;
         let residuals = problem.residuals_of(&params, &all);
         let Some(k) = options.outlier_k else {
