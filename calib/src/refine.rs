@@ -286,7 +286,7 @@ pub(crate) fn project(
     let (e, de_dc) = ellipse_centre_jacobian(&c, radius).ok()?;
     let (k1, k2) = l.radial().map_or((0.0, 0.0), |j| (q(j), q(j + 1)));
     let (p1, p2) = l.tangential().map_or((0.0, 0.0), |j| (q(j), q(j + 1)));
-    let k3 = l.k3_index().map_or(0.0, |j| q(j));
+    let k3 = l.k3_index().map_or(0.0, &q);
     let dist = Distortion { k1, k2, k3, p1, p2 };
     let d = dist.distort(e);
     let skew = if l.skew { q(4) } else { 0.0 };
