@@ -58,13 +58,12 @@ fn calibrate(dir: &Path, views: &Path, extra: &[&str]) -> std::process::Output {
         views.to_str().unwrap(),
         "--target",
         target.to_str().unwrap(),
-        "--width",
-        "640",
-        "--height",
-        "480",
         "--out",
         out.to_str().unwrap(),
     ];
+    if !extra.contains(&"--width") {
+        args.extend_from_slice(&["--width", "640", "--height", "480"]);
+    }
     args.extend_from_slice(extra);
     trinocular(&args)
 }
@@ -210,4 +209,55 @@ fn views_bad_input_is_refused_naming_the_file() {
         &["view.png", "correspondence files"],
     );
     let _ = views;
+}
+
+#[test]
+fn one_pose_is_the_one_image_calibration() {
+    // Heikkilä's real 3-D target (491 points), one camera: --views with a
+    // single view and --points give the same camera.
+    let dir = tempfile::tempdir().unwrap();
+    let data = std::fs::read_to_string(testdata("heikkila/data3d.csv")).unwrap();
+    let (mut target, mut points) = (String::from("id,x,y,z\n"), String::from("id,u,v\n"));
+    for (i, line) in data.lines().skip(1).enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        target.push_str(&format!("{},{},{},{}\n", i + 1, f[0], f[1], f[2]));
+        points.push_str(&format!("{},{},{}\n", i + 1, f[3], f[4]));
+    }
+    let d = dir.path();
+    std::fs::write(d.join("target.csv"), target).unwrap();
+    std::fs::write(d.join("points.csv"), points).unwrap();
+    std::fs::write(d.join("views.csv"), "image,camera,pose\npoints.csv,1,7\n").unwrap();
+    let s = |p: PathBuf| p.to_str().unwrap().to_string();
+    let common = ["--width", "768", "--height", "576"];
+    let mut one: Vec<String> = ["calibrate", "--target"].map(String::from).to_vec();
+    one.extend([
+        s(d.join("target.csv")),
+        "--points".into(),
+        s(d.join("points.csv")),
+    ]);
+    one.extend(common.map(String::from));
+    one.extend(["--out".into(), s(d.join("one.json"))]);
+    ok(&trinocular(
+        &one.iter().map(String::as_str).collect::<Vec<_>>(),
+    ));
+    ok(&calibrate(
+        d,
+        &d.join("views.csv"),
+        &["--width", "768", "--height", "576"],
+    ));
+    let p = |name: &str| -> Vec<f64> {
+        let rig: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(name)).unwrap()).unwrap();
+        rig["cameras"][0]["P"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|r| r.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()))
+            .collect()
+    };
+    let (a, b) = (p("one.json"), p("rig.json"));
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-9 * scale, "P {x} vs {y}");
+    }
 }
