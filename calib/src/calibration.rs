@@ -403,7 +403,7 @@ fn subset<T: Copy>(values: &[T], flags: &[bool]) -> Vec<T> {
 }
 
 /// Residuals of every point under a camera (non-finite for a point behind it).
-fn residuals_of(
+pub(crate) fn residuals_of(
     camera: &Camera,
     layout: Layout,
     world: &[Point3<f64>],

@@ -68,6 +68,7 @@ mod dlt;
 mod error;
 mod illumination;
 mod image;
+mod model_choice;
 mod opencv;
 mod outliers;
 mod planar;
@@ -96,6 +97,7 @@ pub use formats::commissioning::{
 };
 pub use illumination::{Pixels, fit_flat_field};
 pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};
+pub use model_choice::{Candidate, F_LEVEL, FOLDS, ModelChoice, calibrate_choosing};
 pub use opencv::opencv_yaml;
 pub use planar::{
     MAX_ZHANG_CONDITION, MIN_HOMOGRAPHY_POINTS, homography, intrinsics as planar_intrinsics,

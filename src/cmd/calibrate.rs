@@ -46,6 +46,9 @@ mod views;
 /// Distortion model (`--model`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ModelArg {
+    /// k1 k2 p1 p2, and k3 where the data support it (an F test and a
+    /// cross-validation over the markers, docs/methods.md).
+    Auto,
     /// No distortion.
     Pinhole,
     /// Radial k1, k2.
@@ -114,9 +117,9 @@ pub struct Args {
     #[arg(long)]
     force: bool,
     /// Distortion model.
-    #[arg(long, value_enum, default_value_t = ModelArg::K1k2p1p2)]
+    #[arg(long, value_enum, default_value_t = ModelArg::Auto)]
     model: ModelArg,
-    /// Also estimate k3 (radial r⁶).
+    /// Also estimate k3 (radial r⁶), whatever the data say.
     #[arg(long)]
     k3: bool,
     /// Also estimate the skew.
@@ -243,6 +246,8 @@ struct CameraSpec {
 /// its marker type, the cameras, the commissioning report's sphere set.
 struct Setup {
     options: Options,
+    /// Whether k3 is chosen by the data (`--model auto` without `--k3`).
+    choose: bool,
     target: Vec<TargetRow>,
     cameras: Vec<CameraSpec>,
     spheres: bool,
@@ -332,6 +337,7 @@ fn setup(args: &Args) -> Result<Setup> {
     };
     Ok(Setup {
         options,
+        choose: args.model == ModelArg::Auto && !args.k3,
         target,
         cameras,
         spheres,
@@ -346,7 +352,7 @@ fn fit_options(args: &Args) -> Result<Options> {
         model: match args.model {
             ModelArg::Pinhole => Model::Pinhole,
             ModelArg::K1k2 => Model::K1K2,
-            ModelArg::K1k2p1p2 => Model::K1K2P1P2,
+            ModelArg::K1k2p1p2 | ModelArg::Auto => Model::K1K2P1P2,
         },
         k3: args.k3,
         skew: args.skew,
@@ -491,7 +497,7 @@ fn calibrate_camera(
         sensor,
     } = radiometry;
     let maps = sensor.as_ref().map(|s| &s.maps);
-    let (observations, cal, matching) = match (extraction, &camera.nominal) {
+    let (observations, cal, matching, choice) = match (extraction, &camera.nominal) {
         (Some((backend, params)), Some(nominal)) => from_image(
             args,
             setup,
@@ -506,6 +512,9 @@ fn calibrate_camera(
         _ => from_points(setup, camera, input)?,
     };
     summarise(id, &cal, &matching);
+    if let Some(c) = &choice {
+        println!("camera {id}: distortion model {}", c.reason);
+    }
     let covariance = covariance(setup, id, input, &cal, &observations)?;
     if let Some(fit) = &flat_fit {
         println!(
@@ -542,6 +551,11 @@ fn calibrate_camera(
         map_files = files;
     }
     entry.extra = record(&cal, input, setup.spheres, matching).to_keys()?;
+    if let Some(c) = &choice {
+        entry
+            .extra
+            .insert("model_choice".into(), model_choice_json(c));
+    }
     entry.covariance = covariance;
     let sensor_record = entry.sensor.clone();
     let covariance_record = entry.covariance.clone();
@@ -610,7 +624,12 @@ fn from_image(
     illumination: &Illumination,
     maps: Option<&sensor::SensorMaps>,
     reader: &mut FrameReader,
-) -> Result<(Vec<calib::Observation>, Calibration, Matching)> {
+) -> Result<(
+    Vec<calib::Observation>,
+    Calibration,
+    Matching,
+    Option<calib::ModelChoice>,
+)> {
     let id = nominal.id;
     let context = || format!("camera {id} ({})", input.display());
     let nominal_path = nominal_path(args);
@@ -646,16 +665,38 @@ fn from_image(
             illumination,
         )
     };
-    let result = calib::calibrate_detections(
-        &setup.target,
-        setup.spheres,
-        &detections,
-        &start,
-        &setup.options,
-        &CorrespondOptions::default(),
-        &recentroid,
-    )
-    .with_context(context)?;
+    let detect = |options: &Options| {
+        calib::calibrate_detections(
+            &setup.target,
+            setup.spheres,
+            &detections,
+            &start,
+            options,
+            &CorrespondOptions::default(),
+            &recentroid,
+        )
+        .with_context(context)
+    };
+    let mut result = detect(&setup.options)?;
+    // The model the data support, judged on the final centroids; with k3
+    // chosen, the whole image path again (its centroids follow the model).
+    let mut choice = None;
+    if setup.choose {
+        let (_, chosen) = calib::calibrate_choosing(
+            &result.observations,
+            nominal.width,
+            nominal.height,
+            &setup.options,
+        )
+        .with_context(context)?;
+        if chosen.as_ref().is_some_and(|c| c.chosen.k3) {
+            result = detect(&Options {
+                k3: true,
+                ..setup.options
+            })?;
+        }
+        choice = chosen;
+    }
     let c = &result.correspondence;
     let matching = Matching::Detected {
         detections: detections.len(),
@@ -665,7 +706,7 @@ fn from_image(
         assignment_sigma_px: c.sigma_px,
         corrected_centroids: calib::RECENTROID_ROUNDS,
     };
-    Ok((result.observations, result.calibration, matching))
+    Ok((result.observations, result.calibration, matching, choice))
 }
 
 /// A camera from its correspondence file `id,u,v`.
@@ -673,16 +714,25 @@ fn from_points(
     setup: &Setup,
     camera: &CameraSpec,
     input: &Path,
-) -> Result<(Vec<calib::Observation>, Calibration, Matching)> {
+) -> Result<(
+    Vec<calib::Observation>,
+    Calibration,
+    Matching,
+    Option<calib::ModelChoice>,
+)> {
     let context = || format!("camera {} ({})", camera.id, input.display());
     let rows: Vec<CorrespondenceRow> = read_correspondences(input)?
         .into_iter()
         .map(|r| r.record)
         .collect();
     let obs = calib::observations(&setup.target, &rows, setup.spheres).with_context(context)?;
-    let cal = calib::calibrate(&obs, camera.width, camera.height, &setup.options)
-        .with_context(context)?;
-    Ok((obs, cal, Matching::Given { points: rows.len() }))
+    let (cal, choice) = if setup.choose {
+        calib::calibrate_choosing(&obs, camera.width, camera.height, &setup.options)
+    } else {
+        calib::calibrate(&obs, camera.width, camera.height, &setup.options).map(|c| (c, None))
+    }
+    .with_context(context)?;
+    Ok((obs, cal, Matching::Given { points: rows.len() }, choice))
 }
 
 /// Step 4: every camera is calibrated; only now write the outputs (YAML,
@@ -766,6 +816,23 @@ fn illumination_json(
         args.dark_frames.get(k).map(PathBuf::as_path),
     )?;
     Ok(j)
+}
+
+/// `model_choice` of a camera in `rig.json`: the models tried, their fit
+/// and held-out RMS, the F test, and the choice in words.
+fn model_choice_json(c: &calib::ModelChoice) -> serde_json::Value {
+    let name = |l: &calib::Layout| format!("{}{}", l.model.name(), if l.k3 { "+k3" } else { "" });
+    serde_json::json!({
+        "chosen": name(&c.chosen),
+        "reason": c.reason,
+        "f": c.f.0,
+        "f_critical": c.f.1,
+        "candidates": c.candidates.iter().map(|k| serde_json::json!({
+            "model": name(&k.layout),
+            "rms_px": k.rms_px,
+            "held_out_rms_px": k.held_out_rms_px,
+        })).collect::<Vec<_>>(),
+    })
 }
 
 /// How camera `cal` was calibrated, as recorded in `rig.json`.
