@@ -159,15 +159,17 @@ fn held_out(
 ) -> Option<Vec<f64>> {
     let mut held: Vec<f64> = Vec::new();
     for fold in 0..FOLDS {
-        let (train, test): (Vec<(usize, &Observation)>, Vec<(usize, &Observation)>) = observations
+        let train: Vec<Observation> = observations
             .iter()
             .enumerate()
-            .partition(|(i, _)| i % FOLDS != fold);
-        let train: Vec<Observation> = train.into_iter().map(|(_, o)| *o).collect();
+            .filter(|(i, _)| i % FOLDS != fold)
+            .map(|(_, o)| *o)
+            .collect();
         let fit = calibrate(&train, width, height, options).ok()?;
-        let test: Vec<&Observation> = test
-            .into_iter()
-            .filter(|(i, _)| keep[*i])
+        let test: Vec<&Observation> = observations
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % FOLDS == fold && keep[*i])
             .map(|(_, o)| o)
             .collect();
         let world: Vec<Point3<f64>> = test.iter().map(|o| o.world).collect();
