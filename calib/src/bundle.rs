@@ -24,6 +24,7 @@ use geom::{Camera, Point2, Point3, Vector2, Vector3};
 
 use crate::calibration::{Observation, Options, Parameter, PointResidual, parameters, rms};
 use crate::dlt::{self, MIN_POINTS};
+use crate::model_choice::{FOLDS, ModelChoice, decide};
 use crate::outliers::{inliers, robust_sigma};
 use crate::planar;
 use crate::refine::{Layout, cross_matrix, left_jacobian, project};
@@ -443,6 +444,131 @@ fn connected(views: &[View]) -> Result<()> {
         }),
         None => Ok(()),
     }
+}
+
+/// [`calibrate_views`] with the distortion model the data support
+/// ([`crate::model_choice`]): `options`' model without k3 and with k3 for
+/// every camera; k3 kept when significant (F over the cameras' k3 together)
+/// and predicting held-out markers better (5 folds: marker j of every view
+/// in fold j mod 5, the rig refitted on the rest).
+pub fn calibrate_views_choosing(
+    views: &[View],
+    sizes: &BTreeMap<u8, (u32, u32)>,
+    options: &Options,
+) -> Result<(Rig, Option<ModelChoice>)> {
+    let lean_options = Options {
+        k3: false,
+        ..*options
+    };
+    let lean = calibrate_views(views, sizes, &lean_options)?;
+    if options.model == crate::Model::Pinhole {
+        return Ok((lean, None));
+    }
+    let rich_options = Options {
+        k3: true,
+        ..*options
+    };
+    let Ok(rich) = calibrate_views(views, sizes, &rich_options) else {
+        return Ok((lean, None));
+    };
+    let points: usize = rich.views.iter().map(|v| v.points).sum();
+    let unknowns = rich.cameras.len() * rich_options.layout().len() + 6 * (rich.poses.len() - 1);
+    if 2 * points < unknowns + 10 {
+        return Ok((lean, None));
+    }
+    let ssr = |r: &Rig| {
+        r.views
+            .iter()
+            .map(|v| v.rms_px * v.rms_px * v.points as f64)
+            .sum::<f64>()
+    };
+    // The markers kept by the richer fit, per view (by camera and pose).
+    let kept: BTreeMap<(u8, u32), Vec<bool>> = rich
+        .views
+        .iter()
+        .map(|v| {
+            (
+                (v.camera, v.pose),
+                v.residuals.iter().map(|r| !r.outlier).collect(),
+            )
+        })
+        .collect();
+    let held = |o: &Options| held_out_views(views, sizes, o, &kept);
+    let choice = decide(
+        options.model.name(),
+        [
+            (
+                lean_options.layout(),
+                rms_all(&lean),
+                ssr(&lean),
+                held(&lean_options),
+            ),
+            (
+                rich_options.layout(),
+                rms_all(&rich),
+                ssr(&rich),
+                held(&rich_options),
+            ),
+        ],
+        rich.cameras.len(),
+        2 * points - unknowns,
+    );
+    let chosen = if choice.chosen.k3 { rich } else { lean };
+    Ok((chosen, Some(choice)))
+}
+
+/// The RMS residual over every view's points used (px).
+fn rms_all(rig: &Rig) -> f64 {
+    let (ssr, n) = rig.views.iter().fold((0.0, 0usize), |(s, n), v| {
+        (s + v.rms_px * v.rms_px * v.points as f64, n + v.points)
+    });
+    (ssr / n.max(1) as f64).sqrt()
+}
+
+/// Each kept marker's squared residual when the rig is fitted without it
+/// (marker j of every view in fold j mod [`FOLDS`]), in a fixed order;
+/// `None` where a fold cannot be fitted or a view is lost.
+fn held_out_views(
+    views: &[View],
+    sizes: &BTreeMap<u8, (u32, u32)>,
+    options: &Options,
+    kept: &BTreeMap<(u8, u32), Vec<bool>>,
+) -> Option<Vec<f64>> {
+    let mut held = Vec::new();
+    for fold in 0..FOLDS {
+        let train: Vec<View> = views
+            .iter()
+            .map(|v| View {
+                observations: v
+                    .observations
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| j % FOLDS != fold)
+                    .map(|(_, o)| *o)
+                    .collect(),
+                ..v.clone()
+            })
+            .collect();
+        let rig = calibrate_views(&train, sizes, options).ok()?;
+        for v in views {
+            let Some(keep) = kept.get(&(v.camera, v.pose)) else {
+                continue;
+            };
+            let camera = &rig.cameras.iter().find(|c| c.id == v.camera)?.camera;
+            let pose = rig.poses.get(&v.pose)?;
+            for (j, o) in v.observations.iter().enumerate() {
+                if j % FOLDS != fold || !keep[j] {
+                    continue;
+                }
+                let c = camera.to_camera(&(pose * o.world));
+                let radius = o.sphere_diameter.map_or(0.0, |d| d / 2.0);
+                let (e, _) = geom::sphere_image::ellipse_centre_jacobian(&c.coords, radius).ok()?;
+                let pixel = camera.intrinsics.to_pixel(camera.distortion.distort(e));
+                held.push((pixel - o.pixel).norm_squared());
+            }
+        }
+    }
+    held.iter().all(|r| r.is_finite()).then_some(held)
 }
 
 /// Whether the views' target is planar (every point at z = 0); a target
@@ -867,6 +993,36 @@ mod tests {
             (0.90..=0.99).contains(&share),
             "{inside} of {total} within 2σ"
         );
+    }
+
+    #[test]
+    fn the_data_choose_k3_where_the_lens_has_it() {
+        let (mut cams, poses) = scene();
+        let lean =
+            calibrate_views_choosing(&views_of(&cams, &poses, 0.1), &sizes(), &Options::default())
+                .unwrap()
+                .1
+                .unwrap();
+        assert!(!lean.chosen.k3, "{}", lean.reason);
+        for c in &mut cams {
+            c.distortion.k3 = 0.3;
+        }
+        let (rig, rich) =
+            calibrate_views_choosing(&views_of(&cams, &poses, 0.1), &sizes(), &Options::default())
+                .unwrap();
+        let rich = rich.unwrap();
+        assert!(rich.chosen.k3 && rig.layout.k3, "{}", rich.reason);
+        // k3 is poorly separated from k1, k2 over this field: judged by its σ.
+        for c in &rig.cameras {
+            let sd = c
+                .parameters
+                .iter()
+                .find(|p| p.name == "k3")
+                .and_then(|p| p.std_dev)
+                .unwrap();
+            let k3 = c.camera.distortion.k3;
+            assert!((k3 - 0.3).abs() < 4.0 * sd, "k3 {k3} ± {sd}");
+        }
     }
 
     #[test]

@@ -74,7 +74,9 @@ mod outliers;
 mod planar;
 mod refine;
 
-pub use bundle::{LeftOut, Rig, RigCamera, View, ViewResidual, calibrate_views};
+pub use bundle::{
+    LeftOut, Rig, RigCamera, View, ViewResidual, calibrate_views, calibrate_views_choosing,
+};
 pub use calibration::{
     Calibration, DEFAULT_MAX_ROUNDS, DEFAULT_OUTLIER_K, Observation, Options, Parameter,
     PointResidual, calibrate, check_target, observations,

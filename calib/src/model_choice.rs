@@ -85,21 +85,46 @@ pub fn calibrate_choosing(
     if m < n + MIN_DOF {
         return Ok((lean, None));
     }
-    let dof = m - n;
     let ssr = |c: &Calibration| {
         let used = c.points_used() as f64;
         c.rms_px * c.rms_px * used
     };
-    let (ssr0, ssr1) = (ssr(&lean), ssr(&rich));
-    let f = if ssr1 > 0.0 {
-        ((ssr0 - ssr1) / (ssr1 / dof as f64)).max(0.0)
-    } else {
-        f64::INFINITY
-    };
-    let critical = f_critical(dof);
     let keep: Vec<bool> = rich.residuals.iter().map(|r| !r.outlier).collect();
     let lean_held = held_out(observations, width, height, &lean_options, &keep);
     let rich_held = held_out(observations, width, height, &rich_options, &keep);
+    let choice = decide(
+        options.model.name(),
+        [
+            (lean_options.layout(), lean.rms_px, ssr(&lean), lean_held),
+            (rich_options.layout(), rich.rms_px, ssr(&rich), rich_held),
+        ],
+        1,
+        m - n,
+    );
+    let chosen = if choice.chosen.k3 { rich } else { lean };
+    Ok((chosen, Some(choice)))
+}
+
+/// The choice between the lean model and the one with k3 added (`q` more
+/// parameters, `dof` residual degrees of freedom of the richer fit): per
+/// model its layout, fit RMS (px), sum of squared residuals and held-out
+/// squared residuals (`None`: a fold could not be fitted).
+pub(crate) fn decide(
+    name: &str,
+    models: [(Layout, f64, f64, Option<Vec<f64>>); 2],
+    q: usize,
+    dof: usize,
+) -> ModelChoice {
+    let [
+        (lean_layout, lean_rms, ssr0, lean_held),
+        (rich_layout, rich_rms, ssr1, rich_held),
+    ] = models;
+    let f = if ssr1 > 0.0 {
+        (((ssr0 - ssr1) / q as f64) / (ssr1 / dof as f64)).max(0.0)
+    } else {
+        f64::INFINITY
+    };
+    let critical = f_critical(q, dof);
     let rms_of = |h: &Option<Vec<f64>>| {
         h.as_ref().map_or(f64::INFINITY, |v| {
             (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt()
@@ -112,19 +137,18 @@ pub fn calibrate_choosing(
     };
     let candidates = vec![
         Candidate {
-            layout: lean_options.layout(),
-            rms_px: lean.rms_px,
+            layout: lean_layout,
+            rms_px: lean_rms,
             held_out_rms_px: held_lean,
         },
         Candidate {
-            layout: rich_options.layout(),
-            rms_px: rich.rms_px,
+            layout: rich_layout,
+            rms_px: rich_rms,
             held_out_rms_px: held_rich,
         },
     ];
     let significant = f > critical;
     let predicts = gain_z > PREDICTION_Z;
-    let name = options.model.name();
     let reason = match (significant, predicts) {
         (true, true) => format!(
             "{name}+k3: k3 is significant (F {f:.1} > {critical:.1}, 99.9 %) and predicts held-out \
@@ -137,14 +161,16 @@ pub fn calibrate_choosing(
         ),
         (false, _) => format!("{name}: k3 is not significant (F {f:.1} ≤ {critical:.1}, 99.9 %)"),
     };
-    let chosen = if significant && predicts { rich } else { lean };
-    let choice = ModelChoice {
-        chosen: chosen.options.layout(),
+    ModelChoice {
+        chosen: if significant && predicts {
+            rich_layout
+        } else {
+            lean_layout
+        },
         candidates,
         f: (f, critical),
         reason,
-    };
-    Ok((chosen, Some(choice)))
+    }
 }
 
 /// Each marker's squared residual when the camera is fitted without it
@@ -217,16 +243,27 @@ fn paired_z(a: &[f64], b: &[f64]) -> f64 {
     (w_plus - n * (n + 1.0) / 4.0) / (n * (n + 1.0) * (2.0 * n + 1.0) / 24.0).sqrt()
 }
 
-/// F(1, ν) at [`F_LEVEL`]: the square of Student's t(ν) at 0.9995, by the
-/// Cornish–Fisher expansion about the normal quantile z = 3.2905
-/// (`t ≈ z + (z³ + z)/(4ν) + (5z⁵ + 16z³ + 3z)/(96ν²)`; within 0.5 % for ν ≥ 10).
-fn f_critical(dof: usize) -> f64 {
-    let z: f64 = 3.290_526_731;
+/// F(q, ν) at [`F_LEVEL`]. For q = 1 the square of Student's t(ν) at
+/// 0.9995 by the Cornish–Fisher expansion about the normal quantile
+/// z = 3.2905 (`t ≈ z + (z³ + z)/(4ν) + (5z⁵ + 16z³ + 3z)/(96ν²)`; within
+/// 0.5 % for ν ≥ 10); for q > 1, χ²_q(0.999)/q by Wilson–Hilferty,
+/// `q(1 − 2/(9q) + z₀.₉₉₉·√(2/(9q)))³`, z₀.₉₉₉ = 3.0902 (the ν → ∞
+/// limit), times `1 + (q + 2)/ν` for finite ν (within 2 % of the tables
+/// for ν ≥ 100, the bundles' range).
+pub(crate) fn f_critical(q: usize, dof: usize) -> f64 {
     let nu = dof as f64;
-    let t = z
-        + (z.powi(3) + z) / (4.0 * nu)
-        + (5.0 * z.powi(5) + 16.0 * z.powi(3) + 3.0 * z) / (96.0 * nu * nu);
-    t * t
+    if q <= 1 {
+        let z: f64 = 3.290_526_731;
+        let t = z
+            + (z.powi(3) + z) / (4.0 * nu)
+            + (5.0 * z.powi(5) + 16.0 * z.powi(3) + 3.0 * z) / (96.0 * nu * nu);
+        return t * t;
+    }
+    let q = q as f64;
+    let z = 3.090_232_306;
+    let a = 2.0 / (9.0 * q);
+    let chi2 = q * (1.0 - a + z * a.sqrt()).powi(3);
+    chi2 / q * (1.0 + (q + 2.0) / nu)
 }
 
 #[cfg(test)]
@@ -246,21 +283,29 @@ mod tests {
     #[test]
     fn the_f_quantile_matches_tables() {
         // F(1, ν) at 0.999: 10.83 (ν → ∞), 11.97 (ν = 60), 13.29 (ν = 30), 21.04 (ν = 10).
-        assert!((f_critical(1_000_000) - 10.83).abs() < 0.01);
+        assert!((f_critical(1, 1_000_000) - 10.83).abs() < 0.01);
+        // F(2, 120) 7.32, F(3, 120) 5.78, F(3, ∞) 5.42 at 0.999.
+        for (q, nu, table) in [(2, 120, 7.32), (3, 120, 5.78), (3, 1_000_000, 5.42)] {
+            let f = f_critical(q, nu);
+            assert!(
+                (f / table - 1.0).abs() < 0.02,
+                "F({q}, {nu}) {f} vs {table}"
+            );
+        }
         assert!(
-            (f_critical(60) / 11.97 - 1.0).abs() < 0.005,
+            (f_critical(1, 60) / 11.97 - 1.0).abs() < 0.005,
             "{}",
-            f_critical(60)
+            f_critical(1, 60)
         );
         assert!(
-            (f_critical(30) / 13.29 - 1.0).abs() < 0.005,
+            (f_critical(1, 30) / 13.29 - 1.0).abs() < 0.005,
             "{}",
-            f_critical(30)
+            f_critical(1, 30)
         );
         assert!(
-            (f_critical(10) / 21.04 - 1.0).abs() < 0.05,
+            (f_critical(1, 10) / 21.04 - 1.0).abs() < 0.05,
             "{}",
-            f_critical(10)
+            f_critical(1, 10)
         );
     }
 }

@@ -3,7 +3,8 @@
 //! cameras and poses, one bundle. Each row's file is an `id,u,v`
 //! correspondence file of the target's markers (or a board's corners) seen
 //! by that camera at that pose; the target is `--target` (3-D, or planar
-//! with z = 0). Writes, atomically, once the bundle is solved:
+//! with z = 0). With `--model auto` (the default) k3 is added for every
+//! camera where the data support it (`calib::calibrate_views_choosing`). Writes, atomically, once the bundle is solved:
 //! - `--out` (`rig.json`): each camera's model, its parameter covariance
 //!   from the joint solution, and the views summary under `views`;
 //! - `<stem>.views.csv`: per view and camera the points used, RMS and max
@@ -20,7 +21,7 @@ use formats::{
     ViewResidualRow, read_correspondences, read_target, read_views,
 };
 
-use super::{Args, MarkerArg, beside, fit_options};
+use super::{Args, MarkerArg, ModelArg, beside, fit_options, model_choice_json};
 use crate::cmd::Usage;
 
 /// Image files a views.csv row may not name yet (markers and boards are
@@ -102,15 +103,25 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
             observations: observations.clone(),
         })
         .collect();
-    let rig = calib::calibrate_views(&views_in, &sizes, &options)
-        .with_context(|| format!("calibrating over the views of {}", views.display()))?;
+    let context = || format!("calibrating over the views of {}", views.display());
+    let (rig, choice) = if args.model == ModelArg::Auto && !args.k3 {
+        calib::calibrate_views_choosing(&views_in, &sizes, &options).with_context(context)?
+    } else {
+        (
+            calib::calibrate_views(&views_in, &sizes, &options).with_context(context)?,
+            None,
+        )
+    };
+    if let Some(c) = &choice {
+        println!("distortion model (every camera): {}", c.reason);
+    }
     for l in &rig.left_out {
         eprintln!(
             "trinocular: note: view of camera {} at pose {} left out: {}",
             l.camera, l.pose, l.reason
         );
     }
-    write(args, &mut output, &rig, &views_in)
+    write(args, &mut output, &rig, &views_in, choice.as_ref())
 }
 
 /// Every output of the solved rig, and the summary on stdout.
@@ -119,6 +130,7 @@ fn write(
     output: &mut OutputPlan,
     rig: &calib::Rig,
     views: &[calib::View],
+    choice: Option<&calib::ModelChoice>,
 ) -> Result<()> {
     let names: Vec<String> = rig.layout.names().iter().map(|n| n.to_string()).collect();
     let mut file = Rig {
@@ -168,6 +180,11 @@ fn write(
         entry
             .extra
             .insert("views".into(), serde_json::Value::Array(camera_views));
+        if let Some(c) = choice {
+            entry
+                .extra
+                .insert("model_choice".into(), model_choice_json(c));
+        }
         file.cameras.push(entry);
     }
     file.validate()
