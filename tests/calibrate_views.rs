@@ -197,7 +197,20 @@ fn views_bad_input_is_refused_naming_the_file() {
     .unwrap();
     refused(
         &calibrate(dir.path(), &broken, &[]),
-        &["do not determine", "condition number"],
+        &["undetermined", "condition number"],
+    );
+    // A view with fewer points than the model and its pose need: how many.
+    let few: String = std::fs::read_to_string(dir.path().join("view1.csv"))
+        .unwrap()
+        .lines()
+        .take(8)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(dir.path().join("few.csv"), few).unwrap();
+    std::fs::write(&broken, "image,camera,pose\nfew.csv,1,1\n").unwrap();
+    refused(
+        &calibrate(dir.path(), &broken, &[]),
+        &["camera 1: 7 points in 1 view", "fewer than the 8"],
     );
     // Nothing written on refusal.
     assert!(!dir.path().join("rig.json").exists());

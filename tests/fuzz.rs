@@ -351,6 +351,16 @@ fn targets() -> Vec<Target> {
             read: Box::new(|p, _| formats::read_correspondences(p).is_ok()),
         },
         Target {
+            name: "views.csv",
+            file: "views.csv",
+            corpus: vec![
+                b"image,camera,pose\nview1.csv,1,0\nview2.csv,2,0\nview3.csv,1,1\n".to_vec(),
+                b"image,camera,pose,offset_x,offset_y,offset_z\na.csv,1,0,0,0,0\nb.csv,3,2,10.5,-3,0\n"
+                    .to_vec(),
+            ],
+            read: Box::new(|p, _| formats::read_views(p).is_ok()),
+        },
+        Target {
             name: "spheres.csv",
             file: "spheres.csv",
             corpus: vec![shared("spheres.csv")],

@@ -162,6 +162,23 @@ pub fn calibrate_views(
         }
     }
     let cameras: BTreeSet<u8> = views.iter().map(|v| v.camera).collect();
+    for &c in &cameras {
+        let n_views = used.iter().filter(|v| v.camera == c).count();
+        let points: usize = used
+            .iter()
+            .filter(|v| v.camera == c)
+            .map(|v| v.observations.len())
+            .sum();
+        let needed = (layout.len() + 6 * n_views.saturating_sub(1)).div_ceil(2) + 1;
+        if n_views == 0 || points < needed {
+            return Err(CalibError::TooFewForModel {
+                camera: c,
+                points,
+                views: n_views,
+                needed,
+            });
+        }
+    }
     // Planar: each camera's K from all its homographies (Zhang), then each view's pose.
     if planar {
         for &c in &cameras {
@@ -178,23 +195,6 @@ pub fn calibrate_views(
                     relative[i].pose = planar::pose(&k, &hm)?;
                 }
             }
-        }
-    }
-    for &c in &cameras {
-        let n_views = used.iter().filter(|v| v.camera == c).count();
-        let points: usize = used
-            .iter()
-            .filter(|v| v.camera == c)
-            .map(|v| v.observations.len())
-            .sum();
-        let needed = (layout.len() + 6 * n_views.saturating_sub(1)).div_ceil(2) + 1;
-        if n_views == 0 || points < needed {
-            return Err(CalibError::TooFewForModel {
-                camera: c,
-                points,
-                views: n_views,
-                needed,
-            });
         }
     }
     let world_pose = used

@@ -121,10 +121,10 @@ pub enum CalibError {
     },
     /// The views of a planar target do not determine the intrinsics.
     #[error(
-        "the {views} view{s} of the planar target do not determine the focal length and the \
-         principal point: the boards are (nearly) parallel to each other or to the sensor \
+        "the planar target's {views} view{s} the focal length and the principal point \
+         undetermined: the boards are (nearly) parallel to each other or to the sensor \
          (condition number {condition:.2e}); tilt the board between views (±20–45°)",
-        s = if *views == 1 { "" } else { "s" }
+        s = if *views == 1 { " leaves" } else { "s leave" }
     )]
     ParallelViews {
         /// Views of the camera.
