@@ -120,6 +120,10 @@ fn zhang_published_calibration_is_reproduced() {
     assert_eq!(lines[0], "camera,pose,points,rms_px,max_px,outliers");
     assert_eq!(lines.len(), 6, "{views_csv}");
     assert_eq!(camera["views"].as_array().unwrap().len(), 5);
+    // One camera: the volume's points are listed, none triangulated.
+    let volume = std::fs::read_to_string(dir.path().join("rig.volume.csv")).unwrap();
+    assert!(volume.starts_with("x,y,z,cameras,sigma_x_um,sigma_y_um,sigma_z_um\n"));
+    assert_eq!(volume.lines().count(), 126);
     assert!(camera["covariance"]["matrix"].is_array());
 
     // Without skew, every point: the independent solution's figures.

@@ -571,6 +571,105 @@ fn held_out_views(
     held.iter().all(|r| r.is_finite()).then_some(held)
 }
 
+/// A point of the measuring volume and the σ of its triangulated position
+/// from the calibration alone.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VolumePoint {
+    /// The point, world frame (mm).
+    pub point: Point3<f64>,
+    /// The cameras that see it (in their image), ids ascending.
+    pub cameras: Vec<u8>,
+    /// σ of x, y, z (µm), `None` where fewer than two cameras see it.
+    pub sigma_um: Option<Vector3<f64>>,
+}
+
+/// The triangulation uncertainty of the rig over the volume its target
+/// poses spanned: a `n × n × n` grid over the bounding box of every pose's
+/// target points (world frame); per grid point, each camera that sees it
+/// gives its image-centre covariance from its parameter covariance
+/// (`geom::triangulate::parameter_image_covariance`, first order), and the
+/// point's covariance follows from those (`centre_covariance`). The cameras'
+/// errors are taken as independent — the joint solution's correlations
+/// between cameras are left out — and the image noise is not included: this
+/// is what every measurement inherits from the calibration.
+pub fn volume_uncertainty(rig: &Rig, views: &[View], n: usize) -> Vec<VolumePoint> {
+    let names: Vec<String> = rig.layout.names().iter().map(|s| s.to_string()).collect();
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for v in views {
+        let Some(pose) = rig.poses.get(&v.pose) else {
+            continue;
+        };
+        for o in &v.observations {
+            let w = (pose * o.world).coords;
+            lo = lo.inf(&w);
+            hi = hi.sup(&w);
+        }
+    }
+    if !(lo.iter().all(|v| v.is_finite()) && n >= 2) {
+        return Vec::new();
+    }
+    let step = (hi - lo) / (n - 1) as f64;
+    let mut out = Vec::with_capacity(n * n * n);
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                let point = Point3::from(
+                    lo + step.component_mul(&Vector3::new(i as f64, j as f64, k as f64)),
+                );
+                let mut cameras = Vec::new();
+                let mut seen = Vec::new();
+                let mut covariances = Vec::new();
+                for c in &rig.cameras {
+                    let Ok(pixel) = c.camera.project(&point) else {
+                        continue;
+                    };
+                    let (w, h) = (f64::from(c.camera.width), f64::from(c.camera.height));
+                    if !(pixel.x >= 0.0 && pixel.y >= 0.0 && pixel.x < w && pixel.y < h) {
+                        continue;
+                    }
+                    let Some(cov) = &c.covariance else {
+                        continue;
+                    };
+                    let Ok(ideal) = c.camera.project_pinhole(&point) else {
+                        continue;
+                    };
+                    let Some(image) = geom::triangulate::parameter_image_covariance(
+                        &c.camera, &names, cov, &point, 0.0, ideal,
+                    ) else {
+                        continue;
+                    };
+                    cameras.push(c.id);
+                    seen.push(&c.camera);
+                    covariances.push(image);
+                }
+                let views: Vec<geom::triangulate::View<'_>> = seen
+                    .iter()
+                    .map(|camera| geom::triangulate::View {
+                        camera,
+                        ideal_px: camera.project_pinhole(&point).unwrap_or(Point2::origin()),
+                    })
+                    .collect();
+                let sigma_um = (views.len() >= 2)
+                    .then(|| {
+                        geom::triangulate::centre_covariance(&views, 0.0, &point, &covariances)
+                    })
+                    .flatten()
+                    .map(|m| {
+                        Vector3::new(m[(0, 0)], m[(1, 1)], m[(2, 2)])
+                            .map(|v| 1000.0 * v.max(0.0).sqrt())
+                    });
+                out.push(VolumePoint {
+                    point,
+                    cameras,
+                    sigma_um,
+                });
+            }
+        }
+    }
+    out
+}
+
 /// Whether the views' target is planar (every point at z = 0); a target
 /// coplanar in another plane, or collinear, is refused as today.
 fn is_planar(views: &[View]) -> Result<bool> {
@@ -1023,6 +1122,59 @@ mod tests {
             let k3 = c.camera.distortion.k3;
             assert!((k3 - 0.3).abs() < 4.0 * sd, "k3 {k3} ± {sd}");
         }
+    }
+
+    #[test]
+    fn the_volume_uncertainty_covers_the_triangulation_error() {
+        // 40 noise draws of the 2-camera rig: the true pixels of points of
+        // the volume (the true cameras' projections) triangulated with each
+        // draw's cameras, against the truth (the world frame: the board at
+        // the first pose), within 2σ of volume_uncertainty's figures.
+        let (cams, poses) = scene();
+        let world = poses[0];
+        let truth: Vec<Camera> = cams
+            .iter()
+            .map(|c| {
+                let mut c = c.clone();
+                c.pose *= world;
+                c
+            })
+            .collect();
+        let (mut inside, mut total) = (0, 0);
+        for seed in 0..40 {
+            let views = views_seeded(&cams, &poses, 0.2, seed + 100);
+            let rig = calibrate_views(&views, &sizes(), &Options::default()).unwrap();
+            for v in volume_uncertainty(&rig, &views, 3) {
+                let Some(sigma) = v.sigma_um else { continue };
+                let tri: Vec<geom::triangulate::View<'_>> = rig
+                    .cameras
+                    .iter()
+                    .zip(&truth)
+                    .map(|(c, t)| {
+                        let observed = t.project(&v.point).unwrap();
+                        geom::triangulate::View {
+                            camera: &c.camera,
+                            ideal_px: c.camera.undistort_pixel(observed).unwrap(),
+                        }
+                    })
+                    .collect();
+                let got = geom::triangulate::triangulate(&tri, 0.0).unwrap().point;
+                let error = 1000.0 * (got - v.point);
+                for a in 0..3 {
+                    total += 1;
+                    if error[a].abs() <= 2.0 * sigma[a] {
+                        inside += 1;
+                    }
+                }
+            }
+        }
+        let share = f64::from(inside) / f64::from(total);
+        // Measured: 1769 of 1800 (98.3 %): the cameras' errors taken as
+        // independent leave the figure on the safe side here.
+        assert!(
+            (0.90..=0.99).contains(&share),
+            "{inside} of {total} within 2σ"
+        );
     }
 
     #[test]

@@ -75,7 +75,8 @@ mod planar;
 mod refine;
 
 pub use bundle::{
-    LeftOut, Rig, RigCamera, View, ViewResidual, calibrate_views, calibrate_views_choosing,
+    LeftOut, Rig, RigCamera, View, ViewResidual, VolumePoint, calibrate_views,
+    calibrate_views_choosing, volume_uncertainty,
 };
 pub use calibration::{
     Calibration, DEFAULT_MAX_ROUNDS, DEFAULT_OUTLIER_K, Observation, Options, Parameter,

@@ -169,4 +169,4 @@ pub use sensor::{DefectCounts, MapFile, SensorJson, SensorMapFiles, StackRecord}
 pub use table::{Invalid, Record, Row, finite, read_csv, read_csv_from, write_csv, write_records};
 pub use target::{CorrespondenceRow, ResidualRow, TargetRow, read_correspondences, read_target};
 pub use truth::{Truth, TruthCamera, TruthInstant};
-pub use views::{ViewResidualRow, ViewRow, read_views};
+pub use views::{ViewResidualRow, ViewRow, VolumeRow, read_views};

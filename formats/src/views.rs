@@ -114,6 +114,27 @@ pub struct ViewResidualRow {
     pub outliers: usize,
 }
 
+/// A point of the measuring volume and the σ of its triangulated position
+/// from the calibration alone (`<stem>.volume.csv` of a calibration over
+/// views): empty σ where fewer than two cameras see it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VolumeRow {
+    /// x (mm, world frame).
+    pub x: f64,
+    /// y (mm).
+    pub y: f64,
+    /// z (mm).
+    pub z: f64,
+    /// The cameras that see it, `+`-joined (`1+2`).
+    pub cameras: String,
+    /// σ of x (µm).
+    pub sigma_x_um: Option<f64>,
+    /// σ of y (µm).
+    pub sigma_y_um: Option<f64>,
+    /// σ of z (µm).
+    pub sigma_z_um: Option<f64>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

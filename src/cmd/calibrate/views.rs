@@ -10,6 +10,8 @@
 //! - `<stem>.views.csv`: per view and camera the points used, RMS and max
 //!   residual, outliers;
 //! - `<stem>.residuals.csv`: per point, with its pose;
+//! - `<stem>.volume.csv`: the triangulation σ from the calibration alone
+//!   over a grid of the poses' span (`calib::volume_uncertainty`);
 //! - `<stem>.cam<ID>.opencv.yml`.
 
 use std::collections::BTreeMap;
@@ -18,7 +20,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use formats::{
     CameraCovariance, CorrespondenceRow, OutputPlan, ResidualRow, Rig, RigCamera, TargetRow,
-    ViewResidualRow, read_correspondences, read_target, read_views,
+    ViewResidualRow, VolumeRow, read_correspondences, read_target, read_views,
 };
 
 use super::{Args, MarkerArg, ModelArg, beside, fit_options, model_choice_json};
@@ -27,6 +29,21 @@ use crate::cmd::Usage;
 /// Image files a views.csv row may not name yet (markers and boards are
 /// found in images by a later step; this one takes correspondence files).
 const IMAGE_EXTENSIONS: [&str; 6] = ["tif", "tiff", "png", "jpg", "jpeg", "gif"];
+
+/// Points a side of the volume grid of `<stem>.volume.csv`.
+const VOLUME_GRID: usize = 5;
+
+/// The median of non-empty values.
+fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
 
 /// Run the calibration over the views of `views`.
 pub fn run(args: &Args, views: &Path) -> Result<()> {
@@ -89,6 +106,7 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
         .inputs(inputs.iter().map(|(p, _, _)| p))
         .file(&args.out)
         .file(beside(&args.out, ".views.csv"))
+        .file(beside(&args.out, ".volume.csv"))
         .file(beside(&args.out, ".residuals.csv"));
     for c in &cameras {
         output.file(beside(&args.out, &format!(".cam{c}.opencv.yml")));
@@ -233,6 +251,42 @@ fn write(
     }
     output.write_json(&args.out, &file)?;
     output.write_csv(&beside(&args.out, ".views.csv"), &view_rows)?;
+    // The triangulation σ from the calibration alone over the poses' span.
+    let volume = calib::volume_uncertainty(rig, views, VOLUME_GRID);
+    let volume_rows: Vec<VolumeRow> = volume
+        .iter()
+        .map(|v| VolumeRow {
+            x: v.point.x,
+            y: v.point.y,
+            z: v.point.z,
+            cameras: v
+                .cameras
+                .iter()
+                .map(u8::to_string)
+                .collect::<Vec<_>>()
+                .join("+"),
+            sigma_x_um: v.sigma_um.map(|s| s.x),
+            sigma_y_um: v.sigma_um.map(|s| s.y),
+            sigma_z_um: v.sigma_um.map(|s| s.z),
+        })
+        .collect();
+    output.write_csv(&beside(&args.out, ".volume.csv"), &volume_rows)?;
+    let largest: Vec<f64> = volume
+        .iter()
+        .filter_map(|v| v.sigma_um.map(|s| s.max()))
+        .collect();
+    if largest.is_empty() {
+        println!("triangulation σ over the volume: no grid point is seen by two cameras");
+    } else {
+        println!(
+            "triangulation σ from the calibration over the poses' span ({} of {} grid points \
+             seen by two or more cameras): largest axis σ {:.3} µm, median {:.3} µm",
+            largest.len(),
+            volume.len(),
+            largest.iter().copied().fold(0.0, f64::max),
+            median(&largest)
+        );
+    }
     output.write_csv(&beside(&args.out, ".residuals.csv"), &residual_rows)?;
     for c in &rig.cameras {
         let k = c.camera.intrinsics;
