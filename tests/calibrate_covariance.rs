@@ -7,33 +7,9 @@
 
 mod common;
 
-use common::{ok, one_line_error, testdata, trinocular};
+use common::{heikkila, ok, one_line_error, trinocular};
 
-use std::path::{Path, PathBuf};
-
-/// Heikkilä's target and correspondences in `dir`, `u_mm` per marker when given.
-fn heikkila(dir: &Path, u_mm: Option<&str>) -> (PathBuf, PathBuf) {
-    let data = std::fs::read_to_string(testdata("heikkila/data3d.csv")).unwrap();
-    let header = if u_mm.is_some() {
-        "id,x,y,z,u_mm\n"
-    } else {
-        "id,x,y,z\n"
-    };
-    let (mut target, mut points) = (String::from(header), String::from("id,u,v\n"));
-    for (i, line) in data.lines().skip(1).enumerate() {
-        let f: Vec<&str> = line.split(',').collect();
-        target.push_str(&format!("{},{},{},{}", i + 1, f[0], f[1], f[2]));
-        if let Some(u) = u_mm {
-            target.push_str(&format!(",{u}"));
-        }
-        target.push('\n');
-        points.push_str(&format!("{},{},{}\n", i + 1, f[3], f[4]));
-    }
-    let (t, p) = (dir.join("target.csv"), dir.join("points.csv"));
-    std::fs::write(&t, target).unwrap();
-    std::fs::write(&p, points).unwrap();
-    (t, p)
-}
+use std::path::Path;
 
 fn calibrate(target: &Path, points: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
     let s = |p: &Path| p.to_str().unwrap().to_string();

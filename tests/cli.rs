@@ -177,15 +177,7 @@ fn extract_with_a_flat_field_corrects_the_centroids() {
 fn calibrate_points_without_nominal_reproduces_heikkila() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let data = std::fs::read_to_string(testdata("heikkila/data3d.csv")).unwrap();
-    let (mut target, mut points) = (String::from("id,x,y,z\n"), String::from("id,u,v\n"));
-    for (i, line) in data.lines().skip(1).enumerate() {
-        let f: Vec<&str> = line.split(',').collect();
-        target.push_str(&format!("{},{},{},{}\n", i + 1, f[0], f[1], f[2]));
-        points.push_str(&format!("{},{},{}\n", i + 1, f[3], f[4]));
-    }
-    std::fs::write(d.join("target.csv"), target).unwrap();
-    std::fs::write(d.join("points.csv"), points).unwrap();
+    common::heikkila(d, None);
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let out = trinocular(&[
         "calibrate",

@@ -22,7 +22,9 @@ use geom::lm::Residuals;
 use geom::nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Translation3, UnitQuaternion};
 use geom::{Camera, Point2, Point3, Vector2, Vector3};
 
-use crate::calibration::{Observation, Options, Parameter, PointResidual, parameters, rms};
+use crate::calibration::{
+    Observation, Options, Parameter, PointResidual, parameters, residuals_of, rms, split,
+};
 use crate::dlt::{self, MIN_POINTS};
 use crate::model_choice::{FOLDS, ModelChoice, decide};
 use crate::outliers::{inliers, robust_sigma};
@@ -32,10 +34,12 @@ use crate::{CalibError, Result};
 
 /// The solver's settings: a relative tolerance of 1e-12 on the cost and the
 /// step (far below any figure reported; MINPACK's 1e-15 spends a large
-/// bundle's last iterations on round-off).
+/// bundle's last iterations on round-off); no covariance per round (it is
+/// computed once, re-linearised at the solution).
 const BUNDLE_LM: geom::lm::LmOptions = geom::lm::LmOptions {
     tolerance: 1e-12,
     patience: 200,
+    covariance: false,
 };
 
 /// One camera's image of the target at one pose: its markers' target
@@ -265,7 +269,7 @@ pub fn calibrate_views(
                 pose,
                 world: o.world,
                 pixel: o.pixel,
-                radius: o.sphere_diameter.map_or(0.0, |d| d / 2.0),
+                radius: o.radius(),
             });
         }
     }
@@ -476,12 +480,14 @@ pub fn calibrate_views_choosing(
     if 2 * points < unknowns + 10 {
         return Ok((lean, None));
     }
+    // Sum of squared residuals, and the RMS over every view's points used.
     let ssr = |r: &Rig| {
         r.views
             .iter()
             .map(|v| v.rms_px * v.rms_px * v.points as f64)
             .sum::<f64>()
     };
+    let rms_all = |r: &Rig| (ssr(r) / points.max(1) as f64).sqrt();
     // The markers kept by the richer fit, per view (by camera and pose).
     let kept: BTreeMap<(u8, u32), Vec<bool>> = rich
         .views
@@ -517,14 +523,6 @@ pub fn calibrate_views_choosing(
     Ok((chosen, Some(choice)))
 }
 
-/// The RMS residual over every view's points used (px).
-fn rms_all(rig: &Rig) -> f64 {
-    let (ssr, n) = rig.views.iter().fold((0.0, 0usize), |(s, n), v| {
-        (s + v.rms_px * v.rms_px * v.points as f64, n + v.points)
-    });
-    (ssr / n.max(1) as f64).sqrt()
-}
-
 /// Each kept marker's squared residual when the rig is fitted without it
 /// (marker j of every view in fold j mod [`FOLDS`]), in a fixed order;
 /// `None` where a fold cannot be fitted or a view is lost.
@@ -556,16 +554,17 @@ fn held_out_views(
             };
             let camera = &rig.cameras.iter().find(|c| c.id == v.camera)?.camera;
             let pose = rig.poses.get(&v.pose)?;
-            for (j, o) in v.observations.iter().enumerate() {
-                if j % FOLDS != fold || !keep[j] {
-                    continue;
-                }
-                let c = camera.to_camera(&(pose * o.world));
-                let radius = o.sphere_diameter.map_or(0.0, |d| d / 2.0);
-                let (e, _) = geom::sphere_image::ellipse_centre_jacobian(&c.coords, radius).ok()?;
-                let pixel = camera.intrinsics.to_pixel(camera.distortion.distort(e));
-                held.push((pixel - o.pixel).norm_squared());
-            }
+            // The view's held-out markers in the world frame.
+            let (world, image, radius) = split(
+                v.observations
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| j % FOLDS == fold && keep[*j])
+                    .map(|(_, o)| o),
+            );
+            let world: Vec<Point3<f64>> = world.iter().map(|x| pose * x).collect();
+            let residuals = residuals_of(camera, options.layout(), &world, &image, &radius);
+            held.extend(residuals.iter().map(|r| r.norm_squared()));
         }
     }
     held.iter().all(|r| r.is_finite()).then_some(held)
@@ -610,64 +609,53 @@ pub fn volume_uncertainty(rig: &Rig, views: &[View], n: usize) -> Vec<VolumePoin
         return Vec::new();
     }
     let step = (hi - lo) / (n - 1) as f64;
-    let mut out = Vec::with_capacity(n * n * n);
-    for i in 0..n {
-        for j in 0..n {
-            for k in 0..n {
-                let point = Point3::from(
-                    lo + step.component_mul(&Vector3::new(i as f64, j as f64, k as f64)),
-                );
-                let mut cameras = Vec::new();
-                let mut seen = Vec::new();
-                let mut covariances = Vec::new();
-                for c in &rig.cameras {
-                    let Ok(pixel) = c.camera.project(&point) else {
-                        continue;
-                    };
-                    let (w, h) = (f64::from(c.camera.width), f64::from(c.camera.height));
-                    if !(pixel.x >= 0.0 && pixel.y >= 0.0 && pixel.x < w && pixel.y < h) {
-                        continue;
-                    }
-                    let Some(cov) = &c.covariance else {
-                        continue;
-                    };
-                    let Ok(ideal) = c.camera.project_pinhole(&point) else {
-                        continue;
-                    };
-                    let Some(image) = geom::triangulate::parameter_image_covariance(
-                        &c.camera, &names, cov, &point, 0.0, ideal,
-                    ) else {
-                        continue;
-                    };
-                    cameras.push(c.id);
-                    seen.push(&c.camera);
-                    covariances.push(image);
-                }
-                let views: Vec<geom::triangulate::View<'_>> = seen
-                    .iter()
-                    .map(|camera| geom::triangulate::View {
-                        camera,
-                        ideal_px: camera.project_pinhole(&point).unwrap_or(Point2::origin()),
-                    })
-                    .collect();
-                let sigma_um = (views.len() >= 2)
-                    .then(|| {
-                        geom::triangulate::centre_covariance(&views, 0.0, &point, &covariances)
-                    })
-                    .flatten()
-                    .map(|m| {
-                        Vector3::new(m[(0, 0)], m[(1, 1)], m[(2, 2)])
-                            .map(|v| 1000.0 * v.max(0.0).sqrt())
-                    });
-                out.push(VolumePoint {
-                    point,
-                    cameras,
-                    sigma_um,
-                });
-            }
+    (0..n * n * n)
+        .map(|g| {
+            let index = Vector3::new((g / (n * n)) as f64, ((g / n) % n) as f64, (g % n) as f64);
+            volume_point(rig, &names, Point3::from(lo + step.component_mul(&index)))
+        })
+        .collect()
+}
+
+/// One point of [`volume_uncertainty`]: the cameras that see it in their
+/// image (with a covariance), and its σ from theirs when two or more do.
+fn volume_point(rig: &Rig, names: &[String], point: Point3<f64>) -> VolumePoint {
+    let mut cameras = Vec::new();
+    let mut views = Vec::new();
+    let mut covariances = Vec::new();
+    for c in &rig.cameras {
+        let camera = &c.camera;
+        let in_image = camera.project(&point).is_ok_and(|p| {
+            p.x >= 0.0
+                && p.y >= 0.0
+                && p.x < f64::from(camera.width)
+                && p.y < f64::from(camera.height)
+        });
+        let (Some(cov), Ok(ideal_px)) = (&c.covariance, camera.project_pinhole(&point)) else {
+            continue;
+        };
+        let image = in_image
+            .then(|| {
+                geom::triangulate::parameter_image_covariance(
+                    camera, names, cov, &point, 0.0, ideal_px,
+                )
+            })
+            .flatten();
+        if let Some(image) = image {
+            cameras.push(c.id);
+            views.push(geom::triangulate::View { camera, ideal_px });
+            covariances.push(image);
         }
     }
-    out
+    let sigma_um = (views.len() >= 2)
+        .then(|| geom::triangulate::centre_covariance(&views, 0.0, &point, &covariances))
+        .flatten()
+        .map(|m| Vector3::new(m[(0, 0)], m[(1, 1)], m[(2, 2)]).map(|v| 1000.0 * v.max(0.0).sqrt()));
+    VolumePoint {
+        point,
+        cameras,
+        sigma_um,
+    }
 }
 
 /// Whether the views' target is planar (every point at z = 0); a target
@@ -700,8 +688,7 @@ fn view_start(
     width: u32,
     height: u32,
 ) -> Result<(Camera, Option<geom::nalgebra::Matrix3<f64>>)> {
-    let world: Vec<Point3<f64>> = v.observations.iter().map(|o| o.world).collect();
-    let image: Vec<Point2<f64>> = v.observations.iter().map(|o| o.pixel).collect();
+    let (world, image, _) = split(&v.observations);
     if planar {
         let board: Vec<Point2<f64>> = world.iter().map(|p| Point2::new(p.x, p.y)).collect();
         let h = planar::homography(&board, &image)?;

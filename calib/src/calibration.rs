@@ -34,6 +34,26 @@ pub struct Observation {
     pub sphere_diameter: Option<f64>,
 }
 
+impl Observation {
+    /// The marker's radius in the model (mm): half its diameter, 0 for a point.
+    pub fn radius(&self) -> f64 {
+        self.sphere_diameter.map_or(0.0, |d| d / 2.0)
+    }
+}
+
+/// Observations as the fits take them: marker centres, pixels, radii.
+pub(crate) fn split<'a>(
+    observations: impl IntoIterator<Item = &'a Observation>,
+) -> (Vec<Point3<f64>>, Vec<Point2<f64>>, Vec<f64>) {
+    let mut out = (Vec::new(), Vec::new(), Vec::new());
+    for o in observations {
+        out.0.push(o.world);
+        out.1.push(o.pixel);
+        out.2.push(o.radius());
+    }
+    out
+}
+
 /// What to estimate and how to treat outliers.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Options {
@@ -279,12 +299,7 @@ pub fn calibrate(
             got: observations.len(),
         });
     }
-    let world: Vec<Point3<f64>> = observations.iter().map(|o| o.world).collect();
-    let image: Vec<Point2<f64>> = observations.iter().map(|o| o.pixel).collect();
-    let radius: Vec<f64> = observations
-        .iter()
-        .map(|o| o.sphere_diameter.map_or(0.0, |d| d / 2.0))
-        .collect();
+    let (world, image, radius) = split(observations);
 
     let p_dlt = dlt::dlt(&world, &image)?;
     let dlt_res: Vec<Vector2<f64>> = dlt::residuals(&p_dlt, &world, &image)

@@ -190,12 +190,7 @@ fn sandwich(
     used: &[&Observation],
     target: &TargetUncertainty,
 ) -> Option<ParameterCovariance> {
-    let world: Vec<_> = used.iter().map(|o| o.world).collect();
-    let image: Vec<_> = used.iter().map(|o| o.pixel).collect();
-    let radius: Vec<f64> = used
-        .iter()
-        .map(|o| o.sphere_diameter.map_or(0.0, |d| d / 2.0))
-        .collect();
+    let (world, image, radius) = crate::calibration::split(used.iter().copied());
     let u_um: Vec<f64> = used.iter().map(|o| target.of_um(o.id)).collect();
     let layout = calibration.options.layout();
     let camera = &calibration.camera;

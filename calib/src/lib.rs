@@ -100,7 +100,7 @@ pub use formats::commissioning::{
 };
 pub use illumination::{Pixels, fit_flat_field};
 pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};
-pub use model_choice::{Candidate, F_LEVEL, FOLDS, ModelChoice, calibrate_choosing};
+pub use model_choice::{Candidate, F_LEVEL, FOLDS, ModelChoice, calibrate_choosing, choose_model};
 pub use opencv::opencv_yaml;
 pub use planar::{
     MAX_ZHANG_CONDITION, MIN_HOMOGRAPHY_POINTS, homography, intrinsics as planar_intrinsics,

@@ -16,10 +16,8 @@
 //! the lean model (the seed's 24–70 mm at 40 mm: 8×); one that does not
 //! gives an F near 1.
 
-use geom::{Point2, Point3, Vector2};
-
 use crate::Result;
-use crate::calibration::{Calibration, Observation, Options, calibrate, residuals_of};
+use crate::calibration::{Calibration, Observation, Options, calibrate, residuals_of, split};
 use crate::refine::Layout;
 
 /// Folds of the cross-validation.
@@ -70,6 +68,22 @@ pub fn calibrate_choosing(
         ..*options
     };
     let lean = calibrate(observations, width, height, &lean_options)?;
+    choose_model(observations, width, height, options, lean)
+}
+
+/// [`calibrate_choosing`] given the lean model's calibration `lean` of
+/// these observations (`options` without k3), where the caller has it.
+pub fn choose_model(
+    observations: &[Observation],
+    width: u32,
+    height: u32,
+    options: &Options,
+    lean: Calibration,
+) -> Result<(Calibration, Option<ModelChoice>)> {
+    let lean_options = Options {
+        k3: false,
+        ..*options
+    };
     if options.model == crate::Model::Pinhole {
         return Ok((lean, None));
     }
@@ -192,20 +206,14 @@ fn held_out(
             .map(|(_, o)| *o)
             .collect();
         let fit = calibrate(&train, width, height, options).ok()?;
-        let test: Vec<&Observation> = observations
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| i % FOLDS == fold && keep[*i])
-            .map(|(_, o)| o)
-            .collect();
-        let world: Vec<Point3<f64>> = test.iter().map(|o| o.world).collect();
-        let image: Vec<Point2<f64>> = test.iter().map(|o| o.pixel).collect();
-        let radius: Vec<f64> = test
-            .iter()
-            .map(|o| o.sphere_diameter.map_or(0.0, |d| d / 2.0))
-            .collect();
-        let residuals: Vec<Vector2<f64>> =
-            residuals_of(&fit.camera, options.layout(), &world, &image, &radius);
+        let (world, image, radius) = split(
+            observations
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| i % FOLDS == fold && keep[*i])
+                .map(|(_, o)| o),
+        );
+        let residuals = residuals_of(&fit.camera, options.layout(), &world, &image, &radius);
         held.extend(residuals.iter().map(|r| r.norm_squared()));
     }
     held.iter().all(|r| r.is_finite()).then_some(held)

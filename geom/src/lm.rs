@@ -27,6 +27,9 @@ pub struct LmOptions {
     pub tolerance: f64,
     /// Maximum residual evaluations, as a multiple of (parameters + 1) (MINPACK `maxfev` factor).
     pub patience: usize,
+    /// Compute the covariance at the minimum (an SVD of the Jacobian); off
+    /// where the caller discards it (an outlier round) or computes its own.
+    pub covariance: bool,
 }
 
 impl Default for LmOptions {
@@ -34,6 +37,7 @@ impl Default for LmOptions {
         Self {
             tolerance: 1e-15,
             patience: 200,
+            covariance: true,
         }
     }
 }
@@ -48,7 +52,8 @@ pub struct LmSolution {
     /// Root mean square of the residuals.
     pub rms: f64,
     /// Parameter covariance `s²·(JᵀJ)⁻¹` with `s² = Σr²/(m − n)`; `None` when
-    /// `JᵀJ` is singular or there are no redundant observations.
+    /// `JᵀJ` is singular, there are no redundant observations, or it was not
+    /// asked for ([`LmOptions::covariance`]).
     pub covariance: Option<DMatrix<f64>>,
     /// Residual evaluations used.
     pub evaluations: usize,
@@ -141,7 +146,10 @@ pub fn minimize<P: Residuals>(
     let residuals = problem.residuals(&params);
     let m = residuals.len();
     let ssr = residuals.norm_squared();
-    let covariance = covariance(&problem.jacobian(&params), ssr, m, n);
+    let covariance = options
+        .covariance
+        .then(|| covariance(&problem.jacobian(&params), ssr, m, n))
+        .flatten();
     Ok(LmSolution {
         rms: (ssr / m as f64).sqrt(),
         params,

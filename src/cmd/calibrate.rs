@@ -528,19 +528,7 @@ fn calibrate_camera(
     let residuals = observations
         .iter()
         .zip(&cal.residuals)
-        .map(|(o, r)| ResidualRow {
-            camera: id,
-            pose: None,
-            id: o.id,
-            x: o.world.x,
-            y: o.world.y,
-            z: o.world.z,
-            u: o.pixel.x,
-            v: o.pixel.y,
-            du: r.du,
-            dv: r.dv,
-            outlier: r.outlier,
-        })
+        .map(|(o, r)| residual_row(id, None, o, r))
         .collect();
     let mut entry = RigCamera::new(id, &cal.camera, cal.rms_px, cal.points_used());
     entry.relative_illumination = illumination_json(&illumination, flat_fit.as_ref(), args, k)?;
@@ -624,12 +612,7 @@ fn from_image(
     illumination: &Illumination,
     maps: Option<&sensor::SensorMaps>,
     reader: &mut FrameReader,
-) -> Result<(
-    Vec<calib::Observation>,
-    Calibration,
-    Matching,
-    Option<calib::ModelChoice>,
-)> {
+) -> Result<CameraFit> {
     let id = nominal.id;
     let context = || format!("camera {id} ({})", input.display());
     let nominal_path = nominal_path(args);
@@ -682,11 +665,13 @@ fn from_image(
     // chosen, the whole image path again (its centroids follow the model).
     let mut choice = None;
     if setup.choose {
-        let (_, chosen) = calib::calibrate_choosing(
+        // The image path's own calibration is the lean model's.
+        let (_, chosen) = calib::choose_model(
             &result.observations,
             nominal.width,
             nominal.height,
             &setup.options,
+            result.calibration.clone(),
         )
         .with_context(context)?;
         if chosen.as_ref().is_some_and(|c| c.chosen.k3) {
@@ -709,17 +694,17 @@ fn from_image(
     Ok((result.observations, result.calibration, matching, choice))
 }
 
-/// A camera from its correspondence file `id,u,v`.
-fn from_points(
-    setup: &Setup,
-    camera: &CameraSpec,
-    input: &Path,
-) -> Result<(
+/// A camera fitted from its input: its observations, its calibration, how
+/// the markers were matched, and the model choice (`--model auto`).
+type CameraFit = (
     Vec<calib::Observation>,
     Calibration,
     Matching,
     Option<calib::ModelChoice>,
-)> {
+);
+
+/// A camera from its correspondence file `id,u,v`.
+fn from_points(setup: &Setup, camera: &CameraSpec, input: &Path) -> Result<CameraFit> {
     let context = || format!("camera {} ({})", camera.id, input.display());
     let rows: Vec<CorrespondenceRow> = read_correspondences(input)?
         .into_iter()
@@ -816,6 +801,29 @@ fn illumination_json(
         args.dark_frames.get(k).map(PathBuf::as_path),
     )?;
     Ok(j)
+}
+
+/// A `<stem>.residuals.csv` row: camera `camera`'s marker `o` (at `pose`,
+/// for a calibration over views) and its residual `r`.
+fn residual_row(
+    camera: u8,
+    pose: Option<u32>,
+    o: &calib::Observation,
+    r: &calib::PointResidual,
+) -> ResidualRow {
+    ResidualRow {
+        camera,
+        pose,
+        id: o.id,
+        x: o.world.x,
+        y: o.world.y,
+        z: o.world.z,
+        u: o.pixel.x,
+        v: o.pixel.y,
+        du: r.du,
+        dv: r.dv,
+        outlier: r.outlier,
+    }
 }
 
 /// `model_choice` of a camera in `rig.json`: the models tried, their fit

@@ -19,11 +19,11 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use formats::{
-    CameraCovariance, CorrespondenceRow, OutputPlan, ResidualRow, Rig, RigCamera, TargetRow,
-    ViewResidualRow, VolumeRow, read_correspondences, read_target, read_views,
+    CameraCovariance, CorrespondenceRow, OutputPlan, Rig, RigCamera, TargetRow, ViewResidualRow,
+    VolumeRow, read_correspondences, read_target, read_views,
 };
 
-use super::{Args, MarkerArg, ModelArg, beside, fit_options, model_choice_json};
+use super::{Args, MarkerArg, ModelArg, beside, fit_options, model_choice_json, residual_row};
 use crate::cmd::Usage;
 
 /// Image files a views.csv row may not name yet (markers and boards are
@@ -227,21 +227,13 @@ fn write(
         else {
             continue;
         };
-        for (o, r) in input.observations.iter().zip(&v.residuals) {
-            residual_rows.push(ResidualRow {
-                camera: v.camera,
-                pose: Some(v.pose),
-                id: o.id,
-                x: o.world.x,
-                y: o.world.y,
-                z: o.world.z,
-                u: o.pixel.x,
-                v: o.pixel.y,
-                du: r.du,
-                dv: r.dv,
-                outlier: r.outlier,
-            });
-        }
+        residual_rows.extend(
+            input
+                .observations
+                .iter()
+                .zip(&v.residuals)
+                .map(|(o, r)| residual_row(v.camera, Some(v.pose), o, r)),
+        );
     }
     for c in &rig.cameras {
         output.write_bytes(
