@@ -879,10 +879,31 @@ fn record(
     }
 }
 
+/// `fx … ± …, fy …, cx …, cy … px` of a summary line: the intrinsics and
+/// their standard deviations (NaN where not determined).
+fn intrinsics_line(k: &geom::Intrinsics, parameters: &[calib::Parameter]) -> String {
+    let sd = |n: &str| {
+        parameters
+            .iter()
+            .find(|p| p.name == n)
+            .and_then(|p| p.std_dev)
+            .unwrap_or(f64::NAN)
+    };
+    format!(
+        "fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, cx {:.2} ± {:.2}, cy {:.2} ± {:.2} px",
+        k.fx,
+        sd("fx"),
+        k.fy,
+        sd("fy"),
+        k.cx,
+        sd("cx"),
+        k.cy,
+        sd("cy")
+    )
+}
+
 /// One line per camera on stdout.
 fn summarise(id: u8, cal: &Calibration, matching: &Matching) {
-    let k = cal.camera.intrinsics;
-    let sd = |n: &str| cal.parameter(n).and_then(|p| p.std_dev).unwrap_or(f64::NAN);
     let matched = match matching {
         Matching::Detected {
             detections,
@@ -892,19 +913,11 @@ fn summarise(id: u8, cal: &Calibration, matching: &Matching) {
         Matching::Given { .. } => String::new(),
     };
     println!(
-        "camera {id}: {matched}{} points, RMS {:.4} px (DLT {:.3} px), fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, \
-         cx {:.2} ± {:.2}, cy {:.2} ± {:.2} px, outliers {}",
+        "camera {id}: {matched}{} points, RMS {:.4} px (DLT {:.3} px), {}, outliers {}",
         cal.points_used(),
         cal.rms_px,
         cal.dlt_rms_px,
-        k.fx,
-        sd("fx"),
-        k.fy,
-        sd("fy"),
-        k.cx,
-        sd("cx"),
-        k.cy,
-        sd("cy"),
+        intrinsics_line(&cal.camera.intrinsics, &cal.parameters),
         if cal.outliers.is_empty() {
             "none".to_string()
         } else {

@@ -23,7 +23,10 @@ use formats::{
     VolumeRow, read_correspondences, read_target, read_views,
 };
 
-use super::{Args, MarkerArg, ModelArg, beside, fit_options, model_choice_json, residual_row};
+use super::{
+    Args, MarkerArg, ModelArg, beside, fit_options, intrinsics_line, model_choice_json,
+    residual_row,
+};
 use crate::cmd::Usage;
 
 /// Image files a views.csv row may not name yet (markers and boards are
@@ -281,30 +284,14 @@ fn write(
     }
     output.write_csv(&beside(&args.out, ".residuals.csv"), &residual_rows)?;
     for c in &rig.cameras {
-        let k = c.camera.intrinsics;
         let d = c.camera.distortion;
-        let sd = |n: &str| {
-            c.parameters
-                .iter()
-                .find(|p| p.name == n)
-                .and_then(|p| p.std_dev)
-                .unwrap_or(f64::NAN)
-        };
         println!(
-            "camera {}: {} views, {} points, RMS {:.4} px, fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, \
-             cx {:.2} ± {:.2}, cy {:.2} ± {:.2} px, k1 {:.5}, k2 {:.5}",
+            "camera {}: {} views, {} points, RMS {:.4} px, {}, k1 {:.5}, k2 {:.5}",
             c.id,
             c.views,
             c.points_used,
             c.rms_px,
-            k.fx,
-            sd("fx"),
-            k.fy,
-            sd("fy"),
-            k.cx,
-            sd("cx"),
-            k.cy,
-            sd("cy"),
+            intrinsics_line(&c.camera.intrinsics, &c.parameters),
             d.k1,
             d.k2
         );
