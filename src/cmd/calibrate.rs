@@ -879,26 +879,24 @@ fn record(
     }
 }
 
-/// `fx … ± …, fy …, cx …, cy … px` of a summary line: the intrinsics and
-/// their standard deviations (NaN where not determined).
-fn intrinsics_line(k: &geom::Intrinsics, parameters: &[calib::Parameter]) -> String {
-    let sd = |n: &str| {
-        parameters
-            .iter()
-            .find(|p| p.name == n)
-            .and_then(|p| p.std_dev)
-            .unwrap_or(f64::NAN)
+/// `fx … ± …, fy …, cx …, cy … px` of a summary line: the intrinsics among
+/// a camera's parameters and their standard deviations (NaN where not
+/// determined).
+fn intrinsics_line(parameters: &[calib::Parameter]) -> String {
+    let part = |n: &str| {
+        let p = parameters.iter().find(|p| p.name == n);
+        format!(
+            "{n} {:.2} ± {:.2}",
+            p.map_or(f64::NAN, |p| p.value),
+            p.and_then(|p| p.std_dev).unwrap_or(f64::NAN)
+        )
     };
     format!(
-        "fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, cx {:.2} ± {:.2}, cy {:.2} ± {:.2} px",
-        k.fx,
-        sd("fx"),
-        k.fy,
-        sd("fy"),
-        k.cx,
-        sd("cx"),
-        k.cy,
-        sd("cy")
+        "{}, {}, {}, {} px",
+        part("fx"),
+        part("fy"),
+        part("cx"),
+        part("cy")
     )
 }
 
@@ -917,7 +915,7 @@ fn summarise(id: u8, cal: &Calibration, matching: &Matching) {
         cal.points_used(),
         cal.rms_px,
         cal.dlt_rms_px,
-        intrinsics_line(&cal.camera.intrinsics, &cal.parameters),
+        intrinsics_line(&cal.parameters),
         if cal.outliers.is_empty() {
             "none".to_string()
         } else {

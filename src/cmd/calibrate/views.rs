@@ -291,7 +291,7 @@ fn write(
             c.views,
             c.points_used,
             c.rms_px,
-            intrinsics_line(&c.camera.intrinsics, &c.parameters),
+            intrinsics_line(&c.parameters),
             d.k1,
             d.k2
         );
