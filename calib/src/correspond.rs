@@ -97,6 +97,11 @@ pub struct CorrespondOptions {
     pub gate_fraction: f64,
     /// Most re-estimation rounds per candidate.
     pub max_iterations: usize,
+    /// Leave out, instead of failing on, the markers whose assignment is
+    /// locally ambiguous (two markers imaged within the gate of one blob, or
+    /// a second blob within a marker's gate): for one of many views, where
+    /// a moved target may put two markers on one line of sight.
+    pub leave_out_ambiguous: bool,
 }
 
 impl Default for CorrespondOptions {
@@ -107,6 +112,7 @@ impl Default for CorrespondOptions {
             max_scale: 1.3,
             gate_fraction: 0.3,
             max_iterations: 30,
+            leave_out_ambiguous: false,
         }
     }
 }
@@ -481,7 +487,12 @@ impl<'a> Search<'a> {
         self.believable(best)?;
         let best = self.unambiguous(best, &comparable)?;
         self.believable(best)?;
-        check_local_ambiguity(best, self.markers, self.detections, &self.grid)?;
+        let ambiguous = local_ambiguities(best, self.markers, self.detections, &self.grid);
+        if let Some((_, first)) = ambiguous.first()
+            && !self.options.leave_out_ambiguous
+        {
+            return Err(CalibError::Ambiguous(first.clone()));
+        }
         let extended = with_distortion(
             best,
             &self.world,
@@ -491,7 +502,18 @@ impl<'a> Search<'a> {
             self.nominal.width,
             self.nominal.height,
         );
-        Ok(extended.unwrap_or_else(|| best.clone()))
+        let mut chosen = extended.unwrap_or_else(|| best.clone());
+        // The ambiguous markers and their blobs left out (they stay counted
+        // as missing and unmatched).
+        let (markers, blobs): (HashSet<usize>, HashSet<usize>) =
+            ambiguous.iter().map(|(pair, _)| *pair).unzip();
+        chosen
+            .pairs
+            .retain(|(i, j, _)| !markers.contains(i) && !blobs.contains(j));
+        if chosen.pairs.len() < MIN_POINTS {
+            return Err(self.too_few(chosen.pairs.len()));
+        }
+        Ok(chosen)
     }
 
     /// A candidate is a camera: drop those turned more than `max_rotation`
@@ -917,15 +939,16 @@ fn with_distortion(
 /// Rounds of the distortion-aware re-assignment at most.
 const MAX_DISTORTION_ROUNDS: usize = 4;
 
-/// Fails when a matched marker has a second detection within the final gate,
-/// or a matched detection lies within the gate of a second marker: the
-/// assignment of that marker is then a guess.
-fn check_local_ambiguity(
+/// The matched pairs (marker, detection) whose assignment is a guess: a
+/// matched marker with a second detection within the final gate, or a
+/// matched detection within the gate of a second marker (both markers).
+fn local_ambiguities(
     best: &Candidate,
     markers: &[Marker],
     detections: &[Point2<f64>],
     grid: &Grid,
-) -> Result<()> {
+) -> Vec<((usize, usize), Ambiguity)> {
+    let mut found = Vec::new();
     for &(i, j, d) in &best.pairs {
         let Some(p) = best.positions[i] else { continue };
         if let Some((k, dk)) = grid
@@ -933,14 +956,18 @@ fn check_local_ambiguity(
             .filter(|&(k, _)| k != j)
             .min_by(|a, b| a.1.total_cmp(&b.1))
         {
-            return Err(CalibError::Ambiguous(Ambiguity::TwoDetections {
-                marker: markers[i].id,
-                gate_px: best.gate,
-                detection: j,
-                distance_px: d,
-                second: k,
-                second_px: dk,
-            }));
+            found.push((
+                (i, j),
+                Ambiguity::TwoDetections {
+                    marker: markers[i].id,
+                    gate_px: best.gate,
+                    detection: j,
+                    distance_px: d,
+                    second: k,
+                    second_px: dk,
+                },
+            ));
+            continue;
         }
         let q = detections[j];
         if let Some((k, _)) = best
@@ -951,13 +978,15 @@ fn check_local_ambiguity(
             .filter_map(|(k, p)| p.map(|p| (k, (p - q).norm())))
             .find(|&(_, dk)| dk <= best.gate)
         {
-            return Err(CalibError::Ambiguous(Ambiguity::TwoMarkers {
+            let ambiguity = Ambiguity::TwoMarkers {
                 detection: j,
                 gate_px: best.gate,
                 marker: markers[i].id,
                 second: markers[k].id,
-            }));
+            };
+            found.push(((i, j), ambiguity.clone()));
+            found.push(((k, j), ambiguity));
         }
     }
-    Ok(())
+    found
 }

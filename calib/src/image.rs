@@ -9,6 +9,7 @@
 //! re-centroiding (e.g. `extract::mapped_centroid`), so `calib` reads no images.
 
 use formats::{CorrespondenceRow, TargetRow};
+use geom::nalgebra::{Translation3, Vector3};
 use geom::{Camera, Point2};
 
 use crate::{
@@ -18,6 +19,15 @@ use crate::{
 
 /// Rounds of re-centroiding with the latest camera and refitting.
 pub const RECENTROID_ROUNDS: usize = 2;
+
+/// `camera` in the frame of a target moved by `offset` (mm, world frame):
+/// a target point x is seen at R (x + offset) + t.
+pub fn seeing_moved_target(camera: &Camera, offset: [f64; 3]) -> Camera {
+    Camera {
+        pose: camera.pose * Translation3::from(Vector3::from(offset)),
+        ..camera.clone()
+    }
+}
 
 /// A camera calibrated from the detections in its image.
 #[derive(Debug, Clone)]

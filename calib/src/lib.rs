@@ -99,7 +99,7 @@ pub use formats::commissioning::{
     ParameterSd, ParameterUncertainty, ProfilePoint, Report, ScaleCost, TravelCamera, TravelReport,
 };
 pub use illumination::{Pixels, fit_flat_field};
-pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections};
+pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections, seeing_moved_target};
 pub use model_choice::{Candidate, F_LEVEL, FOLDS, ModelChoice, calibrate_choosing, choose_model};
 pub use opencv::opencv_yaml;
 pub use planar::{

@@ -94,8 +94,10 @@ pub struct Args {
     /// Calibration views `views.csv` (`image,camera,pose`, docs/calibrating.md):
     /// any number of views of the target per camera, the target moved
     /// between poses, every camera and pose solved in one bundle. Its files
-    /// are `id,u,v` correspondence files; give --width and --height.
-    #[arg(long, conflicts_with_all = ["flat_fields", "nominal"])]
+    /// are images (give --nominal: the markers are found from the nominal
+    /// rig, the target moved by the row's offset) or `id,u,v`
+    /// correspondence files (give --width and --height, or --nominal).
+    #[arg(long)]
     views: Option<PathBuf>,
     /// Flat-field frames, one per camera in camera order, each a file or a
     /// folder holding a stack of frames: a uniform radiance source filling the
@@ -498,17 +500,18 @@ fn calibrate_camera(
     } = radiometry;
     let maps = sensor.as_ref().map(|s| &s.maps);
     let (observations, cal, matching, choice) = match (extraction, &camera.nominal) {
-        (Some((backend, params)), Some(nominal)) => from_image(
-            args,
-            setup,
-            nominal,
-            input,
-            backend.as_ref(),
-            params,
-            &illumination,
-            maps,
-            reader,
-        )?,
+        (Some((backend, params)), Some(nominal)) => {
+            let search = MarkerSearch {
+                target: &setup.target,
+                spheres: setup.spheres,
+                backend: backend.as_ref(),
+                params,
+                illumination: &illumination,
+                maps,
+                correspond: CorrespondOptions::default(),
+            };
+            from_image(args, setup, nominal, input, &search, reader)?
+        }
         _ => from_points(setup, camera, input)?,
     };
     summarise(id, &cal, &matching);
@@ -598,42 +601,58 @@ fn covariance(
     Ok(covariance.as_ref().map(calib::ParameterCovariance::record))
 }
 
-/// A camera from its calibration image: markers extracted, assigned to the
-/// target from the nominal camera, centroids recomputed with each camera
-/// estimate (undistorted, flat-field corrected) and the camera refitted.
+/// What finding the target's markers in an image needs besides the image:
+/// the target, its marker kind, the extraction, the camera's radiometry and
+/// the assignment's options.
+struct MarkerSearch<'a> {
+    target: &'a [TargetRow],
+    spheres: bool,
+    backend: &'a dyn extract::Backend,
+    params: &'a extract::ExtractParams,
+    illumination: &'a Illumination,
+    maps: Option<&'a sensor::SensorMaps>,
+    correspond: CorrespondOptions,
+}
+
+/// The target's markers in image `input`: blobs extracted, assigned to
+/// target ids from the camera `start` (the nominal camera, in the target's
+/// frame), the camera calibrated with `options` and the centroids
+/// recomputed with it (`calib::calibrate_detections`); then, where
+/// `again(result)` asks for other options, calibrated again from the same
+/// blobs. `nominal` names the file the sensor size came from; errors are
+/// prefixed with `what` (the camera and file). Returns the result and how
+/// many blobs were detected.
 #[allow(clippy::too_many_arguments)]
-fn from_image(
-    args: &Args,
-    setup: &Setup,
-    nominal: &NominalCamera,
+fn detect_markers(
+    search: &MarkerSearch,
+    start: &geom::Camera,
     input: &Path,
-    backend: &dyn extract::Backend,
-    params: &extract::ExtractParams,
-    illumination: &Illumination,
-    maps: Option<&sensor::SensorMaps>,
+    what: &str,
+    nominal: &Path,
+    options: &Options,
     reader: &mut FrameReader,
-) -> Result<CameraFit> {
-    let id = nominal.id;
-    let context = || format!("camera {id} ({})", input.display());
-    let nominal_path = nominal_path(args);
-    let start = nominal
-        .to_camera()
-        .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path.display()))?;
+    again: &mut dyn FnMut(&calib::ImageCalibration) -> Result<Option<Options>>,
+) -> Result<(calib::ImageCalibration, usize)> {
+    let context = || what.to_string();
     let (raw, _) = reader.read(input).with_context(context)?;
-    let corrected = raw.corrected(maps).with_context(context)?;
+    let corrected = raw.corrected(search.maps).with_context(context)?;
     let frame = corrected.as_ref().map_or(raw, extract::Frame::view);
-    if frame.width != nominal.width || frame.height != nominal.height {
+    if frame.width != start.width || frame.height != start.height {
         bail!(
             "{}: the image is {}×{} px, but {} gives this camera {}×{} px",
             context(),
             frame.width,
             frame.height,
-            nominal_path.display(),
-            nominal.width,
-            nominal.height
+            nominal.display(),
+            start.width,
+            start.height
         );
     }
-    let ex = backend.extract(frame, params).with_context(context)?;
+    let params = search.params;
+    let ex = search
+        .backend
+        .extract(frame, params)
+        .with_context(context)?;
     let blobs: Vec<&Blob> = ex.blobs.iter().filter(|b| !b.touches_border).collect();
     let detections: Vec<Point2<f64>> = blobs.iter().map(|b| Point2::new(b.u, b.v)).collect();
     let denoised = extract::denoise(&frame, params.denoise);
@@ -645,26 +664,53 @@ fn from_image(
             &ex.level,
             params.weighting,
             camera,
-            illumination,
+            search.illumination,
         )
     };
     let detect = |options: &Options| {
         calib::calibrate_detections(
-            &setup.target,
-            setup.spheres,
+            search.target,
+            search.spheres,
             &detections,
-            &start,
+            start,
             options,
-            &CorrespondOptions::default(),
+            &search.correspond,
             &recentroid,
         )
         .with_context(context)
     };
-    let mut result = detect(&setup.options)?;
+    let mut result = detect(options)?;
+    if let Some(other) = again(&result)? {
+        result = detect(&other)?;
+    }
+    Ok((result, detections.len()))
+}
+
+/// A camera from its calibration image: markers extracted, assigned to the
+/// target from the nominal camera, centroids recomputed with each camera
+/// estimate (undistorted, flat-field corrected) and the camera refitted
+/// ([`detect_markers`]); with `--model auto` the model the data support.
+fn from_image(
+    args: &Args,
+    setup: &Setup,
+    nominal: &NominalCamera,
+    input: &Path,
+    search: &MarkerSearch,
+    reader: &mut FrameReader,
+) -> Result<CameraFit> {
+    let id = nominal.id;
+    let context = || format!("camera {id} ({})", input.display());
+    let nominal_path = nominal_path(args);
+    let start = nominal
+        .to_camera()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path.display()))?;
     // The model the data support, judged on the final centroids; with k3
-    // chosen, the whole image path again (its centroids follow the model).
+    // chosen, the image path again (its centroids follow the model).
     let mut choice = None;
-    if setup.choose {
+    let mut choose = |result: &calib::ImageCalibration| -> Result<Option<Options>> {
+        if !setup.choose {
+            return Ok(None);
+        }
         // The image path's own calibration is the lean model's.
         let (_, chosen) = calib::choose_model(
             &result.observations,
@@ -674,17 +720,27 @@ fn from_image(
             result.calibration.clone(),
         )
         .with_context(context)?;
-        if chosen.as_ref().is_some_and(|c| c.chosen.k3) {
-            result = detect(&Options {
-                k3: true,
-                ..setup.options
-            })?;
-        }
+        let k3 = chosen.as_ref().is_some_and(|c| c.chosen.k3);
         choice = chosen;
-    }
+        Ok(k3.then_some(Options {
+            k3: true,
+            ..setup.options
+        }))
+    };
+    let what = context();
+    let (result, detections) = detect_markers(
+        search,
+        &start,
+        input,
+        &what,
+        nominal_path,
+        &setup.options,
+        reader,
+        &mut choose,
+    )?;
     let c = &result.correspondence;
     let matching = Matching::Detected {
-        detections: detections.len(),
+        detections,
         matched: c.matches.len(),
         unmatched_detections: c.unmatched_detections.len(),
         missing_markers: c.missing_markers.clone(),

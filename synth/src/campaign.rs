@@ -492,6 +492,7 @@ pub fn write_target_scene(
     output.write_json(&out.join("nominal.json"), &rig.nominal())?;
     let mut extra = serde_json::Map::new();
     extra.insert("seed".into(), serde_json::json!(config.seed));
+    crate::truth::insert_target_poses(&mut extra, config);
     let truth = formats::Truth {
         cameras: crate::truth::truth_cameras(&rig, config),
         spheres: Vec::new(),

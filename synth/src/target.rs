@@ -11,11 +11,18 @@
 //! with `[sensor] calibration_frames = N > 1`, stacks of N frames in the
 //! folders `calib/flat_cam{k}/` and `calib/dark_cam{k}/`
 //! (`flat_001.tif` … and `dark_001.tif` …).
+//!
+//! With further placements (`[target] poses_mm`), the target moved by the
+//! machine: per pose p ≥ 1 and camera `calib/views/pose{p}_cam{k}.*` and
+//! `calib/views/points_pose{p}_cam{k}.csv` (the markers whose image lies
+//! inside the frame), and `calib/views.csv` (`image,camera,pose` with the
+//! move as `offset_x,offset_y,offset_z`; pose 0 is `calib/cam{k}.*`) and
+//! `calib/views_points.csv` (the same views by their correspondence files).
 
 use std::path::Path;
 
-use formats::{CorrespondenceRow, OutputPlan, TargetRow};
-use geom::nalgebra::Point3;
+use formats::{CorrespondenceRow, OutputPlan, TargetRow, ViewRow};
+use geom::nalgebra::{Point3, Vector3};
 
 use crate::config::{Config, TargetConfig};
 use crate::encode::{FrameMetadata, write_image_into};
@@ -125,18 +132,101 @@ pub(crate) fn correspondences(
         .collect()
 }
 
+/// The target's placements: pose 0 at home, then pose p moved by
+/// `poses_mm[p − 1]` (the machine's move, mm).
+pub(crate) fn poses(t: &TargetConfig) -> Vec<(u32, Vector3<f64>)> {
+    std::iter::once([0.0; 3])
+        .chain(t.poses_mm.iter().copied())
+        .zip(0..)
+        .map(|(m, p)| (p, Vector3::from(m)))
+        .collect()
+}
+
+/// The markers of the target moved by `offset` (mm).
+fn moved(markers: &[Marker], offset: &Vector3<f64>) -> Vec<Marker> {
+    markers
+        .iter()
+        .map(|m| Marker {
+            centre: m.centre + offset,
+            ..*m
+        })
+        .collect()
+}
+
 /// Render the target once in one camera.
 pub fn render_target(cam: &SynthCamera, config: &Config) -> Result<Image16> {
-    let m = markers(&config.target);
+    render_target_at(cam, config, 0, &Vector3::zeros())
+}
+
+/// Render the target at pose `pose`, moved by `offset`, in one camera (the
+/// noise of each pose its own).
+fn render_target_at(
+    cam: &SynthCamera,
+    config: &Config,
+    pose: u32,
+    offset: &Vector3<f64>,
+) -> Result<Image16> {
+    let m = moved(&markers(&config.target), offset);
     cam.render(
         &marker_spheres(&m, config.target.radiance_e),
         NoiseKey {
             seed: config.seed,
-            frame: CALIBRATION_FRAME,
+            frame: CALIBRATION_FRAME - u64::from(pose),
             camera: cam.id,
         },
         config.render.max_depth,
     )
+}
+
+/// Whether marker `m`'s whole image lies inside camera `cam`'s frame, with a
+/// margin of 2 px (its image radius taken as f·r/z at its centre's depth).
+fn inside(cam: &SynthCamera, m: &Marker) -> bool {
+    let c = &cam.camera;
+    let depth = (c.pose * m.centre).z;
+    let Ok(p) = c.project(&m.centre) else {
+        return false;
+    };
+    if depth <= 0.0 {
+        return false;
+    }
+    let r = c.intrinsics.fx.max(c.intrinsics.fy) * m.diameter / 2.0 / depth + 2.0;
+    p.x >= r
+        && p.y >= r
+        && p.x <= f64::from(c.width) - 1.0 - r
+        && p.y <= f64::from(c.height) - 1.0 - r
+}
+
+/// Relative path of camera `id`'s view of pose `pose` ≥ 1 (`what`: "pose"
+/// for the image, "points_pose" for its correspondence file).
+fn view_path(what: &str, pose: u32, id: u8, ext: &str) -> String {
+    format!("calib/views/{what}{pose}_cam{id}.{ext}")
+}
+
+/// The rows of `calib/views.csv` (`points`: of `calib/views_points.csv`),
+/// paths relative to `calib/`.
+fn view_rows(config: &Config, rig: &SynthRig, points: bool) -> Vec<ViewRow> {
+    let ext = config.output.format.extension();
+    poses(&config.target)
+        .into_iter()
+        .flat_map(|(pose, offset)| {
+            rig.cameras.iter().map(move |cam| {
+                let path = match (pose, points) {
+                    (0, false) => CalibrationKind::Target.path(config, cam.id, 0),
+                    (0, true) => format!("calib/points_cam{}.csv", cam.id),
+                    (_, false) => view_path("pose", pose, cam.id, ext),
+                    (_, true) => view_path("points_pose", pose, cam.id, "csv"),
+                };
+                ViewRow {
+                    image: path.trim_start_matches("calib/").to_string(),
+                    camera: cam.id,
+                    pose,
+                    offset_x: Some(offset.x),
+                    offset_y: Some(offset.y),
+                    offset_z: Some(offset.z),
+                }
+            })
+        })
+        .collect()
 }
 
 /// One kind of calibration frame of a camera.
@@ -207,14 +297,19 @@ impl CalibrationKind {
 /// The stack folders [`write_target_files`] writes into, relative to the
 /// output folder (none with one flat and one dark per camera).
 pub(crate) fn target_folders(config: &Config, rig: &SynthRig) -> Vec<String> {
-    rig.cameras
+    let mut folders: Vec<String> = rig
+        .cameras
         .iter()
         .flat_map(|cam| {
             CalibrationKind::ALL
                 .iter()
                 .filter_map(|kind| kind.folder(config, cam.id))
         })
-        .collect()
+        .collect();
+    if !config.target.poses_mm.is_empty() {
+        folders.push("calib/views".into());
+    }
+    folders
 }
 
 /// The files [`write_target_files`] writes, relative to the output folder:
@@ -228,6 +323,17 @@ pub(crate) fn target_files(config: &Config, rig: &SynthRig) -> Vec<String> {
             }
         }
         files.push(format!("calib/points_cam{}.csv", cam.id));
+    }
+    if !config.target.poses_mm.is_empty() {
+        let ext = config.output.format.extension();
+        for (pose, _) in poses(&config.target).into_iter().skip(1) {
+            for cam in &rig.cameras {
+                files.push(view_path("pose", pose, cam.id, ext));
+                files.push(view_path("points_pose", pose, cam.id, "csv"));
+            }
+        }
+        files.push("calib/views.csv".into());
+        files.push("calib/views_points.csv".into());
     }
     files
 }
@@ -299,5 +405,63 @@ pub(crate) fn write_target_files(
             &correspondences(cam, &m)?,
         )?;
     }
+    if !config.target.poses_mm.is_empty() {
+        paths.extend(write_views(config, rig, out, time_s, output)?);
+    }
+    Ok(paths)
+}
+
+/// Seconds between two placements of the target (the machine moving it).
+const POSE_INTERVAL_S: f64 = 60.0;
+
+/// The target at every further pose in every camera (images and the exact
+/// images of the markers inside the frame), and `calib/views.csv` and
+/// `calib/views_points.csv`. Returns the image paths (relative).
+fn write_views(
+    config: &Config,
+    rig: &SynthRig,
+    out: &Path,
+    time_s: f64,
+    output: &OutputPlan,
+) -> Result<Vec<String>> {
+    let ext = config.output.format.extension();
+    let home = markers(&config.target);
+    let mut paths = Vec::new();
+    for (pose, offset) in poses(&config.target).into_iter().skip(1) {
+        let m = moved(&home, &offset);
+        for cam in &rig.cameras {
+            let img = render_target_at(cam, config, pose, &offset)?;
+            let rel = view_path("pose", pose, cam.id, ext);
+            let meta = FrameMetadata {
+                make: config.output.make.clone(),
+                model: config.output.model.clone(),
+                serial: cam.serial.clone(),
+                time_s: time_s + POSE_INTERVAL_S * f64::from(pose),
+                exposure_s: config.sensor.exposure_s,
+                f_number: config.optics.f_number,
+                focal_mm: config.optics.focal_mm,
+                description: format!("calibration target at pose {pose}, camera {}", cam.id),
+            };
+            write_image_into(
+                output.create(&out.join(&rel))?,
+                &img,
+                config.sensor.bits,
+                &meta,
+                config.output.format,
+                config.output.compression,
+            )?;
+            paths.push(rel);
+            let seen: Vec<Marker> = m.iter().filter(|k| inside(cam, k)).copied().collect();
+            output.write_csv(
+                &out.join(view_path("points_pose", pose, cam.id, "csv")),
+                &correspondences(cam, &seen)?,
+            )?;
+        }
+    }
+    output.write_csv(&out.join("calib/views.csv"), &view_rows(config, rig, false))?;
+    output.write_csv(
+        &out.join("calib/views_points.csv"),
+        &view_rows(config, rig, true),
+    )?;
     Ok(paths)
 }

@@ -254,6 +254,19 @@ pub fn figures(points: &[PointRow]) -> Result<Value> {
     serde_json::to_value(&report).map_err(SynthError::FiguresJson)
 }
 
+/// The target's further placements, `target_poses`: `[{pose, offset_mm}]`
+/// (pose 0, home, first), where `[target] poses_mm` gives any.
+pub(crate) fn insert_target_poses(extra: &mut Map<String, Value>, config: &Config) {
+    if config.target.poses_mm.is_empty() {
+        return;
+    }
+    let poses: Vec<Value> = crate::target::poses(&config.target)
+        .iter()
+        .map(|(pose, o)| json!({"pose": pose, "offset_mm": [o.x, o.y, o.z]}))
+        .collect();
+    extra.insert("target_poses".into(), Value::Array(poses));
+}
+
 /// The whole `truth.json` of a campaign.
 pub(crate) fn campaign_truth(
     config: &Config,
@@ -265,6 +278,7 @@ pub(crate) fn campaign_truth(
     extra.insert("seed".into(), json!(config.seed));
     extra.insert("start_time".into(), json!(config.procedure.start_time));
     extra.insert("errors".into(), injected_errors(config));
+    insert_target_poses(&mut extra, config);
     // A procedure evaluate cannot evaluate at all (one target per line) still
     // gets its images and truth; the reason replaces the figures. One run is
     // evaluated: its figures say what ISO 230-2 leaves out (`left_out`).

@@ -18,19 +18,21 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
+use extract::FrameReader;
 use formats::{
-    CameraCovariance, CorrespondenceRow, OutputPlan, Rig, RigCamera, TargetRow, ViewResidualRow,
-    VolumeRow, read_correspondences, read_target, read_views,
+    CameraCovariance, CorrespondenceRow, IlluminationJson, NominalCamera, OutputPlan, Rig,
+    RigCamera, TargetRow, ViewResidualRow, ViewRow, VolumeRow, read_correspondences, read_nominal,
+    read_target, read_views,
 };
 
 use super::{
-    Args, MarkerArg, ModelArg, beside, fit_options, intrinsics_line, model_choice_json,
-    residual_row,
+    Args, MarkerArg, MarkerSearch, ModelArg, beside, detect_markers, fit_options, intrinsics_line,
+    model_choice_json, nominal_path, residual_row,
 };
 use crate::cmd::Usage;
 
-/// Image files a views.csv row may not name yet (markers and boards are
-/// found in images by a later step; this one takes correspondence files).
+/// Extensions of the image files a views.csv row may name (others are
+/// `id,u,v` correspondence files).
 const IMAGE_EXTENSIONS: [&str; 6] = ["tif", "tiff", "png", "jpg", "jpeg", "gif"];
 
 /// Points a side of the volume grid of `<stem>.volume.csv`.
@@ -48,14 +50,82 @@ fn median(values: &[f64]) -> f64 {
     }
 }
 
+/// Whether `path` names an image (by its extension).
+fn is_image(path: &Path) -> bool {
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    IMAGE_EXTENSIONS.contains(&extension.as_str())
+}
+
+/// One camera of the views: its sensor size and, with `--nominal`, its
+/// nominal description and radiometry.
+struct ViewCamera {
+    size: (u32, u32),
+    nominal: Option<(NominalCamera, super::Radiometry)>,
+}
+
+/// The cameras the views may name: the nominal rig's (with their
+/// radiometry from `--flat-fields`/`--dark-frames`, in camera order), or
+/// every camera of the rows at `--width` × `--height`.
+fn view_cameras(
+    args: &Args,
+    rows: &[formats::Row<ViewRow>],
+    reader: &mut FrameReader,
+) -> Result<BTreeMap<u8, ViewCamera>> {
+    if let Some(path) = &args.nominal {
+        let mut nominal = read_nominal(path)?.cameras;
+        nominal.sort_by_key(|c| c.id);
+        for (flag, given) in [
+            ("--flat-fields", &args.flat_fields),
+            ("--dark-frames", &args.dark_frames),
+        ] {
+            if !given.is_empty() && given.len() != nominal.len() {
+                return Err(Usage::error(format!(
+                    "{flag}: {} files for the {} cameras of {} (one per camera, in camera order)",
+                    given.len(),
+                    nominal.len(),
+                    path.display()
+                )));
+            }
+        }
+        let mut cameras = BTreeMap::new();
+        for (k, c) in nominal.into_iter().enumerate() {
+            let radiometry = super::radiometry(args, k, &c, reader)?;
+            cameras.insert(
+                c.id,
+                ViewCamera {
+                    size: (c.width, c.height),
+                    nominal: Some((c, radiometry)),
+                },
+            );
+        }
+        return Ok(cameras);
+    }
+    let (Some(width), Some(height)) = (args.width, args.height) else {
+        return Err(Usage::error(
+            "--views with correspondence files needs the image size: give --width and --height \
+             (or --nominal)",
+        ));
+    };
+    Ok(rows
+        .iter()
+        .map(|r| {
+            (
+                r.record.camera,
+                ViewCamera {
+                    size: (width, height),
+                    nominal: None,
+                },
+            )
+        })
+        .collect())
+}
+
 /// Run the calibration over the views of `views`.
 pub fn run(args: &Args, views: &Path) -> Result<()> {
     let options = fit_options(args)?;
-    let (Some(width), Some(height)) = (args.width, args.height) else {
-        return Err(Usage::error(
-            "--views with correspondence files needs the image size: give --width and --height",
-        ));
-    };
     let target: Vec<TargetRow> = read_target(&args.target)?
         .into_iter()
         .map(|r| r.record)
@@ -66,66 +136,132 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
     };
     // Every row's file checked before any work.
     let rows = read_views(views)?;
-    let mut inputs = Vec::with_capacity(rows.len());
+    let context = |row: &formats::Row<ViewRow>| {
+        format!(
+            "{} line {}: camera {} pose {} ({})",
+            views.display(),
+            row.line,
+            row.record.camera,
+            row.record.pose,
+            row.record.path(views).display()
+        )
+    };
     for row in &rows {
-        let path = row.record.path(views);
-        let context = || {
-            format!(
-                "{} line {}: camera {} pose {} ({})",
-                views.display(),
-                row.line,
-                row.record.camera,
-                row.record.pose,
-                path.display()
-            )
-        };
-        if !path.is_file() {
-            bail!("{}: no such file", context());
+        if !row.record.path(views).is_file() {
+            bail!("{}: no such file", context(row));
         }
-        let extension = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_lowercase())
-            .unwrap_or_default();
-        if IMAGE_EXTENSIONS.contains(&extension.as_str()) {
-            bail!(
-                "{}: an image; calibrate --views takes id,u,v correspondence files in this \
-                 version (finding markers and boards in the views' images is not done yet)",
-                context()
-            );
-        }
-        let points: Vec<CorrespondenceRow> = read_correspondences(&path)?
-            .into_iter()
-            .map(|r| r.record)
-            .collect();
-        let observations = calib::observations(&target, &points, spheres).with_context(context)?;
-        inputs.push((path.clone(), row.record.clone(), observations));
     }
-    let cameras: std::collections::BTreeSet<u8> = rows.iter().map(|r| r.record.camera).collect();
-    let sizes: BTreeMap<u8, (u32, u32)> = cameras.iter().map(|&c| (c, (width, height))).collect();
+    if let Some(row) = rows.iter().find(|r| is_image(&r.record.path(views)))
+        && args.nominal.is_none()
+    {
+        return Err(Usage::error(format!(
+            "{}: an image; finding the target's markers in it needs the rig's approximate \
+             poses: give --nominal nominal.json",
+            context(row)
+        )));
+    }
+    let params = args.extract.params()?;
+    let mut reader = FrameReader::new().limit_pixels(params.max_pixels);
+    let cameras = view_cameras(args, &rows, &mut reader)?;
+    if let Some(row) = rows
+        .iter()
+        .find(|r| !cameras.contains_key(&r.record.camera))
+    {
+        bail!(
+            "{}: camera {} is not in {}",
+            context(row),
+            row.record.camera,
+            nominal_path(args).display()
+        );
+    }
+    let backend = args.extract.backend()?;
 
     let mut output = OutputPlan::new(args.force);
     output
         .inputs([&args.target, &views.to_path_buf()])
-        .inputs(inputs.iter().map(|(p, _, _)| p))
+        .inputs(&args.nominal)
+        .inputs(&args.flat_fields)
+        .inputs(&args.dark_frames)
+        .inputs(rows.iter().map(|r| r.record.path(views)))
         .file(&args.out)
         .file(beside(&args.out, ".views.csv"))
         .file(beside(&args.out, ".volume.csv"))
         .file(beside(&args.out, ".residuals.csv"));
-    for c in &cameras {
+    for c in cameras.keys() {
         output.file(beside(&args.out, &format!(".cam{c}.opencv.yml")));
     }
     output.check()?;
 
-    let views_in: Vec<calib::View> = inputs
-        .iter()
-        .map(|(_, row, observations)| calib::View {
-            camera: row.camera,
-            pose: row.pose,
-            observations: observations.clone(),
-        })
-        .collect();
+    // Each view's observations: its correspondence file, or the markers
+    // found in its image; a view whose markers are not found is left out.
+    let mut views_in = Vec::with_capacity(rows.len());
+    let mut not_found = Vec::new();
+    for row in &rows {
+        let r = &row.record;
+        let path = r.path(views);
+        let what = context(row);
+        let camera = &cameras[&r.camera];
+        let observations = match &camera.nominal {
+            Some((nominal, radiometry)) if is_image(&path) => {
+                let start = nominal
+                    .to_camera()
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path(args).display()))?;
+                let offset = [r.offset_x, r.offset_y, r.offset_z].map(|o| o.unwrap_or(0.0));
+                let search = MarkerSearch {
+                    target: &target,
+                    spheres,
+                    backend: backend.as_ref(),
+                    params: &params,
+                    illumination: &radiometry.illumination,
+                    maps: radiometry.sensor.as_ref().map(|s| &s.maps),
+                    // A moved target may put two markers on one line of sight.
+                    correspond: calib::CorrespondOptions {
+                        leave_out_ambiguous: true,
+                        ..calib::CorrespondOptions::default()
+                    },
+                };
+                match detect_markers(
+                    &search,
+                    &calib::seeing_moved_target(&start, offset),
+                    &path,
+                    &what,
+                    nominal_path(args),
+                    &options,
+                    &mut reader,
+                    &mut |_| Ok(None),
+                ) {
+                    Ok((found, _)) => found.observations,
+                    Err(e) => {
+                        eprintln!(
+                            "trinocular: note: view of camera {} at pose {} left out: {e:#}",
+                            r.camera, r.pose
+                        );
+                        not_found.push(calib::LeftOut {
+                            camera: r.camera,
+                            pose: r.pose,
+                            reason: format!("{e:#}"),
+                        });
+                        continue;
+                    }
+                }
+            }
+            _ => {
+                let points: Vec<CorrespondenceRow> = read_correspondences(&path)?
+                    .into_iter()
+                    .map(|r| r.record)
+                    .collect();
+                calib::observations(&target, &points, spheres).with_context(|| what.clone())?
+            }
+        };
+        views_in.push(calib::View {
+            camera: r.camera,
+            pose: r.pose,
+            observations,
+        });
+    }
+    let sizes: BTreeMap<u8, (u32, u32)> = cameras.iter().map(|(&c, v)| (c, v.size)).collect();
     let context = || format!("calibrating over the views of {}", views.display());
-    let (rig, choice) = if args.model == ModelArg::Auto && !args.k3 {
+    let (mut rig, choice) = if args.model == ModelArg::Auto && !args.k3 {
         calib::calibrate_views_choosing(&views_in, &sizes, &options).with_context(context)?
     } else {
         (
@@ -142,7 +278,23 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
             l.camera, l.pose, l.reason
         );
     }
-    write(args, &mut output, &rig, &views_in, choice.as_ref())
+    rig.left_out.extend(not_found);
+    let illumination: BTreeMap<u8, IlluminationJson> = cameras
+        .iter()
+        .filter_map(|(&id, c)| c.nominal.as_ref().map(|(_, r)| (id, r)))
+        .enumerate()
+        .map(|(k, (id, r))| {
+            super::illumination_json(&r.illumination, r.flat_fit.as_ref(), args, k).map(|j| (id, j))
+        })
+        .collect::<Result<_>>()?;
+    write(
+        args,
+        &mut output,
+        &rig,
+        &views_in,
+        choice.as_ref(),
+        &illumination,
+    )
 }
 
 /// Every output of the solved rig, and the summary on stdout.
@@ -152,6 +304,7 @@ fn write(
     rig: &calib::Rig,
     views: &[calib::View],
     choice: Option<&calib::ModelChoice>,
+    illumination: &BTreeMap<u8, IlluminationJson>,
 ) -> Result<()> {
     let names: Vec<String> = rig.layout.names().iter().map(|n| n.to_string()).collect();
     let mut file = Rig {
@@ -159,6 +312,9 @@ fn write(
     };
     for c in &rig.cameras {
         let mut entry = RigCamera::new(c.id, &c.camera, c.rms_px, c.points_used);
+        if let Some(j) = illumination.get(&c.id) {
+            entry.relative_illumination = j.clone();
+        }
         entry.covariance = c.covariance.as_ref().map(|m| CameraCovariance {
             parameters: names.clone(),
             matrix: (0..m.nrows())
@@ -201,6 +357,17 @@ fn write(
         entry
             .extra
             .insert("views".into(), serde_json::Value::Array(camera_views));
+        let left_out: Vec<serde_json::Value> = rig
+            .left_out
+            .iter()
+            .filter(|l| l.camera == c.id)
+            .map(|l| serde_json::json!({"pose": l.pose, "reason": l.reason}))
+            .collect();
+        if !left_out.is_empty() {
+            entry
+                .extra
+                .insert("views_left_out".into(), serde_json::Value::Array(left_out));
+        }
         if let Some(c) = choice {
             entry
                 .extra

@@ -8,6 +8,9 @@ use crate::Result;
 /// Largest target grid (markers per side of the Latin square; 49 by default).
 const MAX_GRID: u32 = 101;
 
+/// Most further placements of the target (`poses_mm`).
+const MAX_POSES: usize = 1000;
+
 /// The 3-D calibration target: markers on a Latin-square lattice, so that no
 /// two markers line up along X, Y or Z (each camera sees a full grid).
 /// Marker (i, j), i, j = 0..n−1, sits at
@@ -35,6 +38,11 @@ pub struct TargetConfig {
     pub jitter_mm: f64,
     /// Marker radiance (electrons per fully covered pixel per exposure).
     pub radiance_e: f64,
+    /// Further placements of the target (mm): each the machine's move of the
+    /// target from its home placement (pose 0). With any, the target is also
+    /// rendered at pose p = 1, 2, … moved by `poses_mm[p − 1]`, and
+    /// `calib/views.csv` lists every view (docs/methods.md §8).
+    pub poses_mm: Vec<[f64; 3]>,
 }
 
 impl Default for TargetConfig {
@@ -47,6 +55,7 @@ impl Default for TargetConfig {
             marker_diameter_mm: 3.0,
             jitter_mm: 3.0,
             radiance_e: 12_000.0,
+            poses_mm: Vec::new(),
         }
     }
 }
@@ -87,6 +96,15 @@ impl TargetConfig {
                     t.jitter_mm
                 ),
             ));
+        }
+        if t.poses_mm.len() > MAX_POSES {
+            return Err(bad(
+                "target.poses_mm",
+                format!("{} placements; at most {MAX_POSES}", t.poses_mm.len()),
+            ));
+        }
+        for (i, p) in t.poses_mm.iter().enumerate() {
+            finite(&format!("target.poses_mm[{i}]"), p)?;
         }
         non_negative("target.radiance_e", t.radiance_e)
     }
