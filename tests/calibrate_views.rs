@@ -225,13 +225,16 @@ fn views_bad_input_is_refused_naming_the_file() {
     );
     // Nothing written on refusal.
     assert!(!dir.path().join("rig.json").exists());
-    // An image: named, and why it is not taken.
+    // An image of a marker target without the nominal rig: a usage error
+    // naming the row and what is missing.
     std::fs::write(dir.path().join("view.png"), b"not looked at").unwrap();
     std::fs::write(&broken, "image,camera,pose\nview.png,1,1\n").unwrap();
-    refused(
-        &calibrate(dir.path(), &broken, &[]),
-        &["view.png", "correspondence files"],
-    );
+    let (code, line) = common::failure(&calibrate(dir.path(), &broken, &[]));
+    assert_eq!(code, 2, "{line}");
+    for f in ["broken.csv line 2", "view.png", "--nominal"] {
+        assert!(line.contains(f), "'{f}' missing from {line}");
+    }
+    assert!(!dir.path().join("rig.json").exists());
     let _ = views;
 }
 

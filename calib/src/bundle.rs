@@ -34,11 +34,14 @@ use crate::{CalibError, Result};
 
 /// The solver's settings: a relative tolerance of 1e-12 on the cost and the
 /// step (far below any figure reported; MINPACK's 1e-15 spends a large
-/// bundle's last iterations on round-off); no covariance per round (it is
+/// bundle's last iterations on round-off); at most 4·(n + 1) evaluations
+/// for n unknowns (a consistent bundle converges in a few tens; views that
+/// contradict each other would otherwise crawl through 200·(n + 1) dense
+/// iterations — minutes — before failing); no covariance per round (it is
 /// computed once, re-linearised at the solution).
 const BUNDLE_LM: geom::lm::LmOptions = geom::lm::LmOptions {
     tolerance: 1e-12,
-    patience: 200,
+    patience: 4,
     covariance: false,
 };
 
@@ -279,6 +282,7 @@ pub fn calibrate_views(
         .flat_map(|(i, v)| std::iter::repeat_n(i, v.observations.len()))
         .collect();
     let mut keep = vec![true; all.len()];
+    let mut dropped = vec![false; used.len()];
     let mut params = start;
     let mut rounds = 0;
     loop {
@@ -289,17 +293,45 @@ pub fn calibrate_views(
             .filter(|(_, k)| **k)
             .map(|(p, _)| *p)
             .collect();
-        let solution = geom::lm::minimize(&problem, params.clone(), &BUNDLE_LM)
-            .map_err(CalibError::geom("the bundle over the views"))?;
+        let solution =
+            geom::lm::minimize(&problem, params.clone(), &BUNDLE_LM).map_err(CalibError::geom(
+                "the bundle over the views (views that contradict each other — a wrong pose \
+                 id, a board seen mirrored, a misread target — keep it from converging)",
+            ))?;
         params = solution.params;
         let residuals = problem.residuals_of(&params, &all);
+        if let Some((w, rms_px, median_px)) =
+            inconsistent_view(&residuals, &keep, &view_of, &used, &dropped)
+        {
+            dropped[w] = true;
+            for (j, k) in keep.iter_mut().enumerate() {
+                if view_of[j] == w {
+                    *k = false;
+                }
+            }
+            left_out.push(LeftOut {
+                camera: used[w].camera,
+                pose: used[w].pose,
+                reason: format!(
+                    "inconsistent with the other views (a wrong pose id, a misread target?): \
+                     RMS {rms_px:.2} px against the views' median {median_px:.3} px"
+                ),
+            });
+            continue;
+        }
         let Some(k) = options.outlier_k else {
             break;
         };
         // The k·σ rejection, per view.
         let mut next = vec![true; all.len()];
-        for i in 0..used.len() {
+        for (i, &gone) in dropped.iter().enumerate() {
             let idx: Vec<usize> = (0..all.len()).filter(|&j| view_of[j] == i).collect();
+            if gone {
+                for &j in &idx {
+                    next[j] = false;
+                }
+                continue;
+            }
             let r: Vec<Vector2<f64>> = idx.iter().map(|&j| residuals[j]).collect();
             let flags = inliers(&r, robust_sigma(&r), k);
             for (&j, f) in idx.iter().zip(flags) {
@@ -342,6 +374,7 @@ pub fn calibrate_views(
     let view_residuals: Vec<ViewResidual> = used
         .iter()
         .enumerate()
+        .filter(|(i, _)| !dropped[*i])
         .map(|(i, v)| {
             let idx: Vec<usize> = (0..all.len()).filter(|&j| view_of[j] == i).collect();
             let kept: Vec<Vector2<f64>> = idx
@@ -398,7 +431,11 @@ pub fn calibrate_views(
                 rms_px: rms(&kept),
                 sigma_px: robust_sigma(&kept),
                 points_used: kept.len(),
-                views: used.iter().filter(|v| v.camera == id).count(),
+                views: used
+                    .iter()
+                    .zip(&dropped)
+                    .filter(|(v, d)| v.camera == id && !**d)
+                    .count(),
                 covariance: block_cov,
             }
         })
@@ -419,6 +456,55 @@ pub fn calibrate_views(
         rounds,
         layout,
     })
+}
+
+/// A view's RMS residual above this many times the median view's (and
+/// above [`INCONSISTENT_PX`]) makes it inconsistent with the others.
+const INCONSISTENT_FACTOR: f64 = 10.0;
+/// See [`INCONSISTENT_FACTOR`] (px).
+const INCONSISTENT_PX: f64 = 1.0;
+
+/// The view most inconsistent with the others, with its RMS and the median
+/// view's (px): one whose RMS over its kept points exceeds
+/// [`INCONSISTENT_FACTOR`] × the median and [`INCONSISTENT_PX`], and whose
+/// camera and pose keep other views (so that dropping it leaves the rest
+/// determined). `None` when every view agrees.
+fn inconsistent_view(
+    residuals: &[Vector2<f64>],
+    keep: &[bool],
+    view_of: &[usize],
+    used: &[&View],
+    dropped: &[bool],
+) -> Option<(usize, f64, f64)> {
+    let mut sums = vec![(0.0, 0usize); used.len()];
+    for (j, r) in residuals.iter().enumerate() {
+        if keep[j] {
+            let s = &mut sums[view_of[j]];
+            s.0 += r.norm_squared();
+            s.1 += 1;
+        }
+    }
+    let rms: Vec<(usize, f64)> = sums
+        .iter()
+        .enumerate()
+        .filter(|(i, (_, n))| !dropped[*i] && *n > 0)
+        .map(|(i, (ss, n))| (i, (ss / *n as f64).sqrt()))
+        .collect();
+    let mut sorted: Vec<f64> = rms.iter().map(|r| r.1).collect();
+    sorted.sort_by(f64::total_cmp);
+    let median = *sorted.get(sorted.len() / 2)?;
+    let &(w, worst) = rms.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let others = |same: &dyn Fn(&View) -> bool| {
+        used.iter()
+            .enumerate()
+            .any(|(i, v)| i != w && !dropped[i] && same(v))
+    };
+    let (camera, pose) = (used[w].camera, used[w].pose);
+    (worst > INCONSISTENT_FACTOR * median
+        && worst > INCONSISTENT_PX
+        && others(&|v| v.camera == camera)
+        && others(&|v| v.pose == pose))
+    .then_some((w, worst, median))
 }
 
 /// Fails with [`CalibError::CutOff`] for the first camera that no chain of

@@ -89,6 +89,9 @@ pub enum CalibError {
     /// Two different assignments of detections to markers explain the image equally well.
     #[error("the marker assignment is ambiguous: {0}")]
     Ambiguous(Ambiguity),
+    /// A chessboard specification or a view of the board is unusable.
+    #[error("{0}")]
+    Board(BoardProblem),
     /// A coordinate is NaN or infinite.
     #[error("point {id}: {field} = {value} is not a finite number")]
     NonFinite {
@@ -292,6 +295,52 @@ pub enum FlatFieldProblem {
     /// The fitted model is not positive everywhere in the image.
     #[error("flat-field fit: the model falls to {0} in the image")]
     Falls(f64),
+}
+
+/// Why a board specification or a view of the board cannot be used.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum BoardProblem {
+    /// The `--board` text is not `chessboard:COLSxROWS:SQUARE_MM`.
+    #[error(
+        "board '{0}': expected chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. \
+         chessboard:9x6:12.0)"
+    )]
+    Spec(String),
+    /// A board whose orientation cannot be told from its pattern.
+    #[error(
+        "board {cols}×{rows}: a chessboard with an even number of inner corners in all \
+         (COLS + ROWS even) looks the same turned by 180°; use one odd and one even count \
+         (e.g. 9×6)"
+    )]
+    Symmetric {
+        /// Inner corners along x.
+        cols: u32,
+        /// Inner corners along y.
+        rows: u32,
+    },
+    /// No board in the image.
+    #[error("no chessboard found ({0})")]
+    NotFound(String),
+    /// Only part of the board was found.
+    #[error(
+        "the chessboard found partially: {found} of {expected} inner corners ({extent}); the whole board must be in view"
+    )]
+    Partial {
+        /// Corners found.
+        found: usize,
+        /// Corners of the board.
+        expected: usize,
+        /// The labelled grid's extent.
+        extent: String,
+    },
+    /// The pattern does not tell the orientation (too little contrast).
+    #[error(
+        "the chessboard's orientation is not determined: the corner squares' contrast is {contrast:.1} gray levels"
+    )]
+    Orientation {
+        /// Contrast between the two sampled squares (8-bit gray levels).
+        contrast: f64,
+    },
 }
 
 impl CalibError {

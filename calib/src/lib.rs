@@ -59,6 +59,7 @@
 
 #![deny(missing_docs)]
 
+mod board;
 mod bundle;
 mod calibration;
 mod commission;
@@ -74,6 +75,7 @@ mod outliers;
 mod planar;
 mod refine;
 
+pub use board::{Board, find_board};
 pub use bundle::{
     LeftOut, Rig, RigCamera, View, ViewResidual, VolumePoint, calibrate_views,
     calibrate_views_choosing, volume_uncertainty,
@@ -93,7 +95,7 @@ pub use covariance::{
     DEFAULT_TARGET_UNCERTAINTY_UM, ParameterCovariance, TargetUncertainty, parameter_covariance,
 };
 pub use dlt::{MIN_POINTS, residuals as dlt_residuals};
-pub use error::{Ambiguity, CalibError, FlatFieldProblem, OptionProblem, Result};
+pub use error::{Ambiguity, BoardProblem, CalibError, FlatFieldProblem, OptionProblem, Result};
 pub use formats::commissioning::{
     AxisPair, CameraReport, DepthOfField, FLAT_FIELD_ADVICE, FlatFieldFit, IlluminationReport,
     ParameterSd, ParameterUncertainty, ProfilePoint, Report, ScaleCost, TravelCamera, TravelReport,

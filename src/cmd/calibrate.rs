@@ -72,8 +72,14 @@ pub enum MarkerArg {
 #[command(group(clap::ArgGroup::new("input").required(true).args(["images", "points", "views"])))]
 pub struct Args {
     /// Calibration target `target.csv` (`id,x,y,z[,diameter][,u_mm]`, mm).
-    #[arg(long)]
-    target: PathBuf,
+    #[arg(long, required_unless_present = "board", conflicts_with = "board")]
+    target: Option<PathBuf>,
+    /// A printed chessboard instead of --target, with --views:
+    /// `chessboard:COLSxROWS:SQUARE_MM` (inner corners; one odd and one even
+    /// count). Its frame: origin at the first inner corner, x along COLS, y
+    /// along ROWS; the square diagonally outside the first corner is black.
+    #[arg(long, requires = "views")]
+    board: Option<String>,
     /// Nominal rig `nominal.json`: starts the calibration and finds the
     /// correspondences (needed with --images and --flat-fields).
     #[arg(long)]
@@ -155,6 +161,14 @@ pub struct Args {
     alignment_tolerance: f64,
     #[command(flatten)]
     extract: ExtractOptions,
+}
+
+/// `--target` (clap requires it unless `--board` is given, which only
+/// `--views` takes).
+fn target_path(args: &Args) -> Result<&Path> {
+    args.target
+        .as_deref()
+        .ok_or_else(|| Usage::error("--target target.csv is needed (--board only with --views)"))
 }
 
 /// `--nominal` (empty when not given: only used in messages of steps that need it).
@@ -311,13 +325,14 @@ pub fn run(args: &Args) -> Result<()> {
 /// the marker type and the commissioning report's sphere set.
 fn setup(args: &Args) -> Result<Setup> {
     let options = fit_options(args)?;
-    let target: Vec<TargetRow> = read_target(&args.target)?
+    let target_path = target_path(args)?;
+    let target: Vec<TargetRow> = read_target(target_path)?
         .into_iter()
         .map(|r| r.record)
         .collect();
-    calib::check_target(&target).with_context(|| format!("{}", args.target.display()))?;
+    calib::check_target(&target).with_context(|| format!("{}", target_path.display()))?;
     let target_uncertainty = calib::TargetUncertainty::resolve(&target, args.target_uncertainty_um)
-        .with_context(|| format!("{}", args.target.display()))?;
+        .with_context(|| format!("{}", target_path.display()))?;
     let cameras = cameras(args)?;
     check_counts(args, cameras.len(), inputs(args).len())?;
     let spheres = match args.markers {
@@ -327,7 +342,7 @@ fn setup(args: &Args) -> Result<Setup> {
     if spheres && target.iter().any(|t| t.diameter.is_none()) {
         return Err(Usage::error(format!(
             "{}: --markers sphere needs a diameter for every marker",
-            args.target.display()
+            target_path.display()
         )));
     }
     let sphere_set = match &args.spheres {
@@ -451,7 +466,7 @@ fn check_counts(args: &Args, cameras: usize, inputs: usize) -> Result<()> {
 fn plan_outputs(args: &Args, cameras: &[CameraSpec]) -> Result<OutputPlan> {
     let mut output = OutputPlan::new(args.force);
     output
-        .inputs([&args.target])
+        .inputs(&args.target)
         .inputs(&args.nominal)
         .inputs(&args.images)
         .inputs(&args.points)

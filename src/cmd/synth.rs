@@ -31,6 +31,11 @@ enum What {
     /// calib/dark_cam{k}.tif (stacks calib/flat_cam{k}/flat_001.tif … and
     /// calib/dark_cam{k}/dark_001.tif … with [sensor] calibration_frames > 1).
     Target(TargetArgs),
+    /// Render a printed chessboard (`[board]`) placed by hand before the cameras,
+    /// 15 views per camera by default: board.csv (its inner corners as a planar
+    /// target), nominal.json, truth.json, board/pose{p}_cam{k}.tif with the exact
+    /// corners board/points_pose{p}_cam{k}.csv, views.csv and views_points.csv.
+    Board(TargetArgs),
     /// Print the default configuration (the seed's rig and procedure), documented, as TOML.
     Config,
     /// Check data for the probe-based methods, with truth.json.
@@ -243,6 +248,25 @@ fn print_size(config: &Config, out: &Path) -> Result<()> {
     Ok(())
 }
 
+fn board(args: &TargetArgs) -> Result<()> {
+    let config = load(&args.config, Overrides::default())?;
+    let bars = Bars(Mutex::new(None));
+    let mut output = output_plan(&args.config);
+    let written = synth::write_board_scene(&config, &args.out, &mut output, &bars);
+    print_notes(&output);
+    let s =
+        written.with_context(|| format!("writing the board scene into {}", args.out.display()))?;
+    println!(
+        "{} placements of a {}×{} chessboard, {} views in {}",
+        s.placements,
+        config.board.inner[0],
+        config.board.inner[1],
+        s.views,
+        Path::new(&args.out).display()
+    );
+    Ok(())
+}
+
 fn target(args: &TargetArgs) -> Result<()> {
     let config = load(&args.config, Overrides::default())?;
     let bars = Bars(Mutex::new(None));
@@ -265,6 +289,7 @@ pub fn run(args: &Args) -> Result<()> {
     match &args.what {
         What::Campaign(a) => campaign(a),
         What::Target(a) => target(a),
+        What::Board(a) => board(a),
         What::Probe(a) => crate::cmd::probe::synth(a),
         What::Config => {
             print!("{}", synth::config::DEFAULT_TOML);

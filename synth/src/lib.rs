@@ -50,6 +50,7 @@
 #![deny(missing_docs)]
 #![warn(unreachable_pub)]
 
+mod board;
 mod campaign;
 mod capture;
 pub mod config;
@@ -72,6 +73,9 @@ mod sensor;
 mod target;
 pub mod truth;
 
+pub use board::{
+    BoardSummary, Placement, corner_images, corners, placements, render_board, write_board_scene,
+};
 pub use campaign::{
     CampaignSize, CampaignSummary, SceneCheck, TargetSummary, campaign_size, check_plan,
     write_campaign, write_target_scene,

@@ -42,11 +42,16 @@ pub(crate) const FLAT_FIELD_LEVEL: f64 = 0.75;
 pub(crate) const FLAT_FIELD_FRAME: u64 = u64::MAX - 1;
 /// See [`FLAT_FIELD_FRAME`].
 pub(crate) const DARK_FRAME: u64 = u64::MAX - 2;
+/// Noise-key frame of the calibration target at pose 1 (pose p: index p − 1).
+pub(crate) const TARGET_POSE_FRAME: u64 = u64::MAX - 3;
+/// Noise-key frame of the board at pose 0 (`synth board`; pose p: index p).
+pub(crate) const BOARD_FRAME: u64 = u64::MAX - 4;
 
 /// Noise-key frame of frame `index` of a calibration stack whose frame 0 is
-/// `base` ([`FLAT_FIELD_FRAME`], [`DARK_FRAME`]): `base − index·2³²`, far from
-/// every campaign frame and from the other stack.
-fn stack_frame(base: u64, index: u32) -> u64 {
+/// `base` ([`FLAT_FIELD_FRAME`], [`DARK_FRAME`], and the placements of the
+/// target and of the board): `base − index·2³²`, far from every campaign
+/// frame and from the other series.
+pub(crate) fn stack_frame(base: u64, index: u32) -> u64 {
     base - (u64::from(index) << 32)
 }
 

@@ -171,7 +171,10 @@ fn render_target_at(
         &marker_spheres(&m, config.target.radiance_e),
         NoiseKey {
             seed: config.seed,
-            frame: CALIBRATION_FRAME - u64::from(pose),
+            frame: match pose {
+                0 => CALIBRATION_FRAME,
+                p => crate::rig::stack_frame(crate::rig::TARGET_POSE_FRAME, p - 1),
+            },
             camera: cam.id,
         },
         config.render.max_depth,

@@ -29,7 +29,7 @@ use super::{
     Args, MarkerArg, MarkerSearch, ModelArg, beside, detect_markers, fit_options, intrinsics_line,
     model_choice_json, nominal_path, residual_row,
 };
-use crate::cmd::Usage;
+use crate::cmd::{OrUsage, Usage};
 
 /// Extensions of the image files a views.csv row may name (others are
 /// `id,u,v` correspondence files).
@@ -62,7 +62,7 @@ fn is_image(path: &Path) -> bool {
 /// One camera of the views: its sensor size and, with `--nominal`, its
 /// nominal description and radiometry.
 struct ViewCamera {
-    size: (u32, u32),
+    size: Option<(u32, u32)>,
     nominal: Option<(NominalCamera, super::Radiometry)>,
 }
 
@@ -96,26 +96,21 @@ fn view_cameras(
             cameras.insert(
                 c.id,
                 ViewCamera {
-                    size: (c.width, c.height),
+                    size: Some((c.width, c.height)),
                     nominal: Some((c, radiometry)),
                 },
             );
         }
         return Ok(cameras);
     }
-    let (Some(width), Some(height)) = (args.width, args.height) else {
-        return Err(Usage::error(
-            "--views with correspondence files needs the image size: give --width and --height \
-             (or --nominal)",
-        ));
-    };
+    let size = args.width.zip(args.height);
     Ok(rows
         .iter()
         .map(|r| {
             (
                 r.record.camera,
                 ViewCamera {
-                    size: (width, height),
+                    size,
                     nominal: None,
                 },
             )
@@ -123,17 +118,69 @@ fn view_cameras(
         .collect())
 }
 
+/// A board's corners in one view's image, as observations of `target`; the
+/// image's size recorded for its camera in `sizes` (every view of a camera
+/// the same size). `Ok(Err(reason))`: the view is left out.
+fn board_view(
+    board: &calib::Board,
+    target: &[TargetRow],
+    row: &ViewRow,
+    path: &Path,
+    what: &str,
+    reader: &mut FrameReader,
+    sizes: &mut BTreeMap<u8, (u32, u32)>,
+) -> Result<std::result::Result<Vec<calib::Observation>, String>> {
+    let (frame, _) = match reader.read(path) {
+        Ok(f) => f,
+        Err(e) => return Ok(Err(format!("{what}: {e}"))),
+    };
+    let size = (frame.width, frame.height);
+    match sizes.get(&row.camera) {
+        Some(&known) if known != size => bail!(
+            "{what}: the image is {}×{} px, but camera {}'s other views (or its nominal \
+             camera, or --width/--height) are {}×{} px: one camera's views are one size",
+            size.0,
+            size.1,
+            row.camera,
+            known.0,
+            known.1
+        ),
+        _ => {
+            sizes.insert(row.camera, size);
+        }
+    }
+    Ok(
+        match calib::find_board(board, frame.width, frame.height, frame.pixels) {
+            Ok(corners) => {
+                Ok(calib::observations(target, &corners, false)
+                    .with_context(|| what.to_string())?)
+            }
+            Err(e) => Err(format!("{what}: {e}")),
+        },
+    )
+}
+
 /// Run the calibration over the views of `views`.
 pub fn run(args: &Args, views: &Path) -> Result<()> {
     let options = fit_options(args)?;
-    let target: Vec<TargetRow> = read_target(&args.target)?
-        .into_iter()
-        .map(|r| r.record)
-        .collect();
-    let spheres = match args.markers {
-        Some(m) => m == MarkerArg::Sphere,
-        None => target.iter().all(|t| t.diameter.is_some()),
+    let board = args
+        .board
+        .as_deref()
+        .map(calib::Board::parse)
+        .transpose()
+        .or_usage()?;
+    let target: Vec<TargetRow> = match &board {
+        Some(b) => b.target(),
+        None => read_target(super::target_path(args)?)?
+            .into_iter()
+            .map(|r| r.record)
+            .collect(),
     };
+    let spheres = board.is_none()
+        && match args.markers {
+            Some(m) => m == MarkerArg::Sphere,
+            None => target.iter().all(|t| t.diameter.is_some()),
+        };
     // Every row's file checked before any work.
     let rows = read_views(views)?;
     let context = |row: &formats::Row<ViewRow>| {
@@ -153,6 +200,7 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
     }
     if let Some(row) = rows.iter().find(|r| is_image(&r.record.path(views)))
         && args.nominal.is_none()
+        && board.is_none()
     {
         return Err(Usage::error(format!(
             "{}: an image; finding the target's markers in it needs the rig's approximate \
@@ -178,7 +226,8 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
 
     let mut output = OutputPlan::new(args.force);
     output
-        .inputs([&args.target, &views.to_path_buf()])
+        .inputs(&args.target)
+        .inputs([views])
         .inputs(&args.nominal)
         .inputs(&args.flat_fields)
         .inputs(&args.dark_frames)
@@ -194,6 +243,10 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
 
     // Each view's observations: its correspondence file, or the markers
     // found in its image; a view whose markers are not found is left out.
+    let mut sizes: BTreeMap<u8, (u32, u32)> = cameras
+        .iter()
+        .filter_map(|(&c, v)| v.size.map(|s| (c, s)))
+        .collect();
     let mut views_in = Vec::with_capacity(rows.len());
     let mut not_found = Vec::new();
     for row in &rows {
@@ -201,8 +254,28 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
         let path = r.path(views);
         let what = context(row);
         let camera = &cameras[&r.camera];
-        let observations = match &camera.nominal {
-            Some((nominal, radiometry)) if is_image(&path) => {
+        let mut leave_out = |reason: String| {
+            eprintln!(
+                "trinocular: note: view of camera {} at pose {} left out: {reason}",
+                r.camera, r.pose
+            );
+            not_found.push(calib::LeftOut {
+                camera: r.camera,
+                pose: r.pose,
+                reason,
+            });
+        };
+        let observations = match (&board, &camera.nominal) {
+            (Some(b), _) if is_image(&path) => {
+                match board_view(b, &target, r, &path, &what, &mut reader, &mut sizes)? {
+                    Ok(observations) => observations,
+                    Err(reason) => {
+                        leave_out(reason);
+                        continue;
+                    }
+                }
+            }
+            (None, Some((nominal, radiometry))) if is_image(&path) => {
                 let start = nominal
                     .to_camera()
                     .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path(args).display()))?;
@@ -232,15 +305,7 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
                 ) {
                     Ok((found, _)) => found.observations,
                     Err(e) => {
-                        eprintln!(
-                            "trinocular: note: view of camera {} at pose {} left out: {e:#}",
-                            r.camera, r.pose
-                        );
-                        not_found.push(calib::LeftOut {
-                            camera: r.camera,
-                            pose: r.pose,
-                            reason: format!("{e:#}"),
-                        });
+                        leave_out(format!("{e:#}"));
                         continue;
                     }
                 }
@@ -259,7 +324,14 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
             observations,
         });
     }
-    let sizes: BTreeMap<u8, (u32, u32)> = cameras.iter().map(|(&c, v)| (c, v.size)).collect();
+    if let Some(v) = views_in.iter().find(|v| !sizes.contains_key(&v.camera)) {
+        return Err(Usage::error(format!(
+            "{}: camera {}'s views are correspondence files: give the image size with --width \
+             and --height (or --nominal)",
+            views.display(),
+            v.camera
+        )));
+    }
     let context = || format!("calibrating over the views of {}", views.display());
     let (mut rig, choice) = if args.model == ModelArg::Auto && !args.k3 {
         calib::calibrate_views_choosing(&views_in, &sizes, &options).with_context(context)?

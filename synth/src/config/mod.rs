@@ -8,6 +8,7 @@
 //! `_s` seconds). Injected error curves are in µm (translations) and µrad
 //! (rotations).
 
+mod board;
 mod capture;
 mod check;
 mod machine;
@@ -26,6 +27,7 @@ pub use formats::{AxisProcedure, ProcedureConfig};
 use serde::{Deserialize, Serialize};
 
 pub use crate::lens_profile::LensProfile;
+pub use board::BoardConfig;
 pub(crate) use capture::bad as bad_capture;
 pub use capture::{CaptureConfig, CaptureMode, DroppedFrame, StrayFrame};
 pub(crate) use check::{bad, finite, non_negative, positive};
@@ -71,6 +73,8 @@ pub struct Config {
     pub machine: MachineConfig,
     /// 3-D calibration target of luminous markers.
     pub target: TargetConfig,
+    /// Printed chessboard (`synth board`).
+    pub board: BoardConfig,
     /// Image files.
     pub output: OutputConfig,
     /// Rendering accuracy.
@@ -159,6 +163,7 @@ impl Config {
         crate::datetime::parse(&p.start_time).map_err(|m| bad("procedure.start_time", m))?;
         self.machine.validate()?;
         self.target.validate()?;
+        self.board.validate()?;
         self.output.validate()?;
         self.capture.validate(self)?;
         self.render.validate()
@@ -196,6 +201,7 @@ impl Default for Config {
             procedure: ProcedureConfig::default(),
             machine: MachineConfig::default(),
             target: TargetConfig::default(),
+            board: BoardConfig::default(),
             output: OutputConfig::default(),
             render: RenderConfig::default(),
             capture: CaptureConfig::default(),
