@@ -452,23 +452,14 @@ pub fn write_board_scene(
             };
             let img = render_board(cam, config, p)?;
             let rel = board_path("pose", p.pose, cam.id, ext);
-            let meta = crate::encode::FrameMetadata {
-                make: config.output.make.clone(),
-                model: config.output.model.clone(),
-                serial: cam.serial.clone(),
-                time_s: start + PLACEMENT_INTERVAL_S * f64::from(p.pose),
-                exposure_s: config.sensor.exposure_s,
-                f_number: config.optics.f_number,
-                focal_mm: config.optics.focal_mm,
-                description: format!("chessboard at pose {}, camera {}", p.pose, cam.id),
-            };
-            crate::encode::write_image_into(
-                output.create(&out.join(&rel))?,
+            crate::target::write_calibration_frame(
+                config,
+                cam,
                 &img,
-                config.sensor.bits,
-                &meta,
-                config.output.format,
-                config.output.compression,
+                &out.join(&rel),
+                start + PLACEMENT_INTERVAL_S * f64::from(p.pose),
+                format!("chessboard at pose {}, camera {}", p.pose, cam.id),
+                output,
             )?;
             let exact: Vec<formats::CorrespondenceRow> = corner_images(&cam.camera, b, p)?
                 .into_iter()
@@ -516,12 +507,7 @@ pub fn write_board_scene(
             "placements": poses,
         }),
     );
-    let truth = formats::Truth {
-        cameras: crate::truth::truth_cameras(&rig, config),
-        spheres: Vec::new(),
-        instants: Vec::new(),
-        extra,
-    };
+    let truth = crate::truth::cameras_truth(&rig, config, extra);
     output.write_json(&out.join("truth.json"), &truth)?;
     Ok(BoardSummary {
         placements: placements.len(),

@@ -493,12 +493,7 @@ pub fn write_target_scene(
     let mut extra = serde_json::Map::new();
     extra.insert("seed".into(), serde_json::json!(config.seed));
     crate::truth::insert_target_poses(&mut extra, config);
-    let truth = formats::Truth {
-        cameras: crate::truth::truth_cameras(&rig, config),
-        spheres: Vec::new(),
-        instants: Vec::new(),
-        extra,
-    };
+    let truth = crate::truth::cameras_truth(&rig, config, extra);
     output.write_json(&out.join("truth.json"), &truth)?;
     Ok(TargetSummary {
         markers: crate::target::markers(&config.target).len(),

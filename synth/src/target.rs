@@ -382,23 +382,14 @@ pub(crate) fn write_target_files(
                 } else {
                     String::new()
                 };
-                let meta = FrameMetadata {
-                    make: config.output.make.clone(),
-                    model: config.output.model.clone(),
-                    serial: cam.serial.clone(),
-                    time_s: time_s + f64::from(i) / config.procedure.fps,
-                    exposure_s: config.sensor.exposure_s,
-                    f_number: config.optics.f_number,
-                    focal_mm: config.optics.focal_mm,
-                    description: format!("{}{stack}, camera {}", kind.what(), cam.id),
-                };
-                write_image_into(
-                    output.create(&out.join(&rel))?,
+                write_calibration_frame(
+                    config,
+                    cam,
                     &img,
-                    config.sensor.bits,
-                    &meta,
-                    config.output.format,
-                    config.output.compression,
+                    &out.join(&rel),
+                    time_s + f64::from(i) / config.procedure.fps,
+                    format!("{}{stack}, camera {}", kind.what(), cam.id),
+                    output,
                 )?;
                 paths.push(rel);
             }
@@ -412,6 +403,37 @@ pub(crate) fn write_target_files(
         paths.extend(write_views(config, rig, out, time_s, output)?);
     }
     Ok(paths)
+}
+
+/// Write one calibration frame of camera `cam` at `path` (its EXIF: the
+/// configuration's camera, lens and exposure, `time_s`, `description`).
+pub(crate) fn write_calibration_frame(
+    config: &Config,
+    cam: &SynthCamera,
+    img: &Image16,
+    path: &Path,
+    time_s: f64,
+    description: String,
+    output: &OutputPlan,
+) -> Result<()> {
+    let meta = FrameMetadata {
+        make: config.output.make.clone(),
+        model: config.output.model.clone(),
+        serial: cam.serial.clone(),
+        time_s,
+        exposure_s: config.sensor.exposure_s,
+        f_number: config.optics.f_number,
+        focal_mm: config.optics.focal_mm,
+        description,
+    };
+    write_image_into(
+        output.create(path)?,
+        img,
+        config.sensor.bits,
+        &meta,
+        config.output.format,
+        config.output.compression,
+    )
 }
 
 /// Seconds between two placements of the target (the machine moving it).
@@ -435,23 +457,14 @@ fn write_views(
         for cam in &rig.cameras {
             let img = render_target_at(cam, config, pose, &offset)?;
             let rel = view_path("pose", pose, cam.id, ext);
-            let meta = FrameMetadata {
-                make: config.output.make.clone(),
-                model: config.output.model.clone(),
-                serial: cam.serial.clone(),
-                time_s: time_s + POSE_INTERVAL_S * f64::from(pose),
-                exposure_s: config.sensor.exposure_s,
-                f_number: config.optics.f_number,
-                focal_mm: config.optics.focal_mm,
-                description: format!("calibration target at pose {pose}, camera {}", cam.id),
-            };
-            write_image_into(
-                output.create(&out.join(&rel))?,
+            write_calibration_frame(
+                config,
+                cam,
                 &img,
-                config.sensor.bits,
-                &meta,
-                config.output.format,
-                config.output.compression,
+                &out.join(&rel),
+                time_s + POSE_INTERVAL_S * f64::from(pose),
+                format!("calibration target at pose {pose}, camera {}", cam.id),
+                output,
             )?;
             paths.push(rel);
             let seen: Vec<Marker> = m.iter().filter(|k| inside(cam, k)).copied().collect();

@@ -267,6 +267,17 @@ pub(crate) fn insert_target_poses(extra: &mut Map<String, Value>, config: &Confi
     extra.insert("target_poses".into(), Value::Array(poses));
 }
 
+/// The `truth.json` of a scene without spheres (the target, the board):
+/// the true cameras and `extra`.
+pub(crate) fn cameras_truth(rig: &SynthRig, config: &Config, extra: Map<String, Value>) -> Truth {
+    Truth {
+        cameras: truth_cameras(rig, config),
+        spheres: Vec::new(),
+        instants: Vec::new(),
+        extra,
+    }
+}
+
 /// The whole `truth.json` of a campaign.
 pub(crate) fn campaign_truth(
     config: &Config,
