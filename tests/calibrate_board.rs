@@ -5,7 +5,8 @@
 //! 640×480, each camera's fx, fy, cx, cy within 2σ (the joint solution's) of
 //! the truth in ≥ 90 % of cases; the cameras' poses relative to camera 1
 //! against the truth; and the board's bad views: not found, found
-//! partially, a board spec whose orientation cannot be told.
+//! partially, a board spec whose orientation cannot be told; a view as an
+//! 8-bit colour JPEG is read.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -196,10 +197,20 @@ fn bad_board_views_are_left_out_and_named() {
     shifted.save(b.join("board/partial.png")).unwrap();
     let empty = image::ImageBuffer::<image::Luma<u16>, _>::from_pixel(640, 480, image::Luma([900]));
     empty.save(b.join("board/empty.png")).unwrap();
+    // Pose 3's view in camera 1 as a phone writes it: an 8-bit colour JPEG.
+    let gray = image::open(b.join("board/pose3_cam1.tif"))
+        .unwrap()
+        .into_luma16();
+    let colour = image::RgbImage::from_fn(640, 480, |x, y| {
+        let v = (gray.get_pixel(x, y).0[0] >> 8) as u8;
+        image::Rgb([v, v, v])
+    });
+    colour.save(b.join("board/phone.jpg")).unwrap();
     let text = std::fs::read_to_string(b.join("views.csv"))
         .unwrap()
         .replace("board/pose0_cam1.tif", "board/partial.png")
-        .replace("board/pose1_cam1.tif", "board/empty.png");
+        .replace("board/pose1_cam1.tif", "board/empty.png")
+        .replace("board/pose3_cam1.tif", "board/phone.jpg");
     let edited = b.join("edited.csv");
     std::fs::write(&edited, text).unwrap();
     let out = calibrate(&b, &edited, &[]);
@@ -221,6 +232,13 @@ fn bad_board_views_are_left_out_and_named() {
         .map(|l| l["pose"].as_u64().unwrap())
         .collect();
     assert_eq!(left, [0, 1]);
+    let used: Vec<u64> = json["cameras"][0]["views"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["pose"].as_u64().unwrap())
+        .collect();
+    assert!(used.contains(&3), "the JPEG view is used: {used:?}");
 
     // A board whose orientation cannot be told, and a spec that is not one.
     for (spec, says) in [

@@ -300,7 +300,7 @@ pub fn calibrate_views(
             ))?;
         params = solution.params;
         let residuals = problem.residuals_of(&params, &all);
-        if let Some((w, rms_px, median_px)) =
+        if let Some((w, sigma_px, median_px)) =
             inconsistent_view(&residuals, &keep, &view_of, &used, &dropped)
         {
             dropped[w] = true;
@@ -314,7 +314,7 @@ pub fn calibrate_views(
                 pose: used[w].pose,
                 reason: format!(
                     "inconsistent with the other views (a wrong pose id, a misread target?): \
-                     RMS {rms_px:.2} px against the views' median {median_px:.3} px"
+                     residual σ {sigma_px:.2} px against the views' median {median_px:.3} px"
                 ),
             });
             continue;
@@ -458,14 +458,15 @@ pub fn calibrate_views(
     })
 }
 
-/// A view's RMS residual above this many times the median view's (and
-/// above [`INCONSISTENT_PX`]) makes it inconsistent with the others.
+/// A view's robust σ above this many times the median view's (and above
+/// [`INCONSISTENT_PX`]) makes it inconsistent with the others.
 const INCONSISTENT_FACTOR: f64 = 10.0;
 /// See [`INCONSISTENT_FACTOR`] (px).
 const INCONSISTENT_PX: f64 = 1.0;
 
-/// The view most inconsistent with the others, with its RMS and the median
-/// view's (px): one whose RMS over its kept points exceeds
+/// The view most inconsistent with the others, with its robust σ and the
+/// median view's (px): one whose robust σ over its kept points (a few
+/// outliers do not move it: those are the k·σ rejection's) exceeds
 /// [`INCONSISTENT_FACTOR`] × the median and [`INCONSISTENT_PX`], and whose
 /// camera and pose keep other views (so that dropping it leaves the rest
 /// determined). `None` when every view agrees.
@@ -476,24 +477,22 @@ fn inconsistent_view(
     used: &[&View],
     dropped: &[bool],
 ) -> Option<(usize, f64, f64)> {
-    let mut sums = vec![(0.0, 0usize); used.len()];
+    let mut per_view: Vec<Vec<Vector2<f64>>> = vec![Vec::new(); used.len()];
     for (j, r) in residuals.iter().enumerate() {
         if keep[j] {
-            let s = &mut sums[view_of[j]];
-            s.0 += r.norm_squared();
-            s.1 += 1;
+            per_view[view_of[j]].push(*r);
         }
     }
-    let rms: Vec<(usize, f64)> = sums
+    let sigma: Vec<(usize, f64)> = per_view
         .iter()
         .enumerate()
-        .filter(|(i, (_, n))| !dropped[*i] && *n > 0)
-        .map(|(i, (ss, n))| (i, (ss / *n as f64).sqrt()))
+        .filter(|(i, r)| !dropped[*i] && !r.is_empty())
+        .map(|(i, r)| (i, robust_sigma(r)))
         .collect();
-    let mut sorted: Vec<f64> = rms.iter().map(|r| r.1).collect();
+    let mut sorted: Vec<f64> = sigma.iter().map(|r| r.1).collect();
     sorted.sort_by(f64::total_cmp);
     let median = *sorted.get(sorted.len() / 2)?;
-    let &(w, worst) = rms.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let &(w, worst) = sigma.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
     let others = |same: &dyn Fn(&View) -> bool| {
         used.iter()
             .enumerate()

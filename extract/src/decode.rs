@@ -161,11 +161,17 @@ impl FrameReader {
                 let (size, metadata) = self.frame.decode_png(Cursor::new(&self.bytes[..]), path)?;
                 return Ok((self.frame.view(size, path)?, metadata));
             }
+            ImageFormat::Jpeg => {
+                let (size, metadata) =
+                    self.frame.decode_jpeg(Cursor::new(&self.bytes[..]), path)?;
+                return Ok((self.frame.view(size, path)?, metadata));
+            }
             other => {
                 return Err(ExtractError::Unsupported {
                     path: path.to_path_buf(),
                     message: format!(
-                        "{other:?} images are not supported (use 8- or 16-bit grayscale TIFF or PNG)"
+                        "{other:?} images are not supported (use 8- or 16-bit grayscale TIFF or \
+                         PNG, or 8-bit JPEG)"
                     ),
                 });
             }
@@ -334,6 +340,43 @@ impl Buffers {
             self.widen();
         }
         Ok((width, height, depth))
+    }
+
+    /// Decode an 8-bit JPEG (as phones and DSLRs write calibration views)
+    /// from `source`, with its EXIF: grayscale as it is, colour to its luma
+    /// (`image`'s Rec. 709 weights). Lossy: for views of a board, not for
+    /// frames that are measured.
+    fn decode_jpeg<R: std::io::BufRead + Seek>(
+        &mut self,
+        source: R,
+        path: &Path,
+    ) -> Result<((u32, u32, u8), FrameMetadata)> {
+        let err = |e: image::ImageError| image_error(path, e);
+        let mut reader = ImageReader::with_format(source, ImageFormat::Jpeg);
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
+        limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
+        limits.max_alloc = Some(
+            self.max_pixels
+                .saturating_mul(3 * FILE_BYTES_PER_FRAME_BYTE)
+                .saturating_add(FILE_SLACK_BYTES),
+        );
+        reader.limits(limits);
+        let mut decoder = reader.into_decoder().map_err(err)?;
+        let metadata = decoder
+            .exif_metadata()
+            .ok()
+            .flatten()
+            .map(|exif| FrameMetadata::from_tiff_bytes(&exif))
+            .unwrap_or_default();
+        let (width, height) = decoder.dimensions();
+        self.check_size(path, width, height)?;
+        let image = image::DynamicImage::from_decoder(decoder).map_err(err)?;
+        let gray = image.to_luma8();
+        self.prepare(path, width, height, 8)?;
+        self.narrow.copy_from_slice(gray.as_raw());
+        self.widen();
+        Ok(((width, height, 8), metadata))
     }
 
     /// Decode a PNG from `source` (a file or bytes), with the metadata of

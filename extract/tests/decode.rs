@@ -126,7 +126,20 @@ fn bad_files_are_named_errors() {
         [0xFF, 0xD8, 0xFF, 0xE0, 0, 16, b'J', b'F', b'I', b'F', 0],
     )
     .unwrap();
-    assert!(read_err(&jpeg, None).contains("not supported"));
+    // A JPEG cut after its first header: an error naming the file (JPEG is
+    // read, 8-bit, for calibration views), never a panic.
+    let e = read_err(&jpeg, None);
+    assert!(!e.contains("not supported"), "{e}");
+    // A whole colour JPEG: its luma, 8-bit.
+    let photo = d.join("whole.jpg");
+    image::RgbImage::from_fn(W, H, |x, _| image::Rgb([(x % 256) as u8, 128, 30]))
+        .save(&photo)
+        .unwrap();
+    let mut r = FrameReader::new();
+    let (frame, _) = r.read(&photo).unwrap();
+    assert_eq!((frame.width, frame.height, frame.bit_depth), (W, H, 8));
+    // Rec. 709 luma of (0, 128, 30) ≈ 0.7152·128 + 0.0722·30 ≈ 94 (JPEG's loss aside).
+    assert!(frame.pixels[0].abs_diff(94) <= 6, "{}", frame.pixels[0]);
 }
 
 #[test]
