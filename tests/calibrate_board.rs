@@ -138,10 +138,15 @@ fn judge(b: &Path) -> ((usize, usize), Vec<(f64, f64)>) {
 fn seeds(ids: &[u8]) -> (f64, f64) {
     let (mut within, mut all) = (0, 0);
     let (mut rot_within, mut rot_all, mut rot_ss) = (0, 0, 0.0);
+    let (mut halves_within, mut halves_points) = (0, 0);
     for seed in 1..=20 {
         let dir = tempfile::tempdir().unwrap();
         let b = board(dir.path(), seed, ids);
-        ok(&calibrate(&b, &b.join("views.csv"), &[]));
+        let out = calibrate(&b, &b.join("views.csv"), &[]);
+        ok(&out);
+        let (hw, hn) = common::halves(&String::from_utf8_lossy(&out.stdout));
+        halves_within += hw;
+        halves_points += hn;
         let ((w, a), relative) = judge(&b);
         within += w;
         all += a;
@@ -155,6 +160,11 @@ fn seeds(ids: &[u8]) -> (f64, f64) {
     }
     let share = within as f64 / all as f64;
     let rot_share = f64::from(rot_within) / f64::from(rot_all);
+    eprintln!(
+        "cameras {ids:?}: two halves: {halves_within} of {halves_points} grid points within twice \
+         the predicted difference"
+    );
+    assert!(halves_within as f64 >= 0.9 * halves_points as f64);
     eprintln!(
         "cameras {ids:?}: {within} of {all} intrinsics within 2σ ({:.1} %); rotations relative \
          to camera {}: {rot_within} of {rot_all} within 2σ, RMS {:.1}″",

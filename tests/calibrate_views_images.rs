@@ -109,6 +109,9 @@ fn six_placements_of_the_target_cut_the_calibration_share() {
         let views_csv = c.join("calib/views.csv");
         let said = calibrate(&c, &["--views", s(&views_csv)], &d.join("views.json"));
         assert!(said.contains("7 poses"), "{said}");
+        // The two halves (poses 0 2 4 6 | 1 3 5) agree within their prediction.
+        let (within, points) = common::halves(&said);
+        assert!(within as f64 >= 0.9 * points as f64, "{said}");
         let rig: serde_json::Value =
             serde_json::from_slice(&std::fs::read(d.join("views.json")).unwrap()).unwrap();
         for camera in rig["cameras"].as_array().unwrap() {

@@ -704,7 +704,7 @@ pub fn volume_uncertainty(rig: &Rig, views: &[View], n: usize) -> Vec<VolumePoin
 
 /// One point of [`volume_uncertainty`]: the cameras that see it in their
 /// image (with a covariance), and its σ from theirs when two or more do.
-fn volume_point(rig: &Rig, names: &[String], point: Point3<f64>) -> VolumePoint {
+pub(crate) fn volume_point(rig: &Rig, names: &[String], point: Point3<f64>) -> VolumePoint {
     let mut cameras = Vec::new();
     let mut views = Vec::new();
     let mut covariances = Vec::new();

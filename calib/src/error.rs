@@ -356,6 +356,12 @@ pub type Result<T> = std::result::Result<T, CalibError>;
 /// Which option or input of a calibration is out of range, with its value.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum OptionProblem {
+    /// Too few poses to calibrate two halves of them.
+    #[error("{poses} poses: the two-halves check needs at least 4 (two per half)")]
+    TooFewPosesToSplit {
+        /// Poses of the calibration.
+        poses: usize,
+    },
     /// More than half of the detections coincide with another one.
     #[error("more than half of the detections coincide with another one")]
     CoincidentDetections,
@@ -443,6 +449,7 @@ impl OptionProblem {
             Self::ImageSize { .. } => "image size",
             Self::TargetUncertainty(_) => "target uncertainty",
             Self::ObservationsDiffer { .. } => "observations",
+            Self::TooFewPosesToSplit { .. } => "poses",
         }
     }
 }

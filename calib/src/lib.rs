@@ -67,6 +67,7 @@ mod correspond;
 mod covariance;
 mod dlt;
 mod error;
+mod halves;
 mod illumination;
 mod image;
 mod model_choice;
@@ -100,6 +101,7 @@ pub use formats::commissioning::{
     AxisPair, CameraReport, DepthOfField, FLAT_FIELD_ADVICE, FlatFieldFit, IlluminationReport,
     ParameterSd, ParameterUncertainty, ProfilePoint, Report, ScaleCost, TravelCamera, TravelReport,
 };
+pub use halves::{HalvesCheck, two_halves};
 pub use illumination::{Pixels, fit_flat_field};
 pub use image::{ImageCalibration, RECENTROID_ROUNDS, calibrate_detections, seeing_moved_target};
 pub use model_choice::{Candidate, F_LEVEL, FOLDS, ModelChoice, calibrate_choosing, choose_model};

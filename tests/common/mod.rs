@@ -214,3 +214,15 @@ pub fn heikkila(dir: &Path, u_mm: Option<&str>) -> (PathBuf, PathBuf) {
     std::fs::write(&p, points).unwrap();
     (t, p)
 }
+
+/// The two-halves check of `calibrate --views` (its stdout `said`): the
+/// "M of N" grid points within twice the predicted difference.
+pub fn halves(said: &str) -> (usize, usize) {
+    let line = said
+        .lines()
+        .find(|l| l.starts_with("two halves"))
+        .unwrap_or_else(|| panic!("no two-halves line: {said}"));
+    let tail = line.rsplit("; ").next().unwrap_or_default();
+    let words: Vec<&str> = tail.split_whitespace().collect();
+    (words[0].parse().unwrap(), words[2].parse().unwrap())
+}

@@ -366,7 +366,40 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
         &views_in,
         choice.as_ref(),
         &illumination,
-    )
+    )?;
+    // The two-halves cross-validation, with the model the whole rig has.
+    let same_model = calib::Options {
+        k3: rig.layout.k3,
+        ..options
+    };
+    match calib::two_halves(&rig, &views_in, &sizes, &same_model, VOLUME_GRID) {
+        Ok(h) => {
+            let list = |p: &[u32]| p.iter().map(u32::to_string).collect::<Vec<_>>().join(" ");
+            println!(
+                "two halves (poses {} | {}), each calibrated alone: over {} grid points the \
+                 triangulated positions differ by {:.3} µm RMS against {:.3} µm predicted by \
+                 their covariances; {} of {} within twice the prediction",
+                list(&h.halves[0]),
+                list(&h.halves[1]),
+                h.points,
+                h.rms_difference_um,
+                h.rms_predicted_um,
+                h.within_2sigma,
+                h.points
+            );
+            // (A floor of 0.01 µm: exact data agree to round-off.)
+            if h.rms_difference_um > 2.0 * h.rms_predicted_um && h.rms_difference_um > 0.01 {
+                eprintln!(
+                    "trinocular: warning: the two halves of the views disagree by more than \
+                     twice what their covariances predict: the calibration's uncertainty is \
+                     optimistic (a lens model too lean, a target that moved or is not what \
+                     target.csv says)"
+                );
+            }
+        }
+        Err(e) => eprintln!("trinocular: note: two-halves check not done: {e}"),
+    }
+    Ok(())
 }
 
 /// Every output of the solved rig, and the summary on stdout.
