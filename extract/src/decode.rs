@@ -342,6 +342,36 @@ impl Buffers {
         Ok((width, height, depth))
     }
 
+    /// An `image` decoder of `format` over `source`, its allocations held to
+    /// this reader's largest frame at `bytes_per_pixel` decoded, and the
+    /// metadata of its EXIF (empty where unreadable, as for any file).
+    fn decoder<'a, R: std::io::BufRead + Seek + 'a>(
+        &self,
+        source: R,
+        format: ImageFormat,
+        bytes_per_pixel: u64,
+        path: &Path,
+    ) -> Result<(impl ImageDecoder + 'a, FrameMetadata)> {
+        let mut reader = ImageReader::with_format(source, format);
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
+        limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
+        limits.max_alloc = Some(
+            self.max_pixels
+                .saturating_mul(bytes_per_pixel * FILE_BYTES_PER_FRAME_BYTE)
+                .saturating_add(FILE_SLACK_BYTES),
+        );
+        reader.limits(limits);
+        let mut decoder = reader.into_decoder().map_err(|e| image_error(path, e))?;
+        let metadata = decoder
+            .exif_metadata()
+            .ok()
+            .flatten()
+            .map(|exif| FrameMetadata::from_tiff_bytes(&exif))
+            .unwrap_or_default();
+        Ok((decoder, metadata))
+    }
+
     /// Decode an 8-bit JPEG (as phones and DSLRs write calibration views)
     /// from `source`, with its EXIF: grayscale as it is, colour to its luma
     /// (`image`'s Rec. 709 weights). Lossy: for views of a board, not for
@@ -352,23 +382,8 @@ impl Buffers {
         path: &Path,
     ) -> Result<((u32, u32, u8), FrameMetadata)> {
         let err = |e: image::ImageError| image_error(path, e);
-        let mut reader = ImageReader::with_format(source, ImageFormat::Jpeg);
-        let mut limits = image::Limits::default();
-        limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
-        limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
-        limits.max_alloc = Some(
-            self.max_pixels
-                .saturating_mul(3 * FILE_BYTES_PER_FRAME_BYTE)
-                .saturating_add(FILE_SLACK_BYTES),
-        );
-        reader.limits(limits);
-        let mut decoder = reader.into_decoder().map_err(err)?;
-        let metadata = decoder
-            .exif_metadata()
-            .ok()
-            .flatten()
-            .map(|exif| FrameMetadata::from_tiff_bytes(&exif))
-            .unwrap_or_default();
+        // Colour JPEGs decode to three bytes a pixel.
+        let (decoder, metadata) = self.decoder(source, ImageFormat::Jpeg, 3, path)?;
         let (width, height) = decoder.dimensions();
         self.check_size(path, width, height)?;
         let image = image::DynamicImage::from_decoder(decoder).map_err(err)?;
@@ -397,24 +412,7 @@ impl Buffers {
         source
             .seek(SeekFrom::Start(0))
             .map_err(|e| image_error(path, image::ImageError::IoError(e)))?;
-        let mut reader = ImageReader::with_format(source, ImageFormat::Png);
-        let mut limits = image::Limits::default();
-        limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
-        limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
-        limits.max_alloc = Some(
-            self.max_pixels
-                .saturating_mul(2 * FILE_BYTES_PER_FRAME_BYTE)
-                .saturating_add(FILE_SLACK_BYTES),
-        );
-        reader.limits(limits);
-        let mut decoder = reader.into_decoder().map_err(err)?;
-        // An unreadable eXIf chunk gives empty metadata, as for any file.
-        let metadata = decoder
-            .exif_metadata()
-            .ok()
-            .flatten()
-            .map(|exif| FrameMetadata::from_tiff_bytes(&exif))
-            .unwrap_or_default();
+        let (decoder, metadata) = self.decoder(source, ImageFormat::Png, 2, path)?;
         let (width, height) = decoder.dimensions();
         self.check_size(path, width, height)?;
         let depth = match decoder.color_type() {
