@@ -17,9 +17,7 @@ use geom::nalgebra::Point3;
 use geom::triangulate::{View as Sight, triangulate};
 
 use crate::bundle::volume_point;
-use crate::{
-    CalibError, OptionProblem, Options, Result, Rig, View, calibrate_views, volume_uncertainty,
-};
+use crate::{CalibError, OptionProblem, Options, Result, Rig, View, VolumePoint, calibrate_views};
 
 /// The two halves compared.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,15 +35,16 @@ pub struct HalvesCheck {
 }
 
 /// Cross-validate `rig` (calibrated from `views`) by two halves of its poses,
-/// over its `n × n × n` volume grid (module docs). Fails where the poses
-/// are too few to split (fewer than 4) or a half cannot be calibrated alone
-/// (a camera cut off, too few points): the error says which.
+/// over its volume grid `volume` ([`crate::volume_uncertainty`]'s; module docs).
+/// Fails where the poses are too few to split (fewer than 4) or a half
+/// cannot be calibrated alone (a camera cut off, too few points): the error
+/// says which.
 pub fn two_halves(
     rig: &Rig,
     views: &[View],
+    volume: &[VolumePoint],
     sizes: &BTreeMap<u8, (u32, u32)>,
     options: &Options,
-    n: usize,
 ) -> Result<HalvesCheck> {
     let poses: Vec<u32> = rig.poses.keys().copied().collect();
     if poses.len() < 4 {
@@ -82,7 +81,7 @@ pub fn two_halves(
     // Each grid point triangulated by either half, in that half's world.
     let mut sets: [Vec<Point3<f64>>; 2] = [Vec::new(), Vec::new()];
     let mut variances = Vec::new();
-    for grid in volume_uncertainty(rig, views, n) {
+    for grid in volume {
         let seen: Vec<u8> = grid
             .cameras
             .iter()

@@ -27,7 +27,7 @@ use geom::nalgebra::{Point3, Vector3};
 use crate::config::{Config, TargetConfig};
 use crate::encode::{FrameMetadata, write_image_into};
 use crate::rig::{SynthCamera, SynthRig};
-use crate::scene::Sphere;
+use crate::scene::{Sphere, frame_clearance_px};
 use crate::sensor::{Image16, NoiseKey};
 use crate::{Result, SynthError};
 
@@ -181,23 +181,9 @@ fn render_target_at(
     )
 }
 
-/// Whether marker `m`'s whole image lies inside camera `cam`'s frame, with a
-/// margin of 2 px (its image radius taken as f·r/z at its centre's depth).
-fn inside(cam: &SynthCamera, m: &Marker) -> bool {
-    let c = &cam.camera;
-    let depth = (c.pose * m.centre).z;
-    let Ok(p) = c.project(&m.centre) else {
-        return false;
-    };
-    if depth <= 0.0 {
-        return false;
-    }
-    let r = c.intrinsics.fx.max(c.intrinsics.fy) * m.diameter / 2.0 / depth + 2.0;
-    p.x >= r
-        && p.y >= r
-        && p.x <= f64::from(c.width) - 1.0 - r
-        && p.y <= f64::from(c.height) - 1.0 - r
-}
+/// Least clearance (px) of a marker's outline from the frame's edge for it
+/// to be listed in a view's exact correspondences.
+const VIEW_CLEARANCE_PX: f64 = 2.0;
 
 /// Relative path of camera `id`'s view of pose `pose` ≥ 1 (`what`: "pose"
 /// for the image, "points_pose" for its correspondence file).
@@ -467,7 +453,15 @@ fn write_views(
                 output,
             )?;
             paths.push(rel);
-            let seen: Vec<Marker> = m.iter().filter(|k| inside(cam, k)).copied().collect();
+            // The markers whose whole outline lies inside the frame.
+            let seen: Vec<Marker> = m
+                .iter()
+                .zip(marker_spheres(&m, config.target.radiance_e))
+                .filter(|(_, s)| {
+                    frame_clearance_px(&cam.camera, s).is_ok_and(|c| c >= VIEW_CLEARANCE_PX)
+                })
+                .map(|(k, _)| *k)
+                .collect();
             output.write_csv(
                 &out.join(view_path("points_pose", pose, cam.id, "csv")),
                 &correspondences(cam, &seen)?,

@@ -20,9 +20,9 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use extract::FrameReader;
 use formats::{
-    CameraCovariance, CorrespondenceRow, IlluminationJson, NominalCamera, OutputPlan, Rig,
-    RigCamera, TargetRow, ViewResidualRow, ViewRow, VolumeRow, read_correspondences, read_nominal,
-    read_target, read_views,
+    CameraCovariance, CorrespondenceRow, IlluminationJson, OutputPlan, Rig, RigCamera, TargetRow,
+    ViewResidualRow, ViewRow, VolumeRow, read_correspondences, read_nominal, read_target,
+    read_views,
 };
 
 use super::{
@@ -60,10 +60,10 @@ fn is_image(path: &Path) -> bool {
 }
 
 /// One camera of the views: its sensor size and, with `--nominal`, its
-/// nominal description and radiometry.
+/// nominal camera and radiometry.
 struct ViewCamera {
     size: Option<(u32, u32)>,
-    nominal: Option<(NominalCamera, super::Radiometry)>,
+    nominal: Option<(geom::Camera, super::Radiometry)>,
 }
 
 /// The cameras the views may name: the nominal rig's (with their
@@ -93,11 +93,14 @@ fn view_cameras(
         let mut cameras = BTreeMap::new();
         for (k, c) in nominal.into_iter().enumerate() {
             let radiometry = super::radiometry(args, k, &c, reader)?;
+            let start = c
+                .to_camera()
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
             cameras.insert(
                 c.id,
                 ViewCamera {
                     size: Some((c.width, c.height)),
-                    nominal: Some((c, radiometry)),
+                    nominal: Some((start, radiometry)),
                 },
             );
         }
@@ -275,10 +278,7 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
                     }
                 }
             }
-            (None, Some((nominal, radiometry))) if is_image(&path) => {
-                let start = nominal
-                    .to_camera()
-                    .map_err(|e| anyhow::anyhow!("{}: {e}", nominal_path(args).display()))?;
+            (None, Some((start, radiometry))) if is_image(&path) => {
                 let offset = [r.offset_x, r.offset_y, r.offset_z].map(|o| o.unwrap_or(0.0));
                 let search = MarkerSearch {
                     target: &target,
@@ -295,7 +295,7 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
                 };
                 match detect_markers(
                     &search,
-                    &calib::seeing_moved_target(&start, offset),
+                    &calib::seeing_moved_target(start, offset),
                     &path,
                     &what,
                     nominal_path(args),
@@ -359,11 +359,14 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
             super::illumination_json(&r.illumination, r.flat_fit.as_ref(), args, k).map(|j| (id, j))
         })
         .collect::<Result<_>>()?;
+    // The triangulation σ from the calibration alone over the poses' span.
+    let volume = calib::volume_uncertainty(&rig, &views_in, VOLUME_GRID);
     write(
         args,
         &mut output,
         &rig,
         &views_in,
+        &volume,
         choice.as_ref(),
         &illumination,
     )?;
@@ -372,7 +375,7 @@ pub fn run(args: &Args, views: &Path) -> Result<()> {
         k3: rig.layout.k3,
         ..options
     };
-    match calib::two_halves(&rig, &views_in, &sizes, &same_model, VOLUME_GRID) {
+    match calib::two_halves(&rig, &views_in, &volume, &sizes, &same_model) {
         Ok(h) => {
             let list = |p: &[u32]| p.iter().map(u32::to_string).collect::<Vec<_>>().join(" ");
             println!(
@@ -408,6 +411,7 @@ fn write(
     output: &mut OutputPlan,
     rig: &calib::Rig,
     views: &[calib::View],
+    volume: &[calib::VolumePoint],
     choice: Option<&calib::ModelChoice>,
     illumination: &BTreeMap<u8, IlluminationJson>,
 ) -> Result<()> {
@@ -518,8 +522,6 @@ fn write(
     }
     output.write_json(&args.out, &file)?;
     output.write_csv(&beside(&args.out, ".views.csv"), &view_rows)?;
-    // The triangulation σ from the calibration alone over the poses' span.
-    let volume = calib::volume_uncertainty(rig, views, VOLUME_GRID);
     let volume_rows: Vec<VolumeRow> = volume
         .iter()
         .map(|v| VolumeRow {
